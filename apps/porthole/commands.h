@@ -1,0 +1,15 @@
+// One Register function per subcommand, each in its own cmd_<name>.cc. A subcommand parses and
+// validates its options, calls one library function, and prints or writes the result; all logic
+// lives in the libraries (docs/architecture.md).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace porthole::cli {
+
+void RegisterMaterials(CLI::App& app);
+void RegisterVirtualImage(CLI::App& app);
+void RegisterTrace(CLI::App& app);
+void RegisterPresets(CLI::App& app);
+
+}  // namespace porthole::cli

@@ -1,0 +1,48 @@
+// porthole: the command-line front end. Exit codes: 0 success, 2 bad input or options (one line on
+// stderr naming the field), 3 internal error (a bug: please report it).
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+
+#include "commands.h"
+#include "porthole/core/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"porthole: optics and geometry of underwater camera housings (flat and dome ports).\n"
+               "Lengths in mm, angles in degrees, wavelengths in nm. 'porthole <command> --help' for details."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string(PORTHOLE_VERSION));
+  app.get_formatter()->column_width(36);
+
+  porthole::cli::RegisterMaterials(app);
+  porthole::cli::RegisterVirtualImage(app);
+  porthole::cli::RegisterTrace(app);
+  porthole::cli::RegisterPresets(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --version
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    fmt::print(stderr, "porthole: error: {}\n", e.what());
+    return 2;
+  } catch (const porthole::InvalidInput& e) {
+    fmt::print(stderr, "porthole: error: {}\n", e.what());
+    return 2;
+  } catch (const porthole::InternalError& e) {
+    fmt::print(stderr, "porthole: internal error (please report): {}\n", e.what());
+    return 3;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "porthole: error: {}\n", e.what());
+    return 2;
+  }
+  return 0;
+}
