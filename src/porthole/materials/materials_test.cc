@@ -117,10 +117,10 @@ TEST(MillardSeaver, SeawaterAgreesWithQuanFryAtSurfacePressure) {
 }
 
 TEST(MillardSeaver, PressureCoefficientIsThatOfWater) {
-  // dn/dP of water is 1.4–1.7e-6 per dbar: Lorentz–Lorenz with the compressibility of water
-  // (4.6e-10 Pa⁻¹ at 20 °C, 5.1e-10 at 0 °C) gives 1.7–1.9e-6 per dbar, an upper bound, and
-  // Waxler & Weir's measurements ≈ 1.5e-5 per bar. A wrong unit (bar or kg/cm²) would be off by
-  // 10×. Evaluated over the first 100 dbar.
+  // dn/dP of water is about 1.4–1.7e-6 per dbar: Lorentz–Lorenz with the isothermal
+  // compressibility of water (4.6e-10 Pa⁻¹ at 20 °C, 5.1e-10 at 0 °C) gives 1.7–1.9e-6 per dbar,
+  // an upper bound (the Lorentz–Lorenz function of water grows slightly with compression). A wrong
+  // unit (bar or kg/cm²) would be off by 10×. Evaluated over the first 100 dbar.
   for (double t = 0.0; t <= 30.0; t += 10.0) {
     for (double s : {0.0, 35.0}) {
       const double dndp = (Index("seawater-millard-seaver", At(589.3, t, s, 100.0)) -
