@@ -8,15 +8,15 @@
 // an unknown name is an error (InvalidInput, exit 2). Without media: every known medium with its
 // index at the conditions ("n/a" and the reason where the conditions are outside its range) and
 // its validity ranges.
+#include <fmt/core.h>
+
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <CLI/CLI.hpp>
-#include <fmt/core.h>
-#include <nlohmann/json.hpp>
 
 #include "commands.h"
 #include "porthole/core/error.h"
@@ -48,7 +48,7 @@ struct Row {
   std::string name;
   std::optional<double> n;  // empty when the conditions are outside the medium's range
   std::string model;
-  std::string error;                      // why n is empty
+  std::string error;                    // why n is empty
   std::optional<mat::MediumInfo> info;  // listing mode only
 };
 
@@ -87,12 +87,12 @@ std::string Render(const MaterialsOptions& o, const mat::Conditions& c,
       if (r.info) {
         const mat::MediumInfo& i = *r.info;
         m["description"] = i.description;
-        m["valid"] = {{"lambda_nm", RangeJson(i.lambda_min_nm, i.lambda_max_nm)},
-                      {"temperature_c", RangeJson(i.temperature_min_c, i.temperature_max_c)},
-                      {"salinity_psu", RangeJson(i.salinity_min_psu, i.salinity_max_psu)},
-                      {"pressure_max_dbar", std::isnan(i.pressure_max_dbar)
-                                                ? Json(nullptr)
-                                                : Json(i.pressure_max_dbar)}};
+        m["valid"] = {
+            {"lambda_nm", RangeJson(i.lambda_min_nm, i.lambda_max_nm)},
+            {"temperature_c", RangeJson(i.temperature_min_c, i.temperature_max_c)},
+            {"salinity_psu", RangeJson(i.salinity_min_psu, i.salinity_max_psu)},
+            {"pressure_max_dbar",
+             std::isnan(i.pressure_max_dbar) ? Json(nullptr) : Json(i.pressure_max_dbar)}};
       }
       media.push_back(std::move(m));
     }
@@ -102,8 +102,8 @@ std::string Render(const MaterialsOptions& o, const mat::Conditions& c,
   std::string out;
   const bool listing = !rows.empty() && rows.front().info.has_value();
   if (listing) {
-    out += fmt::format("{:<24} {:>9}  {:<13} {:<9} {:<8} {:<13} {}\n", "medium", "n",
-                       "lambda (nm)", "T (C)", "S (PSU)", "pressure", "model");
+    out += fmt::format("{:<24} {:>9}  {:<13} {:<9} {:<8} {:<13} {}\n", "medium", "n", "lambda (nm)",
+                       "T (C)", "S (PSU)", "pressure", "model");
   } else {
     out += fmt::format("{:<24} {:>9}  {}\n", "medium", "n", "model");
   }
@@ -120,9 +120,10 @@ std::string Render(const MaterialsOptions& o, const mat::Conditions& c,
       out += fmt::format("{:<24} {:>9}  {}\n", r.name, n, r.model);
     }
   }
-  out += fmt::format("conditions: lambda {:g} nm, temperature {:g} C, salinity {:g} PSU, "
-                     "pressure {:g} dbar",
-                     c.lambda_nm, c.temperature_c, c.salinity_psu, c.pressure_dbar);
+  out += fmt::format(
+      "conditions: lambda {:g} nm, temperature {:g} C, salinity {:g} PSU, "
+      "pressure {:g} dbar",
+      c.lambda_nm, c.temperature_c, c.salinity_psu, c.pressure_dbar);
   if (o.depth_option->count() > 0) {
     out += fmt::format(" (depth {:g} m at {:g} deg latitude, UNESCO 1983)", o.depth_m,
                        kDepthLatitudeDeg);
@@ -187,8 +188,8 @@ void RegisterMaterials(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--salinity", o->salinity_psu, "salinity, PSU (seawater models only)")
       ->capture_default_str();
-  o->pressure_option =
-      sub->add_option("--pressure", o->pressure_dbar, "gauge pressure, dbar")->capture_default_str();
+  o->pressure_option = sub->add_option("--pressure", o->pressure_dbar, "gauge pressure, dbar")
+                           ->capture_default_str();
   o->depth_option = sub->add_option("--depth", o->depth_m,
                                     "depth, m (converted to dbar by UNESCO 1983 at 45 deg)");
   o->pressure_option->excludes(o->depth_option);

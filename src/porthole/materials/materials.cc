@@ -1,6 +1,8 @@
 // Refractive index models; see materials.h for the contract and docs/materials.md for sources.
 #include "porthole/materials/materials.h"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -10,8 +12,6 @@
 #include <numbers>
 #include <string>
 #include <system_error>
-
-#include <fmt/core.h>
 
 #include "porthole/core/error.h"
 
@@ -88,8 +88,7 @@ double SeawaterIndex(const Conditions& c, double s, std::string_view name) {
   CheckRange("temperature_c", t, kQfTMin, kQfTMax, "°C", "Quan-Fry 1995", x);
   CheckRange("salinity_psu", s, kQfSMin, kQfSMax, "PSU", "Quan-Fry 1995", x);
   CheckRange("lambda_nm", lambda, kQfLambdaMin, kQfLambdaMax, "nm", "Quan-Fry 1995", x);
-  CheckRange("pressure_dbar", p, 0.0, kMsPMax, "dbar",
-             "the Millard-Seaver 1990 pressure term", x);
+  CheckRange("pressure_dbar", p, 0.0, kMsPMax, "dbar", "the Millard-Seaver 1990 pressure term", x);
   double n = QuanFry(t, s, lambda);
   if (p != 0.0) {
     CheckRange("lambda_nm", lambda, kMsLambdaMin, kMsLambdaMax, "nm",
@@ -154,27 +153,25 @@ const std::vector<Entry>& Registry() {
                                 "freshwater for water under pressure");
            }
            const double rho = WaterDensityTanaka2001(c.temperature_c);
-           const double n = IapwsR997Absolute(c.temperature_c + 273.15, rho,
-                                              c.lambda_nm * 1e-3) /
+           const double n = IapwsR997Absolute(c.temperature_c + 273.15, rho, c.lambda_nm * 1e-3) /
                             CiddorStandardAir(c.lambda_nm);
            return RequireRealIndex(n, "water-iapws", c);
          }});
-    r.push_back(
-        {{"seawater-millard-seaver",
-          "Millard & Seaver 1990 (Deep-Sea Res. 37:1909), 27-term algorithm",
-          kMsLambdaMin, kMsLambdaMax, kMsTMin, kMsTMax, kMsSMin, kMsSMax, kMsPMax},
-         "Millard-Seaver 1990",
-         [](const Conditions& c) {
-           const bool x = c.extrapolate;
-           const char* what = "Millard-Seaver 1990";
-           CheckRange("temperature_c", c.temperature_c, kMsTMin, kMsTMax, "°C", what, x);
-           CheckRange("salinity_psu", c.salinity_psu, kMsSMin, kMsSMax, "PSU", what, x);
-           CheckRange("pressure_dbar", c.pressure_dbar, 0.0, kMsPMax, "dbar", what, x);
-           CheckRange("lambda_nm", c.lambda_nm, kMsLambdaMin, kMsLambdaMax, "nm", what, x);
-           return RequireRealIndex(
-               MillardSeaver(c.temperature_c, c.salinity_psu, c.pressure_dbar, c.lambda_nm),
-               "seawater-millard-seaver", c);
-         }});
+    r.push_back({{"seawater-millard-seaver",
+                  "Millard & Seaver 1990 (Deep-Sea Res. 37:1909), 27-term algorithm", kMsLambdaMin,
+                  kMsLambdaMax, kMsTMin, kMsTMax, kMsSMin, kMsSMax, kMsPMax},
+                 "Millard-Seaver 1990",
+                 [](const Conditions& c) {
+                   const bool x = c.extrapolate;
+                   const char* what = "Millard-Seaver 1990";
+                   CheckRange("temperature_c", c.temperature_c, kMsTMin, kMsTMax, "°C", what, x);
+                   CheckRange("salinity_psu", c.salinity_psu, kMsSMin, kMsSMax, "PSU", what, x);
+                   CheckRange("pressure_dbar", c.pressure_dbar, 0.0, kMsPMax, "dbar", what, x);
+                   CheckRange("lambda_nm", c.lambda_nm, kMsLambdaMin, kMsLambdaMax, "nm", what, x);
+                   return RequireRealIndex(
+                       MillardSeaver(c.temperature_c, c.salinity_psu, c.pressure_dbar, c.lambda_nm),
+                       "seawater-millard-seaver", c);
+                 }});
     r.push_back(SellmeierEntry("n-bk7", "Schott N-BK7, catalogue Sellmeier (20 °C)",
                                "Schott Sellmeier", 300.0, 2500.0, kNBk7));
     r.push_back(SellmeierEntry("fused-silica", "fused silica, Malitson 1965 Sellmeier (20 °C)",
@@ -214,9 +211,8 @@ double ParseConstant(std::string_view medium) {
                                              medium, names));
   }
   if (!std::isfinite(v) || v < 1.0) {
-    throw InvalidInput("medium",
-                       fmt::format("a constant index must be a finite number >= 1 (got {})",
-                                   medium));
+    throw InvalidInput(
+        "medium", fmt::format("a constant index must be a finite number >= 1 (got {})", medium));
   }
   return v;
 }
@@ -251,14 +247,13 @@ double MillardSeaver(double t_c, double s_psu, double p_dbar, double lambda_nm) 
   // Region I: pure water, 1 atm (Tilton & Taylor 1938 data).
   constexpr double A0 = 1.3280657, L2 = -4.5536802e-3, LM2 = 2.5471707e-3, LM4 = 7.501966e-6,
                    LM6 = 2.802632e-6, T1 = -5.2883907e-6, T2 = -3.0738272e-6, T3 = 3.0124687e-8,
-                   T4 = -2.0883178e-10, TL = 1.0508621e-5, T2L = 2.1282248e-7,
-                   T3L = -1.705881e-9;
+                   T4 = -2.0883178e-10, TL = 1.0508621e-5, T2L = 2.1282248e-7, T3L = -1.705881e-9;
   // Region II: salinity, 1 atm (Mehu & Johannin-Gilles 1968).
   constexpr double S0 = 1.9029121e-4, S1LM2 = 2.4239607e-6, S1T = -7.3960297e-7,
                    S1T2 = 8.9818478e-9, S1T3 = 1.2078804e-10, STL = -3.589495e-7;
   // Region III: pressure, pure water (Waxler et al. 1964), p in dbar.
-  constexpr double P1 = 1.5868383e-6, P2 = -1.574074e-11, PLM2 = 1.0712063e-8,
-                   PT = -9.4834486e-9, PT2 = 1.0100326e-10, P2T2 = 5.8085198e-15;
+  constexpr double P1 = 1.5868383e-6, P2 = -1.574074e-11, PLM2 = 1.0712063e-8, PT = -9.4834486e-9,
+                   PT2 = 1.0100326e-10, P2T2 = 5.8085198e-15;
   // Region IV: pressure × salinity (Stanley's data).
   constexpr double P1S = -1.1177517e-9, PTS = 5.7311268e-11, PT2S = -1.5460458e-12;
 
@@ -266,8 +261,8 @@ double MillardSeaver(double t_c, double s_psu, double p_dbar, double lambda_nm) 
                     T2 * t * t + T3 * t * t * t + T4 * t * t * t * t + TL * t * l +
                     T2L * t * t * l + T3L * t * t * t * l;
   const double n2 = s * (S0 + S1LM2 / l2 + S1T * t + S1T2 * t * t + S1T3 * t * t * t + STL * t * l);
-  const double n3 = P1 * p + P2 * p * p + PLM2 * p / l2 + PT * p * t + PT2 * p * t * t +
-                    P2T2 * p * p * t * t;
+  const double n3 =
+      P1 * p + P2 * p * p + PLM2 * p / l2 + PT * p * t + PT2 * p * t * t + P2T2 * p * p * t * t;
   const double n4 = p * s * (P1S + PTS * t + PT2S * t * t);
   return n1 + n2 + n3 + n4;
 }
@@ -276,15 +271,14 @@ double IapwsR997Absolute(double t_k, double rho_kg_m3, double lambda_um) {
   // IAPWS R9-97, Eq. 1: (n² − 1)/(n² + 2) / ρ̄ = a0 + a1 ρ̄ + a2 T̄ + a3 λ̄² T̄ + a4/λ̄²
   //   + a5/(λ̄² − λ̄UV²) + a6/(λ̄² − λ̄IR²) + a7 ρ̄², with ρ̄ = ρ/1000 kg m⁻³, T̄ = T/273.15 K,
   //   λ̄ = λ/0.589 µm (Table 1 coefficients).
-  constexpr double a0 = 0.244257733, a1 = 9.74634476e-3, a2 = -3.73234996e-3,
-                   a3 = 2.68678472e-4, a4 = 1.58920570e-3, a5 = 2.45934259e-3,
-                   a6 = 0.900704920, a7 = -1.66626219e-2;
+  constexpr double a0 = 0.244257733, a1 = 9.74634476e-3, a2 = -3.73234996e-3, a3 = 2.68678472e-4,
+                   a4 = 1.58920570e-3, a5 = 2.45934259e-3, a6 = 0.900704920, a7 = -1.66626219e-2;
   constexpr double kLambdaUv = 0.2292020, kLambdaIr = 5.432937;
   const double rho = rho_kg_m3 / 1000.0, t = t_k / 273.15, l = lambda_um / 0.589;
   const double l2 = l * l;
-  const double a = rho * (a0 + a1 * rho + a2 * t + a3 * l2 * t + a4 / l2 +
-                          a5 / (l2 - kLambdaUv * kLambdaUv) + a6 / (l2 - kLambdaIr * kLambdaIr) +
-                          a7 * rho * rho);
+  const double a =
+      rho * (a0 + a1 * rho + a2 * t + a3 * l2 * t + a4 / l2 + a5 / (l2 - kLambdaUv * kLambdaUv) +
+             a6 / (l2 - kLambdaIr * kLambdaIr) + a7 * rho * rho);
   // Solve (n² − 1)/(n² + 2) = a for n.
   return std::sqrt((1.0 + 2.0 * a) / (1.0 - a));
 }
@@ -335,8 +329,8 @@ double DepthToPressureDbar(double depth_m, double latitude_deg) {
   for (int i = 0; i < 50; ++i) {
     const double h = 1e-3;
     const double f = UnescoDepthM(p, latitude_deg) - depth_m;
-    const double df = (UnescoDepthM(p + h, latitude_deg) - UnescoDepthM(p - h, latitude_deg)) /
-                      (2.0 * h);
+    const double df =
+        (UnescoDepthM(p + h, latitude_deg) - UnescoDepthM(p - h, latitude_deg)) / (2.0 * h);
     const double step = f / df;
     p -= step;
     if (std::abs(step) < 1e-9) return p;

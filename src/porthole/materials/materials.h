@@ -46,8 +46,8 @@ double Index(std::string_view medium, const Conditions& c = {});
 std::string ModelOf(std::string_view medium);
 
 struct MediumInfo {
-  std::string name;         // as accepted by Index()
-  std::string description;  // one line, with the model's source
+  std::string name;                             // as accepted by Index()
+  std::string description;                      // one line, with the model's source
   double lambda_min_nm, lambda_max_nm;          // NaN where the index does not depend on λ (air)
   double temperature_min_c, temperature_max_c;  // NaN where temperature is not an input
   double salinity_min_psu, salinity_max_psu;    // NaN where salinity is not an input

@@ -2,12 +2,12 @@
 // each other and with physics where they overlap, and that bad or out-of-range input is refused.
 #include "porthole/materials/materials.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
 #include <set>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "porthole/core/error.h"
 
@@ -130,8 +130,8 @@ TEST(MillardSeaver, PressureCoefficientIsThatOfWater) {
       EXPECT_LT(dndp, 1.7e-6) << "T " << t << " S " << s;
     }
   }
-  const double cold = (MillardSeaver(2.0, 35.0, 100.0, 546.07) - MillardSeaver(2.0, 35.0, 0.0,
-                                                                                 546.07)) / 100.0;
+  const double cold =
+      (MillardSeaver(2.0, 35.0, 100.0, 546.07) - MillardSeaver(2.0, 35.0, 0.0, 546.07)) / 100.0;
   EXPECT_GT(cold, 1.5e-6);  // cold seawater, as in the deep ocean
   EXPECT_LT(cold, 1.7e-6);
 }
@@ -231,9 +231,9 @@ TEST(Names, AreCaseInsensitiveAndListed) {
     EXPECT_FALSE(m.description.empty());
     EXPECT_FALSE(ModelOf(m.name).empty());
   }
-  for (const char* name : {"air", "seawater", "freshwater", "water-iapws",
-                           "seawater-millard-seaver", "n-bk7", "fused-silica", "pmma",
-                           "polycarbonate", "sapphire-o"}) {
+  for (const char* name :
+       {"air", "seawater", "freshwater", "water-iapws", "seawater-millard-seaver", "n-bk7",
+        "fused-silica", "pmma", "polycarbonate", "sapphire-o"}) {
     EXPECT_EQ(names.count(name), 1u) << name;
   }
 }
