@@ -244,7 +244,7 @@ TEST(Jet, CorrectionJetMatchesDoubleAndFiniteDifferences) {
   const auto v = JetTestPoint(p, Vec3<double>(9.0, -6.5, 1.0));
   ExpectJetMatchesDouble(v, [](const auto& a) {
     using T = std::decay_t<decltype(a[0])>;
-    return Correction<T>(a.data(), a[10] * T(0.1) / T(0.1), a[11]);
+    return Correction<T>(a.data(), a[10], a[11]);
   });
 }
 
@@ -424,15 +424,22 @@ TEST(OpenCV, DecentringSignsSurviveTheRefit) {
   // Brown P1 > 0 ↔ OpenCV p2 < 0; Brown P2 > 0 ↔ OpenCV p1 > 0 (y up vs Y down, correction vs
   // forward). Checked on the refit, so the closed form's signs are tested against least squares.
   BrownParams b = PaperLens();
+  // The closed form (p1 = P2·c, p2 = −P1·c) agrees with the refit to first order (20 %).
   b.P1 = 2e-5;
-  OpenCVParams o = BrownToOpenCV(b, kD300).opencv;
-  EXPECT_LT(o.p2, -0.5 * 2e-5 * b.c_mm);
-  EXPECT_NEAR(o.p1, 0.0, 0.1 * 2e-5 * b.c_mm);
+  BrownToOpenCVResult r = BrownToOpenCV(b, kD300);
+  EXPECT_LT(r.opencv.p2, -0.5 * 2e-5 * b.c_mm);
+  EXPECT_NEAR(r.opencv.p1, 0.0, 0.1 * 2e-5 * b.c_mm);
+  EXPECT_NEAR(r.initial.p2, r.opencv.p2, 0.2 * std::abs(r.opencv.p2));
   b.P1 = 0;
   b.P2 = 2e-5;
-  o = BrownToOpenCV(b, kD300).opencv;
-  EXPECT_GT(o.p1, 0.5 * 2e-5 * b.c_mm);
-  EXPECT_NEAR(o.p2, 0.0, 0.1 * 2e-5 * b.c_mm);
+  r = BrownToOpenCV(b, kD300);
+  EXPECT_GT(r.opencv.p1, 0.5 * 2e-5 * b.c_mm);
+  EXPECT_NEAR(r.opencv.p2, 0.0, 0.1 * 2e-5 * b.c_mm);
+  EXPECT_NEAR(r.initial.p1, r.opencv.p1, 0.2 * std::abs(r.opencv.p1));
+  // And the way back recovers Brown's signs.
+  const OpenCVToBrownResult back = OpenCVToBrown(r.opencv, kD300);
+  EXPECT_NEAR(back.brown.P2, 2e-5, 0.02 * 2e-5);
+  EXPECT_NEAR(back.brown.P1, 0.0, 0.02 * 2e-5);
 }
 
 TEST(OpenCV, InvalidInputsAreRejected) {
