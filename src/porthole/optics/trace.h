@@ -90,7 +90,10 @@ inline T IntersectSphere(const Vec3T<T>& o, const Vec3T<T>& d, const Vec3T<T>& c
                          bool* hit, double eps = 1e-9) {
   const Vec3T<T> oc = o - c;
   const T b = oc.dot(d);
-  const T disc = b * b - (oc.squaredNorm() - radius * radius);
+  // R² − (distance from the centre to the ray's line)², computed from the perpendicular vector
+  // rather than as b² − (|oc|² − R²), which cancels catastrophically for far-away origins.
+  const Vec3T<T> perp = oc - b * d;
+  const T disc = radius * radius - perp.squaredNorm();
   const bool real = disc >= T(0);
   using std::sqrt;
   const T sq = sqrt(real ? disc : T(0));

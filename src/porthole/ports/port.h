@@ -1,0 +1,93 @@
+// Flat and dome ports, placed in front of a camera's entrance pupil.
+//
+// Frame: the housing frame of docs/conventions.md (origin at the lens-mount flange centre, +Z along
+// the optical axis toward the scene, +X right, +Y down), millimetres. A port is written either in
+// the housing frame, or in the cam frame (origin at the entrance pupil, axes parallel to housing):
+// the latter describes an ideal port "centred on the pupil" whatever the lens.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "porthole/optics/trace.h"
+
+namespace porthole::ports {
+
+using optics::Vec3;
+
+struct SphereSpec {
+  Vec3 center_mm = Vec3::Zero();
+  double radius_mm = 0;
+};
+
+// A thick dome: glass between an inner and an outer sphere, which need not be concentric.
+struct DomePort {
+  SphereSpec outer, inner;
+  std::string material = "n-bk7";
+  // Glass exists only where z >= rim_z_mm (in the port's frame): a hemisphere's rim plane. Unset:
+  // the outer sphere's centre plane (a hemisphere).
+  std::optional<double> rim_z_mm;
+};
+
+// A flat port: a plate whose inner (air-side) plane passes through inner_point_mm with unit normal
+// `normal` pointing from the camera toward the scene; the outer plane lies thickness_mm further.
+struct FlatPort {
+  Vec3 inner_point_mm = Vec3::Zero();
+  Vec3 normal = Vec3(0, 0, 1);
+  double thickness_mm = 0;
+  std::string material = "pmma";
+};
+
+enum class PortFrame { kHousing, kCam };
+
+struct PortSpec {
+  std::string name;
+  std::string description;
+  std::string source;  // where the numbers come from
+  PortFrame frame = PortFrame::kHousing;
+  std::variant<DomePort, FlatPort> shape;
+  // The entrance pupil to use when no lens says otherwise (housing frame).
+  Vec3 default_ep_in_housing_mm = Vec3(0, 0, 26.9);
+
+  bool IsDome() const { return std::holds_alternative<DomePort>(shape); }
+  const std::string& material() const;
+};
+
+// A port placed in front of an entrance pupil, everything in the housing frame, with the indices of
+// the glass and the water resolved (relative to air; the housing air has n = 1).
+struct PortSystem {
+  PortSpec spec;  // shape converted to the housing frame (frame == kHousing)
+  Vec3 ep_in_housing_mm = Vec3::Zero();
+  double n_glass = 1.5168;
+  double n_water = 1.341;
+
+  bool IsDome() const { return spec.IsDome(); }
+  const DomePort& dome() const { return std::get<DomePort>(spec.shape); }
+  const FlatPort& flat() const { return std::get<FlatPort>(spec.shape); }
+
+  // Interfaces met by a ray leaving the camera (air → glass → water), and by one arriving from the
+  // water (water → glass → air).
+  std::vector<optics::Interface> Outward() const;
+  std::vector<optics::Interface> Inward() const;
+
+  // Non-central: true unless the port is a dome whose two spheres are concentric about the pupil.
+  bool IsCentral(double tol_mm = 1e-9) const;
+
+  // Where the optical axis (through the pupil, along +Z) meets the outer and inner surfaces (z).
+  double OuterVertexZ() const;
+  double InnerVertexZ() const;
+};
+
+// Checks `spec` (finite numbers, radii and thickness positive, inner sphere inside the outer one,
+// unit-length normal) and throws InvalidInput naming the field; `where` prefixes field names
+// (e.g. "port.outer.radius_mm").
+void Validate(const PortSpec& spec, const std::string& where = "port");
+
+// Places `spec` in front of the pupil at `ep_in_housing_mm` (housing frame), with the indices given.
+// Throws InvalidInput when the pupil is not inside the dome's inner sphere (behind its rim), or not
+// behind a flat port's inner plane, or the indices are not finite and >= 1.
+PortSystem Place(const PortSpec& spec, const Vec3& ep_in_housing_mm, double n_glass, double n_water);
+
+}  // namespace porthole::ports

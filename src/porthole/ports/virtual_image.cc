@@ -1,0 +1,198 @@
+#include "porthole/ports/virtual_image.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "porthole/core/error.h"
+
+namespace porthole::ports {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The port as seen by the paraxial trace. Coordinate w = −z grows in the direction light travels
+// from the scene to the camera; radii are signed (positive: centre downstream of the vertex).
+struct ParaxialSurface {
+  double w_mm;
+  double radius_mm;  // infinite for a plane
+  double n_before, n_after;
+};
+
+std::vector<ParaxialSurface> ParaxialModel(const PortSystem& p) {
+  const double w_outer = -p.OuterVertexZ();
+  const double w_inner = -p.InnerVertexZ();
+  if (p.IsDome()) {
+    const DomePort& d = p.dome();
+    const double r_out = std::copysign(d.outer.radius_mm, -d.outer.center_mm.z() - w_outer);
+    const double r_in = std::copysign(d.inner.radius_mm, -d.inner.center_mm.z() - w_inner);
+    return {{w_outer, r_out, p.n_water, p.n_glass}, {w_inner, r_in, p.n_glass, 1.0}};
+  }
+  return {{w_outer, kInf, p.n_water, p.n_glass}, {w_inner, kInf, p.n_glass, 1.0}};
+}
+
+struct YNu {
+  double y, nu;  // height and index × slope after the last surface
+  double n;      // index after the last surface
+};
+
+// Traces (y at the first surface, n·u before it) through the surfaces.
+YNu TraceYNu(const std::vector<ParaxialSurface>& s, double y, double nu) {
+  double n = s.front().n_before;
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    const double phi = std::isinf(s[k].radius_mm) ? 0.0 : (s[k].n_after - s[k].n_before) / s[k].radius_mm;
+    nu -= y * phi;
+    n = s[k].n_after;
+    if (k + 1 < s.size()) y += (s[k + 1].w_mm - s[k].w_mm) * nu / n;
+  }
+  return {y, nu, n};
+}
+
+void CheckWd(double wd_mm) {
+  if (std::isnan(wd_mm) || !(wd_mm > 0)) throw InvalidInput("wd_mm", "must be > 0 (or inf)");
+}
+
+}  // namespace
+
+VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm) {
+  CheckWd(wd_mm);
+  const auto s = ParaxialModel(port);
+  const double w_ep = -port.ep_in_housing_mm.z();
+  const double w_outer = s.front().w_mm;
+  // A ray from the axial object point: unit object-side height at infinity, else slope u0.
+  const double n0 = s.front().n_before;
+  const double u0 = std::isinf(wd_mm) ? 0.0 : 1e-3;
+  const double y0 = std::isinf(wd_mm) ? 1.0 : u0 * wd_mm;
+  const YNu out = TraceYNu(s, y0, n0 * u0);
+  VirtualImage vi;
+  vi.wd_mm = wd_mm;
+  const double u = out.nu / out.n;
+  if (u == 0) {  // afocal: the image of infinity is at infinity
+    vi.d_s2ep_mm = vi.vwd_mm = kInf;
+    vi.magnification = 1;
+    return vi;
+  }
+  const double w_img = s.back().w_mm - out.y / u;
+  vi.d_s2ep_mm = w_ep - w_img;
+  vi.vwd_mm = w_outer - w_img;
+  // Lagrange invariant: n u h = n' u' h'  =>  m = (n0 u0) / (n' u').
+  vi.magnification = std::isinf(wd_mm) ? 0.0 : (n0 * u0) / (out.n * u);
+  return vi;
+}
+
+namespace {
+
+// The ray in the water that reaches the pupil point `pupil_point` (housing frame, on the pupil
+// plane z = ep.z) after refraction into the housing, from the axial object at distance wd_mm from
+// the outer vertex (or from infinity, parallel to the axis). Unknown: where the water ray, aimed
+// straight, would cross the pupil plane; Newton on the 2D miss with a finite-difference Jacobian.
+// Returns the air-side ray, or nullopt when a ray fails or Newton does not converge.
+std::optional<optics::Ray> RayThroughPupilPoint(const std::vector<optics::Interface>& inward,
+                                                const Vec3& object, bool at_infinity,
+                                                const Vec3& pupil_point) {
+  const double z_pupil = pupil_point.z();
+  auto miss = [&](const Eigen::Vector2d& aim, optics::Ray* air) -> std::optional<Eigen::Vector2d> {
+    const Vec3 a(aim.x(), aim.y(), z_pupil);
+    optics::Ray water;
+    if (at_infinity) {
+      water = {Vec3(aim.x(), aim.y(), object.z()), Vec3(0, 0, -1)};
+    } else {
+      water = {object, (a - object).normalized()};
+    }
+    optics::Ray out;
+    if (optics::TraceSequence<double>(inward, water, &out) != optics::RayStatus::kOk) return std::nullopt;
+    if (!(out.dir.z() < 0)) return std::nullopt;
+    const Vec3 hit = out.origin + ((z_pupil - out.origin.z()) / out.dir.z()) * out.dir;
+    if (air) *air = out;
+    return Eigen::Vector2d(hit.x() - pupil_point.x(), hit.y() - pupil_point.y());
+  };
+  Eigen::Vector2d aim = pupil_point.head<2>();
+  optics::Ray air;
+  for (int it = 0; it < 30; ++it) {
+    const auto m = miss(aim, &air);
+    if (!m) return std::nullopt;
+    if (m->norm() < 1e-12) return air;
+    Eigen::Matrix2d jac;
+    const double h = 1e-6;
+    for (int k = 0; k < 2; ++k) {
+      Eigen::Vector2d step = aim;
+      step[k] += h;
+      const auto mk = miss(step, nullptr);
+      if (!mk) return std::nullopt;
+      jac.col(k) = (*mk - *m) / h;
+    }
+    aim -= jac.fullPivLu().solve(*m);
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<VirtualImage> RealRayVirtualImage(const PortSystem& port, double wd_mm,
+                                                double aperture_height_mm) {
+  CheckWd(wd_mm);
+  RequirePositive("aperture_height_mm", aperture_height_mm);
+  const auto inward = port.Inward();
+  const Vec3& ep = port.ep_in_housing_mm;
+  const double z_outer = port.OuterVertexZ();
+  const bool at_infinity = std::isinf(wd_mm);
+  // Object on the axis through the pupil; "infinity": parallel rays launched from far away.
+  const Vec3 object(ep.x(), ep.y(), z_outer + (at_infinity ? 1e6 : wd_mm));
+  // Rays through 8 points of the pupil rim; their least-squares meeting point is the virtual image
+  // (for a decentred port the bundle is slightly astigmatic: this is its centre of least spread).
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Vec3 b = Vec3::Zero();
+  double min_cos = 1;
+  Vec3 first_dir = Vec3::Zero();
+  for (int k = 0; k < 8; ++k) {
+    const double phi = k * M_PI / 4;
+    const Vec3 p = ep + aperture_height_mm * Vec3(std::cos(phi), std::sin(phi), 0);
+    const auto air = RayThroughPupilPoint(inward, object, at_infinity, p);
+    if (!air) return std::nullopt;
+    const Vec3 dir = air->dir.normalized();
+    const Eigen::Matrix3d proj = Eigen::Matrix3d::Identity() - dir * dir.transpose();
+    a += proj;
+    b += proj * air->origin;
+    if (k == 0) first_dir = dir;
+    min_cos = std::min(min_cos, first_dir.dot(dir));
+  }
+  VirtualImage vi;
+  vi.wd_mm = wd_mm;
+  if (1 - min_cos < 1e-18) {  // parallel air rays (a flat port at infinity): image at infinity
+    vi.d_s2ep_mm = vi.vwd_mm = kInf;
+    return vi;
+  }
+  const Vec3 v = a.ldlt().solve(b);
+  vi.d_s2ep_mm = v.z() - ep.z();
+  vi.vwd_mm = v.z() - z_outer;
+  vi.lateral_offset_mm = (v - ep).head<2>().norm();
+  return vi;
+}
+
+FocalProperties ParaxialFocal(const PortSystem& port) {
+  const auto s = ParaxialModel(port);
+  const double n0 = s.front().n_before;
+  // A ray parallel to the axis at unit height.
+  const YNu par = TraceYNu(s, 1.0, 0.0);
+  FocalProperties f;
+  f.power_per_mm = -par.nu;  // Φ = −n'u'/y1
+  if (f.power_per_mm == 0) {
+    f.efl_mm = f.efl_water_mm = f.back_focal_mm = f.front_focal_mm = kInf;
+    return f;
+  }
+  f.efl_mm = 1.0 / f.power_per_mm;
+  f.efl_water_mm = n0 / f.power_per_mm;
+  // Back focal point: where the parallel ray crosses the axis after the last surface (+ downstream).
+  f.back_focal_mm = -par.y / (par.nu / par.n);
+  // Front focal point: trace the reversed system (air → water) with a parallel ray.
+  std::vector<ParaxialSurface> rev;
+  for (auto it = s.rbegin(); it != s.rend(); ++it) {
+    rev.push_back({-it->w_mm, -it->radius_mm, it->n_after, it->n_before});
+  }
+  const YNu back = TraceYNu(rev, 1.0, 0.0);
+  f.front_focal_mm = -back.y / (back.nu / back.n);
+  return f;
+}
+
+}  // namespace porthole::ports

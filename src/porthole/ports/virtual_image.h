@@ -1,0 +1,50 @@
+// Where a port forms the virtual image of an object in the water, paraxially (a y-nu trace) and
+// with real rays at a chosen aperture height; the port's focal lengths. The paper's Table 5.
+//
+// Axis: the line through the entrance pupil parallel to housing +Z. The paraxial model takes each
+// surface's vertex where the axis meets it and the surface's radius there; it ignores the small
+// tilt of a decentred sphere (first order in the decentring), which the real-ray trace includes.
+// Distances are positive numbers as in the paper (docs/conventions.md): D_S2EP from the virtual
+// image to the entrance pupil, VWD from the virtual image to the outer vertex, WD from the object
+// to the outer vertex. Infinity is std::numeric_limits<double>::infinity().
+#pragma once
+
+#include <optional>
+
+#include "porthole/ports/port.h"
+
+namespace porthole::ports {
+
+struct VirtualImage {
+  double wd_mm = 0;      // object to outer vertex (input)
+  double d_s2ep_mm = 0;  // virtual image to entrance pupil
+  double vwd_mm = 0;     // virtual image to outer vertex
+  double magnification = 0;  // lateral, image height / object height (paraxial only; 0 for real)
+  double lateral_offset_mm = 0;  // distance of the image from the axis (real rays, decentred ports)
+};
+
+// Paraxial (y-nu) trace from the object at wd_mm (may be infinite) through the port into the air.
+// Throws InvalidInput("wd_mm") for wd_mm <= 0 or NaN.
+VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm);
+
+// Real rays from the on-axis object point that pass through eight points of a circle of radius
+// `aperture_height_mm` in the entrance-pupil plane: the least-squares point where they meet on the
+// air side is the virtual image (exact for any geometry; for a decentred port, whose bundle is
+// slightly astigmatic, its centre of least spread, possibly off the axis). As the height goes to zero this
+// tends to the paraxial result; the difference is the port's longitudinal spherical aberration.
+// nullopt when a ray cannot be traced (it leaves the glass, or total internal reflection).
+std::optional<VirtualImage> RealRayVirtualImage(const PortSystem& port, double wd_mm,
+                                                double aperture_height_mm);
+
+struct FocalProperties {
+  // Power Φ = 1/efl (mm⁻¹) of the port between water and air; negative for a dome (diverging),
+  // zero for a flat port (afocal: efl_mm is infinite).
+  double power_per_mm = 0;
+  double efl_mm = 0;              // 1/Φ: focal length on the air side (n = 1)
+  double efl_water_mm = 0;        // n_w/Φ: focal length on the water side
+  double back_focal_mm = 0;       // air-side focal point from the inner vertex (signed, +toward camera)
+  double front_focal_mm = 0;      // water-side focal point from the outer vertex (signed, +toward scene)
+};
+FocalProperties ParaxialFocal(const PortSystem& port);
+
+}  // namespace porthole::ports
