@@ -156,8 +156,7 @@ inline constexpr double kNewtonToleranceMm = 1e-12;
 // Δ = (Δx, Δy) in mm for a MEASURED (distorted) image point (x, y) in image mm (y up).
 template <typename T>
 Vec2<T> Correction(const T* params, const T& x, const T& y) {
-  return detail::CentredCorrection<T>(params, x - params[kBrownX0], y - params[kBrownY0],
-                                      nullptr);
+  return detail::CentredCorrection<T>(params, x - params[kBrownX0], y - params[kBrownY0], nullptr);
 }
 
 // Measured image point → ideal image point, both in image mm with the sensor-centre origin:
@@ -282,8 +281,8 @@ struct BrownBundleResidual {
       : x_obs_mm(x_obs_mm), y_obs_mm(y_obs_mm), sigma_mm(sigma_mm) {}
 
   template <typename T>
-  bool operator()(const T* camera, const T* rotation, const T* translation,
-                  const T* point_in_world, T* residual) const {
+  bool operator()(const T* camera, const T* rotation, const T* translation, const T* point_in_world,
+                  T* residual) const {
     T rotated[3];
     ceres::AngleAxisRotatePoint(rotation, point_in_world, rotated);
     const Vec3<T> point_in_cam(rotated[0] + translation[0], rotated[1] + translation[1],

@@ -1,6 +1,7 @@
 // Proves the camera model: Project inverts Correction to 1e-9 mm over a full frame, the signs of
 // the conventions (barrel K1 > 0 corrects outward, y up vs v down), Jet = double with derivatives
-// = finite differences, and the OpenCV conversion round trip below 0.01 px RMS with barrel → k1 < 0.
+// = finite differences, and the OpenCV conversion round trip below 0.01 px RMS with barrel → k1 <
+// 0.
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
@@ -132,9 +133,9 @@ TEST(Brown, BarrelLensCorrectsEdgePointsOutward) {
   ASSERT_GT(p.K1, 0);
   const Eigen::Vector2d pp(p.x0_mm, p.y0_mm);
   const double W = kD300.width_px - 1, H = kD300.height_px - 1;
-  for (const auto& uv : {Eigen::Vector2d(0, 0), Eigen::Vector2d(W, 0), Eigen::Vector2d(0, H),
-                         Eigen::Vector2d(W, H), Eigen::Vector2d(W / 2, 0),
-                         Eigen::Vector2d(0, H / 2), Eigen::Vector2d(W, H / 2)}) {
+  for (const auto& uv :
+       {Eigen::Vector2d(0, 0), Eigen::Vector2d(W, 0), Eigen::Vector2d(0, H), Eigen::Vector2d(W, H),
+        Eigen::Vector2d(W / 2, 0), Eigen::Vector2d(0, H / 2), Eigen::Vector2d(W, H / 2)}) {
     const Vec2<double> measured = PixelToImageMm(kD300, uv(0), uv(1));
     const Vec2<double> ideal = Undistort(p, measured(0), measured(1));
     EXPECT_GT((ideal - pp).norm(), (measured - pp).norm() + 0.05) << uv.transpose();
@@ -197,8 +198,8 @@ using Jet = ceres::Jet<double, kNumDerivs>;
 
 // Finite-difference steps: a small fraction of each parameter's typical size.
 std::array<double, kNumDerivs> FdSteps(const std::array<double, kNumDerivs>& v) {
-  const std::array<double, kNumDerivs> typical = {25, 0.1, 0.1, 1e-4, 1e-7, 1e-10, 1e-5,
-                                                  1e-5, 1e-4, 1e-4, 100, 100, 1000};
+  const std::array<double, kNumDerivs> typical = {25,   0.1,  0.1,  1e-4, 1e-7, 1e-10, 1e-5,
+                                                  1e-5, 1e-4, 1e-4, 100,  100,  1000};
   std::array<double, kNumDerivs> h;
   for (int i = 0; i < kNumDerivs; ++i) h[i] = 1e-5 * std::max(std::abs(v[i]), typical[i]);
   return h;
@@ -361,11 +362,11 @@ void ExpectRoundTrip(const BrownParams& b, const char* label, double max_rms_px 
       "OpenCV->Brown refit rms %.3g px max %.3g px (check grid rms %.3g max %.3g)\n"
       "  opencv fx %.6f fy %.6f cx %.6f cy %.6f k1 %.6g k2 %.6g p1 %.6g p2 %.6g k3 %.6g\n"
       "  brown  c %.6f x0 %.6f y0 %.6f K1 %.6g K2 %.6g K3 %.6g P1 %.6g P2 %.6g B1 %.6g B2 %.6g\n",
-      label, to.fit.rms_px, to.fit.max_px, d1.rms, d1.max, from.fit.rms_px, from.fit.max_px,
-      d2.rms, d2.max, to.opencv.fx, to.opencv.fy, to.opencv.cx, to.opencv.cy, to.opencv.k1,
-      to.opencv.k2, to.opencv.p1, to.opencv.p2, to.opencv.k3, from.brown.c_mm, from.brown.x0_mm,
-      from.brown.y0_mm, from.brown.K1, from.brown.K2, from.brown.K3, from.brown.P1, from.brown.P2,
-      from.brown.B1, from.brown.B2);
+      label, to.fit.rms_px, to.fit.max_px, d1.rms, d1.max, from.fit.rms_px, from.fit.max_px, d2.rms,
+      d2.max, to.opencv.fx, to.opencv.fy, to.opencv.cx, to.opencv.cy, to.opencv.k1, to.opencv.k2,
+      to.opencv.p1, to.opencv.p2, to.opencv.k3, from.brown.c_mm, from.brown.x0_mm, from.brown.y0_mm,
+      from.brown.K1, from.brown.K2, from.brown.K3, from.brown.P1, from.brown.P2, from.brown.B1,
+      from.brown.B2);
   EXPECT_EQ(to.fit.num_points, 40 * 30);
   EXPECT_LT(to.fit.rms_px, max_rms_px);
   EXPECT_LT(d1.rms, max_rms_px);

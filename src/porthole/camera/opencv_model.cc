@@ -228,8 +228,7 @@ OpenCVToBrownResult OpenCVToBrown(const OpenCVParams& opencv, const Sensor& sens
     const auto n = OpenCVUnprojectNormalized(opencv, uv(0), uv(1));
     if (!n) {
       throw InvalidInput("opencv", "the distortion cannot be inverted at pixel (" +
-                                       std::to_string(uv(0)) + ", " + std::to_string(uv(1)) +
-                                       ")");
+                                       std::to_string(uv(0)) + ", " + std::to_string(uv(1)) + ")");
     }
     rays.push_back({uv(0), uv(1), (*n)(0), (*n)(1)});
   }

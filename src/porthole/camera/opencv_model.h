@@ -68,11 +68,11 @@ std::optional<Eigen::Vector2d> OpenCVUnprojectNormalized(const OpenCVParams& p, 
 
 // Options for both conversions.
 struct CameraConversionOptions {
-  int grid_cols = 40;       // image points along u, spanning pixel centres 0 … W−1 (≥ 3)
-  int grid_rows = 30;       // image points along v, spanning pixel centres 0 … H−1 (≥ 3)
-  bool fit_k3 = true;       // Brown→OpenCV: refit k3 (else k3 = 0). OpenCV→Brown: refit K3.
-  bool fit_affinity = true; // OpenCV→Brown: refit B1, B2 (else 0). OpenCV always has fx and fy.
-  int max_iterations = 200; // Ceres iterations per refit stage
+  int grid_cols = 40;        // image points along u, spanning pixel centres 0 … W−1 (≥ 3)
+  int grid_rows = 30;        // image points along v, spanning pixel centres 0 … H−1 (≥ 3)
+  bool fit_k3 = true;        // Brown→OpenCV: refit k3 (else k3 = 0). OpenCV→Brown: refit K3.
+  bool fit_affinity = true;  // OpenCV→Brown: refit B1, B2 (else 0). OpenCV always has fx and fy.
+  int max_iterations = 200;  // Ceres iterations per refit stage
 };
 
 // Refit quality: the image distance between the two models' measured points for the same ray,
@@ -90,8 +90,8 @@ struct BrownToOpenCVResult {
 };
 
 struct OpenCVToBrownResult {
-  BrownParams brown;   // the refit
-  BrownParams initial; // the closed-form starting guess
+  BrownParams brown;    // the refit
+  BrownParams initial;  // the closed-form starting guess
   ConversionFit fit;
 };
 

@@ -15,9 +15,9 @@
 namespace porthole::camera {
 
 struct Sensor {
-  int width_px = 0;             // W, pixels along u
-  int height_px = 0;            // H, pixels along v
-  double pixel_pitch_mm = 0;    // square pixels, mm
+  int width_px = 0;           // W, pixels along u
+  int height_px = 0;          // H, pixels along v
+  double pixel_pitch_mm = 0;  // square pixels, mm
 };
 
 // Throws InvalidInput unless W ≥ 1, H ≥ 1 and the pitch is finite and > 0.
