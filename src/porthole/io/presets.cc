@@ -1,0 +1,198 @@
+#include "porthole/io/presets.h"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include "porthole/core/error.h"
+
+namespace porthole::io {
+
+// Defined in the generated presets_data.cc (CMake embeds presets/<kind>s/*.toml).
+extern const std::vector<Preset> kBuiltinPresets;
+
+const std::vector<Preset>& BuiltinPresets() { return kBuiltinPresets; }
+
+std::string PresetDescription(const Preset& p) {
+  try {
+    const toml::table t = toml::parse(p.toml);
+    return t["description"].value_or(std::string());
+  } catch (const toml::parse_error&) {
+    return "";
+  }
+}
+
+namespace {
+
+using ports::Vec3;
+
+// Reads typed values from one TOML table, naming file, line and key in every error, and rejecting
+// keys it was not asked about (a typo must not be silently ignored).
+class Reader {
+ public:
+  Reader(const toml::table& t, std::string origin, std::string prefix)
+      : t_(t), origin_(std::move(origin)), prefix_(std::move(prefix)) {}
+
+  [[noreturn]] void Fail(const std::string& key, const std::string& rule, const toml::node* n = nullptr) const {
+    const auto& src = n ? n->source() : t_.source();
+    throw InvalidInput(fmt::format("{}:{}: {}{}", origin_, src.begin.line, prefix_, key), rule);
+  }
+  const toml::node* Node(const std::string& key) {
+    seen_.insert(key);
+    return t_.get(key);
+  }
+  std::optional<double> OptDouble(const std::string& key) {
+    const toml::node* n = Node(key);
+    if (!n) return std::nullopt;
+    const auto v = n->value<double>();
+    if (!v || !std::isfinite(*v)) Fail(key, "must be a finite number", n);
+    return v;
+  }
+  double Double(const std::string& key) {
+    const auto v = OptDouble(key);
+    if (!v) Fail(key, "is required");
+    return *v;
+  }
+  std::optional<std::string> OptString(const std::string& key) {
+    const toml::node* n = Node(key);
+    if (!n) return std::nullopt;
+    const auto v = n->value<std::string>();
+    if (!v) Fail(key, "must be a string", n);
+    return v;
+  }
+  std::optional<Vec3> OptVec3(const std::string& key) {
+    const toml::node* n = Node(key);
+    if (!n) return std::nullopt;
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 3) Fail(key, "must be an array of three numbers [x, y, z]", n);
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) {
+      const auto x = (*a)[static_cast<std::size_t>(i)].value<double>();
+      if (!x || !std::isfinite(*x)) Fail(key, "must be an array of three finite numbers", n);
+      v[i] = *x;
+    }
+    return v;
+  }
+  Vec3 Vector3(const std::string& key) {
+    const auto v = OptVec3(key);
+    if (!v) Fail(key, "is required");
+    return *v;
+  }
+  Reader Table(const std::string& key) {
+    const toml::node* n = Node(key);
+    if (!n || !n->is_table()) Fail(key, "is required: a table [" + prefix_ + key + "]", n);
+    return Reader(*n->as_table(), origin_, prefix_ + key + ".");
+  }
+  void RejectUnknown() const {
+    for (const auto& [k, v] : t_) {
+      if (!seen_.count(std::string(k.str()))) Fail(std::string(k.str()), "unknown key", &v);
+    }
+  }
+
+ private:
+  const toml::table& t_;
+  std::string origin_, prefix_;
+  std::set<std::string> seen_;
+};
+
+}  // namespace
+
+ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) {
+  toml::table t;
+  try {
+    t = toml::parse(text, origin);
+  } catch (const toml::parse_error& e) {
+    throw InvalidInput(fmt::format("{}:{}", origin, e.source().begin.line), std::string(e.description()));
+  }
+  Reader r(t, origin, "");
+  ports::PortSpec p;
+  p.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
+  p.description = r.OptString("description").value_or("");
+  p.source = r.OptString("source").value_or("");
+  const std::string frame = r.OptString("frame").value_or("housing");
+  if (frame == "housing") {
+    p.frame = ports::PortFrame::kHousing;
+  } else if (frame == "cam") {
+    p.frame = ports::PortFrame::kCam;
+  } else {
+    r.Fail("frame", "must be \"housing\" (flange origin) or \"cam\" (entrance-pupil origin)");
+  }
+  if (const auto ep = r.OptVec3("entrance_pupil_mm")) p.default_ep_in_housing_mm = *ep;
+  const auto type = r.OptString("type");
+  const auto material = r.OptString("material");
+  if (type == "dome") {
+    ports::DomePort d;
+    if (material) d.material = *material;
+    Reader outer = r.Table("outer");
+    d.outer = {outer.Vector3("center_mm"), outer.Double("radius_mm")};
+    outer.RejectUnknown();
+    Reader inner = r.Table("inner");
+    d.inner = {inner.Vector3("center_mm"), inner.Double("radius_mm")};
+    inner.RejectUnknown();
+    d.rim_z_mm = r.OptDouble("rim_z_mm");
+    p.shape = d;
+  } else if (type == "flat") {
+    ports::FlatPort f;
+    if (material) f.material = *material;
+    f.thickness_mm = r.Double("thickness_mm");
+    f.inner_point_mm = r.Vector3("inner_point_mm");
+    if (const auto n = r.OptVec3("normal")) f.normal = *n;
+    p.shape = f;
+  } else {
+    r.Fail("type", "must be \"dome\" or \"flat\"");
+  }
+  r.RejectUnknown();
+  ports::Validate(p, origin + ": port");
+  return p;
+}
+
+ports::PortSpec LoadPort(const std::string& name_or_path) {
+  const bool is_path = name_or_path.find('/') != std::string::npos ||
+                       (name_or_path.size() > 5 && name_or_path.ends_with(".toml"));
+  if (!is_path) {
+    for (const Preset& p : BuiltinPresets()) {
+      if (p.kind == "port" && p.name == name_or_path) return ParsePortToml(p.toml, std::string(p.name));
+    }
+    std::string names;
+    for (const Preset& p : BuiltinPresets()) {
+      if (p.kind == "port") names += (names.empty() ? "" : ", ") + std::string(p.name);
+    }
+    throw InvalidInput("--port", "unknown preset '" + name_or_path + "' (built-in: " + names +
+                                     "; or give a path to a .toml file)");
+  }
+  std::ifstream in(name_or_path, std::ios::binary);
+  if (!in) throw InvalidInput("--port", "cannot read file '" + name_or_path + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ParsePortToml(ss.str(), name_or_path);
+}
+
+std::string PortToToml(const ports::PortSpec& p) {
+  auto vec = [](const Vec3& v) { return fmt::format("[{:.6g}, {:.6g}, {:.6g}]", v.x(), v.y(), v.z()); };
+  auto str = [](const std::string& s) {
+    std::string out = "\"";
+    for (char c : s) out += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+    return out + "\"";
+  };
+  std::string s;
+  s += fmt::format("name = {}\ndescription = {}\nsource = {}\n", str(p.name), str(p.description), str(p.source));
+  s += fmt::format("type = \"{}\"\nframe = \"{}\"\nmaterial = {}\n", p.IsDome() ? "dome" : "flat",
+                   p.frame == ports::PortFrame::kCam ? "cam" : "housing", str(p.material()));
+  s += fmt::format("entrance_pupil_mm = {}\n", vec(p.default_ep_in_housing_mm));
+  if (const auto* d = std::get_if<ports::DomePort>(&p.shape)) {
+    if (d->rim_z_mm) s += fmt::format("rim_z_mm = {:.6g}\n", *d->rim_z_mm);
+    s += fmt::format("\n[outer]\ncenter_mm = {}\nradius_mm = {:.6g}\n", vec(d->outer.center_mm), d->outer.radius_mm);
+    s += fmt::format("\n[inner]\ncenter_mm = {}\nradius_mm = {:.6g}\n", vec(d->inner.center_mm), d->inner.radius_mm);
+  } else {
+    const auto& f = std::get<ports::FlatPort>(p.shape);
+    s += fmt::format("thickness_mm = {:.6g}\ninner_point_mm = {}\nnormal = {}\n", f.thickness_mm,
+                     vec(f.inner_point_mm), vec(f.normal));
+  }
+  return s;
+}
+
+}  // namespace porthole::io

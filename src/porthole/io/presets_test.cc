@@ -1,0 +1,84 @@
+// Proves that the built-in presets carry the paper's geometry, that port TOML files are parsed with
+// errors naming file, line and key, and that writing and re-reading a port is lossless.
+#include "porthole/io/presets.h"
+
+#include <gtest/gtest.h>
+
+#include "porthole/core/error.h"
+
+namespace porthole::io {
+namespace {
+
+std::string ErrorOf(const std::string& text) {
+  try {
+    ParsePortToml(text, "my-dome.toml");
+  } catch (const InvalidInput& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Presets, BuiltinPortsCarryThePapersGeometry) {
+  const auto as_built = LoadPort("nimar-ni320");
+  const auto& d = std::get<ports::DomePort>(as_built.shape);
+  // Menna et al. 2016, Table 3.
+  EXPECT_EQ(d.outer.center_mm, ports::Vec3(-0.4, -1.0, 21.5));
+  EXPECT_EQ(d.outer.radius_mm, 83.4);
+  EXPECT_EQ(d.inner.center_mm, ports::Vec3(-0.4, -1.5, 20.3));
+  EXPECT_EQ(d.inner.radius_mm, 75.7);
+  EXPECT_EQ(d.material, "n-bk7");
+  // Table 4: the 24 mm lens's entrance pupil.
+  EXPECT_EQ(as_built.default_ep_in_housing_mm, ports::Vec3(0, 0, 26.9));
+  const auto nominal = LoadPort("nimar-ni320-nominal");
+  EXPECT_EQ(nominal.frame, ports::PortFrame::kCam);
+  EXPECT_TRUE(LoadPort("flat-acrylic-10mm").shape.index() == 1);
+  for (const Preset& p : BuiltinPresets()) EXPECT_FALSE(PresetDescription(p).empty()) << p.name;
+}
+
+TEST(Presets, UnknownPresetListsTheBuiltins) {
+  try {
+    LoadPort("nimar-ni999");
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), "--port");
+    EXPECT_NE(std::string(e.what()).find("nimar-ni320-nominal"), std::string::npos);
+  }
+  EXPECT_THROW(LoadPort("/nonexistent/dome.toml"), InvalidInput);
+}
+
+TEST(PortToml, ErrorsNameFileLineAndKey) {
+  const std::string good =
+      "type = \"dome\"\n[outer]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 83.4\n"
+      "[inner]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 75.7\n";
+  EXPECT_EQ(ErrorOf(good), "");
+  EXPECT_EQ(ErrorOf("type = \"dome\"\n[outer]\ncenter_mm = [0, 0]\nradius_mm = 83.4\n"),
+            "my-dome.toml:3: outer.center_mm: must be an array of three numbers [x, y, z]");
+  EXPECT_EQ(ErrorOf("colour = \"blue\"\n" + good), "my-dome.toml:1: colour: unknown key");
+  EXPECT_EQ(ErrorOf(good + "colour = \"blue\"\n"), "my-dome.toml:8: inner.colour: unknown key");
+  EXPECT_NE(ErrorOf("type = \"dome\"\n[outer\n").find("my-dome.toml:2"), std::string::npos);
+  EXPECT_NE(ErrorOf("type = \"cone\"\n").find("type: must be \"dome\" or \"flat\""), std::string::npos);
+  // Geometry rules come from ports::Validate, with the file named.
+  std::string bad = good;
+  bad.replace(bad.find("75.7"), 4, "90.0");
+  EXPECT_NE(ErrorOf(bad).find("my-dome.toml: port.inner.radius_mm: must be smaller"), std::string::npos)
+      << ErrorOf(bad);
+  EXPECT_NE(ErrorOf("type = \"flat\"\nthickness_mm = -3\ninner_point_mm = [0,0,20]\n")
+                .find("thickness_mm: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("type = \"flat\"\nthickness_mm = nan\ninner_point_mm = [0,0,20]\n")
+                .find("thickness_mm: must be a finite number"),
+            std::string::npos);
+}
+
+TEST(PortToml, WriteThenReadIsLossless) {
+  for (const char* name : {"nimar-ni320", "nimar-ni320-nominal", "flat-acrylic-10mm"}) {
+    const auto p = LoadPort(name);
+    const auto q = ParsePortToml(PortToToml(p), "roundtrip.toml");
+    EXPECT_EQ(PortToToml(q), PortToToml(p)) << name;
+    EXPECT_EQ(q.frame, p.frame);
+    EXPECT_EQ(q.default_ep_in_housing_mm, p.default_ep_in_housing_mm);
+  }
+}
+
+}  // namespace
+}  // namespace porthole::io
