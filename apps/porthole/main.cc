@@ -24,14 +24,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {
-    return app.exit(e);  // --help, --version
-  } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
+    return app.exit(e);  // --help, --version (CallForHelp and CallForVersion derive from Success)
   } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
     fmt::print(stderr, "porthole: error: {}\n", e.what());
     return 2;
   } catch (const porthole::InvalidInput& e) {

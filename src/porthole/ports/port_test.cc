@@ -73,5 +73,33 @@ TEST(Port, CamFramePortsFollowThePupilAndAreCentral) {
   EXPECT_FALSE(Place(off, Vec3(0, 0, 26.9), 1.5, 1.34).IsCentral());
 }
 
+TEST(Port, FlatPortFieldOfViewInWaterIsLimitedTo97p2Degrees) {
+  // Snell across any plate: n_w sin θ_w = sin θ_a < 1, so the full field in water is at most
+  // 2 asin(1/n_w) = 97.2° for n_w = 1.333 (the paper's Section 2.2 and Fig. 3), whatever the glass.
+  PortSpec s;
+  s.frame = PortFrame::kCam;
+  FlatPort f;
+  f.inner_point_mm = Vec3(0, 0, 20);
+  f.thickness_mm = 10;
+  s.shape = f;
+  const PortSystem sys = Place(s, Vec3(0, 0, 26.9), 1.49, 1.333);
+  double max_water_deg = 0;
+  for (double a_deg = 0; a_deg < 90; a_deg += 0.01) {
+    const double a = a_deg * M_PI / 180;
+    optics::Ray out;
+    ASSERT_EQ(optics::TraceSequence<double>(sys.Outward(), {sys.ep_in_housing_mm, Vec3(std::sin(a), 0, std::cos(a))},
+                                            &out),
+              optics::RayStatus::kOk);
+    max_water_deg = std::max(max_water_deg, std::atan2(out.dir.x(), out.dir.z()) * 180 / M_PI);
+  }
+  EXPECT_NEAR(2 * max_water_deg, 97.2, 0.05);
+  EXPECT_NEAR(2 * std::asin(1 / 1.333) * 180 / M_PI, 97.2, 0.05);
+  // From the water, a ray steeper than the critical angle is totally reflected inside the port.
+  const double w = 49.0 * M_PI / 180;
+  optics::Ray in;
+  EXPECT_EQ(optics::TraceSequence<double>(sys.Inward(), {Vec3(0, 0, 100), Vec3(std::sin(w), 0, -std::cos(w))}, &in),
+            optics::RayStatus::kTotalInternalReflection);
+}
+
 }  // namespace
 }  // namespace porthole::ports

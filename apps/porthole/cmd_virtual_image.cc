@@ -1,0 +1,86 @@
+// `porthole virtual-image`: where a port forms the virtual image of objects at a list of working
+// distances (the paper's Table 5 for any port, water and wavelength), paraxially and with real
+// rays, and the port's focal lengths.
+#include <fmt/format.h>
+
+#include "commands.h"
+#include "common.h"
+#include "porthole/ports/virtual_image.h"
+
+namespace porthole::cli {
+
+void RegisterVirtualImage(CLI::App& app) {
+  struct Options {
+    PortOptions port;
+    WaterOptions water;
+    std::vector<std::string> wd = {"200", "300", "400", "500", "750", "1000", "3000", "5000", "10000", "inf"};
+    double aperture_height_mm = 1.5;
+    bool json = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "virtual-image",
+      "Virtual image of objects in the water: distance from the entrance pupil (D_S2EP) and from the "
+      "port's outer vertex (VWD) against working distance WD, paraxial and by real rays");
+  o->port.Add(cmd);
+  o->water.Add(cmd);
+  cmd->add_option("--wd", o->wd, "Working distances (object to outer vertex), mm; 'inf' allowed")
+      ->delimiter(',')->capture_default_str();
+  cmd->add_option("--aperture-height", o->aperture_height_mm,
+                  "Height in the entrance pupil of the real rays, mm (1.5 = 24 mm lens at f/8)")
+      ->capture_default_str();
+  cmd->add_flag("--json", o->json, "JSON output for scripts");
+
+  cmd->callback([o] {
+    const std::vector<double> wds = ParseLengthList(o->wd, "--wd");
+    const ports::Environment env = o->water.ToEnvironment();
+    const ports::PortSystem sys = ports::MakeSystem(o->port.Spec(), env, o->port.Ep());
+    const ports::FocalProperties focal = ports::ParaxialFocal(sys);
+
+    Json rows = Json::array();
+    std::string table = fmt::format("{:>9} {:>11} {:>9} {:>13} {:>10} {:>11} {:>9}\n", "WD mm", "D_S2EP mm",
+                                    "VWD mm", "real D_S2EP", "real VWD", "sph. ab. mm", "magnif.");
+    for (double wd : wds) {
+      const ports::VirtualImage par = ports::ParaxialVirtualImage(sys, wd);
+      const auto real = ports::RealRayVirtualImage(sys, wd, o->aperture_height_mm);
+      const double nan = std::nan("");
+      const double real_d = real ? real->d_s2ep_mm : nan, real_v = real ? real->vwd_mm : nan;
+      rows.push_back({{"wd_mm", Length(wd)},
+                      {"d_s2ep_mm", Length(par.d_s2ep_mm)},
+                      {"vwd_mm", Length(par.vwd_mm)},
+                      {"d_s2ep_real_mm", Length(real_d)},
+                      {"vwd_real_mm", Length(real_v)},
+                      {"spherical_aberration_mm", Length(real_d - par.d_s2ep_mm)},
+                      {"image_offset_real_mm", Length(real ? real->lateral_offset_mm : nan)},
+                      {"magnification", par.magnification}});
+      table += fmt::format("{:>9} {:>11} {:>9} {:>13} {:>10} {:>11} {:>9}\n", Fixed(wd, 0), Fixed(par.d_s2ep_mm, 1),
+                           Fixed(par.vwd_mm, 1), Fixed(real_d, 2), Fixed(real_v, 2),
+                           Fixed(real_d - par.d_s2ep_mm, 3), Fixed(par.magnification, 4));
+    }
+    Json focal_json = {{"power_per_m", focal.power_per_mm * 1000},
+                       {"efl_air_mm", Length(focal.efl_mm)},
+                       {"efl_water_mm", Length(focal.efl_water_mm)},
+                       {"back_focal_mm", Length(focal.back_focal_mm)},
+                       {"front_focal_mm", Length(focal.front_focal_mm)}};
+    if (o->json) {
+      Json out = DescribeSystem(sys, env);
+      out["aperture_height_mm"] = o->aperture_height_mm;
+      out["focal"] = focal_json;
+      out["rows"] = rows;
+      fmt::print("{}\n", out.dump(2));
+      return;
+    }
+    std::string text = DescribeSystemLine(sys, env) + "\n";
+    text += fmt::format("port focal length {} mm in air, {} mm in water; real rays at {:g} mm pupil height\n\n",
+                        Fixed(focal.efl_mm, 1), Fixed(focal.efl_water_mm, 1), o->aperture_height_mm);
+    text += table;
+    if (sys.IsDome()) {
+      text += fmt::format("\nFocus on the virtual image, not on the object: behind this dome even infinity is "
+                          "imaged {} mm from the entrance pupil.\n",
+                          Fixed(ports::ParaxialVirtualImage(sys, std::numeric_limits<double>::infinity()).d_s2ep_mm, 1));
+    }
+    fmt::print("{}", text);
+  });
+}
+
+}  // namespace porthole::cli

@@ -1,0 +1,135 @@
+#include "common.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "porthole/core/error.h"
+#include "porthole/io/presets.h"
+#include "porthole/materials/materials.h"
+
+namespace porthole::cli {
+
+void WaterOptions::Add(CLI::App* cmd) {
+  cmd->add_option("--water", water, "Water model: seawater (Quan-Fry 1995), freshwater, water-iapws, "
+                                    "seawater-millard-seaver, or a constant index")
+      ->capture_default_str()->group("Water");
+  cmd->add_option("--lambda", lambda_nm, "Wavelength, nm")->capture_default_str()->group("Water");
+  cmd->add_option("--temperature", temperature_c, "Water temperature, degC")->capture_default_str()->group("Water");
+  cmd->add_option("--salinity", salinity_psu, "Salinity, PSU (permil)")->capture_default_str()->group("Water");
+  auto* p = cmd->add_option("--pressure", pressure_dbar, "Gauge pressure, dbar")->group("Water");
+  auto* d = cmd->add_option("--depth", depth_m, "Depth, m (converted to dbar, UNESCO 1983 at 45 deg)")->group("Water");
+  p->excludes(d);
+  cmd->add_option("--water-index", water_index, "Force a constant water index (e.g. 1.341, the paper's)")->group("Water");
+  cmd->add_option("--glass-index", glass_index, "Force a constant port index (e.g. 1.5168, N-BK7 at d)")->group("Water");
+  cmd->add_flag("--extrapolate", extrapolate, "Allow models outside their published validity ranges")->group("Water");
+}
+
+ports::Environment WaterOptions::ToEnvironment() const {
+  ports::Environment env;
+  env.water = water;
+  env.conditions.lambda_nm = RequirePositive("--lambda", lambda_nm);
+  env.conditions.temperature_c = RequireFinite("--temperature", temperature_c);
+  env.conditions.salinity_psu = RequireNonNegative("--salinity", salinity_psu);
+  env.conditions.extrapolate = extrapolate;
+  if (pressure_dbar) env.conditions.pressure_dbar = RequireNonNegative("--pressure", *pressure_dbar);
+  if (depth_m) env.conditions.pressure_dbar = materials::DepthToPressureDbar(RequireNonNegative("--depth", *depth_m));
+  if (water_index) {
+    if (!(std::isfinite(*water_index) && *water_index >= 1)) throw InvalidInput("--water-index", "must be a number >= 1");
+    env.water_index = water_index;
+  }
+  if (glass_index) {
+    if (!(std::isfinite(*glass_index) && *glass_index >= 1)) throw InvalidInput("--glass-index", "must be a number >= 1");
+    env.glass_index = glass_index;
+  }
+  return env;
+}
+
+void PortOptions::Add(CLI::App* cmd) {
+  cmd->add_option("--port", port, "Port: a preset name ('porthole presets') or a TOML file")
+      ->capture_default_str()->group("Port");
+  cmd->add_option("--ep", ep, "Entrance pupil X,Y,Z in the housing frame, mm (default: the port's)")
+      ->delimiter(',')->expected(3)->group("Port");
+}
+
+ports::PortSpec PortOptions::Spec() const { return io::LoadPort(port); }
+
+std::optional<ports::Vec3> PortOptions::Ep() const {
+  if (ep.empty()) return std::nullopt;
+  const ports::Vec3 v(ep[0], ep[1], ep[2]);
+  if (!v.allFinite()) throw InvalidInput("--ep", "must be three finite numbers X,Y,Z in mm");
+  return v;
+}
+
+Json Length(double mm) {
+  if (std::isnan(mm)) return nullptr;
+  if (std::isinf(mm)) return mm > 0 ? "inf" : "-inf";
+  return mm;
+}
+
+Json Vec3Json(const ports::Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+
+Json DescribeSystem(const ports::PortSystem& sys, const ports::Environment& env) {
+  Json port = {{"name", sys.spec.name}, {"type", sys.IsDome() ? "dome" : "flat"},
+               {"material", sys.spec.material()}, {"glass_index", sys.n_glass}};
+  if (sys.IsDome()) {
+    const auto& d = sys.dome();
+    port["outer"] = {{"center_mm", Vec3Json(d.outer.center_mm)}, {"radius_mm", d.outer.radius_mm}};
+    port["inner"] = {{"center_mm", Vec3Json(d.inner.center_mm)}, {"radius_mm", d.inner.radius_mm}};
+  } else {
+    const auto& f = sys.flat();
+    port["inner_point_mm"] = Vec3Json(f.inner_point_mm);
+    port["normal"] = Vec3Json(f.normal);
+    port["thickness_mm"] = f.thickness_mm;
+  }
+  port["outer_vertex_z_mm"] = sys.OuterVertexZ();
+  Json water = {{"model", env.water_index ? "constant" : env.water},
+                {"index", sys.n_water},
+                {"lambda_nm", env.conditions.lambda_nm},
+                {"temperature_c", env.conditions.temperature_c},
+                {"salinity_psu", env.conditions.salinity_psu},
+                {"pressure_dbar", env.conditions.pressure_dbar}};
+  return Json{{"port", port}, {"water", water}, {"ep_in_housing_mm", Vec3Json(sys.ep_in_housing_mm)},
+              {"is_central", sys.IsCentral()}};
+}
+
+std::string DescribeSystemLine(const ports::PortSystem& sys, const ports::Environment& env) {
+  const auto& ep = sys.ep_in_housing_mm;
+  const std::string water = env.water_index ? fmt::format("water n = {:.5f} (fixed)", sys.n_water)
+                                            : fmt::format("{} n = {:.5f} ({:g} degC, {:g} PSU, {:g} dbar)",
+                                                          env.water, sys.n_water, env.conditions.temperature_c,
+                                                          env.conditions.salinity_psu, env.conditions.pressure_dbar);
+  return fmt::format("port {} ({}, {} n = {:.5f}); {}; {:g} nm; entrance pupil ({:g}, {:g}, {:g}) mm",
+                     sys.spec.name, sys.IsDome() ? "dome" : "flat", sys.spec.material(), sys.n_glass, water,
+                     env.conditions.lambda_nm, ep.x(), ep.y(), ep.z());
+}
+
+std::vector<double> ParseLengthList(const std::vector<std::string>& items, const std::string& field) {
+  std::vector<double> out;
+  for (const std::string& s : items) {
+    if (s == "inf" || s == "infinity") {
+      out.push_back(std::numeric_limits<double>::infinity());
+      continue;
+    }
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != s.size() || !std::isfinite(v) || v <= 0) {
+      throw InvalidInput(field, "'" + s + "' is not a positive distance in mm (or 'inf')");
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
+std::string Fixed(double v, int decimals) {
+  if (std::isnan(v)) return "-";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return fmt::format("{:.{}f}", v, decimals);
+}
+
+}  // namespace porthole::cli
