@@ -18,6 +18,10 @@
 #include <type_traits>
 #include <vector>
 
+// Forces inlining of the per-ray primitives so the batched loops vectorise (gcc's heuristics
+// otherwise keep Step() as a call, which blocks vectorisation).
+#define PORTHOLE_INLINE inline __attribute__((always_inline))
+
 namespace porthole::optics {
 
 template <typename T>
@@ -77,41 +81,60 @@ struct Interface {
 // ---- Primitives (templated, inline, written with selects instead of early returns so that the
 // batched tracer's loops vectorise; shared by the single-ray, Jet and batched tracers) ----
 
+// A plain 3-vector for the per-ray maths. Eigen's explicit SIMD on 3-vectors keeps gcc from
+// vectorising *across* rays, which is what the batched tracer needs; this type converts to and
+// from Eigen at the API boundary and works for any scalar (double, ceres::Jet).
 template <typename T>
-inline Vec3T<T> Select(bool c, const Vec3T<T>& a, const Vec3T<T>& b) {
-  return Vec3T<T>(c ? a.x() : b.x(), c ? a.y() : b.y(), c ? a.z() : b.z());
+struct P3 {
+  T x, y, z;
+  static PORTHOLE_INLINE P3 From(const Vec3T<T>& v) { return {v.x(), v.y(), v.z()}; }
+  template <typename S>
+  static PORTHOLE_INLINE P3 Cast(const Vec3T<S>& v) { return {T(v.x()), T(v.y()), T(v.z())}; }
+  PORTHOLE_INLINE Vec3T<T> ToEigen() const { return Vec3T<T>(x, y, z); }
+  PORTHOLE_INLINE P3 operator+(const P3& o) const { return {x + o.x, y + o.y, z + o.z}; }
+  PORTHOLE_INLINE P3 operator-(const P3& o) const { return {x - o.x, y - o.y, z - o.z}; }
+  PORTHOLE_INLINE P3 operator*(const T& k) const { return {x * k, y * k, z * k}; }
+  PORTHOLE_INLINE T dot(const P3& o) const { return x * o.x + y * o.y + z * o.z; }
+  PORTHOLE_INLINE T squaredNorm() const { return dot(*this); }
+};
+template <typename T>
+PORTHOLE_INLINE P3<T> operator*(const T& k, const P3<T>& v) { return v * k; }
+
+template <typename T>
+PORTHOLE_INLINE P3<T> Select(bool c, const P3<T>& a, const P3<T>& b) {
+  return {c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z};
 }
 
 // Distance along a unit ray to a sphere: the smallest root greater than `eps`. *hit is false when
 // there is none (the return value is then meaningless). Works from inside (the exit point) and
 // from outside (the entry point).
 template <typename T>
-inline T IntersectSphere(const Vec3T<T>& o, const Vec3T<T>& d, const Vec3T<T>& c, T radius,
-                         bool* hit, double eps = 1e-9) {
-  const Vec3T<T> oc = o - c;
+PORTHOLE_INLINE T IntersectSphere(const P3<T>& o, const P3<T>& d, const P3<T>& c, T radius, bool* hit,
+                                  double eps = 1e-9) {
+  const P3<T> oc = o - c;
   const T b = oc.dot(d);
   // R² − (distance from the centre to the ray's line)², computed from the perpendicular vector
   // rather than as b² − (|oc|² − R²), which cancels catastrophically for far-away origins.
-  const Vec3T<T> perp = oc - b * d;
+  const P3<T> perp = oc - b * d;
   const T disc = radius * radius - perp.squaredNorm();
   const bool real = disc >= T(0);
   using std::sqrt;
   const T sq = sqrt(real ? disc : T(0));
   const T t1 = -b - sq;
   const T t = t1 > T(eps) ? t1 : -b + sq;
-  *hit = real && t > T(eps);
+  *hit = real & (t > T(eps));
   return t;
 }
 
 // Distance along a unit ray to a plane (point p, unit normal n); *hit is false when the plane is
 // parallel to the ray or behind it.
 template <typename T>
-inline T IntersectPlane(const Vec3T<T>& o, const Vec3T<T>& d, const Vec3T<T>& p,
-                        const Vec3T<T>& n, bool* hit, double eps = 1e-9) {
+PORTHOLE_INLINE T IntersectPlane(const P3<T>& o, const P3<T>& d, const P3<T>& p, const P3<T>& n,
+                                 bool* hit, double eps = 1e-9) {
   const T denom = d.dot(n);
-  const bool ok = denom > T(1e-15) || denom < T(-1e-15);
+  const bool ok = (denom > T(1e-15)) | (denom < T(-1e-15));
   const T t = (p - o).dot(n) / (ok ? denom : T(1));
-  *hit = ok && t > T(eps);
+  *hit = ok & (t > T(eps));
   return t;
 }
 
@@ -119,7 +142,7 @@ inline T IntersectPlane(const Vec3T<T>& o, const Vec3T<T>& d, const Vec3T<T>& p,
 // orientation) going from index n1 into n2. Returns false on total internal reflection, and then
 // *out is meaningless. Otherwise *out is a unit vector with n1 sin θ1 = n2 sin θ2 to round-off.
 template <typename T>
-inline bool Refract(const Vec3T<T>& d, const Vec3T<T>& normal, T n1, T n2, Vec3T<T>* out) {
+PORTHOLE_INLINE bool Refract(const P3<T>& d, const P3<T>& normal, T n1, T n2, P3<T>* out) {
   const T dn = normal.dot(d);
   const T sign = dn > T(0) ? T(-1) : T(1);  // make the normal face the incoming ray
   const T cos_i = -sign * dn;
@@ -130,27 +153,37 @@ inline bool Refract(const Vec3T<T>& d, const Vec3T<T>& normal, T n1, T n2, Vec3T
   *out = eta * d + ((eta * cos_i - root) * sign) * normal;
   return k >= T(0);
 }
+template <typename T>
+bool Refract(const Vec3T<T>& d, const Vec3T<T>& normal, T n1, T n2, Vec3T<T>* out) {
+  P3<T> r;
+  const bool ok = Refract<T>(P3<T>::From(d), P3<T>::From(normal), n1, n2, &r);
+  *out = r.ToEigen();
+  return ok;
+}
+
+// `Kind` lets a caller that knows the surface kind at compile time (the batched tracer, which
+// dispatches once per surface) remove the sphere/plane choice from its vectorised loop.
+enum class KindHint { kRuntime, kSphere, kPlane };
 
 // One interface: moves *o to the intersection with f.surface and refracts *d there. On a status
 // other than kOk, *o is the intersection (kOutsideAperture, kTotalInternalReflection) or unchanged
 // (kMissed), and *d is unchanged. This is the only implementation of a surface step: the
 // single-ray, the templated (Jet) and the batched tracers all call it.
-template <typename T>
-inline RayStatus Step(const Interface& f, Vec3T<T>* o, Vec3T<T>* d) {
+template <typename T, KindHint Kind = KindHint::kRuntime>
+PORTHOLE_INLINE RayStatus Step(const Interface& f, P3<T>* o, P3<T>* d) {
   const Surface& s = f.surface;
-  const bool sphere = s.kind == Surface::Kind::kSphere;
-  const Vec3T<T> c = s.center.template cast<T>();
+  const bool sphere = Kind == KindHint::kRuntime ? s.kind == Surface::Kind::kSphere
+                                                 : Kind == KindHint::kSphere;
+  const P3<T> c = P3<T>::Cast(s.center);
   bool hit = false;
   const T t = sphere ? IntersectSphere<T>(*o, *d, c, T(s.radius), &hit)
-                     : IntersectPlane<T>(*o, *d, c, s.normal.template cast<T>(), &hit);
-  const Vec3T<T> p = *o + t * *d;
-  const bool bounded = s.aperture_normal.squaredNorm() > 0;
+                     : IntersectPlane<T>(*o, *d, c, P3<T>::Cast(s.normal), &hit);
+  const P3<T> p = *o + t * *d;
+  const bool bounded = P3<double>::Cast(s.aperture_normal).squaredNorm() > 0;
   const bool inside_aperture =
-      !bounded ||
-      (p - s.aperture_point.template cast<T>()).dot(s.aperture_normal.template cast<T>()) >= T(0);
-  const Vec3T<T> n =
-      sphere ? Vec3T<T>((p - c) / T(s.radius)) : Vec3T<T>(s.normal.template cast<T>());
-  Vec3T<T> d_new;
+      !bounded | ((p - P3<T>::Cast(s.aperture_point)).dot(P3<T>::Cast(s.aperture_normal)) >= T(0));
+  const P3<T> n = sphere ? (p - c) * (T(1) / T(s.radius)) : P3<T>::Cast(s.normal);
+  P3<T> d_new;
   const bool refracted = Refract<T>(*d, n, T(f.n_before), T(f.n_after), &d_new);
   const RayStatus status = !hit               ? RayStatus::kMissed
                            : !inside_aperture ? RayStatus::kOutsideAperture
@@ -174,24 +207,25 @@ struct RayPath {
 template <typename T>
 RayStatus TraceSequence(const std::vector<Interface>& seq, const RayT<T>& ray, RayT<T>* out,
                         RayPath* path = nullptr, int* failed_at = nullptr) {
-  out->origin = ray.origin;
-  out->dir = ray.dir;
+  P3<T> o = P3<T>::From(ray.origin), d = P3<T>::From(ray.dir);
   if constexpr (std::is_same_v<T, double>) {
     if (path) path->points.assign(1, ray.origin);
   }
-  for (int i = 0; i < static_cast<int>(seq.size()); ++i) {
-    const Vec3T<T> before = out->origin;
-    const RayStatus st = Step<T>(seq[i], &out->origin, &out->dir);
+  RayStatus st = RayStatus::kOk;
+  int at = -1;
+  for (int i = 0; i < static_cast<int>(seq.size()) && st == RayStatus::kOk; ++i) {
+    const P3<T> before = o;
+    st = Step<T>(seq[i], &o, &d);
     if constexpr (std::is_same_v<T, double>) {
-      if (path && out->origin != before) path->points.push_back(out->origin);
+      const bool moved = o.x != before.x || o.y != before.y || o.z != before.z;
+      if (path && moved) path->points.push_back(o.ToEigen());
     }
-    if (st != RayStatus::kOk) {
-      if (failed_at) *failed_at = i;
-      return st;
-    }
+    if (st != RayStatus::kOk) at = i;
   }
-  if (failed_at) *failed_at = -1;
-  return RayStatus::kOk;
+  out->origin = o.ToEigen();
+  out->dir = d.ToEigen();
+  if (failed_at) *failed_at = at;
+  return st;
 }
 
 // The reversed sequence: the same surfaces in opposite order with before/after indices swapped.
