@@ -54,7 +54,8 @@ void BM_SphereFitRobust170k20pct(benchmark::State& state) {
   const auto& scan = Scan(0.2);
   SphereFitOptions o;
   o.robust = true;
-  o.loss = state.range(0) == 0 ? porthole::fit::RobustLoss::kCauchy : porthole::fit::RobustLoss::kHuber;
+  o.loss =
+      state.range(0) == 0 ? porthole::fit::RobustLoss::kCauchy : porthole::fit::RobustLoss::kHuber;
   SphereFitSummary s;
   for (auto _ : state) {
     s = FitSphere(scan.points, o);

@@ -11,5 +11,7 @@ void RegisterMaterials(CLI::App& app);
 void RegisterVirtualImage(CLI::App& app);
 void RegisterTrace(CLI::App& app);
 void RegisterPresets(CLI::App& app);
+void RegisterFit(CLI::App& app);
+void RegisterSynthScan(CLI::App& app);
 
 }  // namespace porthole::cli

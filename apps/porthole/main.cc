@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterVirtualImage(app);
   porthole::cli::RegisterTrace(app);
   porthole::cli::RegisterPresets(app);
+  porthole::cli::RegisterFit(app);
+  porthole::cli::RegisterSynthScan(app);
 
   try {
     app.parse(argc, argv);

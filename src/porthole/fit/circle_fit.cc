@@ -1,9 +1,9 @@
-#include <algorithm>
-#include <cmath>
-
-#include <Eigen/Dense>
 #include <ceres/ceres.h>
 #include <fmt/core.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
 
 #include "porthole/core/error.h"
 #include "porthole/fit/plane_fit.h"
@@ -58,8 +58,10 @@ CircleFitSummary FitCircle3d(const Eigen::Matrix3Xd& p, const CircleFitOptions& 
     atb += row * u.squaredNorm();
   }
   const Eigen::Vector3d sol = ata.ldlt().solve(atb);
-  if (!sol.allFinite()) throw InvalidInput("points", "a circle is not determined (singular system)");
-  double x[3] = {s * sol[0], s * sol[1], s * std::sqrt(std::max(0.0, sol[2] + sol.head<2>().squaredNorm()))};
+  if (!sol.allFinite())
+    throw InvalidInput("points", "a circle is not determined (singular system)");
+  double x[3] = {s * sol[0], s * sol[1],
+                 s * std::sqrt(std::max(0.0, sol[2] + sol.head<2>().squaredNorm()))};
 
   // Geometric refinement.
   ceres::Problem problem;
@@ -77,7 +79,8 @@ CircleFitSummary FitCircle3d(const Eigen::Matrix3Xd& p, const CircleFitOptions& 
   out.circle.radius_mm = std::abs(x[2]);
   out.circle.center_mm = m + e * c2;
   out.circle.normal = normal;
-  out.residuals_mm = ((q.colwise() - c2).colwise().norm().array() - out.circle.radius_mm).transpose();
+  out.residuals_mm =
+      ((q.colwise() - c2).colwise().norm().array() - out.circle.radius_mm).transpose();
   out.rms_mm = std::sqrt(out.residuals_mm.squaredNorm() / n);
   out.max_abs_residual_mm = out.residuals_mm.cwiseAbs().maxCoeff();
   out.sigma_normal_rad = out.plane.sigma_tilt_rad;
@@ -100,8 +103,8 @@ CircleFitSummary FitCircle3d(const Eigen::Matrix3Xd& p, const CircleFitOptions& 
       const Eigen::Vector3d lever = out.circle.center_mm - m;
       const double var_normal = out.plane.sigma0_mm * out.plane.sigma0_mm / n +
                                 lever.dot(out.plane.normal_covariance * lever);
-      out.center_covariance = e * cov.topLeftCorner<2, 2>() * e.transpose() +
-                              var_normal * normal * normal.transpose();
+      out.center_covariance =
+          e * cov.topLeftCorner<2, 2>() * e.transpose() + var_normal * normal * normal.transpose();
       out.sigma_center_mm = out.center_covariance.diagonal().cwiseSqrt();
     }
   }
@@ -125,7 +128,8 @@ bool CircleFitSummary::IsUsable() const {
 
 std::string CircleFitSummary::BriefReport() const {
   return fmt::format(
-      "circle: centre ({:.4f}, {:.4f}, {:.4f}) ± ({:.4f}, {:.4f}, {:.4f}) mm, R {:.4f} ± {:.4f} mm, "
+      "circle: centre ({:.4f}, {:.4f}, {:.4f}) ± ({:.4f}, {:.4f}, {:.4f}) mm, R {:.4f} ± {:.4f} "
+      "mm, "
       "normal ({:.6f}, {:.6f}, {:.6f}) ± {:.2e} rad, rms {:.4f} mm, {} points: {}",
       circle.center_mm.x(), circle.center_mm.y(), circle.center_mm.z(), sigma_center_mm.x(),
       sigma_center_mm.y(), sigma_center_mm.z(), circle.radius_mm, sigma_radius_mm,

@@ -1,9 +1,9 @@
 #include "porthole/fit/dome.h"
 
-#include <cmath>
+#include <fmt/core.h>
 
 #include <Eigen/Geometry>
-#include <fmt/core.h>
+#include <cmath>
 
 #include "porthole/core/error.h"
 
@@ -22,8 +22,8 @@ void Derive(DomeAnalysis& d, double nominal_r, double nominal_t) {
   d.sigma_thickness_mm = std::hypot(d.outer.sigma_radius_mm, d.inner.sigma_radius_mm);
   d.center_offset_mm = i.center_mm - o.center_mm;
   d.center_distance_mm = d.center_offset_mm.norm();
-  const Eigen::Matrix3d cov = d.outer.covariance.topLeftCorner<3, 3>() +
-                              d.inner.covariance.topLeftCorner<3, 3>();
+  const Eigen::Matrix3d cov =
+      d.outer.covariance.topLeftCorner<3, 3>() + d.inner.covariance.topLeftCorner<3, 3>();
   if (d.center_distance_mm > 0) {
     const Eigen::Vector3d g = d.center_offset_mm / d.center_distance_mm;
     d.sigma_center_distance_mm = std::sqrt(g.dot(cov * g));
@@ -104,9 +104,10 @@ std::string DomeAnalysis::Report() const {
   s += "inner " + inner.BriefReport() + "\n";
   s += fmt::format("thickness {:.4f} ± {:.4f} mm (wall {:.4f} .. {:.4f} mm)\n", thickness_mm,
                    sigma_thickness_mm, min_wall_mm, max_wall_mm);
-  s += fmt::format("centre offset inner − outer ({:.4f}, {:.4f}, {:.4f}) mm, distance {:.4f} ± {:.4f} mm\n",
-                   center_offset_mm.x(), center_offset_mm.y(), center_offset_mm.z(),
-                   center_distance_mm, sigma_center_distance_mm);
+  s += fmt::format(
+      "centre offset inner − outer ({:.4f}, {:.4f}, {:.4f}) mm, distance {:.4f} ± {:.4f} mm\n",
+      center_offset_mm.x(), center_offset_mm.y(), center_offset_mm.z(), center_distance_mm,
+      sigma_center_distance_mm);
   if (std::isfinite(outer_radius_deviation_mm))
     s += fmt::format("outer radius − nominal {:+.4f} mm\n", outer_radius_deviation_mm);
   if (std::isfinite(thickness_deviation_mm))

@@ -2,9 +2,8 @@
 // the rigid transform from the scan frame to the housing frame (docs/conventions.md).
 #pragma once
 
-#include <string>
-
 #include <Eigen/Core>
+#include <string>
 
 #include "porthole/fit/sphere_fit.h"
 
@@ -19,7 +18,9 @@ struct RigidTransform {
   Eigen::Matrix3Xd Apply(const Eigen::Matrix3Xd& p) const {
     return (rotation * p).colwise() + translation;
   }
-  RigidTransform Inverse() const { return {rotation.transpose(), -rotation.transpose() * translation}; }
+  RigidTransform Inverse() const {
+    return {rotation.transpose(), -rotation.transpose() * translation};
+  }
   // (c_from_b * b_from_a) = c_from_a.
   RigidTransform operator*(const RigidTransform& b_from_a) const {
     return {rotation * b_from_a.rotation, rotation * b_from_a.translation + translation};
@@ -37,15 +38,15 @@ RigidTransform HousingFromFlange(const Eigen::Vector3d& flange_center_in_scan,
                                  const Eigen::Vector3d& x_hint_in_scan = Eigen::Vector3d::UnitX());
 
 struct DomeAnalysisOptions {
-  SphereFitOptions sphere;            // used for both surfaces
-  double nominal_outer_radius_mm = 0; // design outer radius; 0: no comparison
-  double nominal_thickness_mm = 0;    // design wall thickness; 0: no comparison
+  SphereFitOptions sphere;             // used for both surfaces
+  double nominal_outer_radius_mm = 0;  // design outer radius; 0: no comparison
+  double nominal_thickness_mm = 0;     // design wall thickness; 0: no comparison
 };
 
 struct DomeAnalysis {
-  SphereFitSummary outer, inner;          // centres in the frame of the input (or transformed)
-  double thickness_mm = NAN;              // R_out − R_in
-  double sigma_thickness_mm = NAN;        // √(σ²_Rout + σ²_Rin): the two scans are independent
+  SphereFitSummary outer, inner;    // centres in the frame of the input (or transformed)
+  double thickness_mm = NAN;        // R_out − R_in
+  double sigma_thickness_mm = NAN;  // √(σ²_Rout + σ²_Rin): the two scans are independent
   Eigen::Vector3d center_offset_mm = Eigen::Vector3d::Constant(NAN);  // c_in − c_out
   double center_distance_mm = NAN;        // |c_in − c_out|; 0 for an ideal (concentric) shell
   double sigma_center_distance_mm = NAN;  // propagated from both centre covariances

@@ -1,14 +1,14 @@
 // Proves the dome analysis recovers the paper's Table 3 shell (thickness 7.7 mm, centres 1.3 mm
 // apart) from synthetic inner and outer scans, and that the housing-frame transform puts the
 // flange at the origin with +Z toward the scene.
+#include "porthole/fit/dome.h"
+
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 
-#include <Eigen/Geometry>
-
 #include "porthole/core/error.h"
-#include "porthole/fit/dome.h"
 #include "porthole/pointcloud/synthetic.h"
 
 namespace porthole::fit {
@@ -48,11 +48,12 @@ TEST(Dome, HousingFromFlange) {
   const Eigen::Matrix3d scan_from_housing_r =
       (Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())).toRotationMatrix();
   const Eigen::Vector3d flange_in_scan(10, -20, 5);
-  const Eigen::Vector3d z_in_scan = scan_from_housing_r.col(2), x_in_scan = scan_from_housing_r.col(0);
+  const Eigen::Vector3d z_in_scan = scan_from_housing_r.col(2),
+                        x_in_scan = scan_from_housing_r.col(0);
   const Eigen::Vector3d scene_in_scan = flange_in_scan + 100 * z_in_scan;
   // The normal is given with the wrong sign and the x hint off the plane: both are fixed.
-  const RigidTransform h = HousingFromFlange(flange_in_scan, -z_in_scan, scene_in_scan,
-                                             x_in_scan + 0.5 * z_in_scan);
+  const RigidTransform h =
+      HousingFromFlange(flange_in_scan, -z_in_scan, scene_in_scan, x_in_scan + 0.5 * z_in_scan);
   EXPECT_LT(h.Apply(flange_in_scan).norm(), 1e-12);
   EXPECT_LT((h.rotation - scan_from_housing_r.transpose()).norm(), 1e-12);
   EXPECT_NEAR(h.rotation.determinant(), 1.0, 1e-12);
@@ -61,7 +62,8 @@ TEST(Dome, HousingFromFlange) {
   EXPECT_LT(((h.Inverse() * h).rotation - Eigen::Matrix3d::Identity()).norm(), 1e-12);
   EXPECT_THROW(HousingFromFlange(flange_in_scan, z_in_scan, flange_in_scan + x_in_scan),
                InvalidInput);
-  EXPECT_THROW(HousingFromFlange(flange_in_scan, z_in_scan, scene_in_scan, z_in_scan), InvalidInput);
+  EXPECT_THROW(HousingFromFlange(flange_in_scan, z_in_scan, scene_in_scan, z_in_scan),
+               InvalidInput);
   EXPECT_THROW(HousingFromFlange(flange_in_scan, Eigen::Vector3d::Zero(), scene_in_scan),
                InvalidInput);
 
@@ -73,7 +75,8 @@ TEST(Dome, HousingFromFlange) {
   EXPECT_LT((t.outer.sphere.center_mm - h.Apply(d.outer.sphere.center_mm)).norm(), 1e-12);
   EXPECT_LT((t.inner.sphere.center_mm - h.Apply(d.inner.sphere.center_mm)).norm(), 1e-12);
   EXPECT_DOUBLE_EQ(t.thickness_mm, d.thickness_mm);
-  EXPECT_NEAR(t.center_distance_mm, (t.inner.sphere.center_mm - t.outer.sphere.center_mm).norm(), 1e-12);
+  EXPECT_NEAR(t.center_distance_mm, (t.inner.sphere.center_mm - t.outer.sphere.center_mm).norm(),
+              1e-12);
   EXPECT_NEAR(t.outer.sigma_center_mm.norm(), d.outer.sigma_center_mm.norm(), 1e-12);
 }
 

@@ -1,14 +1,13 @@
 // Proves the sphere fit recovers the paper's dome (R 83.4 mm, 170k points, σ 0.05 mm) to 0.01 mm
 // (centre) and 0.005 mm (radius), also with 20 % gross outliers in robust mode; that its reported
 // σ match the Monte-Carlo spread; that a 30° cap converges; and that degenerate input raises.
+#include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
-#include <random>
 #include <cmath>
+#include <random>
 #include <vector>
-
-#include <ceres/ceres.h>
 
 #include "porthole/core/error.h"
 #include "porthole/fit/robust.h"
@@ -47,7 +46,8 @@ TEST(SphereFit, PaperHemisphere170kPoints) {
   const auto cap = MakeSyntheticCap(PaperCap(170000, 0.05, 7));
   const auto t0 = std::chrono::steady_clock::now();
   const SphereFitSummary s = FitSphere(cap.points);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ExpectNearTruth(s, 0.01, 0.005);
   EXPECT_EQ(s.n_points, 170000);
   EXPECT_EQ(s.n_inliers, 170000);
@@ -86,7 +86,8 @@ TEST(SphereFit, PaperHemisphereWith20PercentOutliersRobust) {
     EXPECT_LT(kept_outliers, 340);  // < 1 % of the 34,000 outliers
     EXPECT_GT(s.n_inliers, 136000 - 50);
     EXPECT_NEAR(s.rms_mm, 0.05, 0.003);
-    std::printf("%s (%.1f ms, %d MSAC samples)\n", s.BriefReport().c_str(), ms, s.ransac_iterations);
+    std::printf("%s (%.1f ms, %d MSAC samples)\n", s.BriefReport().c_str(), ms,
+                s.ransac_iterations);
   }
 }
 
@@ -102,7 +103,8 @@ TEST(SphereFit, ReportedSigmaMatchesMonteCarloSpread) {
     est.emplace_back(s.sphere.center_mm.x(), s.sphere.center_mm.y(), s.sphere.center_mm.z(),
                      s.sphere.radius_mm);
     mean_sigma += Eigen::Vector4d(s.sigma_center_mm.x(), s.sigma_center_mm.y(),
-                                  s.sigma_center_mm.z(), s.sigma_radius_mm) / kDraws;
+                                  s.sigma_center_mm.z(), s.sigma_radius_mm) /
+                  kDraws;
   }
   Eigen::Vector4d truth(kCenter.x(), kCenter.y(), kCenter.z(), kRadius);
   for (int k = 0; k < 4; ++k) {
@@ -111,7 +113,8 @@ TEST(SphereFit, ReportedSigmaMatchesMonteCarloSpread) {
     for (const auto& e : est) ss += (e[k] - truth[k]) * (e[k] - truth[k]);
     const double spread = std::sqrt(ss / kDraws);
     const double ratio = mean_sigma[k] / spread;
-    EXPECT_GT(ratio, 1 / 1.5) << "parameter " << k << " σ " << mean_sigma[k] << " spread " << spread;
+    EXPECT_GT(ratio, 1 / 1.5) << "parameter " << k << " σ " << mean_sigma[k] << " spread "
+                              << spread;
     EXPECT_LT(ratio, 1.5) << "parameter " << k << " σ " << mean_sigma[k] << " spread " << spread;
   }
 }
@@ -187,7 +190,8 @@ TEST(SphereFit, DegenerateInputRaises) {
   ExpectInvalidPoints(Eigen::Matrix3Xd::Random(3, 3), "at least 4 points, got 3");
   ExpectInvalidPoints(Eigen::Matrix3Xd::Constant(3, 10, 5.0), "all points are equal");
   Eigen::Matrix3Xd line(3, 10);
-  for (int i = 0; i < 10; ++i) line.col(i) = Eigen::Vector3d(1, 2, 3) + i * Eigen::Vector3d(0.3, -1, 2);
+  for (int i = 0; i < 10; ++i)
+    line.col(i) = Eigen::Vector3d(1, 2, 3) + i * Eigen::Vector3d(0.3, -1, 2);
   ExpectInvalidPoints(line, "collinear");
   // Points on a circle: coplanar (and concyclic), so every sphere through the circle fits.
   Eigen::Matrix3Xd circle(3, 12);

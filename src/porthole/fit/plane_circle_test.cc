@@ -2,10 +2,9 @@
 // the Monte-Carlo spread, and that degenerate target sets raise.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
-
-#include <Eigen/Geometry>
 
 #include "porthole/core/error.h"
 #include "porthole/fit/plane_fit.h"
@@ -22,7 +21,8 @@ Eigen::Matrix3Xd CircleTargets(const Eigen::Vector3d& c, const Eigen::Vector3d& 
   Eigen::Matrix3Xd p(3, n);
   for (int i = 0; i < n; ++i) {
     const double a = 2 * M_PI * i / n + 0.1;
-    p.col(i) = c + r * (std::cos(a) * u + std::sin(a) * v) + Eigen::Vector3d(g(rng), g(rng), g(rng));
+    p.col(i) =
+        c + r * (std::cos(a) * u + std::sin(a) * v) + Eigen::Vector3d(g(rng), g(rng), g(rng));
   }
   return p;
 }
@@ -88,10 +88,10 @@ TEST(CircleFit, SigmaMatchesMonteCarlo) {
     ss += Eigen::Vector4d(dc.x() * dc.x(), dc.y() * dc.y(), dc.z() * dc.z(),
                           std::pow(s.circle.radius_mm - 45, 2));
     sig += Eigen::Vector4d(s.sigma_center_mm.x(), s.sigma_center_mm.y(), s.sigma_center_mm.z(),
-                           s.sigma_radius_mm) / kDraws;
+                           s.sigma_radius_mm) /
+           kDraws;
   }
-  for (int k = 0; k < 4; ++k)
-    EXPECT_NEAR(sig[k] / std::sqrt(ss[k] / kDraws), 1.0, 0.25) << k;
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(sig[k] / std::sqrt(ss[k] / kDraws), 1.0, 0.25) << k;
 }
 
 TEST(CircleFit, DegenerateRaises) {

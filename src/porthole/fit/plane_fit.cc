@@ -1,10 +1,10 @@
 #include "porthole/fit/plane_fit.h"
 
-#include <algorithm>
-#include <cmath>
+#include <fmt/core.h>
 
 #include <Eigen/Dense>
-#include <fmt/core.h>
+#include <algorithm>
+#include <cmath>
 
 #include "porthole/core/error.h"
 
@@ -49,13 +49,14 @@ PlaneFitSummary FitPlane(const Eigen::Matrix3Xd& p, const PlaneFitOptions& o) {
     out.normal_covariance.setZero();
     for (int k = 1; k <= 2; ++k) {
       const Eigen::Vector3d e = es.eigenvectors().col(k);
-      out.normal_covariance += s2 * lam[k] / ((lam[k] - lam[0]) * (lam[k] - lam[0])) * e * e.transpose();
+      out.normal_covariance +=
+          s2 * lam[k] / ((lam[k] - lam[0]) * (lam[k] - lam[0])) * e * e.transpose();
     }
     out.sigma_normal = out.normal_covariance.diagonal().cwiseSqrt();
     out.sigma_tilt_rad = std::sqrt(out.normal_covariance.trace());
     // d = n·m: the centroid's error along n (σ²/N) plus the tilt seen from the origin.
-    out.sigma_offset_mm = std::sqrt(
-        s2 / n + out.centroid_mm.dot(out.normal_covariance * out.centroid_mm));
+    out.sigma_offset_mm =
+        std::sqrt(s2 / n + out.centroid_mm.dot(out.normal_covariance * out.centroid_mm));
   }
   return out;
 }

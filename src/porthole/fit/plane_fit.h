@@ -9,10 +9,9 @@
 // all equal, collinear) throws InvalidInput("points", ...).
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
-
-#include <Eigen/Core>
 
 namespace porthole::fit {
 
@@ -29,18 +28,18 @@ struct PlaneFitOptions {
 
 struct PlaneFitSummary {
   Plane plane;
-  Eigen::Vector3d centroid_mm = Eigen::Vector3d::Zero();  // lies on the plane
+  Eigen::Vector3d centroid_mm = Eigen::Vector3d::Zero();               // lies on the plane
   Eigen::Matrix3d normal_covariance = Eigen::Matrix3d::Constant(NAN);  // of the unit normal
   Eigen::Vector3d sigma_normal = Eigen::Vector3d::Constant(NAN);       // √diag, dimensionless
-  double sigma_tilt_rad = NAN;     // 1σ of the normal's direction (√trace of its covariance)
-  double sigma_offset_mm = NAN;    // 1σ of offset_mm
-  double sigma0_mm = NAN;          // √(Σr²/(n − 3))
+  double sigma_tilt_rad = NAN;   // 1σ of the normal's direction (√trace of its covariance)
+  double sigma_offset_mm = NAN;  // 1σ of offset_mm
+  double sigma0_mm = NAN;        // √(Σr²/(n − 3))
   double rms_mm = NAN;
   double max_abs_residual_mm = NAN;
   int64_t n_points = 0;
-  Eigen::VectorXd residuals_mm;    // signed n·p_i − d (N)
+  Eigen::VectorXd residuals_mm;  // signed n·p_i − d (N)
 
-  bool IsUsable() const;           // finite plane and n > 3
+  bool IsUsable() const;  // finite plane and n > 3
   std::string BriefReport() const;
 };
 
@@ -59,23 +58,24 @@ struct CircleFitOptions {
 
 struct CircleFitSummary {
   Circle3d circle;
-  PlaneFitSummary plane;                  // the plane fit the circle lies in
+  PlaneFitSummary plane;  // the plane fit the circle lies in
   Eigen::Matrix3d center_covariance = Eigen::Matrix3d::Constant(NAN);  // mm², in the input frame
   Eigen::Vector3d sigma_center_mm = Eigen::Vector3d::Constant(NAN);
   double sigma_radius_mm = NAN;
-  double sigma_normal_rad = NAN;          // = plane.sigma_tilt_rad
-  double sigma0_mm = NAN;                 // in-plane radial: √(Σr²/(n − 3))
-  double rms_mm = NAN;                    // in-plane radial residual RMS
-  double max_abs_residual_mm = NAN;       // in-plane radial
+  double sigma_normal_rad = NAN;     // = plane.sigma_tilt_rad
+  double sigma0_mm = NAN;            // in-plane radial: √(Σr²/(n − 3))
+  double rms_mm = NAN;               // in-plane radial residual RMS
+  double max_abs_residual_mm = NAN;  // in-plane radial
   int64_t n_points = 0;
   bool converged = false;
-  std::string message;                    // "ok" or why not usable
-  Eigen::VectorXd residuals_mm;           // in-plane radial residual per point (N)
+  std::string message;           // "ok" or why not usable
+  Eigen::VectorXd residuals_mm;  // in-plane radial residual per point (N)
 
   bool IsUsable() const;
   std::string BriefReport() const;
 };
 
-CircleFitSummary FitCircle3d(const Eigen::Matrix3Xd& points_mm, const CircleFitOptions& options = {});
+CircleFitSummary FitCircle3d(const Eigen::Matrix3Xd& points_mm,
+                             const CircleFitOptions& options = {});
 
 }  // namespace porthole::fit

@@ -1,9 +1,9 @@
 // Internal helpers shared by the fits: robust residual transform and Ceres defaults.
 #pragma once
 
-#include <cmath>
-
 #include <ceres/ceres.h>
+
+#include <cmath>
 
 #include "porthole/fit/sphere_fit.h"
 
@@ -35,7 +35,12 @@ inline Eigen::Matrix3d Scatter(const Eigen::Matrix3Xd& p, const Eigen::Vector3d&
   double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
   for (Eigen::Index i = 0; i < p.cols(); ++i) {
     const double x = p(0, i) - mean.x(), y = p(1, i) - mean.y(), z = p(2, i) - mean.z();
-    xx += x * x; xy += x * y; xz += x * z; yy += y * y; yz += y * z; zz += z * z;
+    xx += x * x;
+    xy += x * y;
+    xz += x * z;
+    yy += y * y;
+    yz += y * z;
+    zz += z * z;
   }
   Eigen::Matrix3d s;
   s << xx, xy, xz, xy, yy, yz, xz, yz, zz;

@@ -1,15 +1,15 @@
 #include "porthole/fit/sphere_fit.h"
 
+#include <ceres/ceres.h>
+#include <fmt/core.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <numeric>
 #include <random>
-
-#include <Eigen/Dense>
-#include <ceres/ceres.h>
-#include <fmt/core.h>
 
 #include "porthole/core/error.h"
 #include "porthole/fit/robust.h"
@@ -71,7 +71,9 @@ SolveResult SolveGeometric(const Eigen::Matrix3Xd& pts, const Sphere& start, boo
 }
 
 Eigen::VectorXd Residuals(const Eigen::Matrix3Xd& pts, const Sphere& s) {
-  return ((pts.colwise() - s.center_mm).colwise().norm().array() - s.radius_mm).matrix().transpose();
+  return ((pts.colwise() - s.center_mm).colwise().norm().array() - s.radius_mm)
+      .matrix()
+      .transpose();
 }
 
 Eigen::Matrix3Xd Select(const Eigen::Matrix3Xd& pts, const std::vector<bool>& keep, int64_t count) {
@@ -94,9 +96,19 @@ Sphere AlgebraicUnchecked(const Eigen::Matrix3Xd& p) {
     const double x = (p(0, i) - mean.x()) * inv_s, y = (p(1, i) - mean.y()) * inv_s,
                  z = (p(2, i) - mean.z()) * inv_s;
     const double q2 = x * x + y * y + z * z;
-    xx += x * x; xy += x * y; xz += x * z; yy += y * y; yz += y * z; zz += z * z;
-    x1 += x; y1 += y; z1 += z;
-    bx += x * q2; by += y * q2; bz += z * q2; b1 += q2;
+    xx += x * x;
+    xy += x * y;
+    xz += x * z;
+    yy += y * y;
+    yz += y * z;
+    zz += z * z;
+    x1 += x;
+    y1 += y;
+    z1 += z;
+    bx += x * q2;
+    by += y * q2;
+    bz += z * q2;
+    b1 += q2;
   }
   // Unknowns (a, d) with rows (2x, 2y, 2z, 1).
   Eigen::Matrix4d ata;
@@ -106,7 +118,8 @@ Sphere AlgebraicUnchecked(const Eigen::Matrix3Xd& p) {
       2 * x1, 2 * y1, 2 * z1, static_cast<double>(p.cols());
   const Eigen::Vector4d atb(2 * bx, 2 * by, 2 * bz, b1);
   const Eigen::Vector4d sol = ata.ldlt().solve(atb);
-  if (!sol.allFinite()) throw InvalidInput("points", "a sphere is not determined (singular system)");
+  if (!sol.allFinite())
+    throw InvalidInput("points", "a sphere is not determined (singular system)");
   Sphere out;
   out.center_mm = mean + s * sol.head<3>();
   out.radius_mm = s * std::sqrt(std::max(0.0, sol[3] + sol.head<3>().squaredNorm()));
@@ -136,8 +149,8 @@ MsacResult Msac(const Eigen::Matrix3Xd& pts, const SphereFitOptions& o) {
   for (Eigen::Index k = 0; k < m; ++k) subset.col(k) = pts.col(idx[static_cast<size_t>(k)]);
 
   const double t2 = o.inlier_threshold_mm * o.inlier_threshold_mm;
-  const double spread = std::sqrt((pts.colwise() - pts.rowwise().mean()).squaredNorm() /
-                                  static_cast<double>(n));
+  const double spread =
+      std::sqrt((pts.colwise() - pts.rowwise().mean()).squaredNorm() / static_cast<double>(n));
   std::uniform_int_distribution<Eigen::Index> any(0, n - 1);
   MsacResult best;
   double best_cost = std::numeric_limits<double>::infinity();
@@ -154,9 +167,11 @@ MsacResult Msac(const Eigen::Matrix3Xd& pts, const SphereFitOptions& o) {
       } while (dup);
     }
     Sphere h;
-    if (!SphereFrom4Points(pts.col(s[0]), pts.col(s[1]), pts.col(s[2]), pts.col(s[3]), &h)) continue;
+    if (!SphereFrom4Points(pts.col(s[0]), pts.col(s[1]), pts.col(s[2]), pts.col(s[3]), &h))
+      continue;
     if (!(h.radius_mm < 1e4 * spread)) continue;  // near-planar sample: not a useful hypothesis
-    const Eigen::ArrayXd r = (subset.colwise() - h.center_mm).colwise().norm().array() - h.radius_mm;
+    const Eigen::ArrayXd r =
+        (subset.colwise() - h.center_mm).colwise().norm().array() - h.radius_mm;
     const Eigen::ArrayXd r2 = r.square();
     const double cost = r2.min(t2).sum();
     if (cost < best_cost) {
@@ -179,7 +194,8 @@ MsacResult Msac(const Eigen::Matrix3Xd& pts, const SphereFitOptions& o) {
     const Eigen::ArrayXd r = Residuals(pts, best.sphere).array().abs();
     std::vector<bool> in(static_cast<size_t>(n));
     int64_t count = 0;
-    for (Eigen::Index i = 0; i < n; ++i) count += (in[static_cast<size_t>(i)] = r[i] <= o.inlier_threshold_mm);
+    for (Eigen::Index i = 0; i < n; ++i)
+      count += (in[static_cast<size_t>(i)] = r[i] <= o.inlier_threshold_mm);
     if (count < 4) break;
     try {
       const Eigen::Matrix3Xd inl = Select(pts, in, count);
@@ -220,7 +236,8 @@ bool SphereFrom4Points(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const
   const double det = 2.0 * d1.dot(d2.cross(d3));
   if (!(std::abs(det) > 1e-9 * d1.norm() * d2.norm() * d3.norm())) return false;
   const Eigen::Vector3d x = (d1.squaredNorm() * d2.cross(d3) + d2.squaredNorm() * d3.cross(d1) +
-                             d3.squaredNorm() * d1.cross(d2)) / det;
+                             d3.squaredNorm() * d1.cross(d2)) /
+                            det;
   sphere->center_mm = a + x;
   sphere->radius_mm = x.norm();
   return std::isfinite(sphere->radius_mm);
@@ -289,9 +306,15 @@ SphereFitSummary FitSphere(const Eigen::Matrix3Xd& pts, const SphereFitOptions& 
     sum2 += r * r;
     max_abs = std::max(max_abs, std::abs(r));
     const Eigen::Vector3d u = d / len;
-    uxx += u.x() * u.x(); uxy += u.x() * u.y(); uxz += u.x() * u.z();
-    uyy += u.y() * u.y(); uyz += u.y() * u.z(); uzz += u.z() * u.z();
-    ux += u.x(); uy += u.y(); uz += u.z();
+    uxx += u.x() * u.x();
+    uxy += u.x() * u.y();
+    uxz += u.x() * u.z();
+    uyy += u.y() * u.y();
+    uyz += u.y() * u.z();
+    uzz += u.z() * u.z();
+    ux += u.x();
+    uy += u.y();
+    uz += u.z();
   }
   Eigen::Matrix4d jtj;
   jtj << uxx, uxy, uxz, ux,  //
@@ -331,7 +354,8 @@ bool SphereFitSummary::IsUsable() const {
 
 std::string SphereFitSummary::BriefReport() const {
   return fmt::format(
-      "sphere: centre ({:.4f}, {:.4f}, {:.4f}) ± ({:.4f}, {:.4f}, {:.4f}) mm, R {:.4f} ± {:.4f} mm, "
+      "sphere: centre ({:.4f}, {:.4f}, {:.4f}) ± ({:.4f}, {:.4f}, {:.4f}) mm, R {:.4f} ± {:.4f} "
+      "mm, "
       "rms {:.4f} mm, max |r| {:.4f} mm, {} of {} points, {} iterations: {}",
       sphere.center_mm.x(), sphere.center_mm.y(), sphere.center_mm.z(), sigma_center_mm.x(),
       sigma_center_mm.y(), sigma_center_mm.z(), sphere.radius_mm, sigma_radius_mm, rms_mm,

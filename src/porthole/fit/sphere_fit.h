@@ -16,11 +16,10 @@
 // data, no convergence) is returned with IsUsable() == false and a message saying why.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace porthole::fit {
 
@@ -66,17 +65,17 @@ struct SphereFitSummary {
   Eigen::Vector3d sigma_center_mm = Eigen::Vector3d::Constant(NAN);  // 1σ per axis
   double sigma_radius_mm = NAN;                                      // 1σ
   Eigen::Matrix4d covariance = Eigen::Matrix4d::Constant(NAN);       // of (cx, cy, cz, R), mm²
-  double sigma0_mm = NAN;           // residual standard deviation √(Σr²/(n − 4)) over the inliers
-  double rms_mm = NAN;              // residual RMS over the inliers
-  double max_abs_residual_mm = NAN; // largest |r| over the inliers
-  int64_t n_points = 0;             // points given
-  int64_t n_inliers = 0;            // points that count (all, unless robust)
-  int ransac_iterations = 0;        // MSAC hypotheses drawn (robust mode)
-  int solver_iterations = 0;        // Ceres iterations, summed over the solves
-  bool converged = false;           // Ceres reported convergence
-  std::string message;              // why the fit is not usable, or "ok"
-  Eigen::VectorXd residuals_mm;     // signed r_i = |p_i − c| − R for every point (N)
-  std::vector<bool> is_inlier;      // N flags (all true unless robust)
+  double sigma0_mm = NAN;  // residual standard deviation √(Σr²/(n − 4)) over the inliers
+  double rms_mm = NAN;     // residual RMS over the inliers
+  double max_abs_residual_mm = NAN;  // largest |r| over the inliers
+  int64_t n_points = 0;              // points given
+  int64_t n_inliers = 0;             // points that count (all, unless robust)
+  int ransac_iterations = 0;         // MSAC hypotheses drawn (robust mode)
+  int solver_iterations = 0;         // Ceres iterations, summed over the solves
+  bool converged = false;            // Ceres reported convergence
+  std::string message;               // why the fit is not usable, or "ok"
+  Eigen::VectorXd residuals_mm;      // signed r_i = |p_i − c| − R for every point (N)
+  std::vector<bool> is_inlier;       // N flags (all true unless robust)
 
   // Converged, finite, enough inliers (≥ 5, so σ̂ is defined) and a determined sphere.
   bool IsUsable() const;

@@ -7,12 +7,11 @@
 // Every coordinate must be finite; a file with no points is an error.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
-
-#include <Eigen/Core>
 
 namespace porthole::pointcloud {
 
@@ -44,10 +43,10 @@ PointCloud ReadPointCloud(const std::filesystem::path& path, const ReadOptions& 
 Format FormatFromExtension(const std::filesystem::path& path);
 
 struct WriteOptions {
-  Format format = Format::kAuto;    // kAuto: by extension; only kPly and kXyz can be written
-  bool binary = true;               // PLY only: binary_little_endian (true) or ascii (false)
+  Format format = Format::kAuto;         // kAuto: by extension; only kPly and kXyz can be written
+  bool binary = true;                    // PLY only: binary_little_endian (true) or ascii (false)
   std::string scalar_name = "residual";  // PLY property / XYZ column name of the scalar, if any
-  int text_decimals = 6;            // digits after the point in text output (1e-6 mm)
+  int text_decimals = 6;                 // digits after the point in text output (1e-6 mm)
 };
 
 // Writes points (3×N, mm) and, when `scalar` is non-null, one value per point (length N) as an

@@ -52,8 +52,9 @@ void ExpectInvalid(const std::function<void()>& f, const std::vector<std::string
 }
 
 const Eigen::Matrix3Xd kThree = (Eigen::Matrix3Xd(3, 3) << 1.5, -2, 3.25,  //
-                                 0, 10, -7.5,                               //
-                                 1e3, 0.125, 42).finished();
+                                 0, 10, -7.5,                              //
+                                 1e3, 0.125, 42)
+                                    .finished();
 
 // ------------------------------------------------------------------ PLY
 
@@ -80,13 +81,16 @@ std::string BinaryPly(bool big, bool doubles) {
   std::string s = std::string("ply\nformat ") +
                   (big ? "binary_big_endian" : "binary_little_endian") +
                   " 1.0\nelement vertex 3\nproperty short id\nproperty " + t + " x\nproperty " + t +
-                  " y\nproperty " + t + " z\nproperty uchar flag\n"
+                  " y\nproperty " + t +
+                  " z\nproperty uchar flag\n"
                   "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
   for (int i = 0; i < 3; ++i) {
     Append<int16_t>(s, static_cast<int16_t>(i), big);
     for (int k = 0; k < 3; ++k) {
-      if (doubles) Append<double>(s, kThree(k, i), big);
-      else Append<float>(s, static_cast<float>(kThree(k, i)), big);
+      if (doubles)
+        Append<double>(s, kThree(k, i), big);
+      else
+        Append<float>(s, static_cast<float>(kThree(k, i)), big);
     }
     Append<uint8_t>(s, 9);
   }
@@ -151,7 +155,7 @@ TEST(PlyWrite, XyzRoundTripAndSizeMismatch) {
 
 TEST(PlyRead, Errors) {
   const std::string good = BinaryPly(false, false);
-  // Truncated binary: the header is 218 bytes? compute: cut 5 bytes into the second vertex.
+  // Truncated binary: the file ends 5 bytes into the second vertex.
   const size_t data = good.find("end_header\n") + 11;
   const size_t vertex_size = 2 + 3 * 4 + 1;
   const auto trunc = WriteBytes("trunc.ply", good.substr(0, data + vertex_size + 5));
@@ -168,8 +172,9 @@ TEST(PlyRead, Errors) {
   const auto nanp = WriteBytes("nan.ply", nan);
   ExpectInvalid([&] { ReadPointCloud(nanp); },
                 {"byte " + std::to_string(data + vertex_size), "not finite"});
-  const std::string head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
-                           "property float y\nproperty float z\nend_header\n";
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n";
   // ASCII: too few vertex lines, too many, non-numeric, NaN, wrong value count.
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("few.ply", head + "1 2 3\n")); },
                 {"few.ply", "line 9", "file ends after 1 of 2"});
@@ -185,19 +190,28 @@ TEST(PlyRead, Errors) {
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("magic.ply", "plx\n")); }, {"line 1", "magic"});
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("noend.ply", "ply\nformat ascii 1.0\n")); },
                 {"end_header"});
-  ExpectInvalid([&] {
-    ReadPointCloud(WriteBytes("noz.ply", "ply\nformat ascii 1.0\nelement vertex 1\n"
-                                         "property float x\nproperty float y\nend_header\n1 2\n"));
-  }, {"x, y and z"});
-  ExpectInvalid([&] {
-    ReadPointCloud(WriteBytes("type.ply", "ply\nformat ascii 1.0\nelement vertex 1\n"
-                                          "property quad x\nend_header\n"));
-  }, {"line 4", "unknown property type 'quad'"});
-  ExpectInvalid([&] {
-    ReadPointCloud(WriteBytes("empty.ply", "ply\nformat ascii 1.0\nelement vertex 0\n"
-                                           "property float x\nproperty float y\nproperty float z\n"
-                                           "end_header\n"));
-  }, {"no points"});
+  ExpectInvalid(
+      [&] {
+        ReadPointCloud(WriteBytes("noz.ply",
+                                  "ply\nformat ascii 1.0\nelement vertex 1\n"
+                                  "property float x\nproperty float y\nend_header\n1 2\n"));
+      },
+      {"x, y and z"});
+  ExpectInvalid(
+      [&] {
+        ReadPointCloud(WriteBytes("type.ply",
+                                  "ply\nformat ascii 1.0\nelement vertex 1\n"
+                                  "property quad x\nend_header\n"));
+      },
+      {"line 4", "unknown property type 'quad'"});
+  ExpectInvalid(
+      [&] {
+        ReadPointCloud(WriteBytes("empty.ply",
+                                  "ply\nformat ascii 1.0\nelement vertex 0\n"
+                                  "property float x\nproperty float y\nproperty float z\n"
+                                  "end_header\n"));
+      },
+      {"no points"});
 }
 
 // ------------------------------------------------------------------ XYZ / CSV / TXT
@@ -205,8 +219,9 @@ TEST(PlyRead, Errors) {
 TEST(XyzRead, SpacesTabsCommasHeaderCommentsExtraColumns) {
   const auto a = WriteBytes("a.xyz", "# scan\n1.5 0 1e3\n\n-2\t10  0.125 99\n3.25 -7.5 +42\n");
   EXPECT_TRUE(ReadPointCloud(a).points.isApprox(kThree, 0));
-  const auto b = WriteBytes("b.csv", "x,y,z,intensity\r\n1.5,0,1000,7\r\n-2, 10, 0.125,7\r\n"
-                                     "3.25,-7.5,42,7\r\n");
+  const auto b = WriteBytes("b.csv",
+                            "x,y,z,intensity\r\n1.5,0,1000,7\r\n-2, 10, 0.125,7\r\n"
+                            "3.25,-7.5,42,7\r\n");
   EXPECT_TRUE(ReadPointCloud(b).points.isApprox(kThree, 0));
   const auto c = WriteBytes("c.txt", "X Y Z\n1.5 0 1000\n-2 10 0.125\n3.25 -7.5 42");
   EXPECT_TRUE(ReadPointCloud(c).points.isApprox(kThree, 0));
@@ -235,8 +250,9 @@ TEST(XyzRead, Errors) {
 // ------------------------------------------------------------------ OBJ
 
 TEST(ObjRead, VerticesOnly) {
-  const auto p = WriteBytes("m.obj", "# obj\no thing\nv 1.5 0 1000\nvn 0 0 1\nvt 0.5 0.5\n"
-                                     "v -2 10 0.125 1.0\nv 3.25 -7.5 42 0.1 0.2 0.3\nf 1 2 3\n");
+  const auto p = WriteBytes("m.obj",
+                            "# obj\no thing\nv 1.5 0 1000\nvn 0 0 1\nvt 0.5 0.5\n"
+                            "v -2 10 0.125 1.0\nv 3.25 -7.5 42 0.1 0.2 0.3\nf 1 2 3\n");
   EXPECT_TRUE(ReadPointCloud(p).points.isApprox(kThree, 0));
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("bad.obj", "v 1 2 3\nv 1 2\n")); },
                 {"bad.obj", "line 2", "3 coordinates"});
@@ -295,14 +311,20 @@ TEST(StlRead, Errors) {
   const float q = std::numeric_limits<float>::quiet_NaN();
   std::memcpy(nan.data() + 84 + 50 + 12 + 12 + 4, &q, 4);  // facet 1, vertex 1, y
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("n.stl", nan)); }, {"byte 158", "not finite"});
-  ExpectInvalid([&] {
-    ReadPointCloud(WriteBytes("v2.stl", "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
-                                        "vertex 1 0 0\nendloop\nendfacet\nendsolid\n"));
-  }, {"line 7", "2 vertices"});
-  ExpectInvalid([&] {
-    ReadPointCloud(WriteBytes("v3.stl", "solid s\nfacet normal 0 0 1\nouter loop\n"
-                                        "vertex 0 zero 0\n"));
-  }, {"line 4", "not a number: 'zero'"});
+  ExpectInvalid(
+      [&] {
+        ReadPointCloud(WriteBytes("v2.stl",
+                                  "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+                                  "vertex 1 0 0\nendloop\nendfacet\nendsolid\n"));
+      },
+      {"line 7", "2 vertices"});
+  ExpectInvalid(
+      [&] {
+        ReadPointCloud(WriteBytes("v3.stl",
+                                  "solid s\nfacet normal 0 0 1\nouter loop\n"
+                                  "vertex 0 zero 0\n"));
+      },
+      {"line 4", "not a number: 'zero'"});
 }
 
 }  // namespace

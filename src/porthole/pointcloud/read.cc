@@ -1,4 +1,6 @@
 // Streaming readers for PLY, XYZ/CSV/TXT, OBJ and STL (see pointcloud.h for the contract).
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -11,8 +13,6 @@
 #include <unordered_set>
 #include <vector>
 
-#include <fmt/core.h>
-
 #include "porthole/core/error.h"
 #include "porthole/pointcloud/pointcloud.h"
 
@@ -21,10 +21,12 @@ namespace {
 
 static_assert(std::endian::native == std::endian::little, "readers assume a little-endian host");
 
-[[noreturn]] void FailLine(const std::filesystem::path& path, int64_t line, const std::string& what) {
+[[noreturn]] void FailLine(const std::filesystem::path& path, int64_t line,
+                           const std::string& what) {
   throw InvalidInput(path.string(), fmt::format("line {}: {}", line, what));
 }
-[[noreturn]] void FailByte(const std::filesystem::path& path, int64_t byte, const std::string& what) {
+[[noreturn]] void FailByte(const std::filesystem::path& path, int64_t byte,
+                           const std::string& what) {
   throw InvalidInput(path.string(), fmt::format("byte {}: {}", byte, what));
 }
 
@@ -149,8 +151,8 @@ PointCloud ReadXyz(const std::filesystem::path& path) {
     seen_content = true;
     if (first && !ParseNumber(fields[0])) continue;  // a header line such as "x,y,z"
     if (fields.size() < 3)
-      FailLine(path, lines.line_no(), fmt::format("expected at least 3 fields (x y z), found {}",
-                                                  fields.size()));
+      FailLine(path, lines.line_no(),
+               fmt::format("expected at least 3 fields (x y z), found {}", fields.size()));
     double v[3];
     for (int k = 0; k < 3; ++k) {
       const auto num = ParseNumber(fields[k]);
@@ -208,8 +210,7 @@ class BinaryReader {
   void Read(void* dst, size_t n, const std::string& what) {
     in_.read(static_cast<char*>(dst), static_cast<std::streamsize>(n));
     const auto got = in_.gcount();
-    if (static_cast<size_t>(got) != n)
-      FailByte(path_, offset_ + got, "file ends inside " + what);
+    if (static_cast<size_t>(got) != n) FailByte(path_, offset_ + got, "file ends inside " + what);
     offset_ += static_cast<int64_t>(n);
   }
   bool AtEnd() { return in_.peek() == std::char_traits<char>::eof(); }
@@ -240,13 +241,17 @@ std::optional<PlyType> PlyTypeFromName(std::string_view n) {
 int PlyTypeSize(PlyType t) {
   switch (t) {
     case PlyType::kInt8:
-    case PlyType::kUint8: return 1;
+    case PlyType::kUint8:
+      return 1;
     case PlyType::kInt16:
-    case PlyType::kUint16: return 2;
+    case PlyType::kUint16:
+      return 2;
     case PlyType::kInt32:
     case PlyType::kUint32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
   }
   return 0;
 }
@@ -261,14 +266,46 @@ double DecodePly(const unsigned char* p, PlyType t, bool swap) {
     std::memcpy(b, p, static_cast<size_t>(n));
   }
   switch (t) {
-    case PlyType::kInt8: { int8_t v; std::memcpy(&v, b, 1); return v; }
-    case PlyType::kUint8: { uint8_t v; std::memcpy(&v, b, 1); return v; }
-    case PlyType::kInt16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-    case PlyType::kUint16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-    case PlyType::kInt32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-    case PlyType::kUint32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-    case PlyType::kFloat32: { float v; std::memcpy(&v, b, 4); return v; }
-    case PlyType::kFloat64: { double v; std::memcpy(&v, b, 8); return v; }
+    case PlyType::kInt8: {
+      int8_t v;
+      std::memcpy(&v, b, 1);
+      return v;
+    }
+    case PlyType::kUint8: {
+      uint8_t v;
+      std::memcpy(&v, b, 1);
+      return v;
+    }
+    case PlyType::kInt16: {
+      int16_t v;
+      std::memcpy(&v, b, 2);
+      return v;
+    }
+    case PlyType::kUint16: {
+      uint16_t v;
+      std::memcpy(&v, b, 2);
+      return v;
+    }
+    case PlyType::kInt32: {
+      int32_t v;
+      std::memcpy(&v, b, 4);
+      return v;
+    }
+    case PlyType::kUint32: {
+      uint32_t v;
+      std::memcpy(&v, b, 4);
+      return v;
+    }
+    case PlyType::kFloat32: {
+      float v;
+      std::memcpy(&v, b, 4);
+      return v;
+    }
+    case PlyType::kFloat64: {
+      double v;
+      std::memcpy(&v, b, 8);
+      return v;
+    }
   }
   return 0;
 }
@@ -299,7 +336,8 @@ PlyHeader ReadPlyHeader(const std::filesystem::path& path, LineReader& lines) {
   PlyHeader h;
   std::string line;
   std::vector<std::string_view> tok;
-  if (!lines.Next(line) || Trim(line) != "ply") FailLine(path, 1, "not a PLY file (no 'ply' magic)");
+  if (!lines.Next(line) || Trim(line) != "ply")
+    FailLine(path, 1, "not a PLY file (no 'ply' magic)");
   bool have_format = false;
   while (true) {
     if (!lines.Next(line)) FailLine(path, lines.line_no(), "header ends without 'end_header'");
@@ -309,10 +347,14 @@ PlyHeader ReadPlyHeader(const std::filesystem::path& path, LineReader& lines) {
     if (tok[0] == "end_header") break;
     if (tok[0] == "format") {
       if (tok.size() != 3) FailLine(path, ln, "expected 'format <encoding> 1.0'");
-      if (tok[1] == "ascii") h.encoding = PlyEncoding::kAscii;
-      else if (tok[1] == "binary_little_endian") h.encoding = PlyEncoding::kBinaryLittle;
-      else if (tok[1] == "binary_big_endian") h.encoding = PlyEncoding::kBinaryBig;
-      else FailLine(path, ln, "unknown PLY encoding " + Quote(tok[1]));
+      if (tok[1] == "ascii")
+        h.encoding = PlyEncoding::kAscii;
+      else if (tok[1] == "binary_little_endian")
+        h.encoding = PlyEncoding::kBinaryLittle;
+      else if (tok[1] == "binary_big_endian")
+        h.encoding = PlyEncoding::kBinaryBig;
+      else
+        FailLine(path, ln, "unknown PLY encoding " + Quote(tok[1]));
       have_format = true;
     } else if (tok[0] == "element") {
       if (tok.size() != 3) FailLine(path, ln, "expected 'element <name> <count>'");
@@ -388,8 +430,8 @@ void ReadPlyAscii(const std::filesystem::path& path, const PlyHeader& h, LineRea
         }
         for (int64_t v = 0; v < n_values; ++v) {
           if (t >= tok.size())
-            FailLine(path, ln, fmt::format("too few values for '{}' (property '{}')", el.name,
-                                           p.name));
+            FailLine(path, ln,
+                     fmt::format("too few values for '{}' (property '{}')", el.name, p.name));
           const auto num = ParseNumber(tok[t]);
           if (!num) FailLine(path, ln, "not a number: " + Quote(tok[t]));
           ++t;
@@ -400,8 +442,9 @@ void ReadPlyAscii(const std::filesystem::path& path, const PlyHeader& h, LineRea
         }
       }
       if (t != tok.size())
-        FailLine(path, ln, fmt::format("{} values where the header declares {} for '{}'",
-                                       tok.size(), t, el.name));
+        FailLine(
+            path, ln,
+            fmt::format("{} values where the header declares {} for '{}'", tok.size(), t, el.name));
       if (is_vertex && !sink.Add(xyz[0], xyz[1], xyz[2]))
         FailLine(path, ln, "coordinate is not finite");
     }
@@ -503,7 +546,8 @@ class StlSink {
       const std::array<uint64_t, 3> key = {std::bit_cast<uint64_t>(x + 0.0),
                                            std::bit_cast<uint64_t>(y + 0.0),
                                            std::bit_cast<uint64_t>(z + 0.0)};
-      if (!seen_.insert(key).second) return std::isfinite(x) && std::isfinite(y) && std::isfinite(z);
+      if (!seen_.insert(key).second)
+        return std::isfinite(x) && std::isfinite(y) && std::isfinite(z);
     }
     return sink.Add(x, y, z);
   }
@@ -531,8 +575,8 @@ PointCloud ReadStlAscii(const std::filesystem::path& path, std::ifstream& in, bo
       vertices_in_facet = 0;
     } else if (k == "endfacet") {
       if (vertices_in_facet != 3)
-        FailLine(path, ln, fmt::format("facet has {} vertices, expected 3",
-                                       std::max(vertices_in_facet, 0)));
+        FailLine(path, ln,
+                 fmt::format("facet has {} vertices, expected 3", std::max(vertices_in_facet, 0)));
       vertices_in_facet = -1;
     } else if (k == "vertex") {
       if (vertices_in_facet < 0) FailLine(path, ln, "'vertex' outside a facet");
@@ -607,11 +651,16 @@ Format FormatFromExtension(const std::filesystem::path& path) {
 PointCloud ReadPointCloud(const std::filesystem::path& path, const ReadOptions& options) {
   const Format f = options.format == Format::kAuto ? FormatFromExtension(path) : options.format;
   switch (f) {
-    case Format::kPly: return ReadPly(path);
-    case Format::kXyz: return ReadXyz(path);
-    case Format::kObj: return ReadObj(path);
-    case Format::kStl: return ReadStl(path, options.deduplicate_stl);
-    case Format::kAuto: break;
+    case Format::kPly:
+      return ReadPly(path);
+    case Format::kXyz:
+      return ReadXyz(path);
+    case Format::kObj:
+      return ReadObj(path);
+    case Format::kStl:
+      return ReadStl(path, options.deduplicate_stl);
+    case Format::kAuto:
+      break;
   }
   throw InternalError("ReadPointCloud: unresolved format");
 }

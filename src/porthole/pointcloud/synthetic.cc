@@ -1,11 +1,10 @@
 #include "porthole/pointcloud/synthetic.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <random>
-
-#include <Eigen/Geometry>
 
 #include "porthole/core/error.h"
 
@@ -30,8 +29,9 @@ SyntheticCap MakeSyntheticCap(const SyntheticCapOptions& o) {
   const double theta = o.half_angle_deg * M_PI / 180.0;
   const double one_minus_cos = 1.0 - std::cos(theta);
   const double area = 2.0 * M_PI * o.radius_mm * o.radius_mm * one_minus_cos;
-  const double n_real = o.n_points > 0 ? static_cast<double>(o.n_points)
-                                       : std::max(1.0, std::round(area / (o.spacing_mm * o.spacing_mm)));
+  const double n_real = o.n_points > 0
+                            ? static_cast<double>(o.n_points)
+                            : std::max(1.0, std::round(area / (o.spacing_mm * o.spacing_mm)));
   if (n_real > 5e7) throw InvalidInput("n_points", "more than 50 million points requested");
   const auto n = static_cast<Eigen::Index>(n_real);
 
@@ -49,7 +49,8 @@ SyntheticCap MakeSyntheticCap(const SyntheticCapOptions& o) {
     const double z = 1.0 - one_minus_cos * (static_cast<double>(i) + 0.5) / static_cast<double>(n);
     const double s = std::sqrt(std::max(0.0, 1.0 - z * z));
     const double phi = golden * static_cast<double>(i);
-    cap.points.col(i) = o.center_mm + o.radius_mm * (s * std::cos(phi) * u + s * std::sin(phi) * v + z * a);
+    cap.points.col(i) =
+        o.center_mm + o.radius_mm * (s * std::cos(phi) * u + s * std::sin(phi) * v + z * a);
   }
 
   std::mt19937_64 rng(o.seed);
@@ -58,7 +59,8 @@ SyntheticCap MakeSyntheticCap(const SyntheticCapOptions& o) {
     for (Eigen::Index i = 0; i < n; ++i)
       for (int k = 0; k < 3; ++k) cap.points(k, i) += gauss(rng);
   }
-  const auto n_out = static_cast<Eigen::Index>(std::round(o.outlier_fraction * static_cast<double>(n)));
+  const auto n_out =
+      static_cast<Eigen::Index>(std::round(o.outlier_fraction * static_cast<double>(n)));
   if (n_out > 0) {
     const Eigen::Vector3d lo = cap.points.rowwise().minCoeff().array() - o.outlier_margin_mm;
     const Eigen::Vector3d hi = cap.points.rowwise().maxCoeff().array() + o.outlier_margin_mm;

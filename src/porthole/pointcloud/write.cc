@@ -1,7 +1,7 @@
 // PLY and XYZ writers (see pointcloud.h).
-#include <cstring>
-
 #include <fmt/format.h>
+
+#include <cstring>
 
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
@@ -12,8 +12,8 @@ namespace {
 
 void CheckScalar(const Eigen::Matrix3Xd& points, const Eigen::VectorXd* scalar) {
   if (scalar != nullptr && scalar->size() != points.cols())
-    throw InvalidInput("output", fmt::format("{} scalar values for {} points", scalar->size(),
-                                             points.cols()));
+    throw InvalidInput(
+        "output", fmt::format("{} scalar values for {} points", scalar->size(), points.cols()));
 }
 
 void CheckName(std::string_view name) {
@@ -27,7 +27,8 @@ void AppendRows(fmt::memory_buffer& out, const Eigen::Matrix3Xd& points,
   for (Eigen::Index i = 0; i < points.cols(); ++i) {
     fmt::format_to(std::back_inserter(out), "{:.{}f} {:.{}f} {:.{}f}", points(0, i), decimals,
                    points(1, i), decimals, points(2, i), decimals);
-    if (scalar != nullptr) fmt::format_to(std::back_inserter(out), " {:.{}f}", (*scalar)(i), decimals);
+    if (scalar != nullptr)
+      fmt::format_to(std::back_inserter(out), " {:.{}f}", (*scalar)(i), decimals);
     out.push_back('\n');
   }
 }
@@ -51,7 +52,8 @@ std::string EncodePly(const Eigen::Matrix3Xd& points, const Eigen::VectorXd* sca
                  "ply\nformat {} 1.0\ncomment porthole point cloud, units mm\n"
                  "element vertex {}\nproperty double x\nproperty double y\nproperty double z\n",
                  binary ? "binary_little_endian" : "ascii", points.cols());
-  if (scalar != nullptr) fmt::format_to(std::back_inserter(out), "property double {}\n", scalar_name);
+  if (scalar != nullptr)
+    fmt::format_to(std::back_inserter(out), "property double {}\n", scalar_name);
   fmt::format_to(std::back_inserter(out), "end_header\n");
   if (binary) {
     const int per = scalar != nullptr ? 4 : 3;
