@@ -256,6 +256,14 @@ int PlyTypeSize(PlyType t) {
   return 0;
 }
 
+// The value of a PLY scalar of type V stored (native byte order) at b, as a double.
+template <typename V>
+double LoadAs(const unsigned char* b) {
+  V v;
+  std::memcpy(&v, b, sizeof v);
+  return static_cast<double>(v);
+}
+
 // Decodes one value of type t from `p` (file byte order given by `swap`).
 double DecodePly(const unsigned char* p, PlyType t, bool swap) {
   unsigned char b[8];
@@ -266,46 +274,22 @@ double DecodePly(const unsigned char* p, PlyType t, bool swap) {
     std::memcpy(b, p, static_cast<size_t>(n));
   }
   switch (t) {
-    case PlyType::kInt8: {
-      int8_t v;
-      std::memcpy(&v, b, 1);
-      return v;
-    }
-    case PlyType::kUint8: {
-      uint8_t v;
-      std::memcpy(&v, b, 1);
-      return v;
-    }
-    case PlyType::kInt16: {
-      int16_t v;
-      std::memcpy(&v, b, 2);
-      return v;
-    }
-    case PlyType::kUint16: {
-      uint16_t v;
-      std::memcpy(&v, b, 2);
-      return v;
-    }
-    case PlyType::kInt32: {
-      int32_t v;
-      std::memcpy(&v, b, 4);
-      return v;
-    }
-    case PlyType::kUint32: {
-      uint32_t v;
-      std::memcpy(&v, b, 4);
-      return v;
-    }
-    case PlyType::kFloat32: {
-      float v;
-      std::memcpy(&v, b, 4);
-      return v;
-    }
-    case PlyType::kFloat64: {
-      double v;
-      std::memcpy(&v, b, 8);
-      return v;
-    }
+    case PlyType::kInt8:
+      return LoadAs<int8_t>(b);
+    case PlyType::kUint8:
+      return LoadAs<uint8_t>(b);
+    case PlyType::kInt16:
+      return LoadAs<int16_t>(b);
+    case PlyType::kUint16:
+      return LoadAs<uint16_t>(b);
+    case PlyType::kInt32:
+      return LoadAs<int32_t>(b);
+    case PlyType::kUint32:
+      return LoadAs<uint32_t>(b);
+    case PlyType::kFloat32:
+      return LoadAs<float>(b);
+    case PlyType::kFloat64:
+      return LoadAs<double>(b);
   }
   return 0;
 }
