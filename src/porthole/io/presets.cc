@@ -99,15 +99,18 @@ class Reader {
   std::set<std::string> seen_;
 };
 
-}  // namespace
-
-ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) {
-  toml::table t;
+toml::table ParseToml(std::string_view text, const std::string& origin) {
   try {
-    t = toml::parse(text, origin);
+    return toml::parse(text, origin);
   } catch (const toml::parse_error& e) {
     throw InvalidInput(fmt::format("{}:{}", origin, e.source().begin.line), std::string(e.description()));
   }
+}
+
+}  // namespace
+
+ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) {
+  const toml::table t = ParseToml(text, origin);
   Reader r(t, origin, "");
   ports::PortSpec p;
   p.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
@@ -150,25 +153,91 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
   return p;
 }
 
-ports::PortSpec LoadPort(const std::string& name_or_path) {
+namespace {
+
+// The TOML text of a built-in preset of `kind`, or of a file; `flag` names the option in errors.
+std::pair<std::string, std::string> PresetOrFileText(const std::string& kind, const std::string& name_or_path,
+                                                     const std::string& flag) {
   const bool is_path = name_or_path.find('/') != std::string::npos ||
                        (name_or_path.size() > 5 && name_or_path.ends_with(".toml"));
   if (!is_path) {
-    for (const Preset& p : BuiltinPresets()) {
-      if (p.kind == "port" && p.name == name_or_path) return ParsePortToml(p.toml, std::string(p.name));
-    }
     std::string names;
     for (const Preset& p : BuiltinPresets()) {
-      if (p.kind == "port") names += (names.empty() ? "" : ", ") + std::string(p.name);
+      if (p.kind != kind) continue;
+      if (p.name == name_or_path) return {std::string(p.toml), std::string(p.name)};
+      names += (names.empty() ? "" : ", ") + std::string(p.name);
     }
-    throw InvalidInput("--port", "unknown preset '" + name_or_path + "' (built-in: " + names +
-                                     "; or give a path to a .toml file)");
+    throw InvalidInput(flag, "unknown preset '" + name_or_path + "' (built-in: " + names +
+                                 "; or give a path to a .toml file)");
   }
   std::ifstream in(name_or_path, std::ios::binary);
-  if (!in) throw InvalidInput("--port", "cannot read file '" + name_or_path + "'");
+  if (!in) throw InvalidInput(flag, "cannot read file '" + name_or_path + "'");
   std::stringstream ss;
   ss << in.rdbuf();
-  return ParsePortToml(ss.str(), name_or_path);
+  return {ss.str(), name_or_path};
+}
+
+
+}  // namespace
+
+ports::PortSpec LoadPort(const std::string& name_or_path) {
+  const auto [text, origin] = PresetOrFileText("port", name_or_path, "--port");
+  return ParsePortToml(text, origin);
+}
+
+lens::CameraBody LoadCamera(const std::string& name_or_path) {
+  const auto [text, origin] = PresetOrFileText("camera", name_or_path, "--camera");
+  return ParseCameraToml(text, origin);
+}
+
+lens::LensSpec LoadLens(const std::string& name_or_path) {
+  const auto [text, origin] = PresetOrFileText("lens", name_or_path, "--lens");
+  return ParseLensToml(text, origin);
+}
+
+lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origin) {
+  const toml::table t = ParseToml(text, origin);
+  Reader r(t, origin, "");
+  lens::CameraBody b;
+  b.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
+  b.description = r.OptString("description").value_or("");
+  b.source = r.OptString("source").value_or("");
+  b.mount = r.OptString("mount").value_or("");
+  b.sensor.width_px = static_cast<int>(r.Double("width_px"));
+  b.sensor.height_px = static_cast<int>(r.Double("height_px"));
+  b.sensor.pixel_pitch_mm = r.Double("pixel_pitch_mm");
+  r.RejectUnknown();
+  lens::Validate(b, origin + ": camera");
+  return b;
+}
+
+lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin) {
+  const toml::table t = ParseToml(text, origin);
+  Reader r(t, origin, "");
+  lens::LensSpec l;
+  l.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
+  l.description = r.OptString("description").value_or("");
+  l.source = r.OptString("source").value_or("");
+  l.mount = r.OptString("mount").value_or("");
+  l.focal_length_mm = r.Double("focal_length_mm");
+  l.f_number_min = r.Double("f_number_min");
+  l.f_number_max = r.Double("f_number_max");
+  l.min_focus_mm = r.Double("min_focus_mm");
+  if (const toml::node* n = r.Node("pupil_estimated")) l.pupil_estimated = n->value_or(false);
+  const toml::node* pupil = r.Node("pupil");
+  if (!pupil || !pupil->is_array()) r.Fail("pupil", "is required: an array of {focus_mm, d_ep2f_mm}");
+  for (const toml::node& e : *pupil->as_array()) {
+    const toml::table* et = e.as_table();
+    if (!et) r.Fail("pupil", "entries must be tables {focus_mm = ..., d_ep2f_mm = ...}", &e);
+    // focus_mm may be the TOML float inf; Reader's finite check does not apply to it.
+    const auto fd = et->get("focus_mm") ? et->get("focus_mm")->value<double>() : std::nullopt;
+    const auto d = et->get("d_ep2f_mm") ? et->get("d_ep2f_mm")->value<double>() : std::nullopt;
+    if (!fd || !d) r.Fail("pupil", "each entry needs focus_mm and d_ep2f_mm numbers", &e);
+    l.pupil.push_back({*fd, *d});
+  }
+  r.RejectUnknown();
+  lens::Validate(l, origin + ": lens");
+  return l;
 }
 
 std::string PortToToml(const ports::PortSpec& p) {

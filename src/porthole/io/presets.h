@@ -6,6 +6,7 @@
 #include <string_view>
 #include <vector>
 
+#include "porthole/lens/lens.h"
 #include "porthole/ports/port.h"
 
 namespace porthole::io {
@@ -27,6 +28,13 @@ ports::PortSpec LoadPort(const std::string& name_or_path);
 
 // Parses and validates a port TOML text; `origin` names it in error messages.
 ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin);
+
+// A camera body or a lens from a built-in preset name or a TOML file, as LoadPort (field names
+// "--camera" and "--lens" in errors). Schemas in docs/presets.md.
+lens::CameraBody LoadCamera(const std::string& name_or_path);
+lens::LensSpec LoadLens(const std::string& name_or_path);
+lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origin);
+lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin);
 
 // The TOML text of a port (housing or cam frame as given); ParsePortToml(PortToToml(p)) == p.
 std::string PortToToml(const ports::PortSpec& p);

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "porthole/core/error.h"
 
 namespace porthole::io {
@@ -78,6 +80,22 @@ TEST(PortToml, WriteThenReadIsLossless) {
     EXPECT_EQ(q.frame, p.frame);
     EXPECT_EQ(q.default_ep_in_housing_mm, p.default_ep_in_housing_mm);
   }
+}
+
+TEST(Presets, CameraAndLensPresetsCarryThePapersValues) {
+  const auto d300 = LoadCamera("nikon-d300");
+  EXPECT_EQ(d300.sensor.width_px, 4288);
+  EXPECT_EQ(d300.sensor.height_px, 2848);
+  EXPECT_EQ(d300.sensor.pixel_pitch_mm, 0.0055);
+  const auto l24 = LoadLens("nikkor-24mm-f2.8d");
+  const auto& f = lens::MountByName(l24.mount);
+  EXPECT_NEAR(lens::SubjectToPupilMm(l24, f, 300), 226.6, 1e-9);  // Table 2
+  EXPECT_EQ(l24.PupilToFlangeMm(std::numeric_limits<double>::infinity()), 24.6);
+  const auto l35 = LoadLens("nikkor-35mm-f2d");
+  EXPECT_NEAR(lens::SubjectToPupilMm(l35, f, 250), 176.6, 1e-9);
+  EXPECT_EQ(l35.min_focus_mm, 250);
+  EXPECT_THROW(LoadLens("nikkor-999mm"), InvalidInput);
+  EXPECT_THROW(ParseLensToml("focal_length_mm = 24\n", "x.toml"), InvalidInput);
 }
 
 }  // namespace
