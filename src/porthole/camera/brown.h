@@ -55,13 +55,13 @@ inline constexpr std::array<BrownParamInfo, kBrownNumParams> kBrownParamInfo = {
     {"c", "c_mm", "mm"},
     {"x0", "x0_mm", "mm"},
     {"y0", "y0_mm", "mm"},
-    {"K1", "k1_per_mm2", "mm^-2"},
-    {"K2", "k2_per_mm4", "mm^-4"},
-    {"K3", "k3_per_mm6", "mm^-6"},
-    {"P1", "p1_per_mm", "mm^-1"},
-    {"P2", "p2_per_mm", "mm^-1"},
-    {"B1", "b1", "1"},
-    {"B2", "b2", "1"},
+    {"K1", "K1", "mm^-2"},
+    {"K2", "K2", "mm^-4"},
+    {"K3", "K3", "mm^-6"},
+    {"P1", "P1", "mm^-1"},
+    {"P2", "P2", "mm^-1"},
+    {"B1", "B1", "1"},
+    {"B2", "B2", "1"},
 }};
 
 // Brown–Conrady parameters in the units of kBrownParamInfo.
