@@ -26,6 +26,7 @@ test: build
 	@ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
 bench: build
+	@bash scripts/install-deps --bench && cmake -S . -B $(BUILD) --log-level=WARNING && cmake --build $(BUILD) -j $(JOBS) --target porthole_bench
 	@$(BUILD)/bench/porthole_bench --benchmark_counters_tabular=true
 
 format:
