@@ -84,22 +84,18 @@ VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm) {
 namespace {
 
 // The ray in the water that reaches the pupil point `pupil_point` (housing frame, on the pupil
-// plane z = ep.z) after refraction into the housing, from the axial object at distance wd_mm from
-// the outer vertex (or from infinity, parallel to the axis). Unknown: where the water ray, aimed
-// straight, would cross the pupil plane; Newton on the 2D miss with a finite-difference Jacobian.
-// Returns the air-side ray, or nullopt when a ray fails or Newton does not converge.
+// plane z = ep.z) after refraction into the housing, from `object` (a point, or parallel rays from
+// infinity). Unknown: where the water ray, aimed straight, would cross the pupil plane; Newton on
+// the 2D miss with a finite-difference Jacobian. Returns the air-side ray, or nullopt when a ray
+// fails or Newton does not converge.
 std::optional<optics::Ray> RayThroughPupilPoint(const std::vector<optics::Interface>& inward,
-                                                const Vec3& object, bool at_infinity,
-                                                const Vec3& pupil_point) {
+                                                const ObjectPoint& object, const Vec3& pupil_point) {
   const double z_pupil = pupil_point.z();
+  constexpr double kFar = 1e6;  // launch distance of rays from infinity, mm
   auto miss = [&](const Eigen::Vector2d& aim, optics::Ray* air) -> std::optional<Eigen::Vector2d> {
     const Vec3 a(aim.x(), aim.y(), z_pupil);
-    optics::Ray water;
-    if (at_infinity) {
-      water = {Vec3(aim.x(), aim.y(), object.z()), Vec3(0, 0, -1)};
-    } else {
-      water = {object, (a - object).normalized()};
-    }
+    const optics::Ray water = object.at_infinity ? optics::Ray{a + kFar * object.v, -object.v}
+                                                 : optics::Ray{object.v, (a - object.v).normalized()};
     optics::Ray out;
     if (optics::TraceSequence<double>(inward, water, &out) != optics::RayStatus::kOk) return std::nullopt;
     if (!(out.dir.z() < 0)) return std::nullopt;
@@ -129,41 +125,62 @@ std::optional<optics::Ray> RayThroughPupilPoint(const std::vector<optics::Interf
 
 }  // namespace
 
-std::optional<VirtualImage> RealRayVirtualImage(const PortSystem& port, double wd_mm,
+std::optional<VirtualPoint> RealRayVirtualPoint(const PortSystem& port, const ObjectPoint& object,
                                                 double aperture_height_mm) {
-  CheckWd(wd_mm);
   RequirePositive("aperture_height_mm", aperture_height_mm);
+  PORTHOLE_CHECK(object.v.allFinite());
   const auto inward = port.Inward();
   const Vec3& ep = port.ep_in_housing_mm;
-  const double z_outer = port.OuterVertexZ();
-  const bool at_infinity = std::isinf(wd_mm);
-  // Object on the axis through the pupil; "infinity": parallel rays launched from far away.
-  const Vec3 object(ep.x(), ep.y(), z_outer + (at_infinity ? 1e6 : wd_mm));
   // Rays through 8 points of the pupil rim; their least-squares meeting point is the virtual image
-  // (for a decentred port the bundle is slightly astigmatic: this is its centre of least spread).
+  // (for an astigmatic bundle this is its centre of least spread).
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
   Vec3 b = Vec3::Zero();
   double min_cos = 1;
-  Vec3 first_dir = Vec3::Zero();
+  std::vector<optics::Ray> rays;
   for (int k = 0; k < 8; ++k) {
     const double phi = k * M_PI / 4;
     const Vec3 p = ep + aperture_height_mm * Vec3(std::cos(phi), std::sin(phi), 0);
-    const auto air = RayThroughPupilPoint(inward, object, at_infinity, p);
+    auto air = RayThroughPupilPoint(inward, object, p);
     if (!air) return std::nullopt;
-    const Vec3 dir = air->dir.normalized();
-    const Eigen::Matrix3d proj = Eigen::Matrix3d::Identity() - dir * dir.transpose();
+    air->dir.normalize();
+    const Eigen::Matrix3d proj = Eigen::Matrix3d::Identity() - air->dir * air->dir.transpose();
     a += proj;
     b += proj * air->origin;
-    if (k == 0) first_dir = dir;
-    min_cos = std::min(min_cos, first_dir.dot(dir));
+    if (!rays.empty()) min_cos = std::min(min_cos, rays.front().dir.dot(air->dir));
+    rays.push_back(*air);
   }
+  VirtualPoint vp;
+  if (1 - min_cos < 1e-18) {  // parallel air rays (a flat port at infinity): image at infinity
+    vp.at_infinity = true;
+    return vp;
+  }
+  vp.position_mm = a.ldlt().solve(b);
+  double sum2 = 0;
+  for (const optics::Ray& r : rays) {
+    const Vec3 d = vp.position_mm - r.origin;
+    sum2 += (d - d.dot(r.dir) * r.dir).squaredNorm();
+  }
+  vp.rms_spread_mm = std::sqrt(sum2 / rays.size());
+  return vp;
+}
+
+std::optional<VirtualImage> RealRayVirtualImage(const PortSystem& port, double wd_mm,
+                                                double aperture_height_mm) {
+  CheckWd(wd_mm);
+  const Vec3& ep = port.ep_in_housing_mm;
+  const double z_outer = port.OuterVertexZ();
+  // The object on the axis through the pupil.
+  const ObjectPoint object = std::isinf(wd_mm) ? ObjectPoint::Toward(Vec3(0, 0, 1))
+                                               : ObjectPoint::At(Vec3(ep.x(), ep.y(), z_outer + wd_mm));
+  const auto vp = RealRayVirtualPoint(port, object, aperture_height_mm);
+  if (!vp) return std::nullopt;
   VirtualImage vi;
   vi.wd_mm = wd_mm;
-  if (1 - min_cos < 1e-18) {  // parallel air rays (a flat port at infinity): image at infinity
+  if (vp->at_infinity) {
     vi.d_s2ep_mm = vi.vwd_mm = kInf;
     return vi;
   }
-  const Vec3 v = a.ldlt().solve(b);
+  const Vec3& v = vp->position_mm;
   vi.d_s2ep_mm = v.z() - ep.z();
   vi.vwd_mm = v.z() - z_outer;
   vi.lateral_offset_mm = (v - ep).head<2>().norm();

@@ -27,13 +27,37 @@ struct VirtualImage {
 // Throws InvalidInput("wd_mm") for wd_mm <= 0 or NaN.
 VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm);
 
-// Real rays from the on-axis object point that pass through eight points of a circle of radius
-// `aperture_height_mm` in the entrance-pupil plane: the least-squares point where they meet on the
-// air side is the virtual image (exact for any geometry; for a decentred port, whose bundle is
-// slightly astigmatic, its centre of least spread, possibly off the axis). As the height goes to zero this
+// RealRayVirtualPoint for the on-axis object point at wd_mm: rays through eight points of a circle
+// of radius `aperture_height_mm` in the entrance-pupil plane; the least-squares point where they
+// meet on the air side is the virtual image (exact for any geometry; for a decentred port, whose
+// bundle is slightly astigmatic, its centre of least spread, possibly off the axis). As the height goes to zero this
 // tends to the paraxial result; the difference is the port's longitudinal spherical aberration.
 // nullopt when a ray cannot be traced (it leaves the glass, or total internal reflection).
 std::optional<VirtualImage> RealRayVirtualImage(const PortSystem& port, double wd_mm,
+                                                double aperture_height_mm);
+
+// A point in the water: at a finite position (housing frame, mm), or at infinity in a direction.
+struct ObjectPoint {
+  Vec3 v = Vec3::Zero();  // the position, or the unit direction from the pupil toward the object
+  bool at_infinity = false;
+  static ObjectPoint At(const Vec3& position_mm) { return {position_mm, false}; }
+  static ObjectPoint Toward(const Vec3& direction) { return {direction.normalized(), true}; }
+};
+
+// Where the port images one object point, by real rays.
+struct VirtualPoint {
+  Vec3 position_mm = Vec3::Zero();  // housing frame; meaningless when at_infinity
+  double rms_spread_mm = 0;  // rms distance of the air rays from position_mm (astigmatism, coma)
+  bool at_infinity = false;  // the air rays are parallel (a flat port imaging infinity)
+};
+
+// Real rays from `object` through eight points of a circle of radius `aperture_height_mm` about
+// the entrance pupil centre, in the pupil plane (z = ep.z, normal to the axis): the least-squares
+// point where the air-side rays meet is the virtual image of the object (exact for any geometry
+// and field angle; for an astigmatic bundle, its centre of least spread). nullopt when a ray
+// cannot be traced (it leaves the glass, total internal reflection, or Newton does not converge).
+// Throws InvalidInput("aperture_height_mm") unless it is > 0.
+std::optional<VirtualPoint> RealRayVirtualPoint(const PortSystem& port, const ObjectPoint& object,
                                                 double aperture_height_mm);
 
 struct FocalProperties {

@@ -1,0 +1,339 @@
+#include "porthole/planning/plan.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "porthole/core/error.h"
+#include "porthole/planning/thin_lens.h"
+
+namespace porthole::planning {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kDeg = 180.0 / M_PI;
+
+// The port in front of the pupil for focus-scale distance fd_mm (see Setup::ep_in_housing_mm).
+ports::PortSystem SystemAtFocus(const Setup& s, double fd_mm) {
+  Vec3 ep = s.ep_in_housing_mm.value_or(s.port.default_ep_in_housing_mm);
+  if (!s.ep_in_housing_mm) ep.z() = s.lens.PupilToFlangeMm(fd_mm);
+  return ports::MakeSystem(s.port, s.env, ep);
+}
+
+struct Solved {
+  ports::PortSystem sys;
+  double d_s2ep_mm = 0;
+  std::optional<double> fd_mm;
+};
+
+// Focus and pupil solved together: the pupil position depends on FD, the virtual image the lens
+// must focus on (`required`, from the placed system) on the pupil position. Fixed-point iteration
+// (the pupil moves by a few mm while FD changes by hundreds, so it contracts fast); a focus closer
+// than the lens goes leaves the pupil at the minimum focus.
+template <typename F>
+Solved SolveFocus(const Setup& s, const lens::Mount& mount, F required) {
+  double fd_used = kInf;
+  Solved out{SystemAtFocus(s, fd_used), 0, std::nullopt};
+  for (int it = 0; it < 100; ++it) {
+    out.d_s2ep_mm = required(out.sys);
+    out.fd_mm = lens::FocusForSubjectMm(s.lens, mount, out.d_s2ep_mm);
+    const double next = out.fd_mm.value_or(s.lens.min_focus_mm);
+    const double moved = std::abs(s.lens.PupilToFlangeMm(next) - s.lens.PupilToFlangeMm(fd_used));
+    fd_used = next;
+    out.sys = SystemAtFocus(s, fd_used);
+    if (moved < 1e-10 || s.ep_in_housing_mm) break;
+  }
+  out.d_s2ep_mm = required(out.sys);
+  out.fd_mm = lens::FocusForSubjectMm(s.lens, mount, out.d_s2ep_mm);
+  return out;
+}
+
+// Distance from the pupil to the port's outer vertex, along the axis.
+double PupilToOuter(const ports::PortSystem& sys) { return sys.OuterVertexZ() - sys.ep_in_housing_mm.z(); }
+
+double VirtualD(const ports::PortSystem& sys, double wd_mm) {
+  return ports::ParaxialVirtualImage(sys, wd_mm).d_s2ep_mm;
+}
+
+// The real subject distance (from the pupil) of a virtual-image distance.
+double RealFromVirtual(const ports::PortSystem& sys, double d_virtual, double* wd_out) {
+  const double wd = WdForVirtualImage(sys, d_virtual);
+  if (wd_out) *wd_out = wd;
+  return wd + PupilToOuter(sys);
+}
+
+// Direction in the water of the chief ray that leaves the pupil along `air_dir`; nullopt if it
+// cannot pass the port.
+std::optional<Vec3> WaterDirection(const ports::PortSystem& sys, const Vec3& air_dir) {
+  optics::Ray out;
+  const optics::Ray in{sys.ep_in_housing_mm, air_dir.normalized()};
+  if (optics::TraceSequence<double>(sys.Outward(), in, &out) != optics::RayStatus::kOk) return std::nullopt;
+  return out.dir.normalized();
+}
+
+double AngleDeg(const std::optional<Vec3>& a, const std::optional<Vec3>& b) {
+  if (!a || !b) return std::nan("");
+  return std::acos(std::clamp(a->dot(*b), -1.0, 1.0)) * kDeg;
+}
+
+FieldCurvature TraceFieldCurvature(const ports::PortSystem& sys, const lens::CameraBody& cam, double f_mm,
+                                   double n, double coc_mm, double c_mm, double wd_mm, int samples) {
+  FieldCurvature fc;
+  fc.aperture_height_mm = f_mm / (2 * n);
+  const Vec3& ep = sys.ep_in_housing_mm;
+  const double z_object = sys.OuterVertexZ() + wd_mm;
+  const double pitch = cam.sensor.pixel_pitch_mm;
+  const double half_w = 0.5 * cam.SensorWidthMm(), half_h = 0.5 * cam.SensorHeightMm();
+  // The virtual image of the object point seen along the chief ray to image point (x, y) (image
+  // mm, y up; camera Y is down); nullopt when a ray fails.
+  auto image_of = [&](double x, double y, double* object_height) -> std::optional<ports::VirtualPoint> {
+    optics::Ray out;
+    const optics::Ray in{ep, Vec3(x, -y, c_mm).normalized()};
+    if (optics::TraceSequence<double>(sys.Outward(), in, &out) != optics::RayStatus::kOk) return std::nullopt;
+    if (!(out.dir.z() > 0)) return std::nullopt;
+    const Vec3 p = out.origin + ((z_object - out.origin.z()) / out.dir.z()) * out.dir;
+    if (object_height) *object_height = (p - Vec3(ep.x(), ep.y(), p.z())).norm();
+    return ports::RealRayVirtualPoint(sys, ports::ObjectPoint::At(p), fc.aperture_height_mm);
+  };
+  const auto centre = image_of(0, 0, nullptr);
+  if (!centre) return fc;
+  const double s = centre->position_mm.z() - ep.z();  // the lens is focused on the axial image
+  auto blur_px = [&](double d) { return BlurDiameterMm(s, d, f_mm, n) / pitch; };
+  auto spread_px = [&](const ports::VirtualPoint& v, double d) { return 2 * v.rms_spread_mm * c_mm / d / pitch; };
+  for (int k = 0; k < samples; ++k) {
+    const double t = samples > 1 ? static_cast<double>(k) / (samples - 1) : 1.0;
+    FieldRow row;
+    const double x = t * half_w, y = t * half_h;
+    row.image_height_mm = std::hypot(x, y);
+    row.field_angle_deg = std::atan(row.image_height_mm / c_mm) * kDeg;
+    const auto v = image_of(x, y, &row.object_height_mm);
+    if (!v) return fc;
+    row.d_s2ep_mm = v->position_mm.z() - ep.z();
+    row.sag_mm = s - row.d_s2ep_mm;
+    row.blur_px = blur_px(row.d_s2ep_mm);
+    row.spread_px = spread_px(*v, row.d_s2ep_mm);
+    fc.rows.push_back(row);
+  }
+  // The four corners (a decentred port is not symmetric).
+  for (const auto& [sx, sy] : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
+    const auto v = image_of(sx * half_w, sy * half_h, nullptr);
+    if (!v) continue;
+    fc.corner_blur_px = std::max(fc.corner_blur_px, blur_px(v->position_mm.z() - ep.z()));
+  }
+  // Defocus blur scales as 1/N (BlurDiameterMm).
+  fc.f_number_for_sharp_corners = n * fc.corner_blur_px * pitch / coc_mm;
+  return fc;
+}
+
+}  // namespace
+
+FovPair FieldOfView(const ports::PortSystem& sys, const lens::CameraBody& cam, double c_mm) {
+  const double hw = 0.5 * cam.SensorWidthMm(), hh = 0.5 * cam.SensorHeightMm();
+  auto pair = [&](double x, double y) {
+    const Vec3 a(x, y, c_mm), b(-x, -y, c_mm);
+    return std::pair{AngleDeg(a.normalized(), b.normalized()),
+                     AngleDeg(WaterDirection(sys, a), WaterDirection(sys, b))};
+  };
+  const auto [ha, hw_] = pair(hw, 0);
+  const auto [va, vw] = pair(0, hh);
+  const auto [da, dw] = pair(hw, hh);
+  return {{ha, va, da}, {hw_, vw, dw}};
+}
+
+double WdForVirtualImage(const ports::PortSystem& sys, double d) {
+  if (std::isnan(d)) return d;
+  if (d >= VirtualD(sys, kInf)) return kInf;
+  double lo = 1e-9, hi = 1.0;
+  if (d <= VirtualD(sys, lo)) return 0;
+  while (VirtualD(sys, hi) < d) hi *= 2;  // terminates: d is below the image of infinity
+  for (int it = 0; it < 200 && hi - lo > 1e-12 * hi; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (VirtualD(sys, mid) < d ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+Plan MakePlan(const Setup& setup, const PlanOptions& o) {
+  lens::Validate(setup.lens, "--lens");
+  lens::Validate(setup.camera, "--camera");
+  const lens::Mount& mount = lens::MountByName(setup.lens.mount);
+  const lens::LensSpec& ln = setup.lens;
+  const double f = ln.focal_length_mm;
+  const double pitch = setup.camera.sensor.pixel_pitch_mm;
+  if (o.wd_mm && o.subject_distance_mm) throw InvalidInput("--wd", "give --wd or --subject-distance, not both");
+  RequireFinite("--aperture", o.f_number);
+  if (o.f_number < ln.f_number_min * (1 - 1e-9) || o.f_number > ln.f_number_max * (1 + 1e-9)) {
+    throw InvalidInput("--aperture", fmt::format("f/{:g} is outside the {} range f/{:g} to f/{:g}", o.f_number,
+                                                 ln.name, ln.f_number_min, ln.f_number_max));
+  }
+  if (setup.camera.mount != ln.mount) {
+    throw InvalidInput("--lens", fmt::format("{} is a {} lens, the {} has a {} mount", ln.name, ln.mount,
+                                             setup.camera.name, setup.camera.mount));
+  }
+  Plan plan;
+  plan.f_number = o.f_number;
+  if (o.coc_mm) {
+    plan.coc_mm = RequirePositive("--coc", *o.coc_mm);
+    plan.coc_source = "given";
+  } else {
+    plan.coc_mm = PlanOptions::kCocPixels * pitch;
+    plan.coc_source = fmt::format("{:g} pixel pitches ({:g} um pixels)", PlanOptions::kCocPixels, pitch * 1000);
+  }
+  const double n = o.f_number, coc = plan.coc_mm;
+  if (o.field_samples < 1) throw InvalidInput("field_samples", "must be >= 1");
+
+  // The lens's reach: its closest subject (Eq. 2 at the minimum focus), the minimum WD.
+  const ports::PortSystem at_min = SystemAtFocus(setup, ln.min_focus_mm);
+  const ports::PortSystem at_inf = SystemAtFocus(setup, kInf);
+  plan.closest_d_s2ep_mm = lens::SubjectToPupilMm(ln, mount, ln.min_focus_mm);
+  plan.d_s2ep_infinity_mm = VirtualD(at_inf, kInf);
+  plan.min_wd_mm = WdForVirtualImage(at_min, plan.closest_d_s2ep_mm);
+  for (double p : o.closeup_dioptres) {
+    const double lo = ApparentDistanceWithCloseupMm(plan.closest_d_s2ep_mm, -p);  // 1/d = 1/d' + P
+    const double hi = p > 0 ? 1000.0 / p : kInf;
+    plan.closeup.push_back({p, WdForVirtualImage(at_min, lo), WdForVirtualImage(at_inf, hi)});
+  }
+
+  // Infinity sharp: in air the hyperfocal distance; under water the focus whose far limit is the
+  // virtual image of infinity.
+  InfinityFocus& inf = plan.infinity;
+  inf.air_focus_mm = FocusForFarLimitMm(kInf, f, n, coc);
+  inf.air_near_mm = ThinLensDof(inf.air_focus_mm, f, n, coc).near_mm;
+  inf.air_focus_distance_mm = lens::FocusForSubjectMm(ln, mount, inf.air_focus_mm);
+  const Solved hyper = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) {
+    return FocusForFarLimitMm(VirtualD(sys, kInf), f, n, coc);
+  });
+  inf.water_virtual_focus_mm = hyper.d_s2ep_mm;
+  inf.water_virtual_near_mm = ThinLensDof(hyper.d_s2ep_mm, f, n, coc).near_mm;
+  inf.water_near_mm = RealFromVirtual(hyper.sys, inf.water_virtual_near_mm, &inf.water_near_wd_mm);
+  inf.water_focus_distance_mm = hyper.fd_mm;
+  plan.system = hyper.sys;
+  plan.principal_distance_mm = f;  // lens at infinity when there is no target
+
+  if (o.wd_mm || o.subject_distance_mm) {
+    if (o.wd_mm && !(RequireFinite("--wd", *o.wd_mm) > 0)) {
+      throw InvalidInput("--wd", "must be > 0 mm: WD is measured from the port's outer surface, so this "
+                                 "object would be inside the port");
+    }
+    if (o.subject_distance_mm) {
+      RequireFinite("--subject-distance", *o.subject_distance_mm);
+      if (!(*o.subject_distance_mm > PupilToOuter(at_inf) && *o.subject_distance_mm > PupilToOuter(at_min))) {
+        throw InvalidInput("--subject-distance",
+                           fmt::format("{:g} mm from the entrance pupil is inside the port (its outer surface "
+                                       "is {:.1f} mm from the pupil)",
+                                       *o.subject_distance_mm, PupilToOuter(at_inf)));
+      }
+    }
+    auto wd_of = [&](const ports::PortSystem& sys) {
+      return o.wd_mm ? *o.wd_mm : *o.subject_distance_mm - PupilToOuter(sys);
+    };
+    const Solved sol = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) { return VirtualD(sys, wd_of(sys)); });
+    TargetPlan t;
+    const ports::PortSystem& sys = sol.sys;
+    t.wd_mm = wd_of(sys);
+    t.subject_distance_mm = t.wd_mm + PupilToOuter(sys);
+    t.virtual_image = ports::ParaxialVirtualImage(sys, t.wd_mm);
+    const auto real = ports::RealRayVirtualImage(sys, t.wd_mm, f / (2 * n));
+    t.d_s2ep_real_mm = real ? real->d_s2ep_mm : std::nan("");
+    const double dv = t.virtual_image.d_s2ep_mm;
+    t.focus.d_s2ep_mm = dv;
+    t.focus.focus_distance_mm = sol.fd_mm;
+    t.focus.ep_to_flange_mm = ln.PupilToFlangeMm(sol.fd_mm.value_or(ln.min_focus_mm));
+    t.focus.closeup_dioptre = CloseupDioptreNeeded(dv, plan.closest_d_s2ep_mm);
+    t.principal_distance_mm = PrincipalDistanceMm(dv, f);
+
+    // In air: the same subject distance from the pupil.
+    const DofLimits air = ThinLensDof(t.subject_distance_mm, f, n, coc);
+    t.air = {t.subject_distance_mm, air.near_mm, air.far_mm, air.far_mm - air.near_mm,
+             lens::FocusForSubjectMm(ln, mount, t.subject_distance_mm)};
+    // Under water: the limits around the virtual image, mapped back through the port.
+    const DofLimits wv = ThinLensDof(dv, f, n, coc);
+    DofWater& w = t.water;
+    w.virtual_focus_mm = dv;
+    w.virtual_near_mm = wv.near_mm;
+    w.virtual_far_mm = wv.far_mm;
+    w.virtual_total_mm = wv.far_mm - wv.near_mm;
+    w.focus_mm = t.subject_distance_mm;
+    w.near_mm = RealFromVirtual(sys, wv.near_mm, &w.near_wd_mm);
+    w.far_mm = RealFromVirtual(sys, wv.far_mm, &w.far_wd_mm);
+    w.total_mm = w.far_mm - w.near_mm;
+    t.dof_ratio_water_to_air = w.total_mm / t.air.total_mm;
+
+    // One pixel on the object: at the virtual image, divided by the port's lateral magnification.
+    t.gsd_water_mm = pitch * dv / t.principal_distance_mm / t.virtual_image.magnification;
+    t.gsd_air_mm = pitch * t.subject_distance_mm / PrincipalDistanceMm(t.subject_distance_mm, f);
+    const FieldCurvature fc = TraceFieldCurvature(sys, setup.camera, f, n, coc, t.principal_distance_mm,
+                                                  t.wd_mm, o.field_samples);
+    if (!fc.rows.empty() && static_cast<int>(fc.rows.size()) == o.field_samples) t.field = fc;
+    plan.system = sys;
+    plan.principal_distance_mm = t.principal_distance_mm;
+    plan.target = t;
+  }
+  plan.fov = FieldOfView(plan.system, setup.camera, plan.principal_distance_mm);
+
+  // Plain-language warnings, the paper's advice (Sections 2.3, 3.1, 4 and 6).
+  auto& warn = plan.warnings;
+  const bool dome = plan.system.IsDome();
+  if (ln.pupil_estimated) {
+    warn.push_back(fmt::format("The entrance pupil of the {} is estimated, not measured: every distance from "
+                               "the pupil may be off by several mm. Measure it as in the paper's Section 3.1.",
+                               ln.name));
+  }
+  if (dome) {
+    const double near_at_inf = ThinLensDof(kInf, f, n, coc).near_mm;
+    std::string what = near_at_inf > plan.d_s2ep_infinity_mm
+                           ? "nothing in the water is then sharp"
+                           : fmt::format("only objects beyond WD {:.0f} mm are then sharp",
+                                         WdForVirtualImage(plan.system, near_at_inf));
+    warn.push_back(fmt::format("Do not set the focus to infinity: behind this dome even infinity is imaged "
+                               "{:.1f} mm from the entrance pupil; at f/{:g} {}.",
+                               plan.d_s2ep_infinity_mm, n, what));
+  }
+  if (plan.closest_d_s2ep_mm >= plan.d_s2ep_infinity_mm) {
+    warn.push_back(fmt::format("The {} cannot focus on anything behind this port: its closest focus is {:.1f} "
+                               "mm from the pupil, the virtual image of infinity {:.1f} mm. Add a close-up lens "
+                               "of at least +{:.2f} dioptres.",
+                               ln.name, plan.closest_d_s2ep_mm, plan.d_s2ep_infinity_mm,
+                               CloseupDioptreNeeded(plan.d_s2ep_infinity_mm, plan.closest_d_s2ep_mm)));
+  }
+  if (plan.target) {
+    const TargetPlan& t = *plan.target;
+    if (!t.focus.focus_distance_mm) {
+      warn.push_back(fmt::format("The {} cannot focus on the virtual image at {:.1f} mm (its closest is {:.1f} "
+                                 "mm): move back to WD >= {:.0f} mm or add a close-up lens of at least +{:.2f} "
+                                 "dioptres.",
+                                 ln.name, t.focus.d_s2ep_mm, plan.closest_d_s2ep_mm, plan.min_wd_mm,
+                                 t.focus.closeup_dioptre));
+    } else if (t.air.focus_distance_mm) {
+      warn.push_back(fmt::format("Do not pre-focus in air: on a subject {:.0f} mm away the focus scale would be "
+                                 "set to {:.0f} mm; under water it must be {:.0f} mm.",
+                                 t.subject_distance_mm, *t.air.focus_distance_mm, *t.focus.focus_distance_mm));
+    }
+    if (t.field && t.field->corner_blur_px * pitch > coc) {
+      const double nf = t.field->f_number_for_sharp_corners;
+      warn.push_back(fmt::format("The corners are soft: the port's field curvature puts their image {:.1f} mm "
+                                 "nearer, a {:.1f} px blur at f/{:g}; {}.",
+                                 t.field->rows.back().sag_mm, t.field->corner_blur_px, n,
+                                 nf <= ln.f_number_max ? fmt::format("f/{:.1f} brings them within the circle of "
+                                                                     "confusion", nf)
+                                                       : fmt::format("even f/{:g} does not fix it", ln.f_number_max)));
+    }
+  }
+  const double airy_mm = 2.44 * o.lambda_nm * 1e-6 * n;
+  if (airy_mm > coc) {
+    warn.push_back(fmt::format("At f/{:g} diffraction alone blurs a point over {:.1f} um (Airy disc 2.44 lambda N), "
+                               "more than the {:.1f} um circle of confusion: stopping down for depth of field "
+                               "now costs sharpness.",
+                               n, airy_mm * 1000, coc * 1000));
+  }
+  if (!dome) {
+    warn.push_back("A flat port narrows the field of view and adds pincushion distortion and lateral colour: "
+                   "see 'porthole flat'.");
+  }
+  return plan;
+}
+
+}  // namespace porthole::planning
