@@ -1,0 +1,138 @@
+// Photogrammetric self-calibration of one camera from planar-target detections (the paper's
+// Section 5): bundle adjustment with Ceres on the Brown–Conrady model of camera/brown.h (the same
+// implementation the simulation uses), with the statistics of the paper's Table 6.
+//
+// Contract:
+//  - Observations are pixels (observations.h), converted to image mm (y up) with the pixel pitch
+//    (camera/sensor.h); with pitch 1 "millimetres" are pixels. Residuals are projected − observed
+//    measured points in pixels.
+//  - Unknowns: the free camera parameters (the rest fixed at their start value, 0 for the
+//    additional parameters), every image's cam_from_target pose (angle-axis rad, translation mm),
+//    and optionally the target points (self-calibration) with a minimal datum of 7 fixed
+//    coordinates: one point fully, a second far from it fully (scale from the nominal target),
+//    and the Z of a third far from their line.
+//  - Start: Zhang's closed form from plane homographies (principal point at the image centre,
+//    one principal distance for all images), then poses from each homography, then a
+//    c-and-poses adjustment, then all free parameters.
+//  - Statistics: σ0 = sqrt(Σ|r|² / (2n − u)) (px, a posteriori), covariance of the camera
+//    parameters = σ0²·(JᵀJ)⁻¹ with J the Jacobian of the px residuals (Ceres marginal covariance
+//    over all unknowns), σ and correlation from it; rms_px = sqrt(Σ|r|² / n) as OpenCV reports.
+//  - Significance of each free additional parameter (K1…B2): t = |p|/σp. With stepwise dropping on,
+//    the least significant one below the threshold is fixed to 0 and the adjustment rerun, until
+//    all remaining ones pass (the paper's Table 6 leaves such parameters out).
+//  - Outliers: iterated k·σ0 rejection on the 2-D residual length, and/or a robust loss.
+// Bad input (too few images or points for the free parameters, mixed image sizes) throws
+// InvalidInput naming the field.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "porthole/calib/observations.h"
+#include "porthole/calib/target.h"
+#include "porthole/camera/brown.h"
+#include "porthole/camera/sensor.h"
+
+namespace porthole::calib {
+
+using FreeMask = std::array<bool, camera::kBrownNumParams>;
+
+// c, x0, y0, K1, K2, P1, P2 free; K3, B1, B2 fixed at 0: the paper's usual set (Table 6 rows).
+inline constexpr FreeMask kDefaultFree = {true, true, true, true, true,
+                                          false, true, true, false, false};
+
+// Parses "c,x0,y0,K1,K2,P1,P2" (names of kBrownParamInfo, case-sensitive); "all" frees all ten.
+FreeMask ParseFreeParameters(const std::string& list, const std::string& field = "--free");
+std::string FreeParametersToString(const FreeMask& free);
+
+enum class LossKind { kNone, kHuber, kCauchy };
+
+struct CalibrationOptions {
+  FreeMask free = kDefaultFree;  // which camera parameters are adjusted
+  // Pixel pitch, mm. 1 means image "millimetres" are pixels (no sensor data needed).
+  double pixel_pitch_mm = 1.0;
+  // Start values of the fixed additional parameters and of c/x0/y0 if those are fixed; nullopt:
+  // Zhang's start with additional parameters 0.
+  std::optional<camera::BrownParams> initial;
+  // Outlier rejection: points whose 2-D residual exceeds reject_k·σ0 are dropped and the
+  // adjustment rerun (at most max_reject_rounds times). 0 = off. 5 drops ~4e-6 of Gaussian data.
+  double reject_k = 5.0;
+  int max_reject_rounds = 5;
+  // Robust loss on the px residual, scale loss_scale_px (≈ 2–3× the expected σ0).
+  LossKind loss = LossKind::kNone;
+  double loss_scale_px = 1.0;
+  // Self-calibration: adjust the target points too (with the datum above).
+  bool target_free = false;
+  // Stepwise dropping of additional parameters with |p|/σp below significance_t. 2 ≈ 95 %
+  // two-sided for the large redundancy of a calibration.
+  bool drop_insignificant = false;
+  double significance_t = 2.0;
+  // Ceres iteration cap per adjustment; a calibration converges in 5–20.
+  int max_iterations = 100;
+  // Threads for Ceres (the machine is shared: default 1).
+  int num_threads = 1;
+  // Progress messages (long runs), e.g. printed on stderr by the CLI. May be empty.
+  std::function<void(const std::string&)> progress;
+};
+
+struct ImageResult {
+  std::string image;
+  int n_points = 0;     // points used
+  int n_rejected = 0;   // points rejected as outliers
+  double rms_px = 0;    // sqrt(mean |r|²) over its used points
+  Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();  // cam_from_target angle-axis
+  Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
+};
+
+struct Significance {
+  int index = 0;     // BrownIndex
+  double t = 0;      // |p| / σp
+  bool significant = false;
+};
+
+struct DroppedParameter {
+  int index = 0;     // BrownIndex
+  double value = 0;  // its estimate when it was dropped
+  double sigma = 0;  // and its σ
+  double t = 0;      // |value| / sigma
+};
+
+struct CalibrationResult {
+  camera::BrownParams camera;
+  camera::Sensor sensor;
+  FreeMask free{};  // after stepwise dropping
+  // σ0²-scaled covariance of the ten camera parameters (BrownIndex order); rows and columns of
+  // fixed parameters are 0. Units: products of the kBrownParamInfo units.
+  Eigen::Matrix<double, camera::kBrownNumParams, camera::kBrownNumParams> covariance =
+      decltype(covariance)::Zero();
+  std::array<double, camera::kBrownNumParams> sigma{};  // NaN for fixed parameters
+  Eigen::Matrix<double, camera::kBrownNumParams, camera::kBrownNumParams> correlation =
+      decltype(correlation)::Zero();  // NaN rows/columns for fixed parameters
+  bool covariance_ok = false;
+  double sigma0_px = 0;
+  double rms_px = 0;
+  int n_images = 0;
+  int n_points = 0;      // points used
+  int n_rejected = 0;    // points rejected
+  int n_unknowns = 0;    // u
+  int redundancy = 0;    // 2n − u
+  int iterations = 0;    // Ceres iterations, all adjustments
+  double seconds = 0;    // wall time
+  std::vector<ImageResult> images;
+  std::vector<Significance> significance;  // free additional parameters, after dropping
+  std::vector<DroppedParameter> dropped;   // in the order dropped
+  std::vector<Eigen::Vector3d> target_points_mm;  // adjusted if target_free, else nominal
+  std::string message;   // "ok" or what went wrong (e.g. singular covariance)
+};
+
+// Calibrates from the detections of `target` in images of one camera. Images with fewer than 4
+// points are skipped (listed in the progress messages). Throws InvalidInput (field "--images")
+// when fewer than 3 images remain or the redundancy is not positive.
+CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
+                            const TargetSpec& target, const CalibrationOptions& options = {});
+
+}  // namespace porthole::calib

@@ -1,0 +1,73 @@
+#include "porthole/calib/synthetic.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+namespace porthole::calib {
+
+SyntheticSet MakeSyntheticSet(const SyntheticOptions& o) {
+  camera::ValidateBrownParams(o.camera);
+  camera::ValidateSensor(o.sensor);
+  const auto pts = TargetPoints(o.target);
+  Eigen::Vector3d lo = pts[0], hi = pts[0];
+  for (const auto& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const double extent = (hi - lo).head<2>().maxCoeff();
+  const double width_mm = o.sensor.width_px * o.sensor.pixel_pitch_mm;
+  const double distance = o.camera.c_mm * extent / (o.fill * width_mm);
+
+  std::mt19937_64 pose_rng(o.pose_seed), noise_rng(o.noise_seed);
+  std::uniform_real_distribution<double> uni(-1, 1);
+  std::normal_distribution<double> gauss(0, o.noise_px);
+  SyntheticSet set;
+  const double tilt_max = o.max_tilt_deg * M_PI / 180;
+  for (int i = 0; i < o.n_images; ++i) {
+    // Camera centre on a sphere around the target centre, on the −Z side, looking at it, with a
+    // random roll and a small aim offset.
+    const double tilt = tilt_max * std::sqrt(0.15 + 0.85 * std::abs(uni(pose_rng)));
+    const double azimuth = 2 * M_PI * (i + 0.5 * uni(pose_rng)) / o.n_images;
+    const Eigen::Vector3d dir(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth),
+                              -std::cos(tilt));
+    const Eigen::Vector3d eye = centre + distance * (1 + 0.15 * uni(pose_rng)) * dir;
+    const Eigen::Vector3d aim = centre + 0.05 * extent * Eigen::Vector3d(uni(pose_rng), uni(pose_rng), 0);
+    const Eigen::Vector3d z = (aim - eye).normalized();
+    const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - z.x() * z).normalized();
+    const Eigen::Vector3d y0 = z.cross(x);
+    const double roll = 0.3 * uni(pose_rng);
+    const Eigen::Vector3d xr = std::cos(roll) * x + std::sin(roll) * y0;
+    const Eigen::Vector3d yr = z.cross(xr);
+    Eigen::Matrix3d r;
+    r.row(0) = xr;
+    r.row(1) = yr;
+    r.row(2) = z;
+    const Eigen::Vector3d t = -r * eye;
+    ImageDetections d;
+    d.image = fmt::format("synthetic{:02d}", i);
+    d.width_px = o.sensor.width_px;
+    d.height_px = o.sensor.height_px;
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      const auto xy = camera::Project<double>(o.camera, Eigen::Vector3d(r * pts[k] + t));
+      if (!xy) continue;
+      const Eigen::Vector2d uv = camera::ImageMmToPixel(o.sensor, (*xy)(0), (*xy)(1));
+      if (uv.x() < 0 || uv.y() < 0 || uv.x() > o.sensor.width_px - 1 ||
+          uv.y() > o.sensor.height_px - 1) {
+        continue;
+      }
+      d.ids.push_back(static_cast<int>(k));
+      d.points_px.emplace_back(uv.x() + gauss(noise_rng), uv.y() + gauss(noise_rng));
+    }
+    const Eigen::AngleAxisd aa(r);
+    ImageResult pose;
+    pose.image = d.image;
+    pose.n_points = static_cast<int>(d.ids.size());
+    pose.rotation_rad = aa.angle() * aa.axis();
+    pose.translation_mm = t;
+    set.detections.push_back(std::move(d));
+    set.poses.push_back(pose);
+  }
+  return set;
+}
+
+}  // namespace porthole::calib

@@ -1,0 +1,112 @@
+#include "porthole/calib/target.h"
+
+#include <fmt/format.h>
+
+#include <charconv>
+
+#include "porthole/core/error.h"
+
+namespace porthole::calib {
+namespace {
+
+std::vector<std::string> Split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  for (std::size_t i = 0; i <= s.size(); ++i) {
+    if (i == s.size() || s[i] == sep) {
+      out.push_back(s.substr(start, i - start));
+      start = i + 1;
+    }
+  }
+  return out;
+}
+
+double ParseNumber(const std::string& s, const std::string& field, const std::string& what) {
+  double v = 0;
+  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc() || ptr != s.data() + s.size() || !(v > 0)) {
+    throw InvalidInput(field, fmt::format("{} must be a number > 0, got '{}'", what, s));
+  }
+  return v;
+}
+
+}  // namespace
+
+int TargetSpec::PointCols() const { return kind == TargetKind::kCharuco ? cols - 1 : cols; }
+int TargetSpec::PointRows() const { return kind == TargetKind::kCharuco ? rows - 1 : rows; }
+int TargetSpec::NumPoints() const { return PointCols() * PointRows(); }
+
+std::string TargetSpec::ToString() const {
+  switch (kind) {
+    case TargetKind::kChessboard:
+      return fmt::format("chessboard:{}x{}:{:g}", cols, rows, spacing_mm);
+    case TargetKind::kCharuco:
+      return fmt::format("charuco:{}x{}:{:g}:{:g}:{}", cols, rows, spacing_mm, marker_mm,
+                         dictionary);
+    case TargetKind::kCircles:
+      return fmt::format("circles:{}x{}:{:g}", cols, rows, spacing_mm);
+    case TargetKind::kAsymmetricCircles:
+      return fmt::format("acircles:{}x{}:{:g}", cols, rows, spacing_mm);
+  }
+  return "";
+}
+
+TargetSpec ParseTarget(const std::string& spec, const std::string& field) {
+  const auto parts = Split(spec, ':');
+  const std::string usage =
+      "expected chessboard:COLSxROWS:SQUARE_MM, charuco:SQXxSQY:SQUARE_MM:MARKER_MM[:DICT], "
+      "circles:COLSxROWS:SPACING_MM or acircles:COLSxROWS:SPACING_MM";
+  if (parts.size() < 3) throw InvalidInput(field, usage + ", got '" + spec + "'");
+  TargetSpec t;
+  const std::string& kind = parts[0];
+  std::size_t expected = 3;
+  if (kind == "chessboard") {
+    t.kind = TargetKind::kChessboard;
+  } else if (kind == "charuco") {
+    t.kind = TargetKind::kCharuco;
+    expected = parts.size() == 5 ? 5 : 4;
+  } else if (kind == "circles") {
+    t.kind = TargetKind::kCircles;
+  } else if (kind == "acircles") {
+    t.kind = TargetKind::kAsymmetricCircles;
+  } else {
+    throw InvalidInput(field, usage + ", got '" + spec + "'");
+  }
+  if (parts.size() != expected) throw InvalidInput(field, usage + ", got '" + spec + "'");
+  const auto dims = Split(parts[1], 'x');
+  if (dims.size() != 2) throw InvalidInput(field, "size must be COLSxROWS, got '" + parts[1] + "'");
+  const double cols = ParseNumber(dims[0], field, "COLS");
+  const double rows = ParseNumber(dims[1], field, "ROWS");
+  if (cols != std::floor(cols) || rows != std::floor(rows) || cols > 1000 || rows > 1000) {
+    throw InvalidInput(field, "COLS and ROWS must be whole numbers <= 1000");
+  }
+  t.cols = static_cast<int>(cols);
+  t.rows = static_cast<int>(rows);
+  t.spacing_mm = ParseNumber(parts[2], field, "the spacing (mm)");
+  if (t.kind == TargetKind::kCharuco) {
+    t.marker_mm = ParseNumber(parts[3], field, "MARKER_MM");
+    if (!(t.marker_mm < t.spacing_mm)) throw InvalidInput(field, "MARKER_MM must be < SQUARE_MM");
+    t.dictionary = expected == 5 ? parts[4] : "DICT_4X4_50";
+  }
+  if (t.PointCols() < 2 || t.PointRows() < 2) {
+    throw InvalidInput(field, "the target needs at least 2x2 points");
+  }
+  return t;
+}
+
+std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& t) {
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(t.NumPoints());
+  const double s = t.spacing_mm;
+  for (int i = 0; i < t.PointRows(); ++i) {
+    for (int j = 0; j < t.PointCols(); ++j) {
+      // ChArUco corners start one square in from the board corner (OpenCV's chessboardCorners).
+      const double off = t.kind == TargetKind::kCharuco ? s : 0.0;
+      const double x = t.kind == TargetKind::kAsymmetricCircles ? (2 * j + i % 2) * s : j * s + off;
+      pts.emplace_back(x, i * s + off, 0.0);
+    }
+  }
+  return pts;
+}
+
+}  // namespace porthole::calib

@@ -1,0 +1,46 @@
+// Planar calibration targets: what a target spec string means and where its points lie.
+//
+// Target frame: the target plane is Z = 0, X along a row of points (OpenCV's column index), Y down
+// the rows, in mm; point 0 is the first point OpenCV reports. Point ids are row-major:
+// id = row·cols + col (a ChArUco corner id is the same number OpenCV's aruco module gives it).
+//
+// Spec strings (sizes in mm):
+//   chessboard:COLSxROWS:SQUARE          inner corners, e.g. chessboard:9x6:25
+//   charuco:SQX xSQY:SQUARE:MARKER[:DICT] squares (not corners), e.g. charuco:5x7:30:22:DICT_4X4_50
+//   circles:COLSxROWS:SPACING            symmetric circle grid (centre spacing)
+//   acircles:COLSxROWS:SPACING           asymmetric circle grid (OpenCV's layout: row i, col j at
+//                                        ((2j + i mod 2)·s, i·s); SPACING = s)
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace porthole::calib {
+
+enum class TargetKind { kChessboard, kCharuco, kCircles, kAsymmetricCircles };
+
+struct TargetSpec {
+  TargetKind kind = TargetKind::kChessboard;
+  int cols = 0;              // points per row (ChArUco: squares along X)
+  int rows = 0;              // rows of points (ChArUco: squares along Y)
+  double spacing_mm = 0;     // square size or circle spacing, mm
+  double marker_mm = 0;      // ChArUco marker side, mm
+  std::string dictionary;    // ChArUco ArUco dictionary name (default DICT_4X4_50)
+
+  // Number of points the target carries (ChArUco: the (cols−1)·(rows−1) inner corners).
+  int NumPoints() const;
+  // Columns and rows of the point lattice (ChArUco: squares − 1).
+  int PointCols() const;
+  int PointRows() const;
+  // The spec string that ParseTarget reads back to this target.
+  std::string ToString() const;
+};
+
+// Parses a spec string (above). Throws InvalidInput(field, ...) naming the rule broken.
+TargetSpec ParseTarget(const std::string& spec, const std::string& field = "--target");
+
+// Every point of the target in the target frame (mm), indexed by id.
+std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& target);
+
+}  // namespace porthole::calib
