@@ -13,5 +13,6 @@ void RegisterTrace(CLI::App& app);
 void RegisterPresets(CLI::App& app);
 void RegisterFit(CLI::App& app);
 void RegisterSynthScan(CLI::App& app);
+void RegisterAssemble(CLI::App& app);
 
 }  // namespace porthole::cli

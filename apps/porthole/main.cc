@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterPresets(app);
   porthole::cli::RegisterFit(app);
   porthole::cli::RegisterSynthScan(app);
+  porthole::cli::RegisterAssemble(app);
 
   try {
     app.parse(argc, argv);
