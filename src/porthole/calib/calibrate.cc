@@ -134,11 +134,33 @@ std::array<int, 3> ChooseDatum(const std::vector<Eigen::Vector3d>& pts, const st
   return {a, b, c};
 }
 
+// The bundle residual on scaled camera parameters: camera[i] = scale[i]·scaled[i], with scales
+// that give every parameter a comparable effect at the image corner (K_n by R^-2n, P by R^-1, for
+// R the half-diagonal in mm). Without it the Jacobian columns of c and K2 differ by ~R⁵ and the
+// covariance is numerically singular in pixel units. The model itself is camera::BrownBundleResidual.
+struct ScaledBundleResidual {
+  camera::BrownBundleResidual residual;
+  std::array<double, kBrownNumParams> scale;
+
+  template <typename T>
+  bool operator()(const T* scaled, const T* rotation, const T* translation, const T* point,
+                  T* r) const {
+    T cam[kBrownNumParams];
+    for (int i = 0; i < kBrownNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
+    return residual(cam, rotation, translation, point, r);
+  }
+};
+
+std::array<double, kBrownNumParams> ParameterScales(const camera::Sensor& s) {
+  const double r = 0.5 * std::hypot(s.width_px, s.height_px) * s.pixel_pitch_mm;
+  return {r, r, r, std::pow(r, -2), std::pow(r, -4), std::pow(r, -6), 1 / r, 1 / r, 1, 1};
+}
+
 class Adjustment {
  public:
   Adjustment(const CalibrationOptions& options, std::vector<Observation>* obs, State* state,
-             int n_images, const std::set<int>& used_points)
-      : o_(options), obs_(obs), s_(state), n_images_(n_images), used_(used_points) {
+             const camera::Sensor& sensor, const std::set<int>& used_points)
+      : o_(options), obs_(obs), s_(state), scale_(ParameterScales(sensor)), used_(used_points) {
     if (o_.target_free) datum_ = ChooseDatum(s_->points, used_);
   }
 
@@ -148,15 +170,17 @@ class Adjustment {
             Eigen::Matrix<double, kBrownNumParams, kBrownNumParams>* covariance, bool* cov_ok) {
     ceres::Problem::Options po;
     ceres::Problem problem(po);
+    std::array<double, kBrownNumParams> scaled;
+    for (int i = 0; i < kBrownNumParams; ++i) scaled[i] = s_->camera[i] / scale_[i];
     for (const auto& ob : *obs_) {
       if (!ob.active) continue;
       ceres::LossFunction* loss = nullptr;
       if (o_.loss == LossKind::kHuber) loss = new ceres::HuberLoss(o_.loss_scale_px);
       if (o_.loss == LossKind::kCauchy) loss = new ceres::CauchyLoss(o_.loss_scale_px);
-      problem.AddResidualBlock(
-          camera::BrownBundleResidual::Create(ob.x_mm, ob.y_mm, o_.pixel_pitch_mm), loss,
-          s_->camera.data(), s_->rotation[ob.image].data(), s_->translation[ob.image].data(),
-          s_->points[ob.point].data());
+      auto* cost = new ceres::AutoDiffCostFunction<ScaledBundleResidual, 2, kBrownNumParams, 3, 3, 3>(
+          new ScaledBundleResidual{{ob.x_mm, ob.y_mm, o_.pixel_pitch_mm}, scale_});
+      problem.AddResidualBlock(cost, loss, scaled.data(), s_->rotation[ob.image].data(),
+                               s_->translation[ob.image].data(), s_->points[ob.point].data());
     }
     std::vector<int> fixed;
     for (int i = 0; i < kBrownNumParams; ++i) {
@@ -164,9 +188,9 @@ class Adjustment {
       if (!is_free) fixed.push_back(i);
     }
     if (static_cast<int>(fixed.size()) == kBrownNumParams) {
-      problem.SetParameterBlockConstant(s_->camera.data());
+      problem.SetParameterBlockConstant(scaled.data());
     } else if (!fixed.empty()) {
-      problem.SetManifold(s_->camera.data(), new ceres::SubsetManifold(kBrownNumParams, fixed));
+      problem.SetManifold(scaled.data(), new ceres::SubsetManifold(kBrownNumParams, fixed));
     }
     for (int id : used_) {
       double* p = s_->points[id].data();
@@ -188,15 +212,19 @@ class Adjustment {
     so.num_threads = o_.num_threads;
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
+    for (int i = 0; i < kBrownNumParams; ++i) s_->camera[i] = scaled[i] * scale_[i];
     if (covariance != nullptr) {
       ceres::Covariance::Options co;
       co.num_threads = o_.num_threads;
       ceres::Covariance cov(co);
-      const double* cam = s_->camera.data();
+      const double* cam = scaled.data();
       const std::vector<std::pair<const double*, const double*>> blocks = {{cam, cam}};
       *cov_ok = cov.Compute(blocks, &problem) &&
                 cov.GetCovarianceBlock(cam, cam, covariance->data());
       // Ceres writes row-major; the matrix is symmetric, so the storage order does not matter.
+      // Back to the parameters' own units: Σ = S Σ_scaled S.
+      const Eigen::Map<const Eigen::Matrix<double, kBrownNumParams, 1>> sv(scale_.data());
+      *covariance = sv.asDiagonal() * (*covariance) * sv.asDiagonal();
     }
     return static_cast<int>(summary.iterations.size());
   }
@@ -205,7 +233,7 @@ class Adjustment {
   const CalibrationOptions& o_;
   std::vector<Observation>* obs_;
   State* s_;
-  int n_images_;
+  std::array<double, kBrownNumParams> scale_;
   std::set<int> used_;
   std::array<int, 3> datum_{-1, -1, -1};
 };
@@ -343,7 +371,7 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     PoseFromHomography(hs[i], s.camera[camera::kBrownC], &s.rotation[i], &s.translation[i]);
   }
 
-  Adjustment adj(options, &obs, &s, n_images, used_points);
+  Adjustment adj(options, &obs, &s, res.sensor, used_points);
   res.iterations += adj.Solve(options.free, /*poses_and_c_only=*/true, nullptr, nullptr);
   say(fmt::format("{} images, {} points: adjusting {}", n_images, obs.size(),
                   FreeParametersToString(options.free)));
