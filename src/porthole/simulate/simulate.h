@@ -1,0 +1,184 @@
+// Port-induced distortion, predicted: trace a grid of image points out of the camera through a
+// port, place object points along the traced rays, and fit the central Brown–Conrady model
+// (docs/conventions.md) to them by least squares, as a self-calibration would. docs/simulate.md.
+//
+// Frames and units: the housing frame of docs/conventions.md (mm; origin at the lens-mount flange,
+// +Z toward the scene, +X right, +Y down); image mm with y UP; Brown parameters in the units of
+// camera::kBrownParamInfo; residuals in µm in the image.
+//
+// The camera behind the port is the in-air lens model (an ideal pinhole of principal distance c, or
+// an in-air calibration) with its perspective centre at the entrance pupil. In water the port makes
+// the bundle of rays non-central unless it is a dome concentric with the pupil: the fit absorbs
+// what a central model can (c, principal point, K, P, and the pose of the perspective centre) and
+// leaves the rest in the residual.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "porthole/camera/brown.h"
+#include "porthole/camera/sensor.h"
+#include "porthole/lens/lens.h"
+#include "porthole/ports/environment.h"
+#include "porthole/ports/port.h"
+
+namespace porthole::simulate {
+
+using Vec3 = Eigen::Vector3d;
+
+// The camera behind the port.
+struct CameraSetup {
+  camera::Sensor sensor;
+  // The lens in air: an ideal pinhole (only c_mm set) or an in-air calibration. The ray of a
+  // measured image point leaves the entrance pupil along camera::Unproject(lens, x, y).
+  camera::BrownParams lens;
+  Vec3 ep_in_housing_mm = Vec3::Zero();  // the entrance pupil (perspective centre in air)
+};
+
+struct FitOptions {
+  int grid_cols = 25;  // image points along x, spanning the frame edge to edge (>= 3)
+  int grid_rows = 17;  // image points along y (>= 3); 25×17 keeps the D300's pixel aspect
+  // Object points lie on planes at these distances from the entrance pupil along +Z, mm (the
+  // depth range of a calibration network). Empty: near…far × reference_distance_mm.
+  std::vector<double> distances_mm;
+  double reference_distance_mm = 1000;  // the focus distance the factors scale (Predict: the spec's)
+  double near_factor = 0.8;             // 0.8–1.3 × focus: a typical calibration network depth
+  double far_factor = 1.3;
+  int num_distances = 3;  // >= 2: one depth alone cannot separate c from the centre's Z
+  bool fit_k3 = true;     // the model has K3; off reproduces a K1/K2-only calibration
+  // The perspective centre's position is always free. Its rotation is free by default, as every
+  // image's exterior orientation is in a self-calibration: a port that tilts the whole bundle (a
+  // decentred or wedged dome) is absorbed by the pose, and the residual is then the non-central
+  // part alone. A small rotation and a principal-point shift move the image alike to first order,
+  // so x0/y0 (and P1/P2, which share the second-order terms) are the parameters that depend on
+  // this datum choice; false holds the camera's axes at the housing's and puts the tilt into them
+  // (docs/simulate.md compares both with the paper's Table 6).
+  bool free_rotation = true;
+  int max_iterations = 100;  // Ceres iterations per stage
+};
+
+// Throws InvalidInput naming the option.
+void Validate(const FitOptions& o);
+// The object distances the options describe (mm from the pupil).
+std::vector<double> Distances(const FitOptions& o);
+
+// One fitted central camera.
+struct BrownFit {
+  camera::BrownParams params;  // B1 = B2 = 0 (held)
+  Vec3 center_in_housing_mm = Vec3::Zero();  // fitted perspective centre
+  Vec3 rotation_deg = Vec3::Zero();  // cam_from_housing rotation, angle-axis in degrees
+  double rms_um = 0;  // RMS of the 2-D image residual: the non-central part Brown cannot absorb
+  double max_um = 0;
+  int num_points = 0;  // observations used (grid points × distances)
+  int num_failed = 0;  // grid rays that could not be traced (beyond a rim, total reflection)
+  bool converged = false;
+  // Per grid point (row-major, top row first): RMS residual over the distances, µm; NaN if failed.
+  std::vector<double> residual_um;
+};
+
+// Grid of measured image points (image mm), row-major from the top-left corner (v = 0, u = 0).
+std::vector<Eigen::Vector2d> ImageGrid(const camera::Sensor& s, int cols, int rows);
+
+// Traces the grid out through `sys` (whose pupil must be camera.ep_in_housing_mm) and fits the
+// central Brown model to the object points at Distances(options). Throws InvalidInput for bad
+// options, a camera whose rays point backwards, or when fewer than half the rays get through.
+BrownFit SimulateFit(const ports::PortSystem& sys, const CameraSetup& camera,
+                     const FitOptions& options = {});
+
+// The port with air (n = 1) outside instead of water: the in-air calibration of the camera in its
+// housing.
+ports::PortSystem WithAirOutside(const ports::PortSystem& sys);
+
+// Reprojection error of a fitted model (with its fitted pose) on object points at other distances
+// from the pupil: how wrong the implicit (Brown-absorbs-refraction) model is outside the range it
+// was fitted over.
+struct DistanceError {
+  double distance_mm = 0;
+  double rms_um = 0, max_um = 0;
+  int num_points = 0;
+};
+std::vector<DistanceError> DistanceErrors(const ports::PortSystem& sys, const CameraSetup& camera,
+                                          const BrownFit& fit,
+                                          const std::vector<double>& distances_mm,
+                                          const FitOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// The whole system: port, water, camera body, lens and its focus.
+
+struct SystemSpec {
+  ports::PortSpec port;
+  ports::Environment env;
+  lens::CameraBody body;
+  lens::LensSpec lens;
+  // The lens is focused under water on an object this far in front of its entrance pupil (the
+  // paper: autofocus at 1 m), i.e. on that object's virtual image (Eq. 2 gives the focus scale).
+  double object_distance_mm = 1000;
+  Vec3 ep_offset_mm = Vec3::Zero();  // added to the lens's pupil (0, 0, D_EP2F(FD))
+  std::optional<double> c_mm;  // principal distance; default: thin lens focused on the image
+  // The in-air calibration of the camera in its housing (c, x0, y0, K, P): the lens model, and
+  // the base of the prediction. Its c overrides c_mm.
+  std::optional<camera::BrownParams> air_calibration;
+};
+
+// Where the lens is focused and where its pupil then is.
+struct FocusSetting {
+  double object_distance_mm = 0;  // object to entrance pupil, along the axis (input)
+  double wd_mm = 0;               // object to the port's outer vertex
+  double d_s2ep_mm = 0;           // its (paraxial) virtual image to the entrance pupil
+  double fd_mm = 0;               // focus-scale distance the lens is set to (Eq. 2 inverted)
+  double d_ep2f_mm = 0;           // entrance pupil ahead of the flange at that focus
+  Vec3 ep_in_housing_mm = Vec3::Zero();  // (0, 0, d_ep2f) + ep_offset
+};
+
+// Solves the fixed point: pupil position → virtual image of the object → focus scale → pupil.
+// Throws InvalidInput("--focus-distance") when the lens cannot focus on the virtual image.
+FocusSetting FocusUnderWater(const SystemSpec& spec);
+
+// The thin-lens principal distance of a lens of focal length f focused on a subject d in front of
+// its entrance pupil: c = f d / (d − f). An estimate: a real lens's principal planes are not at
+// its pupil (the paper's 24 mm lens calibrates at 25.8 mm where this gives 26.7 mm).
+double ThinLensPrincipalDistanceMm(double focal_length_mm, double d_s2ep_mm);
+
+struct Prediction {
+  FocusSetting focus;
+  FitOptions options;  // as used: reference_distance_mm = the spec's object distance
+  CameraSetup camera;  // the camera the simulation used (c, lens model, pupil)
+  ports::PortSystem water_system, air_system;
+  BrownFit water, air;  // the fits with water and with air outside the port
+  camera::BrownParams change;  // water − air, parameter by parameter
+  // The in-air calibration + change: the underwater calibration to expect (only with
+  // air_calibration).
+  std::optional<camera::BrownParams> predicted_water;
+};
+
+// Resolves the system (focus, pupil, c, indices), fits water and air. Throws InvalidInput.
+Prediction Predict(const SystemSpec& spec, const FitOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// Tolerance sweeps and maps.
+
+struct SweepRow {
+  double offset_mm = 0;  // added to the pupil along the sweep's axis
+  BrownFit water, air;
+};
+// Moves the pupil by each offset along housing axis `axis` (0 X, 1 Y, 2 Z; +Z toward the glass)
+// from its place in `prediction`, keeping c and the focus, and refits in water and in air.
+// Fit options as in the prediction. Throws InvalidInput("axis") or when a pupil leaves the port.
+std::vector<SweepRow> SweepPupilOffset(const Prediction& prediction, int axis,
+                                       const std::vector<double>& offsets_mm);
+
+// The distortion fields over the fit grid: correction vectors Δ of the water and air fits at each
+// measured point, their difference (water − air), and the water fit's residual.
+struct MapPoint {
+  double x_mm = 0, y_mm = 0;  // image mm (y up)
+  double u_px = 0, v_px = 0;  // pixel (v down)
+  Eigen::Vector2d water_um = Eigen::Vector2d::Zero(), air_um = Eigen::Vector2d::Zero();
+  Eigen::Vector2d difference_um = Eigen::Vector2d::Zero();
+  double residual_um = 0;  // water fit, RMS over the distances (NaN where the ray failed)
+};
+// On the prediction's fit grid, row-major from the top-left corner.
+std::vector<MapPoint> DistortionMap(const Prediction& prediction);
+
+}  // namespace porthole::simulate
