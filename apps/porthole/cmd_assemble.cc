@@ -96,7 +96,12 @@ void RegisterAssemble(CLI::App& app) {
     if (!o->lens.empty()) {
       if (o->focus.empty()) throw InvalidInput("--focus", "required with --lens");
       focus_mm = ParseLengthList({o->focus}, "--focus")[0];
-      in.pupil_to_flange_mm = io::LoadLens(o->lens).PupilToFlangeMm(focus_mm);
+      const lens::LensSpec spec = io::LoadLens(o->lens);
+      try {
+        in.pupil_to_flange_mm = spec.PupilToFlangeMm(focus_mm);
+      } catch (const InvalidInput& e) {  // the library names it "focus"
+        throw InvalidInput("--focus", std::string(e.what()).substr(e.field().size() + 2));
+      }
     } else if (o->pupil_offset_mm) {
       in.pupil_to_flange_mm = *o->pupil_offset_mm;
     } else {
