@@ -1,12 +1,12 @@
 // Sphere fits on the paper's dome scan size (170,000 points, R 83.4 mm, σ 0.05 mm): time beside
 // the centre and radius error against the synthetic ground truth. Targets: plain < 20 ms, robust
-// (20 % gross outliers) < 200 ms. A PCL SACMODEL_SPHERE peer is planned (docs/fit.md).
+// (20 % gross outliers) < 200 ms. The PCL SACMODEL_SPHERE peer is bench_fit_pcl.cc.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 
+#include "fit_scans.h"
 #include "porthole/fit/sphere_fit.h"
-#include "porthole/pointcloud/synthetic.h"
 
 namespace {
 
@@ -15,24 +15,12 @@ using porthole::fit::SphereFitOptions;
 using porthole::fit::SphereFitSummary;
 
 const porthole::pointcloud::SyntheticCap& Scan(double outlier_fraction) {
-  static const auto make = [](double f) {
-    porthole::pointcloud::SyntheticCapOptions o;  // defaults: paper Table 3 outer sphere
-    o.n_points = 170000;
-    o.noise_sigma_mm = 0.05;
-    o.outlier_fraction = f;
-    o.seed = 2024;
-    return porthole::pointcloud::MakeSyntheticCap(o);
-  };
-  static const auto clean = make(0.0);
-  static const auto dirty = make(0.2);
-  return outlier_fraction > 0 ? dirty : clean;
+  return porthole::bench::PaperDomeScan(outlier_fraction);
 }
 
 void Report(benchmark::State& state, const SphereFitSummary& s) {
-  const porthole::pointcloud::SyntheticCapOptions truth;
-  state.counters["center_err_mm"] = (s.sphere.center_mm - truth.center_mm).norm();
-  state.counters["radius_err_mm"] = std::abs(s.sphere.radius_mm - truth.radius_mm);
-  state.counters["n_inliers"] = static_cast<double>(s.n_inliers);
+  porthole::bench::ReportSphere(state, s.sphere.center_mm, s.sphere.radius_mm,
+                                static_cast<double>(s.n_inliers));
   state.counters["usable"] = s.IsUsable() ? 1 : 0;
 }
 
