@@ -77,7 +77,8 @@ Json LoadFitJson(const std::string& path, const std::string& field, const std::s
                  const std::vector<std::string>& shapes) {
   std::ifstream f(path, std::ios::binary);
   if (!f)
-    throw InvalidInput(field, fmt::format("'{}' is neither {} nor a readable file", path, expected));
+    throw InvalidInput(field,
+                       fmt::format("'{}' is neither {} nor a readable file", path, expected));
   std::stringstream text;
   text << f.rdbuf();
   Json j;
@@ -122,8 +123,7 @@ HousingAssembly AssembleHousing(const AssemblyInput& in) {
   CheckSphere("--inner", in.inner);
   if (!std::isfinite(in.pupil_to_flange_mm))
     throw InvalidInput("--pupil-offset", "must be a finite number");
-  if (!((in.inner.center_mm - in.outer.center_mm).norm() + in.inner.radius_mm <
-        in.outer.radius_mm))
+  if (!((in.inner.center_mm - in.outer.center_mm).norm() + in.inner.radius_mm < in.outer.radius_mm))
     throw InvalidInput("--inner", "the inner sphere must lie inside the outer sphere");
   const Eigen::Vector3d flanges = in.housing_flange.center_mm - in.camera_flange.center_mm;
   if (!(std::abs(flanges.dot(n_cam)) > 1e-6 * std::max(1.0, flanges.norm())))
@@ -149,8 +149,8 @@ HousingAssembly AssembleHousing(const AssemblyInput& in) {
     CheckHint("--dome-x-hint", in.scan_x_hint, n_rear);
     CheckHint("--housing-flange", Eigen::Vector3d::UnitX(), a.housing_flange_normal);
     const RigidTransform rear_from_scan = PlaneFrame(c_rear, n_rear, in.scan_x_hint);
-    const RigidTransform flange_from_housing = PlaneFrame(
-        a.housing_flange_center_mm, a.housing_flange_normal, Eigen::Vector3d::UnitX());
+    const RigidTransform flange_from_housing =
+        PlaneFrame(a.housing_flange_center_mm, a.housing_flange_normal, Eigen::Vector3d::UnitX());
     a.housing_from_scan = flange_from_housing.Inverse() * rear_from_scan;
   } else {
     if (in.dome_centered) throw InvalidInput("--dome-centered", "needs --dome-rear");

@@ -58,8 +58,8 @@ struct HousingAssembly {
   // ahead of the centre, toward the dome) and its distance from the axis through the centre.
   double pupil_ahead_of_outer_mm = 0, pupil_off_axis_outer_mm = 0;
   double pupil_ahead_of_inner_mm = 0, pupil_off_axis_inner_mm = 0;
-  double thickness_mm = 0;         // R_out − R_in
-  double center_distance_mm = 0;   // |c_in − c_out|
+  double thickness_mm = 0;        // R_out − R_in
+  double center_distance_mm = 0;  // |c_in − c_out|
 
   std::string Report() const;  // the Table 4 rows and the pupil offsets, a few lines
 };
