@@ -1,0 +1,63 @@
+// `porthole detect --images DIR --target SPEC`: find a calibration target in every image (OpenCV),
+// report per image, optionally write one detections JSON per image (--out-dir) or print them all
+// (--json). Unreadable images and images without the target are reported and skipped.
+#include <fmt/format.h>
+
+#include <filesystem>
+
+#include "commands.h"
+#include "common.h"
+#include "porthole/calib/detect.h"
+#include "porthole/core/atomic_file.h"
+#include "porthole/core/error.h"
+
+namespace porthole::cli {
+
+void RegisterDetect(CLI::App& app) {
+  struct Options {
+    std::string images, target, out_dir;
+    bool json = false, quiet = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "detect", "Detect a calibration target (chessboard, ChArUco, circle grid) in images");
+  cmd->add_option("--images", o->images, "Directory of images (jpg, png, tif, bmp, pgm)")
+      ->required();
+  cmd->add_option("--target", o->target,
+                  "chessboard:COLSxROWS:SQUARE_MM (inner corners) | charuco:SQXxSQY:SQUARE_MM:"
+                  "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM")
+      ->required();
+  cmd->add_option("--out-dir", o->out_dir, "Write <image>.json detections into this directory");
+  cmd->add_flag("--json", o->json, "Print all detections as one JSON set");
+  cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
+  cmd->callback([o] {
+    const auto target = calib::ParseTarget(o->target);
+    if (!o->out_dir.empty() && !std::filesystem::is_directory(o->out_dir)) {
+      throw InvalidInput("--out-dir", o->out_dir + " is not a directory");
+    }
+    const auto paths = calib::ListImages(o->images);
+    const auto run = calib::DetectAll(paths, target, [&](const std::string& m) {
+      if (!o->quiet) fmt::print(stderr, "detect: {}\n", m);
+    });
+    if (!o->out_dir.empty()) {
+      for (const auto& d : run.detections) {
+        const auto file = std::filesystem::path(o->out_dir) /
+                          (std::filesystem::path(d.image).stem().string() + ".json");
+        WriteFileAtomically(file, calib::DetectionsToJson(d, target).dump(1) + "\n", "--out-dir");
+      }
+    }
+    if (o->json) {
+      return fmt::print("{}\n", calib::DetectionSetToJson(run.detections, run.skipped, target).dump(1));
+    }
+    std::string text = fmt::format("target {} ({} points)\n{:<28} {:>7}  {}\n", target.ToString(),
+                                   target.NumPoints(), "image", "points", "status");
+    for (const auto& d : run.detections) {
+      text += fmt::format("{:<28} {:>7}  ok\n", d.image, d.ids.size());
+    }
+    for (const auto& s : run.skipped) text += fmt::format("{:<28} {:>7}  {}\n", s.image, "-", s.reason);
+    text += fmt::format("{} of {} images hold the target\n", run.detections.size(), paths.size());
+    fmt::print("{}", text);
+  });
+}
+
+}  // namespace porthole::cli

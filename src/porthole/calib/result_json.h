@@ -1,0 +1,57 @@
+// A calibration as JSON (the output of `porthole calibrate --json`, the input of
+// `porthole compare`), and OpenCV YAML export/import.
+//
+// JSON keys (units per docs/conventions.md; the `units` object repeats them):
+//   camera {c_mm, x0_mm, y0_mm, K1, K2, K3, P1, P2, B1, B2}: adjusted values; a parameter that was
+//     not adjusted is null (fixed at 0) or its fixed value (listed in `fixed`);
+//   sigma {same keys}: 1σ = sqrt(σ0²·(JᵀJ)⁻¹ diagonal), null when not adjusted;
+//   correlation {parameters: [keys of the adjusted ones], matrix: [[…]]}; covariance likewise;
+//   sigma0_px, rms_px, sensor {width_px, height_px, pixel_pitch_mm}, pixels_are_mm,
+//   significance [{parameter, t, significant}], dropped [{parameter, value, sigma, t}],
+//   images [{image, n_points, n_rejected, rms_px, rotation_rad, translation_mm}], counts, status.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "porthole/calib/calibrate.h"
+#include "porthole/camera/opencv_model.h"
+
+namespace porthole::calib {
+
+// The fields compare and the format conversions need.
+struct CalibrationRecord {
+  std::string label;
+  camera::BrownParams camera;
+  camera::Sensor sensor;
+  FreeMask free{};
+  Eigen::Matrix<double, camera::kBrownNumParams, camera::kBrownNumParams> covariance =
+      decltype(covariance)::Zero();
+  bool has_covariance = false;
+  double sigma0_px = NAN;
+};
+
+nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
+                                         const CalibrationOptions& options);
+// {c_mm: "mm", …, B2: "1"}, from kBrownParamInfo.
+nlohmann::ordered_json CameraUnitsJson();
+
+// Reads what CalibrationToJson wrote (or a hand-written {"camera": {…}, "sensor": {…}}).
+// Throws InvalidInput(field, …) naming the offending key.
+CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string& field);
+
+// OpenCV FileStorage YAML (camera_matrix, distortion_coefficients k1 k2 p1 p2 k3, image size), in
+// OpenCV's pixel convention. Export refits OpenCV's forward model to the Brown correction over the
+// image (camera::BrownToOpenCV); `fit` receives the refit RMS/max in px.
+std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit* fit);
+// Import: reads the YAML (image_width/height, camera_matrix, distortion_coefficients with 4, 5 or
+// more entries — beyond k3 must be 0), refits Brown with the given pitch (camera::OpenCVToBrown);
+// the record has no covariance. Throws InvalidInput(field) on a malformed file.
+CalibrationRecord ImportOpenCVYaml(const std::string& yaml, double pixel_pitch_mm,
+                                   const std::string& field, camera::ConversionFit* fit);
+
+// Loads a calibration from a .json (CalibrationFromJson) or .yml/.yaml (ImportOpenCVYaml) file.
+CalibrationRecord LoadCalibration(const std::string& path, double pixel_pitch_mm,
+                                  const std::string& field, camera::ConversionFit* fit);
+
+}  // namespace porthole::calib

@@ -1,0 +1,118 @@
+"""Proves `porthole detect` and `porthole calibrate` end to end on OpenCV's sample chessboards
+(Debian opencv-doc): the JSON shape the issue asks for, pixel-pitch handling, OpenCV YAML export,
+bad images skipped, and a clear refusal (exit 2) when too few images hold the target."""
+import glob
+import gzip
+import json
+import os
+import shutil
+
+import pytest
+
+from conftest import run, run_bad
+
+SAMPLE_DIRS = ["/usr/share/doc/opencv-doc/examples/data", "/usr/share/opencv4/samples/data"]
+KEYS = ["c_mm", "x0_mm", "y0_mm", "K1", "K2", "K3", "P1", "P2", "B1", "B2"]
+TARGET = "chessboard:9x6:25"
+
+
+def copy_samples(dest):
+    """left01..left14.jpg as Debian installs them (plain or gzipped) into dest; returns the count."""
+    for d in SAMPLE_DIRS:
+        files = sorted(glob.glob(os.path.join(d, "left[0-9][0-9].jpg*")))
+        for f in files:
+            name = os.path.basename(f)
+            if name.endswith(".gz"):
+                with gzip.open(f, "rb") as src, open(os.path.join(dest, name[:-3]), "wb") as out:
+                    shutil.copyfileobj(src, out)
+            else:
+                shutil.copy(f, dest)
+        if files:
+            return len(files)
+    return 0
+
+
+@pytest.fixture(scope="module")
+def samples(tmp_path_factory):
+    d = tmp_path_factory.mktemp("left")
+    if copy_samples(d) < 13:
+        pytest.fail("OpenCV sample chessboards missing: run scripts/install-deps (opencv-doc)")
+    return d
+
+
+@pytest.fixture(scope="module")
+def detections(samples, tmp_path_factory):
+    out = tmp_path_factory.mktemp("det")
+    res = run("detect", "--images", samples, "--target", TARGET, "--out-dir", out, "--quiet")
+    assert "13 of 13 images hold the target" in res.out
+    return out
+
+
+def test_calibrate_images_json_shape(samples):
+    j = run("calibrate", "--images", samples, "--target", TARGET, "--json").json()
+    for block in ("camera", "sigma"):
+        assert list(j[block].keys()) == KEYS
+        for k in ("K3", "B1", "B2"):  # not adjusted by default
+            assert j[block][k] is None
+    assert j["pixels_are_mm"] is True and "pixels" in j["note"]
+    assert j["correlation"]["parameters"] == ["c_mm", "x0_mm", "y0_mm", "K1", "K2", "P1", "P2"]
+    m = j["correlation"]["matrix"]
+    assert all(abs(m[i][i] - 1) < 1e-9 for i in range(7))
+    assert all(abs(m[i][k] - m[k][i]) < 1e-9 and abs(m[i][k]) <= 1 + 1e-9 for i in range(7) for k in range(7))
+    # OpenCV's own calibration of these images (left_intrinsics.yml in opencv-doc, older detector):
+    # fx = 535.9 px, principal point (342.3, 235.6) px, a barrel lens (k1 < 0, so K1 > 0 here).
+    assert j["camera"]["c_mm"] == pytest.approx(535.9, rel=0.015)
+    assert j["camera"]["x0_mm"] + 319.5 == pytest.approx(342.3, abs=5)
+    assert 239.5 - j["camera"]["y0_mm"] == pytest.approx(235.6, abs=5)
+    assert j["camera"]["K1"] > 0
+    assert 0 < j["sigma0_px"] < 0.5 and 0 < j["rms_px"] < 0.5
+    assert j["n_images"] == 13 and len(j["images"]) == 13
+
+
+def test_pitch_scales_millimetres(detections):
+    px = run("calibrate", "--detections", detections, "--json", "--quiet").json()
+    mm = run("calibrate", "--detections", detections, "--pixel-pitch-mm", "0.0055", "--json",
+             "--quiet").json()
+    assert mm["pixels_are_mm"] is False
+    assert mm["camera"]["c_mm"] == pytest.approx(0.0055 * px["camera"]["c_mm"], rel=1e-5)
+    assert mm["camera"]["K1"] == pytest.approx(px["camera"]["K1"] / 0.0055**2, rel=1e-4)
+    assert mm["sigma"]["c_mm"] == pytest.approx(0.0055 * px["sigma"]["c_mm"], rel=1e-3)
+    assert mm["rms_px"] == pytest.approx(px["rms_px"], rel=1e-6)
+
+
+def test_opencv_yaml_export_and_table(detections, tmp_path):
+    yml = tmp_path / "cam.yml"
+    res = run("calibrate", "--detections", detections, "--opencv-yaml", yml, "--quiet")
+    assert "parameter" in res.out and "sigma0" in res.out and "millimetres are pixels" in res.out
+    text = yml.read_text()
+    assert text.startswith("%YAML:1.0") and "distortion_coefficients" in text
+    assert "refit RMS" in res.out
+
+
+def test_bad_images_are_skipped(samples, tmp_path):
+    for f in sorted(os.listdir(samples))[:4]:
+        shutil.copy(os.path.join(samples, f), tmp_path)
+    (tmp_path / "broken.jpg").write_bytes(b"not an image")
+    (tmp_path / "blank.pgm").write_bytes(b"P5\n64 48\n255\n" + bytes([128]) * 64 * 48)
+    res = run("calibrate", "--images", tmp_path, "--target", TARGET, "--json")
+    j = res.json()
+    assert j["n_images"] == 4
+    reasons = {s["image"]: s["reason"] for s in j["skipped"]}
+    assert reasons == {"broken.jpg": "unreadable", "blank.pgm": "no target found"}
+    assert "skipped (unreadable)" in res.err
+
+
+def test_too_few_images_is_refused(samples, tmp_path):
+    shutil.copy(os.path.join(samples, sorted(os.listdir(samples))[0]), tmp_path)
+    res = run("calibrate", "--images", tmp_path, "--target", TARGET, check=False)
+    assert res.code == 2 and res.out == ""
+    assert res.err.strip().splitlines()[-1].startswith("porthole: error: --images: 1 image(s)")
+
+
+def test_bad_options(samples):
+    assert "--target" in run_bad("calibrate", "--images", samples, "--target", "chessboard:9x6")
+    assert "--free" in run_bad("calibrate", "--images", samples, "--target", TARGET, "--free", "c,k1")
+    assert "--target" in run_bad("calibrate", "--images", samples)
+    assert "--pixel-pitch-mm" in run_bad("calibrate", "--images", samples, "--target", TARGET,
+                                         "--pixel-pitch-mm", "0")
+    assert "--images" in run_bad("detect", "--images", "/nonexistent", "--target", TARGET)
