@@ -13,6 +13,8 @@ void RegisterTrace(CLI::App& app);
 void RegisterPresets(CLI::App& app);
 void RegisterFit(CLI::App& app);
 void RegisterSynthScan(CLI::App& app);
+void RegisterPlan(CLI::App& app);
+void RegisterFlat(CLI::App& app);
 void RegisterDetect(CLI::App& app);
 void RegisterCalibrate(CLI::App& app);
 void RegisterAssemble(CLI::App& app);

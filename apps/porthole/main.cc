@@ -22,6 +22,8 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterPresets(app);
   porthole::cli::RegisterFit(app);
   porthole::cli::RegisterSynthScan(app);
+  porthole::cli::RegisterPlan(app);
+  porthole::cli::RegisterFlat(app);
   porthole::cli::RegisterDetect(app);
   porthole::cli::RegisterCalibrate(app);
   porthole::cli::RegisterAssemble(app);

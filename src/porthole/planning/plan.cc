@@ -16,44 +16,6 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kDeg = 180.0 / M_PI;
 
-// The port in front of the pupil for focus-scale distance fd_mm (see Setup::ep_in_housing_mm).
-ports::PortSystem SystemAtFocus(const Setup& s, double fd_mm) {
-  Vec3 ep = s.ep_in_housing_mm.value_or(s.port.default_ep_in_housing_mm);
-  if (!s.ep_in_housing_mm) ep.z() = s.lens.PupilToFlangeMm(fd_mm);
-  return ports::MakeSystem(s.port, s.env, ep);
-}
-
-struct Solved {
-  ports::PortSystem sys;
-  double d_s2ep_mm = 0;
-  std::optional<double> fd_mm;
-};
-
-// Focus and pupil solved together: the pupil position depends on FD, the virtual image the lens
-// must focus on (`required`, from the placed system) on the pupil position. Fixed-point iteration
-// (the pupil moves by a few mm while FD changes by hundreds, so it contracts fast); a focus closer
-// than the lens goes leaves the pupil at the minimum focus.
-template <typename F>
-Solved SolveFocus(const Setup& s, const lens::Mount& mount, F required) {
-  double fd_used = kInf;
-  Solved out{SystemAtFocus(s, fd_used), 0, std::nullopt};
-  for (int it = 0; it < 100; ++it) {
-    out.d_s2ep_mm = required(out.sys);
-    out.fd_mm = lens::FocusForSubjectMm(s.lens, mount, out.d_s2ep_mm);
-    const double next = out.fd_mm.value_or(s.lens.min_focus_mm);
-    const double moved = std::abs(s.lens.PupilToFlangeMm(next) - s.lens.PupilToFlangeMm(fd_used));
-    fd_used = next;
-    out.sys = SystemAtFocus(s, fd_used);
-    if (moved < 1e-10 || s.ep_in_housing_mm) break;
-  }
-  out.d_s2ep_mm = required(out.sys);
-  out.fd_mm = lens::FocusForSubjectMm(s.lens, mount, out.d_s2ep_mm);
-  return out;
-}
-
-// Distance from the pupil to the port's outer vertex, along the axis.
-double PupilToOuter(const ports::PortSystem& sys) { return sys.OuterVertexZ() - sys.ep_in_housing_mm.z(); }
-
 double VirtualD(const ports::PortSystem& sys, double wd_mm) {
   return ports::ParaxialVirtualImage(sys, wd_mm).d_s2ep_mm;
 }
@@ -62,16 +24,7 @@ double VirtualD(const ports::PortSystem& sys, double wd_mm) {
 double RealFromVirtual(const ports::PortSystem& sys, double d_virtual, double* wd_out) {
   const double wd = WdForVirtualImage(sys, d_virtual);
   if (wd_out) *wd_out = wd;
-  return wd + PupilToOuter(sys);
-}
-
-// Direction in the water of the chief ray that leaves the pupil along `air_dir`; nullopt if it
-// cannot pass the port.
-std::optional<Vec3> WaterDirection(const ports::PortSystem& sys, const Vec3& air_dir) {
-  optics::Ray out;
-  const optics::Ray in{sys.ep_in_housing_mm, air_dir.normalized()};
-  if (optics::TraceSequence<double>(sys.Outward(), in, &out) != optics::RayStatus::kOk) return std::nullopt;
-  return out.dir.normalized();
+  return wd + PupilToOuterMm(sys);
 }
 
 double AngleDeg(const std::optional<Vec3>& a, const std::optional<Vec3>& b) {
@@ -220,21 +173,21 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     }
     if (o.subject_distance_mm) {
       RequireFinite("--subject-distance", *o.subject_distance_mm);
-      if (!(*o.subject_distance_mm > PupilToOuter(at_inf) && *o.subject_distance_mm > PupilToOuter(at_min))) {
+      if (!(*o.subject_distance_mm > PupilToOuterMm(at_inf) && *o.subject_distance_mm > PupilToOuterMm(at_min))) {
         throw InvalidInput("--subject-distance",
                            fmt::format("{:g} mm from the entrance pupil is inside the port (its outer surface "
                                        "is {:.1f} mm from the pupil)",
-                                       *o.subject_distance_mm, PupilToOuter(at_inf)));
+                                       *o.subject_distance_mm, PupilToOuterMm(at_inf)));
       }
     }
     auto wd_of = [&](const ports::PortSystem& sys) {
-      return o.wd_mm ? *o.wd_mm : *o.subject_distance_mm - PupilToOuter(sys);
+      return o.wd_mm ? *o.wd_mm : *o.subject_distance_mm - PupilToOuterMm(sys);
     };
     const Solved sol = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) { return VirtualD(sys, wd_of(sys)); });
     TargetPlan t;
     const ports::PortSystem& sys = sol.sys;
     t.wd_mm = wd_of(sys);
-    t.subject_distance_mm = t.wd_mm + PupilToOuter(sys);
+    t.subject_distance_mm = t.wd_mm + PupilToOuterMm(sys);
     t.virtual_image = ports::ParaxialVirtualImage(sys, t.wd_mm);
     const auto real = ports::RealRayVirtualImage(sys, t.wd_mm, f / (2 * n));
     t.d_s2ep_real_mm = real ? real->d_s2ep_mm : std::nan("");

@@ -16,24 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "porthole/lens/lens.h"
-#include "porthole/ports/environment.h"
-#include "porthole/ports/virtual_image.h"
+#include "porthole/planning/focus.h"
 
 namespace porthole::planning {
-
-using ports::Vec3;
-
-// The system being planned.
-struct Setup {
-  lens::CameraBody camera;
-  lens::LensSpec lens;
-  ports::PortSpec port;
-  ports::Environment env;
-  // Fixes the entrance pupil (housing frame) whatever the focus; unset: (x, y) of the port's
-  // default pupil and z = D_EP2F(FD) from the lens.
-  std::optional<Vec3> ep_in_housing_mm;
-};
 
 struct PlanOptions {
   // The target (at most one): WD from the port's outer vertex, or the subject's distance from the

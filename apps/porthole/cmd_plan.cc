@@ -1,0 +1,115 @@
+// `porthole plan`: where to focus behind a dome or flat port, whether the lens gets there, the
+// minimum working distance and close-up lenses, depth of field under water and in air, the focus
+// that keeps infinity sharp, field of view, ground sample distance and the corners' blur from the
+// port's field curvature (issue 3; docs/planning.md).
+#include <fmt/format.h>
+
+#include "commands.h"
+#include "common.h"
+#include "camera_options.h"
+#include "porthole/planning/json.h"
+
+namespace porthole::cli {
+
+namespace {
+
+std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
+  const auto& sys = p.system;
+  std::string t = fmt::format("{} + {} (f = {:g} mm) behind {} ({}), water n = {:.4f}; f/{:g}, circle of confusion "
+                              "{:.4f} mm ({})\n\n",
+                              s.camera.name, s.lens.name, s.lens.focal_length_mm, sys.spec.name,
+                              sys.IsDome() ? "dome" : "flat", sys.n_water, p.f_number, p.coc_mm, p.coc_source);
+  t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil\n", Fixed(p.d_s2ep_infinity_mm, 1));
+  t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm, Eq. 2)\n",
+                   Fixed(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm);
+  t += fmt::format("minimum working distance       {:>9} mm\n", Fixed(p.min_wd_mm, 0));
+  for (const auto& r : p.closeup) {
+    t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {} mm\n", r.dioptre, Fixed(r.min_wd_mm, 0),
+                     Fixed(r.max_wd_mm, 0));
+  }
+  const auto& i = p.infinity;
+  t += fmt::format("infinity sharp, under water    focus on {} mm (focus scale {} mm): sharp from WD {} mm\n",
+                   Fixed(i.water_virtual_focus_mm, 1), Fixed(i.water_focus_distance_mm.value_or(NAN), 0),
+                   Fixed(i.water_near_wd_mm, 0));
+  t += fmt::format("infinity sharp, in air         hyperfocal {} mm (focus scale {} mm): sharp from {} mm\n",
+                   Fixed(i.air_focus_mm, 0), Fixed(i.air_focus_distance_mm.value_or(NAN), 0), Fixed(i.air_near_mm, 0));
+  t += fmt::format("field of view (c = {:.2f} mm)   air {}/{}/{} deg, water {}/{}/{} deg (h/v/diagonal)\n",
+                   p.principal_distance_mm, Fixed(p.fov.air.horizontal_deg, 1), Fixed(p.fov.air.vertical_deg, 1),
+                   Fixed(p.fov.air.diagonal_deg, 1), Fixed(p.fov.water.horizontal_deg, 1),
+                   Fixed(p.fov.water.vertical_deg, 1), Fixed(p.fov.water.diagonal_deg, 1));
+  if (p.target) {
+    const auto& g = *p.target;
+    t += fmt::format("\ntarget: WD {} mm, {} mm from the entrance pupil\n", Fixed(g.wd_mm, 1),
+                     Fixed(g.subject_distance_mm, 1));
+    t += fmt::format("virtual image                  {:>9} mm from the pupil (real rays at f/{:g}: {} mm)\n",
+                     Fixed(g.virtual_image.d_s2ep_mm, 1), p.f_number, Fixed(g.d_s2ep_real_mm, 1));
+    t += g.focus.focus_distance_mm
+             ? fmt::format("set the focus scale to         {:>9} mm\n", Fixed(*g.focus.focus_distance_mm, 0))
+             : fmt::format("NOT REACHABLE: needs a close-up of at least +{:.2f} dioptres\n", g.focus.closeup_dioptre);
+    t += fmt::format("\n{:<22} {:>9} {:>9} {:>9} {:>9}\n", "depth of field, mm", "focus", "near", "far", "total");
+    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "in air", Fixed(g.air.focus_mm, 0), Fixed(g.air.near_mm, 0),
+                     Fixed(g.air.far_mm, 0), Fixed(g.air.total_mm, 0));
+    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "water, virtual image", Fixed(g.water.virtual_focus_mm, 1),
+                     Fixed(g.water.virtual_near_mm, 1), Fixed(g.water.virtual_far_mm, 1),
+                     Fixed(g.water.virtual_total_mm, 1));
+    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}   (x{} of air)\n", "water, real objects", Fixed(g.water.focus_mm, 0),
+                     Fixed(g.water.near_mm, 0), Fixed(g.water.far_mm, 0), Fixed(g.water.total_mm, 0),
+                     Fixed(g.dof_ratio_water_to_air, 2));
+    t += fmt::format("\nground sample distance         {:.3f} mm/px under water ({:.3f} in air at the same distance)\n",
+                     g.gsd_water_mm, g.gsd_air_mm);
+    if (g.field) {
+      t += fmt::format("\nfield curvature (flat object plane at WD {:g} mm; real rays at {:.2f} mm pupil radius)\n",
+                       g.wd_mm, g.field->aperture_height_mm);
+      t += fmt::format("{:>10} {:>9} {:>11} {:>10} {:>8} {:>8} {:>10}\n", "image mm", "angle", "object mm", "D_S2EP",
+                       "sag mm", "blur px", "spread px");
+      for (const auto& r : g.field->rows) {
+        t += fmt::format("{:>10} {:>9} {:>11} {:>10} {:>8} {:>8} {:>10}\n", Fixed(r.image_height_mm, 2),
+                         Fixed(r.field_angle_deg, 1), Fixed(r.object_height_mm, 0), Fixed(r.d_s2ep_mm, 2),
+                         Fixed(r.sag_mm, 2), Fixed(r.blur_px, 1), Fixed(r.spread_px, 1));
+      }
+      t += fmt::format("corner blur {:.1f} px at f/{:g}; within the circle of confusion from f/{:.1f}\n",
+                       g.field->corner_blur_px, p.f_number, g.field->f_number_for_sharp_corners);
+    }
+  }
+  if (!p.warnings.empty()) t += "\n";
+  for (const auto& w : p.warnings) t += "! " + w + "\n";
+  return t;
+}
+
+}  // namespace
+
+void RegisterPlan(CLI::App& app) {
+  struct Options {
+    PortOptions port;
+    WaterOptions water;
+    CameraLensOptions camera;
+    std::optional<double> wd_mm, subject_mm, coc_mm;
+    double aperture = 8;
+    bool json = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "plan", "Dive plan behind a port: where to focus, minimum working distance, close-up lens, depth of field "
+              "under water and in air, infinity focus, field of view, GSD, corner blur from field curvature");
+  o->camera.Add(cmd);
+  o->port.Add(cmd);
+  o->water.Add(cmd);
+  auto* wd = cmd->add_option("--wd", o->wd_mm, "Working distance: object to the port's outer surface, mm");
+  cmd->add_option("--subject-distance", o->subject_mm, "Or: object to the lens's entrance pupil, mm")->excludes(wd);
+  cmd->add_option("--aperture", o->aperture, "f-number N")->capture_default_str();
+  cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
+  cmd->add_flag("--json", o->json, "JSON output for scripts");
+  cmd->callback([o] {
+    const planning::Setup setup = o->camera.ToSetup(o->port, o->water);
+    planning::PlanOptions po;
+    po.wd_mm = o->wd_mm;
+    po.subject_distance_mm = o->subject_mm;
+    po.f_number = o->aperture;
+    po.coc_mm = o->coc_mm;
+    po.lambda_nm = setup.env.conditions.lambda_nm;
+    const planning::Plan plan = planning::MakePlan(setup, po);
+    fmt::print("{}", o->json ? planning::PlanToJson(setup, plan).dump(2) + "\n" : PlanText(setup, plan));
+  });
+}
+
+}  // namespace porthole::cli

@@ -1,0 +1,146 @@
+#include "porthole/planning/flat.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "porthole/core/error.h"
+#include "porthole/materials/materials.h"
+#include "porthole/planning/thin_lens.h"
+
+namespace porthole::planning {
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+// The water index at `lambda_nm`: the environment's model there; a forced constant index keeps
+// the model's dispersion, shifted to pass through the forced value at the design wavelength.
+double WaterIndexAt(const ports::Environment& env, double lambda_nm) {
+  materials::Conditions c = env.conditions;
+  c.lambda_nm = lambda_nm;
+  const double model = materials::Index(env.water, c);
+  if (!env.water_index) return model;
+  return *env.water_index + model - materials::Index(env.water, env.conditions);
+}
+
+// Image radius (mm) of an object at infinity in water direction `u` when the water index is n_w.
+double ImageRadiusMm(ports::PortSystem sys, double n_w, const Vec3& u, double c_mm) {
+  sys.n_water = n_w;
+  optics::Ray out;
+  const optics::Ray in{sys.ep_in_housing_mm + 1e6 * u, -u};
+  if (optics::TraceSequence<double>(sys.Inward(), in, &out) != optics::RayStatus::kOk) return std::nan("");
+  const Vec3 d = -out.dir;
+  return c_mm * std::hypot(d.x(), d.y()) / d.z();
+}
+
+}  // namespace
+
+double FlatDistortionFactor(double theta_air_rad, double n_water) {
+  const double s2 = std::sin(theta_air_rad) * std::sin(theta_air_rad);
+  return std::sqrt((n_water * n_water - s2) / (1 - s2));
+}
+
+double TracedDistortionFactor(const ports::PortSystem& sys, double theta_air_rad) {
+  if (theta_air_rad == 0) theta_air_rad = 1e-7;  // the paraxial limit (0/0 on the axis itself)
+  const auto w = WaterDirection(sys, Vec3(std::sin(theta_air_rad), 0, std::cos(theta_air_rad)));
+  if (!w) return std::nan("");
+  return std::tan(theta_air_rad) / (std::hypot(w->x(), w->y()) / w->z());
+}
+
+FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
+  lens::Validate(setup.lens, "--lens");
+  lens::Validate(setup.camera, "--camera");
+  if (setup.port.IsDome()) throw InvalidInput("--port", "'" + setup.port.name + "' is a dome; give a flat port");
+  if (std::isnan(o.wd_mm) || !(o.wd_mm > 0)) throw InvalidInput("--wd", "must be > 0 mm (or inf)");
+  RequirePositive("--step", o.step_deg);
+  RequirePositive("--lambda-blue", o.lambda_blue_nm);
+  RequirePositive("--lambda-red", o.lambda_red_nm);
+  const lens::Mount& mount = lens::MountByName(setup.lens.mount);
+  const double f = setup.lens.focal_length_mm, pitch = setup.camera.sensor.pixel_pitch_mm;
+  const Solved sol = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) {
+    return ports::ParaxialVirtualImage(sys, o.wd_mm).d_s2ep_mm;
+  });
+  const ports::PortSystem& sys = sol.sys;
+  FlatAnalysis a;
+  a.system = sys;
+  a.n_water = sys.n_water;
+  a.n_glass = sys.n_glass;
+  a.principal_distance_mm = PrincipalDistanceMm(sol.d_s2ep_mm, f);
+  const double c = a.principal_distance_mm;
+  a.apparent_focal_length_mm = a.n_water * c;
+  a.focal_length_increase_pct = (a.n_water - 1) * 100;
+
+  const FovPair traced = FieldOfView(sys, setup.camera, c);
+  a.air = traced.air;
+  a.water_traced = traced.water;
+  auto thin = [&](double full_air_deg) {
+    return 2 * std::asin(std::sin(0.5 * full_air_deg / kDeg) / a.n_water) * kDeg;
+  };
+  a.water_thin = {thin(a.air.horizontal_deg), thin(a.air.vertical_deg), thin(a.air.diagonal_deg)};
+  a.critical_angle_deg = std::asin(1 / a.n_water) * kDeg;
+  a.max_fov_deg = 2 * a.critical_angle_deg;
+
+  // Coverage at WD along the horizontal edge rays: thin port with the pupil at the glass, and the
+  // traced rays from the real outer surface to the object plane.
+  a.wd_mm = o.wd_mm;
+  const double half_w = 0.5 * setup.camera.SensorWidthMm();
+  a.coverage_thin_mm = 2 * o.wd_mm * std::tan(0.5 * a.water_thin.horizontal_deg / kDeg);
+  optics::Ray out;
+  const optics::Ray edge{sys.ep_in_housing_mm, Vec3(half_w, 0, c).normalized()};
+  if (std::isinf(o.wd_mm)) {
+    a.coverage_traced_mm = o.wd_mm;
+  } else if (optics::TraceSequence<double>(sys.Outward(), edge, &out) == optics::RayStatus::kOk) {
+    const double z = sys.OuterVertexZ() + o.wd_mm;
+    const Vec3 p = out.origin + ((z - out.origin.z()) / out.dir.z()) * out.dir;
+    a.coverage_traced_mm = 2 * (p.x() - sys.ep_in_housing_mm.x());
+  } else {
+    a.coverage_traced_mm = std::nan("");
+  }
+
+  // Lateral colour: an object at infinity seen at θ_a at the design wavelength, imaged at the blue
+  // and the red wavelengths.
+  a.n_water_blue = WaterIndexAt(setup.env, o.lambda_blue_nm);
+  a.n_water_red = WaterIndexAt(setup.env, o.lambda_red_nm);
+  auto colour_px = [&](const Vec3& air_dir) {
+    const auto u = WaterDirection(sys, air_dir);
+    if (!u) return std::nan("");
+    return (ImageRadiusMm(sys, a.n_water_blue, *u, c) - ImageRadiusMm(sys, a.n_water_red, *u, c)) / pitch;
+  };
+  const double half_h = 0.5 * setup.camera.SensorHeightMm();
+  a.lateral_colour_corner_px = colour_px(Vec3(half_w, half_h, c));
+
+  const double corner_deg = std::atan(std::hypot(half_w, half_h) / c) * kDeg;
+  for (double t = 0;; t = std::min(t + o.step_deg, corner_deg)) {
+    FlatRow r;
+    const double ta = t / kDeg;
+    r.theta_air_deg = t;
+    r.distortion_factor = FlatDistortionFactor(ta, a.n_water);
+    r.distortion_factor_traced = TracedDistortionFactor(sys, ta);
+    r.theta_water_deg = std::asin(std::sin(ta) / a.n_water) * kDeg;
+    r.image_radius_mm = c * std::tan(ta);
+    r.distortion_px = (r.image_radius_mm - a.apparent_focal_length_mm * std::tan(r.theta_water_deg / kDeg)) / pitch;
+    r.lateral_colour_px = colour_px(Vec3(std::sin(ta), 0, std::cos(ta)));
+    a.rows.push_back(r);
+    if (t >= corner_deg) break;
+  }
+
+  if (a.air.diagonal_deg > a.max_fov_deg) {
+    a.warnings.push_back(fmt::format("The lens sees {:.1f} deg across the diagonal in air, more than the {:.1f} deg "
+                                     "any flat port passes in this water: the corners see the inside of the "
+                                     "housing (total internal reflection).",
+                                     a.air.diagonal_deg, a.max_fov_deg));
+  }
+  a.warnings.push_back(fmt::format("Behind this flat port the lens behaves as a {:.1f} mm lens (x{:.3f}): the field "
+                                   "of view narrows from {:.1f} to {:.1f} deg across the diagonal.",
+                                   a.apparent_focal_length_mm, a.n_water, a.air.diagonal_deg,
+                                   a.water_traced.diagonal_deg));
+  if (std::abs(a.lateral_colour_corner_px) > 1) {
+    a.warnings.push_back(fmt::format("Lateral colour: blue and red images of a corner point lie {:.1f} px apart; "
+                                     "a dome port centred on the pupil avoids it.",
+                                     std::abs(a.lateral_colour_corner_px)));
+  }
+  return a;
+}
+
+}  // namespace porthole::planning

@@ -1,0 +1,66 @@
+// A flat port's effect on the camera behind it (the paper's Section 2.2): the field of view in
+// water against air, thin (the entrance pupil at the glass) and for the real geometry by ray
+// trace; the maximum field of view the critical angle allows; the distortion factor D of the
+// paper's Eq. 1 against angle; the apparent focal length; lateral colour between two wavelengths.
+//
+// Angles in degrees in the results (radians in the functions' arguments), lengths in mm, image
+// displacements in pixels. θ_a is the chief ray's angle to the axis in the air inside the housing,
+// θ_w in the water; Snell through a plate with parallel faces gives sin θ_a = n_w sin θ_w whatever
+// its thickness and index.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "porthole/planning/plan.h"
+
+namespace porthole::planning {
+
+// The paper's Eq. 1 (after Ray 2002): D = r'/r = ((n_w² − sin²θ_a) / (1 − sin²θ_a))^½, the ratio
+// of the image radius behind a thin flat port to the radius without it, for entrance angle θ_a
+// (radians, in air) and water index n_w. Equals tan θ_a / tan θ_w.
+double FlatDistortionFactor(double theta_air_rad, double n_water);
+
+// The same ratio by an exact trace of the chief ray leaving the pupil at θ_a in the x-z plane:
+// tan θ_a / tan θ_w with θ_w from the traced water direction. NaN when the ray cannot pass.
+double TracedDistortionFactor(const ports::PortSystem& sys, double theta_air_rad);
+
+struct FlatOptions {
+  double wd_mm = std::numeric_limits<double>::infinity();  // object distance; sets focus and coverage
+  double lambda_blue_nm = 486.13;  // Fraunhofer F line: the usual blue end of lateral colour
+  double lambda_red_nm = 656.27;   // Fraunhofer C line: the red end
+  double step_deg = 5;             // table step in θ_a
+};
+
+struct FlatRow {
+  double theta_air_deg = 0, theta_water_deg = 0;
+  double distortion_factor = 0;         // Eq. 1
+  double distortion_factor_traced = 0;  // by ray trace through the real port
+  double image_radius_mm = 0;           // c tan θ_a
+  double distortion_px = 0;   // image radius minus that of a pinhole with focal length n_w c
+  double lateral_colour_px = 0;  // blue minus red image radius, for the object seen at θ_a
+};
+
+struct FlatAnalysis {
+  ports::PortSystem system;  // at the focus on wd_mm
+  double n_water = 0, n_glass = 0;
+  double principal_distance_mm = 0;      // c, thin lens focused on the virtual image of wd_mm
+  double apparent_focal_length_mm = 0;   // paraxial n_w c
+  double focal_length_increase_pct = 0;  // (n_w − 1) · 100
+  Fov air, water_thin, water_traced;
+  double critical_angle_deg = 0;  // asin(1/n_w): the steepest water ray that reaches the air
+  double max_fov_deg = 0;         // twice that, whatever the lens
+  double wd_mm = 0;
+  // Horizontal width of the scene covered at wd_mm: thin port (pupil at the glass) and traced.
+  double coverage_thin_mm = 0, coverage_traced_mm = 0;
+  double n_water_blue = 0, n_water_red = 0;
+  double lateral_colour_corner_px = 0;
+  std::vector<FlatRow> rows;  // θ_a from 0 to the corner
+  std::vector<std::string> warnings;
+};
+
+// Throws InvalidInput("--port") for a dome, and whatever the lens, camera and water checks throw.
+FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& options);
+
+}  // namespace porthole::planning

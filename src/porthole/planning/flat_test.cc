@@ -1,0 +1,85 @@
+// Proves the flat-port analysis: Eq. 1 equals an exact trace of a thin port with the pupil at the
+// glass, the maximum field of view from the critical angle (97.2 deg for n_w = 1.333), the
+// paraxial focal-length increase n_w, Snell's law for the field of view, and lateral colour from
+// the water's dispersion.
+#include "porthole/planning/flat.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "porthole/core/error.h"
+#include "porthole/io/presets.h"
+
+namespace porthole::planning {
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+ports::PortSpec ThinFlat() {  // the pupil at the glass: a 1 um plate 1 um ahead of it
+  ports::PortSpec s;
+  s.name = "thin";
+  s.frame = ports::PortFrame::kCam;
+  ports::FlatPort f;
+  f.inner_point_mm = Vec3(0, 0, 1e-3);
+  f.thickness_mm = 1e-3;
+  s.shape = f;
+  return s;
+}
+
+Setup FlatSetup(const ports::PortSpec& port, double n_w) {
+  Setup s;
+  s.camera = io::LoadCamera("nikon-d300");
+  s.lens = io::LoadLens("nikkor-24mm-f2.8d");
+  s.port = port;
+  s.env.water_index = n_w;
+  return s;
+}
+
+TEST(Flat, Eq1EqualsAnExactTraceOfAThinPort) {
+  for (double nw : {1.333, 1.341}) {
+    const ports::PortSystem sys = ports::MakeSystem(ThinFlat(), ports::Environment{}, Vec3(0, 0, 26.9));
+    ports::PortSystem s = sys;
+    s.n_water = nw;
+    for (double deg = 0.5; deg < 89.5; deg += 0.5) {
+      const double ta = deg / kDeg;
+      EXPECT_NEAR(FlatDistortionFactor(ta, nw), TracedDistortionFactor(s, ta), 1e-9 * FlatDistortionFactor(ta, nw))
+          << deg;
+    }
+    EXPECT_NEAR(FlatDistortionFactor(0, nw), nw, 1e-15);  // paraxially the focal length grows by n_w
+  }
+}
+
+TEST(Flat, MaximumFieldOfViewFromTheCriticalAngle) {
+  const FlatAnalysis a = AnalyseFlat(FlatSetup(ThinFlat(), 1.333), {});
+  EXPECT_NEAR(a.max_fov_deg, 97.2, 0.1);
+  EXPECT_NEAR(std::sin(a.critical_angle_deg / kDeg) * 1.333, 1.0, 1e-12);
+  EXPECT_NEAR(a.apparent_focal_length_mm, 1.333 * 24, 1e-9);
+  EXPECT_NEAR(a.focal_length_increase_pct, 33.3, 1e-9);
+}
+
+TEST(Flat, RealPortFieldOfViewFollowsSnell) {
+  const FlatAnalysis a = AnalyseFlat(FlatSetup(io::LoadPort("flat-acrylic-10mm"), 1.341), {.wd_mm = 1000});
+  // A plate with parallel faces: n_w sin θ_w = sin θ_a for every edge ray, whatever its thickness.
+  EXPECT_NEAR(a.water_traced.horizontal_deg, a.water_thin.horizontal_deg, 1e-9);
+  EXPECT_NEAR(a.water_traced.diagonal_deg, a.water_thin.diagonal_deg, 1e-9);
+  EXPECT_LT(a.water_traced.diagonal_deg, a.air.diagonal_deg);
+  // The real port starts the water rays 20 mm + 10 mm ahead of the pupil, displaced sideways: it
+  // covers more of the scene at 1 m than a thin port at the pupil.
+  EXPECT_GT(a.coverage_traced_mm, a.coverage_thin_mm);
+  const double ta = 0.5 * a.air.horizontal_deg / kDeg, tw = 0.5 * a.water_thin.horizontal_deg / kDeg;
+  const double tg = std::asin(std::sin(ta) / a.n_glass);
+  EXPECT_NEAR(a.coverage_traced_mm, 2 * (20 * std::tan(ta) + 10 * std::tan(tg) + 1000 * std::tan(tw)), 1e-6);
+  // Blue is refracted more: its image lies farther out (positive blue-minus-red), growing with angle.
+  EXPECT_GT(a.n_water_blue, a.n_water_red);
+  EXPECT_GT(a.lateral_colour_corner_px, 1);
+  for (std::size_t k = 1; k < a.rows.size(); ++k) {
+    EXPECT_GT(a.rows[k].lateral_colour_px, a.rows[k - 1].lateral_colour_px);
+    EXPECT_GT(a.rows[k].distortion_px, a.rows[k - 1].distortion_px);  // pincushion
+  }
+}
+
+TEST(Flat, RejectsADome) { EXPECT_THROW(AnalyseFlat(FlatSetup(io::LoadPort("nimar-ni320"), 1.341), {}), InvalidInput); }
+
+}  // namespace
+}  // namespace porthole::planning

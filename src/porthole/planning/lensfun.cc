@@ -1,0 +1,126 @@
+#include "porthole/planning/lensfun.h"
+
+#include <fmt/format.h>
+#include <lensfun/lensfun.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "porthole/core/error.h"
+#include "porthole/io/presets.h"
+
+namespace porthole::planning {
+namespace {
+
+constexpr double kFullFrameDiagonalMm = 43.2666;  // 36 × 24 mm
+constexpr double kEpToSensorFullFrameMm = 68.1;   // mean of the paper's 24 and 35 mm (Table 2 + 46.5)
+
+// The database, loaded once (lensfun's own XML under /usr/share/lensfun).
+const lfDatabase* Db() {
+  static lfDatabase* db = [] {
+    lfDatabase* d = lf_db_new();
+    if (lf_db_load(d) != LF_NO_ERROR) {
+      lf_db_destroy(d);
+      return static_cast<lfDatabase*>(nullptr);
+    }
+    return d;
+  }();
+  return db;
+}
+
+// True when io knows `name` as a preset or it is a file path.
+bool IsPorthole(const std::string& kind, const std::string& name) {
+  if (name.find('/') != std::string::npos || name.ends_with(".toml")) return true;
+  for (const io::Preset& p : io::BuiltinPresets()) {
+    if (p.kind == kind && p.name == name) return true;
+  }
+  return false;
+}
+
+template <typename T>
+using LfList = std::unique_ptr<const T*[], decltype(&lf_free)>;
+
+std::string Str(const lfMLstr s) { return s ? lf_mlstr_get(s) : ""; }
+
+}  // namespace
+
+std::optional<std::string> MountFromLensfun(const std::string& m) {
+  auto starts = [&](const char* p) { return m.rfind(p, 0) == 0; };
+  if (starts("Nikon F")) return "nikon-f";
+  if (m == "Canon EF" || m == "Canon EF-S") return "canon-ef";
+  if (m == "Sony E") return "sony-e";
+  if (m == "Nikon Z") return "nikon-z";
+  if (m == "Canon RF") return "canon-rf";
+  if (m == "Micro 4/3 System") return "mft";
+  if (m == "Fujifilm X") return "fujifilm-x";
+  if (m == "Leica L") return "l-mount";
+  if (starts("Pentax K")) return "pentax-k";
+  return std::nullopt;
+}
+
+lens::CameraBody FindCamera(const std::string& name, std::optional<double> pitch) {
+  if (IsPorthole("camera", name)) return io::LoadCamera(name);
+  if (!Db()) throw InvalidInput("--camera", "unknown camera '" + name + "' (and the lensfun database is missing)");
+  LfList<lfCamera> found(lf_db_find_cameras_ext(Db(), nullptr, name.c_str(), LF_SEARCH_LOOSE), &lf_free);
+  if (!found || !found[0]) {
+    throw InvalidInput("--camera", "unknown camera '" + name + "': not a preset ('porthole presets'), a file, "
+                                   "nor in the lensfun database");
+  }
+  const lfCamera* c = found[0];
+  lens::CameraBody b;
+  b.name = Str(c->Maker) + " " + Str(c->Model);
+  const auto mount = MountFromLensfun(c->Mount ? c->Mount : "");
+  if (!mount) throw InvalidInput("--camera", fmt::format("{} has mount '{}', which porthole does not know", b.name, c->Mount ? c->Mount : ""));
+  if (!pitch) throw InvalidInput("--pixel-pitch", "lensfun does not know the pixel pitch of the " + b.name + "; give it in mm");
+  RequirePositive("--pixel-pitch", *pitch);
+  b.mount = *mount;
+  const double diag = kFullFrameDiagonalMm / c->CropFactor;
+  const double aspect = *mount == "mft" ? 4.0 / 3.0 : 1.5;
+  const double h = diag / std::hypot(aspect, 1.0);
+  b.sensor = {static_cast<int>(std::lround(aspect * h / *pitch)), static_cast<int>(std::lround(h / *pitch)), *pitch};
+  b.description = fmt::format("{} (lensfun: crop factor {:g}, {} aspect assumed)", b.name, c->CropFactor,
+                              *mount == "mft" ? "4:3" : "3:2");
+  b.source = "lensfun database (liblensfun-data-v1)";
+  return b;
+}
+
+lens::LensSpec FindLens(const std::string& name, std::optional<double> focal_mm) {
+  if (IsPorthole("lens", name)) return io::LoadLens(name);
+  if (!Db()) throw InvalidInput("--lens", "unknown lens '" + name + "' (and the lensfun database is missing)");
+  LfList<lfLens> found(lf_db_find_lenses_hd(Db(), nullptr, nullptr, name.c_str(), LF_SEARCH_LOOSE), &lf_free);
+  if (!found || !found[0]) {
+    throw InvalidInput("--lens", "unknown lens '" + name + "': not a preset ('porthole presets'), a file, nor in "
+                                 "the lensfun database");
+  }
+  const lfLens* l = found[0];
+  lens::LensSpec s;
+  s.name = Str(l->Maker) + " " + Str(l->Model);
+  for (char** m = l->Mounts; m && *m && s.mount.empty(); ++m) s.mount = MountFromLensfun(*m).value_or("");
+  if (s.mount.empty()) throw InvalidInput("--lens", s.name + " has no mount porthole knows");
+  if (l->MinFocal != l->MaxFocal && !focal_mm) {
+    throw InvalidInput("--focal", fmt::format("{} is a zoom ({:g}-{:g} mm): give the focal length", s.name,
+                                              l->MinFocal, l->MaxFocal));
+  }
+  s.focal_length_mm = focal_mm.value_or(l->MinFocal);
+  if (s.focal_length_mm < l->MinFocal - 1e-6 || s.focal_length_mm > l->MaxFocal + 1e-6) {
+    throw InvalidInput("--focal", fmt::format("{} covers {:g}-{:g} mm", s.name, l->MinFocal, l->MaxFocal));
+  }
+  s.f_number_min = l->MinAperture > 0 ? l->MinAperture : 2.8;
+  s.f_number_max = l->MaxAperture > 0 ? l->MaxAperture : 22;
+  const double f = s.focal_length_mm;
+  s.min_focus_mm = 10 * f;
+  // Estimated pupil: a fixed distance ahead of the sensor at infinity, then the thin-lens extension.
+  const double ffd = lens::MountByName(s.mount).flange_focal_distance_mm;
+  const double crop = l->CropFactor > 0 ? l->CropFactor : 1.0;
+  const double ep_inf = kEpToSensorFullFrameMm / crop - ffd;
+  for (double fd : {std::numeric_limits<double>::infinity(), 4 * s.min_focus_mm, 2 * s.min_focus_mm, s.min_focus_mm}) {
+    s.pupil.push_back({fd, ep_inf + (std::isinf(fd) ? 0.0 : f * f / (fd - 2 * f))});
+  }
+  s.pupil_estimated = true;
+  s.description = fmt::format("{} (lensfun; minimum focus and entrance pupil estimated)", s.name);
+  s.source = "lensfun database (liblensfun-data-v1); pupil: porthole estimate, docs/planning.md";
+  return s;
+}
+
+}  // namespace porthole::planning
