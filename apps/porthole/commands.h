@@ -18,5 +18,6 @@ void RegisterFlat(CLI::App& app);
 void RegisterDetect(CLI::App& app);
 void RegisterCalibrate(CLI::App& app);
 void RegisterAssemble(CLI::App& app);
+void RegisterSimulate(CLI::App& app);
 
 }  // namespace porthole::cli

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterDetect(app);
   porthole::cli::RegisterCalibrate(app);
   porthole::cli::RegisterAssemble(app);
+  porthole::cli::RegisterSimulate(app);
 
   try {
     app.parse(argc, argv);

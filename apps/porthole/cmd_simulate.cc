@@ -1,0 +1,204 @@
+// `porthole simulate`: the underwater calibration to expect behind a port — the central Brown
+// model fitted to rays traced through the port in water and in air (docs/simulate.md), the
+// prediction from an in-air calibration, pupil-offset tolerance sweeps, the model's error at other
+// distances, and distortion maps.
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "commands.h"
+#include "common.h"
+#include "porthole/camera/json.h"
+#include "porthole/camera/profile.h"
+#include "porthole/core/atomic_file.h"
+#include "porthole/io/presets.h"
+#include "porthole/simulate/report.h"
+
+namespace porthole::cli {
+namespace {
+
+bool EndsWith(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+// ".json" → JSON text, anything else → CSV.
+std::string AsFile(const std::string& path, const Json& json, const std::string& csv) {
+  return EndsWith(path, ".json") ? json.dump(2) + "\n" : csv;
+}
+
+std::string ParamRow(const std::string& label, const camera::BrownParams& p, const std::string& rms) {
+  return fmt::format("{:<16} {:>9.4f} {:>8.4f} {:>8.4f} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8}\n",
+                     label, p.c_mm, p.x0_mm, p.y0_mm, p.K1, p.K2, p.K3, p.P1, p.P2, rms);
+}
+
+}  // namespace
+
+void RegisterSimulate(CLI::App& app) {
+  struct Options {
+    std::string port = "nimar-ni320";
+    std::string camera = "nikon-d300";
+    std::string lens = "nikkor-24mm-f2.8d";
+    WaterOptions water;
+    double focus_distance_mm = 1000;
+    std::vector<double> ep_offset;
+    std::optional<double> c_mm;
+    std::string air_calibration;
+    int grid_cols = 25, grid_rows = 17;
+    std::vector<std::string> distances;
+    bool no_k3 = false, fixed_rotation = false;
+    std::string sweep;
+    std::vector<double> offsets;
+    std::string sweep_out, map_out;
+    std::vector<std::string> check = {"300", "500", "800", "1300", "2000", "5000", "100000"};
+    bool json = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "simulate",
+      "Predict the underwater calibration: fit the central Brown model (c, x0, y0, K1-K3, P1, P2, "
+      "free pose) to rays traced through the port in water and in air; sweeps and maps");
+  cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
+      ->capture_default_str();
+  cmd->add_option("--camera", o->camera, "Camera body preset or TOML file")->capture_default_str();
+  cmd->add_option("--lens", o->lens, "Lens preset or TOML file (entrance pupil vs focus)")
+      ->capture_default_str();
+  o->water.Add(cmd);
+  cmd->add_option("--focus-distance", o->focus_distance_mm,
+                  "Focused under water on an object this far from the entrance pupil, mm")
+      ->capture_default_str();
+  cmd->add_option("--ep-offset", o->ep_offset,
+                  "Entrance-pupil offset dx,dy,dz from the lens's pupil, housing frame, mm")
+      ->delimiter(',')->expected(3);
+  cmd->add_option("--c", o->c_mm, "Principal distance, mm (default: thin lens focused on the virtual image)");
+  cmd->add_option("--air-calibration", o->air_calibration,
+                  "In-air calibration in the housing: JSON file or text {c_mm, x0_mm, y0_mm, K1, K2, P1, P2}; "
+                  "prints the underwater calibration to expect");
+  cmd->add_option("--grid-cols", o->grid_cols, "Image points across")->capture_default_str();
+  cmd->add_option("--grid-rows", o->grid_rows, "Image points down")->capture_default_str();
+  cmd->add_option("--distances", o->distances,
+                  "Object distances from the pupil for the fit, mm (default 0.8,1.05,1.3 x focus)")
+      ->delimiter(',');
+  cmd->add_flag("--no-k3", o->no_k3, "Hold K3 = 0 (a K1/K2 calibration, like the paper's)");
+  cmd->add_flag("--fixed-rotation", o->fixed_rotation,
+                "Hold the camera's axes at the housing's: a port tilt goes into x0/y0, P1/P2");
+  cmd->add_option("--check-distances", o->check,
+                  "Distances at which to report the fitted water model's error, mm")
+      ->delimiter(',')->capture_default_str();
+  cmd->add_option("--sweep", o->sweep, "Sweep the pupil offset along x, y or z (z: toward the glass)")
+      ->check(CLI::IsMember({"x", "y", "z"}));
+  cmd->add_option("--offsets", o->offsets, "Sweep offsets, mm (default z: -10..10 step 1; x, y: -2..2 step 0.5)")
+      ->delimiter(',');
+  cmd->add_option("--sweep-out", o->sweep_out, "Write the sweep to this file (.csv or .json)");
+  cmd->add_option("--map", o->map_out, "Write the distortion maps on the fit grid to this file (.csv or .json)");
+  cmd->add_flag("--json", o->json, "JSON output for scripts");
+
+  cmd->callback([o] {
+    simulate::SystemSpec spec;
+    spec.port = io::LoadPort(o->port);
+    spec.body = io::LoadCamera(o->camera);
+    spec.lens = io::LoadLens(o->lens);
+    spec.env = o->water.ToEnvironment();
+    spec.object_distance_mm = RequirePositive("--focus-distance", o->focus_distance_mm);
+    if (!o->ep_offset.empty()) {
+      spec.ep_offset_mm = simulate::Vec3(o->ep_offset[0], o->ep_offset[1], o->ep_offset[2]);
+      if (!spec.ep_offset_mm.allFinite()) throw InvalidInput("--ep-offset", "must be three finite numbers");
+    }
+    if (o->c_mm) spec.c_mm = RequirePositive("--c", *o->c_mm);
+    if (!o->air_calibration.empty()) {
+      spec.air_calibration = camera::LoadBrownJson(o->air_calibration, "--air-calibration").value;
+    }
+    simulate::FitOptions fo;
+    fo.grid_cols = o->grid_cols;
+    fo.grid_rows = o->grid_rows;
+    if (fo.grid_cols < 3) throw InvalidInput("--grid-cols", "must be >= 3");
+    if (fo.grid_rows < 3) throw InvalidInput("--grid-rows", "must be >= 3");
+    if (!o->distances.empty()) {
+      fo.distances_mm = ParseLengthList(o->distances, "--distances");
+      for (double d : fo.distances_mm) {
+        if (std::isinf(d)) throw InvalidInput("--distances", "must be finite");
+      }
+      if (fo.distances_mm.size() < 2) throw InvalidInput("--distances", "needs at least two distances");
+    }
+    fo.fit_k3 = !o->no_k3;
+    fo.free_rotation = !o->fixed_rotation;
+    std::vector<double> check = ParseLengthList(o->check, "--check-distances");
+    for (double& d : check) d = std::min(d, 1e9);  // 'inf': far enough to be at infinity
+    int axis = -1;
+    std::vector<double> offsets = o->offsets;
+    if (!o->sweep.empty()) {
+      axis = o->sweep == "x" ? 0 : o->sweep == "y" ? 1 : 2;
+      if (offsets.empty()) {
+        const double step = axis == 2 ? 1.0 : 0.5, span = axis == 2 ? 10.0 : 2.0;
+        for (double v = -span; v <= span + 1e-9; v += step) offsets.push_back(v);
+      }
+      for (double v : offsets) RequireFinite("--offsets", v);
+    } else if (!o->offsets.empty() || !o->sweep_out.empty()) {
+      throw InvalidInput("--offsets", "--offsets and --sweep-out need --sweep x|y|z");
+    }
+
+    const simulate::Prediction p = simulate::Predict(spec, fo);
+    const auto errors = simulate::DistanceErrors(p.water_system, p.camera, p.water, check, p.options);
+    std::vector<simulate::SweepRow> sweep;
+    if (axis >= 0) sweep = simulate::SweepPupilOffset(p, axis, offsets);
+    const std::vector<double> radii = {5.0, 10.0, simulate::ProfileRadiiMm(p.camera.sensor).back()};
+
+    if (!o->map_out.empty()) {
+      const auto map = simulate::DistortionMap(p);
+      WriteFileAtomically(o->map_out, AsFile(o->map_out, simulate::MapJson(map), simulate::MapCsv(map)),
+                          "--map");
+    }
+    if (!o->sweep_out.empty()) {
+      WriteFileAtomically(o->sweep_out,
+                          AsFile(o->sweep_out, simulate::SweepJson(sweep, axis, radii),
+                                 simulate::SweepCsv(sweep, axis, radii)),
+                          "--sweep-out");
+    }
+
+    if (o->json) {
+      Json out = DescribeSystem(p.water_system, spec.env);
+      out["camera_body"] = spec.body.name;
+      out["lens"] = spec.lens.name;
+      for (const auto& [k, v] : simulate::PredictionJson(p).items()) out[k] = v;
+      out["distance_errors"] = simulate::DistanceErrorsJson(errors);
+      if (axis >= 0) out["sweep"] = simulate::SweepJson(sweep, axis, radii);
+      fmt::print("{}\n", out.dump(2));
+      return;
+    }
+    std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
+    t += fmt::format("{} + {} focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
+                     "focus scale {:.1f} mm, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
+                     spec.body.name, spec.lens.name, p.focus.object_distance_mm, p.focus.d_s2ep_mm,
+                     p.focus.fd_mm, p.focus.d_ep2f_mm, p.camera.lens.c_mm);
+    t += fmt::format("{:<16} {:>9} {:>8} {:>8} {:>11} {:>11} {:>11} {:>11} {:>11} {:>8}\n", "", "c mm",
+                     "x0 mm", "y0 mm", "K1 mm^-2", "K2 mm^-4", "K3 mm^-6", "P1 mm^-1", "P2 mm^-1", "rms um");
+    t += ParamRow("air (fitted)", p.air.params, Fixed(p.air.rms_um, 3));
+    t += ParamRow("water (fitted)", p.water.params, Fixed(p.water.rms_um, 3));
+    t += ParamRow("change", p.change, "");
+    if (p.predicted_water) {
+      t += ParamRow("in-air calib.", *spec.air_calibration, "");
+      t += ParamRow("water predicted", *p.predicted_water, "");
+    }
+    t += fmt::format("\nc water/air = {:.5f}; radial profile change (water - air):", p.water.params.c_mm / p.air.params.c_mm);
+    for (double r : radii) {
+      t += fmt::format(" {:.1f} um at r = {:.1f} mm;",
+                       1000 * (camera::RadialProfileMm(p.water.params, r) - camera::RadialProfileMm(p.air.params, r)), r);
+    }
+    t += "\n\nfitted water model at other distances from the pupil:\n";
+    for (const auto& e : errors) {
+      t += fmt::format("  {:>9.0f} mm  rms {:>8.3f} um  max {:>8.3f} um\n", e.distance_mm, e.rms_um, e.max_um);
+    }
+    if (axis >= 0) {
+      t += fmt::format("\npupil offset along {} (mm) vs water - air change:\n{:>9} {:>10} {:>10} {:>12} {:>12} {:>12} {:>9}\n",
+                       o->sweep, "offset", "dc mm", "c ratio", "dr@10mm um", "P1 water", "P2 water", "rms um");
+      for (const auto& r : sweep) {
+        t += fmt::format("{:>9.2f} {:>10.4f} {:>10.5f} {:>12.2f} {:>12.3e} {:>12.3e} {:>9.3f}\n", r.offset_mm,
+                         r.water.params.c_mm - r.air.params.c_mm, r.water.params.c_mm / r.air.params.c_mm,
+                         1000 * (camera::RadialProfileMm(r.water.params, 10) - camera::RadialProfileMm(r.air.params, 10)),
+                         r.water.params.P1, r.water.params.P2, r.water.rms_um);
+      }
+    }
+    fmt::print("{}", t);
+  });
+}
+
+}  // namespace porthole::cli
