@@ -17,6 +17,7 @@ void RegisterPlan(CLI::App& app);
 void RegisterFlat(CLI::App& app);
 void RegisterDetect(CLI::App& app);
 void RegisterCalibrate(CLI::App& app);
+void RegisterCompare(CLI::App& app);
 void RegisterAssemble(CLI::App& app);
 void RegisterSimulate(CLI::App& app);
 

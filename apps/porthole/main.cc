@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterFlat(app);
   porthole::cli::RegisterDetect(app);
   porthole::cli::RegisterCalibrate(app);
+  porthole::cli::RegisterCompare(app);
   porthole::cli::RegisterAssemble(app);
   porthole::cli::RegisterSimulate(app);
 

@@ -116,3 +116,42 @@ def test_bad_options(samples):
     assert "--pixel-pitch-mm" in run_bad("calibrate", "--images", samples, "--target", TARGET,
                                          "--pixel-pitch-mm", "0")
     assert "--images" in run_bad("detect", "--images", "/nonexistent", "--target", TARGET)
+
+
+def test_compare_paper_table6(tmp_path):
+    """The paper's Table 6 (tests/data/menna2016_table6.csv) in air vs under water."""
+    from conftest import read_table
+    air = {"camera": {}, "sigma": {}, "sensor": {"width_px": 4288, "height_px": 2848, "pixel_pitch_mm": 0.0055}}
+    water = json.loads(json.dumps(air))
+    for row in read_table("menna2016_table6.csv"):
+        for cal, col in ((air, "air"), (water, "water")):
+            if row[col + "_value"]:
+                cal["camera"][row["parameter"]] = float(row[col + "_value"])
+                cal["sigma"][row["parameter"]] = float(row[col + "_std"])
+    (tmp_path / "air.json").write_text(json.dumps(air))
+    (tmp_path / "water.json").write_text(json.dumps(water))
+    j = run("compare", tmp_path / "air.json", tmp_path / "water.json", "--json", "--csv-dir", tmp_path).json()
+    c = next(p for p in j["parameters"] if p["parameter"] == "c_mm")
+    assert c["diff_b_minus_a"] == pytest.approx(0.407, abs=1e-9)
+    assert c["z"] == pytest.approx(0.407 / (0.006**2 + 0.002**2) ** 0.5, rel=1e-9)
+    p1 = next(p for p in j["parameters"] if p["parameter"] == "P1")
+    assert p1["a"] is None and p1["sigma_diff"] == pytest.approx(1.2e-6)
+    assert j["dof"] == 7 and j["significant"] is True
+    r10 = min(j["curves"], key=lambda p: abs(p["r_mm"] - 10))
+    r = r10["r_mm"]
+    assert r10["radial_a_um"] == pytest.approx(1e3 * (1.842e-4 * r**3 - 3.030e-7 * r**5), rel=1e-9)
+    assert len(j["map"]) == j["map_cols"] * j["map_rows"]
+    assert (tmp_path / "curves.csv").read_text().startswith("r_mm,")
+    assert (tmp_path / "map.csv").read_text().startswith("u_px,")
+
+
+def test_compare_same_detections_and_yaml(detections, tmp_path):
+    run("calibrate", "--detections", detections, "--quiet", "--out", tmp_path / "a.json",
+        "--opencv-yaml", tmp_path / "a.yml")
+    j = run("compare", tmp_path / "a.json", tmp_path / "a.json", "--json").json()
+    assert j["chi2"] == 0 and j["significant"] is False and j["max_diff_um"] == 0
+    # Export to OpenCV and back: the same lens within the refit error.
+    y = run("compare", tmp_path / "a.json", tmp_path / "a.yml", "--json").json()
+    assert y["b_refit_rms_px"] < 0.1
+    assert y["max_diff_um"] < 1e3 * 1.0  # < 1 px (pitch 1: um are 1e-3 px)
+    assert "B" in run_bad("compare", tmp_path / "a.json", tmp_path / "missing.json")

@@ -7,6 +7,7 @@
 #include <regex>
 #include <sstream>
 
+#include "porthole/camera/json.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
@@ -40,12 +41,6 @@ int KeyIndex(const std::string& key) {
 }
 
 }  // namespace
-
-Json CameraUnitsJson() {
-  Json u = Json::object();
-  for (const auto& p : kBrownParamInfo) u[std::string(p.json_key)] = std::string(p.unit);
-  return u;
-}
 
 Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                        const CalibrationOptions& options) {
@@ -82,7 +77,7 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
   Json j = {
       {"camera", cam},
       {"sigma", sig},
-      {"units", CameraUnitsJson()},
+      {"units", camera::BrownUnitsJson()},
       {"pixels_are_mm", px},
       {"note", px ? "no --pixel-pitch-mm: pitch 1, so every _mm value is in pixels (K1 in px^-2 …)"
                   : fmt::format("pixel pitch {:g} mm", options.pixel_pitch_mm)},
@@ -119,17 +114,15 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
   if (!j.is_object() || !j.contains("camera") || !j["camera"].is_object()) {
     throw InvalidInput(field, "not a calibration: no \"camera\" object");
   }
-  std::array<double, kBrownNumParams> v{};
+  // null = not adjusted: drop it and let camera::BrownFromJson check keys and values.
+  nlohmann::json cam = nlohmann::json::object();
   for (const auto& [key, val] : j["camera"].items()) {
-    const int i = KeyIndex(key);
-    if (i < 0) throw InvalidInput(field, "camera." + key + ": unknown parameter");
     if (val.is_null()) continue;
-    if (!val.is_number()) throw InvalidInput(field, "camera." + key + ": must be a number or null");
-    v[i] = val.get<double>();
-    rec.free[i] = true;
+    cam[key] = val;
+    const int i = KeyIndex(key);
+    if (i >= 0) rec.free[i] = true;
   }
-  rec.camera = camera::BrownParams::FromArray(v.data());
-  camera::ValidateBrownParams(rec.camera);
+  rec.camera = camera::BrownFromJson(cam, field + ".camera").value;
   if (j.contains("fixed")) {
     for (const auto& k : j["fixed"]) {
       const int i = KeyIndex(k.get<std::string>());
@@ -161,6 +154,17 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
       }
     }
     rec.has_covariance = rec.covariance.allFinite() && !idx.empty();
+  } else if (j.contains("sigma") && j["sigma"].is_object()) {
+    for (const auto& [key, val] : j["sigma"].items()) {
+      const int i = KeyIndex(key);
+      if (i < 0) throw InvalidInput(field, "sigma." + key + ": unknown parameter");
+      if (val.is_number() && rec.free[i]) rec.covariance(i, i) = val.get<double>() * val.get<double>();
+    }
+    rec.has_covariance = true;
+    for (int i = 0; i < kBrownNumParams; ++i) {
+      if (rec.free[i] && !(rec.covariance(i, i) > 0)) rec.has_covariance = false;
+    }
+    rec.covariance_note = "diagonal from sigma";
   }
   if (j.contains("sigma0_px") && j["sigma0_px"].is_number()) rec.sigma0_px = j["sigma0_px"];
   return rec;

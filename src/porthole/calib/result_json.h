@@ -28,15 +28,15 @@ struct CalibrationRecord {
   Eigen::Matrix<double, camera::kBrownNumParams, camera::kBrownNumParams> covariance =
       decltype(covariance)::Zero();
   bool has_covariance = false;
+  std::string covariance_note;  // "" (full), or "diagonal from sigma" when the file had only σ
   double sigma0_px = NAN;
 };
 
 nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                                          const CalibrationOptions& options);
-// {c_mm: "mm", …, B2: "1"}, from kBrownParamInfo.
-nlohmann::ordered_json CameraUnitsJson();
-
-// Reads what CalibrationToJson wrote (or a hand-written {"camera": {…}, "sensor": {…}}).
+// Reads what CalibrationToJson wrote, or a hand-written {"camera": {…}, "sigma": {…}, "sensor":
+// {…}} (e.g. the paper's Table 6: null or absent = not adjusted; without a covariance the σ give a
+// diagonal one).
 // Throws InvalidInput(field, …) naming the offending key.
 CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string& field);
 

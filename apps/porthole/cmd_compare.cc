@@ -1,0 +1,134 @@
+// `porthole compare A B`: two calibrations of one camera (e.g. in air and under water) side by
+// side with σ, the paper's Fig. 14 curves and Fig. 15 maps, and a χ² test of the difference.
+// A and B are calibration JSON files (porthole calibrate --out) or OpenCV YAML (refit to Brown).
+#include <fmt/format.h>
+
+#include <filesystem>
+
+#include "commands.h"
+#include "common.h"
+#include "porthole/calib/compare.h"
+#include "porthole/camera/json.h"
+#include "porthole/core/atomic_file.h"
+#include "porthole/core/error.h"
+
+namespace porthole::cli {
+namespace {
+
+Json Num(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+Json Vec(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
+
+}  // namespace
+
+void RegisterCompare(CLI::App& app) {
+  struct Options {
+    std::string a, b, csv_dir;
+    double pitch_mm = 1.0;
+    calib::CompareOptions compare;
+    bool json = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "compare", "Compare two calibrations: parameters with std, distortion curves and maps, chi2");
+  cmd->add_option("A", o->a, "Calibration JSON (porthole calibrate --out) or OpenCV YAML")
+      ->required();
+  cmd->add_option("B", o->b, "The second calibration")->required();
+  cmd->add_option("--pixel-pitch-mm", o->pitch_mm, "Pixel pitch for OpenCV YAML inputs, mm")
+      ->capture_default_str();
+  cmd->add_option("--alpha", o->compare.alpha, "Significance level of the chi2 test")
+      ->capture_default_str();
+  cmd->add_option("--map-cols", o->compare.map_cols, "Distortion map columns")->capture_default_str();
+  cmd->add_option("--map-rows", o->compare.map_rows, "Distortion map rows")->capture_default_str();
+  cmd->add_option("--csv-dir", o->csv_dir,
+                  "Write curves.csv (Fig. 14) and map.csv (Fig. 15) into this directory");
+  cmd->add_flag("--json", o->json, "JSON output for scripts");
+  cmd->callback([o] {
+    if (!(o->compare.alpha > 0 && o->compare.alpha < 1)) throw InvalidInput("--alpha", "in (0, 1)");
+    if (!o->csv_dir.empty() && !std::filesystem::is_directory(o->csv_dir)) {
+      throw InvalidInput("--csv-dir", o->csv_dir + " is not a directory");
+    }
+    camera::ConversionFit fit_a, fit_b;
+    const auto a = calib::LoadCalibration(o->a, o->pitch_mm, "A", &fit_a);
+    const auto b = calib::LoadCalibration(o->b, o->pitch_mm, "B", &fit_b);
+    const auto r = calib::Compare(a, b, o->compare);
+
+    Json rows = Json::array(), curves = Json::array(), map = Json::array();
+    for (const auto& row : r.rows) {
+      rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
+                      {"a", row.adjusted_a || row.a != 0 ? Json(row.a) : Json(nullptr)},
+                      {"sigma_a", Num(row.sigma_a)},
+                      {"b", row.adjusted_b || row.b != 0 ? Json(row.b) : Json(nullptr)},
+                      {"sigma_b", Num(row.sigma_b)},
+                      {"diff_b_minus_a", row.diff},
+                      {"sigma_diff", Num(row.sigma_diff)},
+                      {"z", Num(row.z)}});
+    }
+    std::string curves_csv = "r_mm,radial_a_um,radial_b_um,decentring_a_um,decentring_b_um\n";
+    for (const auto& p : r.curves) {
+      curves.push_back({{"r_mm", p.r_mm}, {"radial_a_um", p.radial_a_um},
+                        {"radial_b_um", p.radial_b_um}, {"decentring_a_um", p.decentring_a_um},
+                        {"decentring_b_um", p.decentring_b_um}});
+      curves_csv += fmt::format("{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", p.r_mm, p.radial_a_um,
+                                p.radial_b_um, p.decentring_a_um, p.decentring_b_um);
+    }
+    std::string map_csv = "u_px,v_px,x_mm,y_mm,a_um,b_um,diff_um,ax_um,ay_um,bx_um,by_um\n";
+    for (const auto& p : r.map) {
+      map.push_back({{"u_px", p.u_px}, {"v_px", p.v_px}, {"x_mm", p.x_mm}, {"y_mm", p.y_mm},
+                     {"a_um", Vec(p.a_um)}, {"b_um", Vec(p.b_um)}, {"diff_um", Vec(p.diff_um)}});
+      map_csv += fmt::format("{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+                             "{:.6g},{:.6g}\n", p.u_px, p.v_px, p.x_mm, p.y_mm, p.a_um.norm(),
+                             p.b_um.norm(), p.diff_um.norm(), p.a_um.x(), p.a_um.y(), p.b_um.x(),
+                             p.b_um.y());
+    }
+    if (!o->csv_dir.empty()) {
+      WriteFileAtomically(std::filesystem::path(o->csv_dir) / "curves.csv", curves_csv, "--csv-dir");
+      WriteFileAtomically(std::filesystem::path(o->csv_dir) / "map.csv", map_csv, "--csv-dir");
+    }
+    const std::string verdict =
+        !std::isfinite(r.chi2) ? "chi2 not computed: " + r.covariance_note
+        : fmt::format("chi2 = {:.2f} with {} dof, p = {:.3g}: the calibrations {} at alpha {:g} "
+                      "(covariance: {})", r.chi2, r.dof, r.p_value,
+                      r.significant ? "DIFFER significantly" : "do not differ significantly",
+                      o->compare.alpha, r.covariance_note);
+    if (o->json) {
+      Json j = {{"a", o->a}, {"b", o->b}, {"parameters", rows}, {"units", camera::BrownUnitsJson()},
+                {"chi2", Num(r.chi2)}, {"dof", r.dof}, {"p_value", Num(r.p_value)},
+                {"alpha", o->compare.alpha}, {"significant", r.significant},
+                {"covariance", r.covariance_note}, {"verdict", verdict},
+                {"max_a_um", r.max_a_um}, {"max_b_um", r.max_b_um}, {"max_diff_um", r.max_diff_um},
+                {"curves", curves}, {"map_cols", o->compare.map_cols},
+                {"map_rows", o->compare.map_rows}, {"map", map}};
+      if (fit_a.num_points > 0) j["a_refit_rms_px"] = fit_a.rms_px;
+      if (fit_b.num_points > 0) j["b_refit_rms_px"] = fit_b.rms_px;
+      return fmt::print("{}\n", j.dump(2));
+    }
+    auto cell = [](bool adj, double v, double s) {
+      return adj ? fmt::format("{:>12.5g} {:>9.2g}", v, s)
+                 : fmt::format("{:>12} {:>9}", v != 0 ? fmt::format("{:.5g}", v) : "-", "-");
+    };
+    std::string t = fmt::format("A = {}   B = {}\n{:<8} {:>22} {:>22} {:>12} {:>7}\n", o->a, o->b,
+                                "param", "A value      std", "B value      std", "B - A", "z");
+    for (const auto& row : r.rows) {
+      t += fmt::format("{:<8} {} {} {:>12.4g} {:>7}\n",
+                       camera::kBrownParamInfo[row.index].json_key,
+                       cell(row.adjusted_a, row.a, row.sigma_a),
+                       cell(row.adjusted_b, row.b, row.sigma_b), row.diff,
+                       std::isfinite(row.z) ? fmt::format("{:.1f}", row.z) : "");
+    }
+    t += "radial dr(r) and decentring P(r), um (Fig. 14):\n   r_mm   dr_A   dr_B    P_A    P_B\n";
+    const int step = std::max(1, static_cast<int>(r.curves.size()) / 8);
+    for (std::size_t k = 0; k < r.curves.size(); k += step) {
+      const auto& p = r.curves[k];
+      t += fmt::format("{:7.2f} {:6.1f} {:6.1f} {:6.2f} {:6.2f}\n", p.r_mm, p.radial_a_um,
+                       p.radial_b_um, p.decentring_a_um, p.decentring_b_um);
+    }
+    t += fmt::format("distortion maps (Fig. 15): max |D| A {:.1f} um, B {:.1f} um, A-B {:.1f} um\n",
+                     r.max_a_um, r.max_b_um, r.max_diff_um);
+    if (a.sensor.pixel_pitch_mm == 1.0) t += "pitch 1: millimetres are pixels, um are 1e-3 px\n";
+    if (fit_a.num_points > 0) t += fmt::format("A refit from OpenCV: RMS {:.4f} px\n", fit_a.rms_px);
+    if (fit_b.num_points > 0) t += fmt::format("B refit from OpenCV: RMS {:.4f} px\n", fit_b.rms_px);
+    fmt::print("{}{}\n", t, verdict);
+  });
+}
+
+}  // namespace porthole::cli

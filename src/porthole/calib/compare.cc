@@ -1,0 +1,141 @@
+#include "porthole/calib/compare.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "porthole/camera/profile.h"
+#include "porthole/camera/sensor.h"
+#include "porthole/core/error.h"
+
+namespace porthole::calib {
+
+double UpperIncompleteGammaQ(double s, double x) {
+  if (x <= 0) return 1.0;
+  const double log_prefix = s * std::log(x) - x - std::lgamma(s);
+  if (x < s + 1) {  // series for P(s, x)
+    double sum = 1.0 / s, term = sum;
+    for (int n = 1; n < 1000 && std::abs(term) > 1e-17 * std::abs(sum); ++n) {
+      term *= x / (s + n);
+      sum += term;
+    }
+    return 1.0 - sum * std::exp(log_prefix);
+  }
+  // Continued fraction for Q(s, x) (modified Lentz).
+  const double tiny = 1e-300;
+  double b = x + 1 - s, c = 1 / tiny, d = 1 / b, h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - s);
+    b += 2;
+    d = an * d + b;
+    if (std::abs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::abs(c) < tiny) c = tiny;
+    d = 1 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1) < 1e-16) break;
+  }
+  return std::exp(log_prefix) * h;
+}
+
+CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
+                      const CompareOptions& o) {
+  if (a.sensor.width_px != b.sensor.width_px || a.sensor.height_px != b.sensor.height_px ||
+      a.sensor.pixel_pitch_mm != b.sensor.pixel_pitch_mm) {
+    throw InvalidInput("B", "the two calibrations are of different sensors (size or pixel pitch)");
+  }
+  if (o.curve_points < 2 || o.map_cols < 2 || o.map_rows < 2) {
+    throw InvalidInput("--map", "at least 2 curve points and a 2x2 map");
+  }
+  CompareResult r;
+  const auto va = a.camera.ToArray(), vb = b.camera.ToArray();
+  std::vector<int> tested;
+  for (int i = 0; i < camera::kBrownNumParams; ++i) {
+    CompareRow row;
+    row.index = i;
+    row.adjusted_a = a.free[i];
+    row.adjusted_b = b.free[i];
+    row.a = va[i];
+    row.b = vb[i];
+    row.diff = vb[i] - va[i];
+    if (a.free[i]) row.sigma_a = std::sqrt(a.covariance(i, i));
+    if (b.free[i]) row.sigma_b = std::sqrt(b.covariance(i, i));
+    const double var = (a.free[i] ? a.covariance(i, i) : 0) + (b.free[i] ? b.covariance(i, i) : 0);
+    if (a.free[i] || b.free[i]) {
+      row.sigma_diff = std::sqrt(var);
+      row.z = row.diff / row.sigma_diff;
+      tested.push_back(i);
+    }
+    r.rows.push_back(row);
+  }
+
+  // χ² on the parameters adjusted in either calibration.
+  if (!a.has_covariance && a.free != FreeMask{}) {
+    r.covariance_note = "A has no covariance";
+  } else if (!b.has_covariance && b.free != FreeMask{}) {
+    r.covariance_note = "B has no covariance";
+  } else {
+    const int n = static_cast<int>(tested.size());
+    Eigen::MatrixXd sum(n, n);
+    Eigen::VectorXd dp(n);
+    for (int p = 0; p < n; ++p) {
+      dp(p) = r.rows[tested[p]].diff;
+      for (int q = 0; q < n; ++q) {
+        const int i = tested[p], j = tested[q];
+        sum(p, q) = (a.free[i] && a.free[j] ? a.covariance(i, j) : 0) +
+                    (b.free[i] && b.free[j] ? b.covariance(i, j) : 0);
+      }
+    }
+    // Scale to unit diagonal first: the parameters span ~20 orders of magnitude.
+    const Eigen::VectorXd s = sum.diagonal().cwiseSqrt().cwiseInverse();
+    const Eigen::MatrixXd corr = s.asDiagonal() * sum * s.asDiagonal();
+    const Eigen::VectorXd zs = s.asDiagonal() * dp;
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(corr);
+    if (n > 0 && ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+      r.chi2 = zs.dot(ldlt.solve(zs));
+      r.dof = n;
+      r.p_value = UpperIncompleteGammaQ(0.5 * n, 0.5 * r.chi2);
+      r.significant = r.p_value < o.alpha;
+      r.covariance_note = a.covariance_note.empty() && b.covariance_note.empty()
+                              ? "full"
+                              : "A: " + (a.covariance_note.empty() ? "full" : a.covariance_note) +
+                                    ", B: " + (b.covariance_note.empty() ? "full" : b.covariance_note);
+    } else {
+      r.covariance_note = "Σa + Σb is singular";
+    }
+  }
+
+  // Curves to the frame corner, from each calibration's principal point.
+  const auto& s = a.sensor;
+  const double r_max = 0.5 * std::hypot(s.width_px, s.height_px) * s.pixel_pitch_mm;
+  for (int k = 0; k < o.curve_points; ++k) {
+    CurvePoint c;
+    c.r_mm = r_max * k / (o.curve_points - 1);
+    c.radial_a_um = 1e3 * camera::RadialProfileMm(a.camera, c.r_mm);
+    c.radial_b_um = 1e3 * camera::RadialProfileMm(b.camera, c.r_mm);
+    c.decentring_a_um = 1e3 * camera::DecentringProfileMm(a.camera, c.r_mm);
+    c.decentring_b_um = 1e3 * camera::DecentringProfileMm(b.camera, c.r_mm);
+    r.curves.push_back(c);
+  }
+  // Maps: Δ of each at the same measured image point.
+  for (int j = 0; j < o.map_rows; ++j) {
+    for (int i = 0; i < o.map_cols; ++i) {
+      ComparePoint p;
+      p.u_px = i * (s.width_px - 1.0) / (o.map_cols - 1);
+      p.v_px = j * (s.height_px - 1.0) / (o.map_rows - 1);
+      const Eigen::Vector2d xy = camera::PixelToImageMm(s, p.u_px, p.v_px);
+      p.x_mm = xy.x();
+      p.y_mm = xy.y();
+      p.a_um = 1e3 * camera::Correction(a.camera, xy.x(), xy.y());
+      p.b_um = 1e3 * camera::Correction(b.camera, xy.x(), xy.y());
+      p.diff_um = p.a_um - p.b_um;
+      r.max_a_um = std::max(r.max_a_um, p.a_um.norm());
+      r.max_b_um = std::max(r.max_b_um, p.b_um.norm());
+      r.max_diff_um = std::max(r.max_diff_um, p.diff_um.norm());
+      r.map.push_back(p);
+    }
+  }
+  return r;
+}
+
+}  // namespace porthole::calib

@@ -1,0 +1,66 @@
+// Comparison of two calibrations of one camera (the paper's Section 5: in air vs under water):
+//  - the parameter tables side by side with σ, the difference, its σ and z = Δ/σΔ;
+//  - radial profile δr(r) = K1 r³ + K2 r⁵ + K3 r⁷ and decentring profile P(r) = sqrt(P1²+P2²) r²
+//    of each (camera/profile.h; µm against r in mm from the principal point; the paper's Fig. 14);
+//  - distortion maps: the correction vector Δ (camera::Correction, µm) of each over the image and
+//    their difference Δa − Δb at the same measured point (Fig. 15 a, b, c);
+//  - a χ² test of the difference: Δpᵀ(Σa + Σb)⁻¹Δp over the parameters adjusted in either (a
+//    parameter not adjusted in one calibration is a fixed value there, with no variance), against
+//    χ² with that many degrees of freedom. Without a full covariance the σ give a diagonal one.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "porthole/calib/result_json.h"
+
+namespace porthole::calib {
+
+struct CompareOptions {
+  int curve_points = 41;  // radii from 0 to the frame corner
+  int map_cols = 33;      // distortion map grid over the whole frame (pixel centres 0 … W−1)
+  int map_rows = 22;
+  double alpha = 0.05;    // significance level of the χ² test
+};
+
+struct CompareRow {
+  int index = 0;          // BrownIndex
+  bool adjusted_a = false, adjusted_b = false;
+  double a = 0, sigma_a = NAN, b = 0, sigma_b = NAN;
+  double diff = 0;        // b − a
+  double sigma_diff = NAN;
+  double z = NAN;         // diff / sigma_diff
+};
+
+struct CurvePoint {
+  double r_mm = 0;
+  double radial_a_um = 0, radial_b_um = 0;
+  double decentring_a_um = 0, decentring_b_um = 0;
+};
+
+struct ComparePoint {
+  double x_mm = 0, y_mm = 0, u_px = 0, v_px = 0;
+  Eigen::Vector2d a_um = Eigen::Vector2d::Zero(), b_um = Eigen::Vector2d::Zero();
+  Eigen::Vector2d diff_um = Eigen::Vector2d::Zero();  // a − b
+};
+
+struct CompareResult {
+  std::vector<CompareRow> rows;
+  std::vector<CurvePoint> curves;
+  std::vector<ComparePoint> map;  // row-major from the top-left pixel
+  double max_a_um = 0, max_b_um = 0, max_diff_um = 0;  // largest |Δ| over the map
+  double chi2 = NAN;
+  int dof = 0;
+  double p_value = NAN;          // P(χ²_dof ≥ chi2)
+  bool significant = false;      // p_value < alpha
+  std::string covariance_note;   // "full" or why not
+};
+
+// Throws InvalidInput("B") if the sensors differ (size or pitch).
+CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
+                      const CompareOptions& options = {});
+
+// Upper regularised incomplete gamma Q(s, x): the χ² survival function is Q(dof/2, χ²/2).
+double UpperIncompleteGammaQ(double s, double x);
+
+}  // namespace porthole::calib

@@ -1,0 +1,109 @@
+// Proves the calibration comparison: the χ² survival function against closed forms and table
+// values, the paper's Table 6 (air vs water) differences, curves and maps from the published
+// parameters, and that the χ² test accepts two calibrations of one camera and rejects a changed one.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "porthole/calib/compare.h"
+#include "porthole/calib/synthetic.h"
+
+namespace porthole::calib {
+namespace {
+
+TEST(CompareTest, ChiSquareSurvival) {
+  for (double x : {0.1, 1.0, 4.0, 20.0}) {  // 2 degrees of freedom: exp(−x/2)
+    EXPECT_NEAR(UpperIncompleteGammaQ(1.0, 0.5 * x), std::exp(-0.5 * x), 1e-12);
+  }
+  // Critical values of χ² at 5 % (any statistics table): 1 dof 3.841, 7 dof 14.067.
+  EXPECT_NEAR(UpperIncompleteGammaQ(0.5, 0.5 * 3.841), 0.05, 1e-4);
+  EXPECT_NEAR(UpperIncompleteGammaQ(3.5, 0.5 * 14.067), 0.05, 1e-4);
+}
+
+// The paper's Table 6 as two records (diagonal covariance from the published σ; empty = not
+// adjusted), on the D300 sensor (4288×2848 px, 5.5 µm).
+std::pair<CalibrationRecord, CalibrationRecord> Table6() {
+  std::ifstream in(std::string(PORTHOLE_TEST_DATA_DIR) + "/menna2016_table6.csv");
+  std::string line;
+  nlohmann::json air = {{"camera", nlohmann::json::object()}, {"sigma", nlohmann::json::object()}};
+  nlohmann::json water = air;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line.rfind("parameter", 0) == 0) continue;
+    std::stringstream ss(line);
+    std::string key, av, as, wv, ws;
+    std::getline(ss, key, ',');
+    std::getline(ss, av, ',');
+    std::getline(ss, as, ',');
+    std::getline(ss, wv, ',');
+    std::getline(ss, ws, ',');
+    if (!av.empty()) air["camera"][key] = std::stod(av), air["sigma"][key] = std::stod(as);
+    if (!wv.empty()) water["camera"][key] = std::stod(wv), water["sigma"][key] = std::stod(ws);
+  }
+  const nlohmann::json sensor = {{"width_px", 4288}, {"height_px", 2848}, {"pixel_pitch_mm", 0.0055}};
+  air["sensor"] = water["sensor"] = sensor;
+  return {CalibrationFromJson(air, "air"), CalibrationFromJson(water, "water")};
+}
+
+TEST(CompareTest, PaperTable6AirVersusWater) {
+  const auto [air, water] = Table6();
+  ASSERT_TRUE(air.has_covariance && water.has_covariance);
+  EXPECT_FALSE(air.free[camera::kBrownP1]);  // not significant in air (Table 6 "-")
+  EXPECT_TRUE(water.free[camera::kBrownP1]);
+  const auto r = Compare(air, water);
+  const auto& c = r.rows[camera::kBrownC];
+  EXPECT_NEAR(c.diff, 26.208 - 25.801, 1e-12);
+  EXPECT_NEAR(c.sigma_diff, std::hypot(0.006, 0.002), 1e-12);
+  const auto& p1 = r.rows[camera::kBrownP1];  // adjusted in water only: its σ alone
+  EXPECT_NEAR(p1.sigma_diff, 1.2e-6, 1e-15);
+  // Diagonal covariance: χ² is the sum of z² over the 7 parameters adjusted in either.
+  double chi2 = 0;
+  for (const auto& row : r.rows)
+    if (row.adjusted_a || row.adjusted_b) chi2 += row.z * row.z;
+  EXPECT_EQ(r.dof, 7);
+  EXPECT_NEAR(r.chi2, chi2, 1e-9 * chi2);
+  EXPECT_TRUE(r.significant);  // c alone moves by 64σ
+  // Fig. 14 (a): δr(10 mm) = K1·10³ + K2·10⁵ in mm; barrel (> 0) in both, less in water.
+  for (const auto& p : r.curves) {
+    const double r3 = std::pow(p.r_mm, 3), r5 = std::pow(p.r_mm, 5);
+    EXPECT_NEAR(p.radial_a_um, 1e3 * (1.842e-4 * r3 - 3.030e-7 * r5), 1e-9);
+    EXPECT_NEAR(p.decentring_b_um, 1e3 * std::hypot(6.582e-6, 1.620e-5) * p.r_mm * p.r_mm, 1e-9);
+    EXPECT_EQ(p.decentring_a_um, 0);
+  }
+  // Fig. 15 (c): the largest difference lies on the frame border.
+  const ComparePoint* worst = &r.map[0];
+  for (const auto& p : r.map) if (p.diff_um.norm() > worst->diff_um.norm()) worst = &p;
+  EXPECT_TRUE(worst->u_px == 0 || worst->v_px == 0 || worst->u_px == 4287 || worst->v_px == 2847);
+  EXPECT_NEAR(worst->diff_um.norm(), r.max_diff_um, 1e-12);
+}
+
+TEST(CompareTest, ChiSquareAcceptsSameCameraRejectsChangedOne) {
+  SyntheticOptions o;
+  o.camera = {26.208, -0.058, -0.207, 1.663e-4, -2.582e-7, 0, 6.582e-6, 1.620e-5, 0, 0};
+  o.sensor = {4288, 2848, 0.0055};
+  o.target = ParseTarget("chessboard:13x9:40");
+  o.n_images = 12;
+  CalibrationOptions c;
+  c.pixel_pitch_mm = 0.0055;
+  c.reject_k = 0;
+  auto record = [&](const SyntheticOptions& so) {
+    const auto r = Calibrate(MakeSyntheticSet(so).detections, so.target, c);
+    return CalibrationFromJson(nlohmann::json::parse(CalibrationToJson(r, so.target, c).dump()),
+                               "x");
+  };
+  const auto a = record(o);
+  o.noise_seed = 77;
+  o.pose_seed = 5;
+  const auto b = record(o);
+  const auto same = Compare(a, b);
+  EXPECT_EQ(same.covariance_note, "full");
+  EXPECT_EQ(same.dof, 7);
+  EXPECT_GT(same.p_value, 0.01) << same.chi2;
+  o.camera.c_mm += 0.03;  // ~10σ
+  const auto changed = Compare(a, record(o));
+  EXPECT_LT(changed.p_value, 1e-6) << changed.chi2;
+}
+
+}  // namespace
+}  // namespace porthole::calib
