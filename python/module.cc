@@ -8,4 +8,5 @@ PYBIND11_MODULE(porthole, m) {
   m.doc() = "porthole: optics and geometry of underwater camera housings (mm, nm, degC, PSU, dbar)";
   porthole::python::RegisterMaterials(m);
   porthole::python::RegisterPorts(m);
+  porthole::python::RegisterPlanning(m);
 }

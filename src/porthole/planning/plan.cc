@@ -231,9 +231,9 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   auto& warn = plan.warnings;
   const bool dome = plan.system.IsDome();
   if (ln.pupil_estimated) {
-    warn.push_back(fmt::format("The entrance pupil of the {} is estimated, not measured: every distance from "
-                               "the pupil may be off by several mm. Measure it as in the paper's Section 3.1.",
-                               ln.name));
+    warn.push_back(fmt::format("The entrance pupil of the {} is estimated, not measured ({}): distances from "
+                               "the pupil may be off by 10 mm or more. Measure it as in the paper's Section 3.1.",
+                               ln.name, ln.description));
   }
   if (dome) {
     const double near_at_inf = ThinLensDof(kInf, f, n, coc).near_mm;

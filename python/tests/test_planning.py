@@ -1,0 +1,30 @@
+"""Proves porthole.plan() and porthole.flat() give the paper's Section 4 depth of field, the Fig. 12
+minimum working distance and the flat port's 97.2 deg limit, with keyword-only options and
+ValueError naming the flag."""
+import math
+
+import pytest
+
+import porthole
+
+
+def test_plan_section4_from_python():
+    p = porthole.plan(port="nimar-ni320-nominal", water_index=1.341, subject_distance_mm=1000, f_number=8,
+                      coc_mm=0.015)
+    assert 680 <= p["min_wd_mm"] <= 730
+    assert abs(p["dof"]["water"]["virtual_focus_mm"] - 238) <= 1  # Menna et al. 2016, Section 4
+    assert abs(p["dof"]["water"]["near_mm"] - 792) <= 0.02 * 792
+    assert abs(p["dof"]["air"]["near_mm"] - 831) <= 3
+
+
+def test_flat_max_fov():
+    f = porthole.flat(water_index=1.333)
+    assert abs(f["max_fov_deg"] - 2 * math.degrees(math.asin(1 / 1.333))) < 1e-9
+    assert abs(f["max_fov_deg"] - 97.2) <= 0.1
+
+
+def test_plan_errors():
+    with pytest.raises(ValueError, match="--aperture"):
+        porthole.plan(f_number=64)
+    with pytest.raises(TypeError):
+        porthole.plan("nikon-d300")  # keyword-only
