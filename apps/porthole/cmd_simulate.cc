@@ -158,7 +158,8 @@ void RegisterSimulate(CLI::App& app) {
       Json out = DescribeSystem(p.water_system, spec.env);
       out["camera_body"] = spec.body.name;
       out["lens"] = spec.lens.name;
-      for (const auto& [k, v] : simulate::PredictionJson(p).items()) out[k] = v;
+      const Json prediction = simulate::PredictionJson(p);  // outlives the loop over its items
+      for (const auto& [k, v] : prediction.items()) out[k] = v;
       out["distance_errors"] = simulate::DistanceErrorsJson(errors);
       if (axis >= 0) out["sweep"] = simulate::SweepJson(sweep, axis, radii);
       fmt::print("{}\n", out.dump(2));

@@ -115,7 +115,9 @@ struct SystemSpec {
   // The lens is focused under water on an object this far in front of its entrance pupil (the
   // paper: autofocus at 1 m), i.e. on that object's virtual image (Eq. 2 gives the focus scale).
   double object_distance_mm = 1000;
-  Vec3 ep_offset_mm = Vec3::Zero();  // added to the lens's pupil (0, 0, D_EP2F(FD))
+  // Added to the lens's pupil (0, 0, D_EP2F(FD)). A port written in the cam frame is centred on
+  // the lens's pupil before the offset, so the offset always moves the pupil relative to the port.
+  Vec3 ep_offset_mm = Vec3::Zero();
   std::optional<double> c_mm;  // principal distance; default: thin lens focused on the image
   // The in-air calibration of the camera in its housing (c, x0, y0, K, P): the lens model, and
   // the base of the prediction. Its c overrides c_mm.

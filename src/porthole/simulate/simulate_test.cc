@@ -86,6 +86,17 @@ TEST(Simulate, AxialPupilOffsetGivesPincushionAheadAndBarrelBehind) {
   }
 }
 
+TEST(Simulate, EpOffsetMovesThePupilRelativeToACamFramePort) {
+  SystemSpec spec = PaperSystem("nimar-ni320-nominal");
+  spec.ep_offset_mm = Vec3(0, 0, 5);
+  const Prediction offset = Predict(spec);
+  const SweepRow swept = SweepPupilOffset(Predict(PaperSystem("nimar-ni320-nominal")), 2, {5.0})[0];
+  EXPECT_LT(offset.change.K1, -1e-6);
+  // The same geometry up to the focus (the offset pupil sees a slightly different virtual image).
+  EXPECT_NEAR(offset.change.K1, swept.water.params.K1 - swept.air.params.K1,
+              0.05 * std::abs(offset.change.K1));
+}
+
 TEST(Simulate, LateralPupilOffsetGivesDecentringAlongIt) {
   const Prediction p = Predict(PaperSystem("nimar-ni320-nominal"));
   const BrownFit x = SweepPupilOffset(p, 0, {1.0})[0].water;

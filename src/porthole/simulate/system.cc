@@ -25,6 +25,14 @@ camera::BrownParams Add(const camera::BrownParams& a, const camera::BrownParams&
   return camera::BrownParams::FromArray(d.data());
 }
 
+// The port in the housing frame. A port written in the cam frame (an ideal port centred on
+// whatever lens is used) is centred on the lens's own pupil, so that the offset moves the pupil
+// relative to the port rather than carrying the port along.
+ports::PortSpec PortInHousing(const ports::PortSpec& port, const Vec3& nominal_ep) {
+  if (port.frame == ports::PortFrame::kHousing) return port;
+  return ports::Place(port, nominal_ep, 1.5, 1.34).spec;  // indices unused: only the geometry
+}
+
 }  // namespace
 
 FocusSetting FocusUnderWater(const SystemSpec& spec) {
@@ -40,7 +48,8 @@ FocusSetting FocusUnderWater(const SystemSpec& spec) {
   f.d_ep2f_mm = spec.lens.PupilToFlangeMm(std::numeric_limits<double>::infinity());
   for (int it = 0; it < 50; ++it) {
     f.ep_in_housing_mm = Vec3(0, 0, f.d_ep2f_mm) + spec.ep_offset_mm;
-    const ports::PortSystem sys = ports::MakeSystem(spec.port, spec.env, f.ep_in_housing_mm);
+    const ports::PortSystem sys = ports::MakeSystem(
+        PortInHousing(spec.port, Vec3(0, 0, f.d_ep2f_mm)), spec.env, f.ep_in_housing_mm);
     f.wd_mm = object - (sys.OuterVertexZ() - f.ep_in_housing_mm.z());
     if (!(f.wd_mm > 0)) {
       throw InvalidInput("--focus-distance", "the object lies inside the port (" +
@@ -91,7 +100,8 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
                   : ThinLensPrincipalDistanceMm(spec.lens.focal_length_mm, p.focus.d_s2ep_mm);
   }
   camera::ValidateBrownParams(p.camera.lens);
-  p.water_system = ports::MakeSystem(spec.port, spec.env, p.camera.ep_in_housing_mm);
+  p.water_system = ports::MakeSystem(PortInHousing(spec.port, Vec3(0, 0, p.focus.d_ep2f_mm)),
+                                     spec.env, p.camera.ep_in_housing_mm);
   p.air_system = WithAirOutside(p.water_system);
   p.water = SimulateFit(p.water_system, p.camera, p.options);
   p.air = SimulateFit(p.air_system, p.camera, p.options);
