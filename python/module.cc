@@ -9,4 +9,5 @@ PYBIND11_MODULE(porthole, m) {
   porthole::python::RegisterMaterials(m);
   porthole::python::RegisterPorts(m);
   porthole::python::RegisterPlanning(m);
+  porthole::python::RegisterSimulate(m);
 }

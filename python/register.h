@@ -7,5 +7,6 @@ namespace porthole::python {
 void RegisterMaterials(pybind11::module_& m);
 void RegisterPorts(pybind11::module_& m);
 void RegisterPlanning(pybind11::module_& m);
+void RegisterSimulate(pybind11::module_& m);
 
 }  // namespace porthole::python
