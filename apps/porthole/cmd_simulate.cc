@@ -156,6 +156,8 @@ void RegisterSimulate(CLI::App& app) {
 
     if (o->json) {
       Json out = DescribeSystem(p.water_system, spec.env);
+      out["medium"] = out["water"];  // "water" and "air" are the fits below
+      out.erase("water");
       out["camera_body"] = spec.body.name;
       out["lens"] = spec.lens.name;
       const Json prediction = simulate::PredictionJson(p);  // outlives the loop over its items

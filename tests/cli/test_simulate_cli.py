@@ -16,6 +16,7 @@ def test_default_system_prints_water_and_air():
             assert isinstance(out[medium][k], float), (medium, k)
     assert out["units"]["K1"] == "mm^-2" and out["units"]["P1"] == "mm^-1"
     assert out["lens"] == "nikkor-24mm-f2.8d" and out["port"]["name"] == "nimar-ni320"
+    assert abs(out["medium"]["index"] - 1.341) < 1e-3  # seawater, 546 nm (Quan-Fry)
     # The pupil sits ahead of the dome centre: pincushion under water (K1 falls), c grows.
     assert out["water"]["K1"] < out["air"]["K1"]
     assert 1.005 < out["water"]["c_mm"] / out["air"]["c_mm"] < 1.03
