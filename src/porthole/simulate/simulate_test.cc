@@ -26,14 +26,33 @@ SystemSpec PaperSystem(const std::string& port = "nimar-ni320") {
   return s;
 }
 
-// The paper's in-air calibration (Table 6), used as a realistic lens.
+// The paper's Table 6: parameter → {air, air σ, water, water σ} (0 where not computed).
+std::map<std::string, std::array<double, 4>> Table6() {
+  std::map<std::string, std::array<double, 4>> t6;
+  std::ifstream in(std::string(PORTHOLE_TEST_DATA_DIR) + "/menna2016_table6.csv");
+  EXPECT_TRUE(in.good());
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line.rfind("parameter", 0) == 0) continue;
+    std::stringstream ss(line);
+    std::string key, v;
+    std::getline(ss, key, ',');
+    std::array<double, 4> row{};
+    for (double& x : row) x = std::getline(ss, v, ',') && !v.empty() ? std::stod(v) : 0.0;
+    t6[key] = row;
+  }
+  return t6;
+}
+
+// The paper's in-air calibration (Table 6, c, x0, y0, K1, K2), used as a realistic lens.
 camera::BrownParams PaperAirLens() {
+  auto t6 = Table6();
   camera::BrownParams p;
-  p.c_mm = 25.801;
-  p.x0_mm = -0.026;
-  p.y0_mm = -0.144;
-  p.K1 = 1.842e-4;
-  p.K2 = -3.030e-7;
+  p.c_mm = t6["c_mm"][0];
+  p.x0_mm = t6["x0_mm"][0];
+  p.y0_mm = t6["y0_mm"][0];
+  p.K1 = t6["K1"][0];
+  p.K2 = t6["K2"][0];
   return p;
 }
 
@@ -178,25 +197,8 @@ TEST(Simulate, ModelErrorGrowsOutsideTheFittedDistancesForANonCentralPort) {
 // precision; the dominant uncertainty of the prediction is the pupil's axial position, located to
 // "some tenths of a millimetre" (Section 3.1): 0.5 mm × the simulated sensitivity.
 TEST(Simulate, PredictsThePapersTable6Change) {
-  std::map<std::string, std::array<double, 4>> t6;  // air, air σ, water, water σ
-  std::ifstream in(std::string(PORTHOLE_TEST_DATA_DIR) + "/menna2016_table6.csv");
-  ASSERT_TRUE(in.good());
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#' || line.rfind("parameter", 0) == 0) continue;
-    std::stringstream ss(line);
-    std::string key, v;
-    std::getline(ss, key, ',');
-    std::array<double, 4> row{};
-    for (double& x : row) x = std::getline(ss, v, ',') && !v.empty() ? std::stod(v) : 0.0;
-    t6[key] = row;
-  }
-  camera::BrownParams air;
-  air.c_mm = t6["c_mm"][0];
-  air.x0_mm = t6["x0_mm"][0];
-  air.y0_mm = t6["y0_mm"][0];
-  air.K1 = t6["K1"][0];
-  air.K2 = t6["K2"][0];
+  auto t6 = Table6();  // air, air σ, water, water σ
+  const camera::BrownParams air = PaperAirLens();
   SystemSpec spec = PaperSystem();
   spec.env.water = "freshwater";
   spec.air_calibration = air;
