@@ -8,6 +8,7 @@ PYBIND11_MODULE(porthole, m) {
   m.doc() = "porthole: optics and geometry of underwater camera housings (mm, nm, degC, PSU, dbar)";
   porthole::python::RegisterMaterials(m);
   porthole::python::RegisterPorts(m);
+  porthole::python::RegisterCalib(m);
   porthole::python::RegisterPlanning(m);
   porthole::python::RegisterSimulate(m);
 }

@@ -1,0 +1,127 @@
+// Python bindings of the calib module: calibrate from detections (dicts as `porthole detect --json`
+// writes them), synthetic detection sets with known truth, and the comparison of two
+// calibrations. Inputs and outputs are the JSON objects of the CLI as Python dicts.
+#include <pybind11/stl.h>
+
+#include <nlohmann/json.hpp>
+
+#include "porthole/calib/calibrate.h"
+#include "porthole/calib/compare.h"
+#include "porthole/calib/detections_json.h"
+#include "porthole/calib/result_json.h"
+#include "porthole/calib/synthetic.h"
+#include "porthole/camera/json.h"
+#include "register.h"
+
+namespace py = pybind11;
+
+namespace porthole::python {
+namespace {
+
+nlohmann::json ToJson(const py::object& o) {
+  return nlohmann::json::parse(py::module_::import("json").attr("dumps")(o).cast<std::string>());
+}
+py::object FromJson(const nlohmann::ordered_json& j) {
+  return py::module_::import("json").attr("loads")(j.dump());
+}
+
+calib::LossKind Loss(const std::string& name) {
+  if (name == "none") return calib::LossKind::kNone;
+  if (name == "huber") return calib::LossKind::kHuber;
+  if (name == "cauchy") return calib::LossKind::kCauchy;
+  throw InvalidInput("loss", "none | huber | cauchy");
+}
+
+}  // namespace
+
+void RegisterCalib(py::module_& m) {
+  m.def(
+      "calibrate",
+      [](const py::list& detections, const std::string& target, double pixel_pitch_mm,
+         const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
+         bool target_free, bool drop_insignificant, double significance_t) {
+        const auto t = calib::ParseTarget(target, "target");
+        std::vector<calib::ImageDetections> dets;
+        for (std::size_t i = 0; i < detections.size(); ++i) {
+          dets.push_back(calib::DetectionsFromJson(ToJson(detections[i]),
+                                                   "detections[" + std::to_string(i) + "]"));
+        }
+        calib::CalibrationOptions o;
+        o.pixel_pitch_mm = pixel_pitch_mm;
+        o.free = calib::ParseFreeParameters(free, "free");
+        o.reject_k = reject_k;
+        o.loss = Loss(loss);
+        o.loss_scale_px = loss_scale_px;
+        o.target_free = target_free;
+        o.drop_insignificant = drop_insignificant;
+        o.significance_t = significance_t;
+        calib::CalibrationResult r;
+        {
+          py::gil_scoped_release release;
+          r = calib::Calibrate(dets, t, o);
+        }
+        return FromJson(calib::CalibrationToJson(r, t, o));
+      },
+      py::arg("detections"), py::arg("target"), py::kw_only(), py::arg("pixel_pitch_mm") = 1.0,
+      py::arg("free") = "c,x0,y0,K1,K2,P1,P2", py::arg("reject_k") = 5.0,
+      py::arg("loss") = "none", py::arg("loss_scale_px") = 1.0, py::arg("target_free") = false,
+      py::arg("drop_insignificant") = false, py::arg("significance_t") = 2.0,
+      "Self-calibration from detections (list of dicts: image, width_px, height_px, ids, "
+      "points_px). Returns the calibration dict of `porthole calibrate --json`.");
+
+  m.def(
+      "synthetic_detections",
+      [](const py::dict& camera, int width_px, int height_px, double pixel_pitch_mm,
+         const std::string& target, int n_images, double noise_px, uint64_t seed) {
+        calib::SyntheticOptions o;
+        o.camera = camera::BrownFromJson(ToJson(camera), "camera").value;
+        o.sensor = {width_px, height_px, pixel_pitch_mm};
+        o.target = calib::ParseTarget(target, "target");
+        o.n_images = n_images;
+        o.noise_px = noise_px;
+        o.noise_seed = seed;
+        const auto set = calib::MakeSyntheticSet(o);
+        py::list out;
+        for (const auto& d : set.detections) out.append(FromJson(calib::DetectionsToJson(d, o.target)));
+        return out;
+      },
+      py::arg("camera"), py::kw_only(), py::arg("width_px"), py::arg("height_px"),
+      py::arg("pixel_pitch_mm"), py::arg("target") = "chessboard:13x9:40",
+      py::arg("n_images") = 12, py::arg("noise_px") = 0.3, py::arg("seed") = 2,
+      "Detections of a planar target seen by a known Brown camera (dict c_mm … B2), with "
+      "Gaussian pixel noise: ground truth for tests.");
+
+  m.def(
+      "compare",
+      [](const py::dict& a, const py::dict& b, double alpha) {
+        calib::CompareOptions o;
+        o.alpha = alpha;
+        const auto r = calib::Compare(calib::CalibrationFromJson(ToJson(a), "a"),
+                                      calib::CalibrationFromJson(ToJson(b), "b"), o);
+        nlohmann::ordered_json rows = nlohmann::ordered_json::array(), curves = rows;
+        for (const auto& row : r.rows) {
+          rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
+                          {"a", row.a}, {"b", row.b}, {"diff_b_minus_a", row.diff},
+                          {"sigma_diff", std::isfinite(row.sigma_diff) ? nlohmann::ordered_json(row.sigma_diff) : nullptr},
+                          {"z", std::isfinite(row.z) ? nlohmann::ordered_json(row.z) : nullptr}});
+        }
+        for (const auto& p : r.curves) {
+          curves.push_back({{"r_mm", p.r_mm}, {"radial_a_um", p.radial_a_um},
+                            {"radial_b_um", p.radial_b_um}, {"decentring_a_um", p.decentring_a_um},
+                            {"decentring_b_um", p.decentring_b_um}});
+        }
+        return FromJson({{"parameters", rows},
+                         {"chi2", std::isfinite(r.chi2) ? nlohmann::ordered_json(r.chi2) : nullptr},
+                         {"dof", r.dof},
+                         {"p_value", std::isfinite(r.p_value) ? nlohmann::ordered_json(r.p_value) : nullptr},
+                         {"significant", r.significant},
+                         {"covariance", r.covariance_note},
+                         {"max_diff_um", r.max_diff_um},
+                         {"curves", curves}});
+      },
+      py::arg("a"), py::arg("b"), py::kw_only(), py::arg("alpha") = 0.05,
+      "Compares two calibration dicts: differences with sigma, chi2 test, radial and decentring "
+      "curves (um).");
+}
+
+}  // namespace porthole::python
