@@ -76,18 +76,9 @@ BENCHMARK(BM_CalibPorthole)->Unit(benchmark::kMillisecond);
 void BM_CalibOpenCV(benchmark::State& state) {
   if (!HaveSamples(state)) return;
   const auto& s = GetSamples();
-  const auto pts = TargetPoints(s.target);
   std::vector<std::vector<cv::Point3f>> object;
   std::vector<std::vector<cv::Point2f>> image;
-  for (const auto& d : s.detections) {
-    object.emplace_back();
-    image.emplace_back();
-    for (std::size_t k = 0; k < d.ids.size(); ++k) {
-      const auto& p = pts[d.ids[k]];
-      object.back().emplace_back(p.x(), p.y(), p.z());
-      image.back().emplace_back(d.points_px[k].x(), d.points_px[k].y());
-    }
-  }
+  ToOpenCVCorrespondences(s.detections, s.target, &object, &image);
   const cv::Size size(s.detections[0].width_px, s.detections[0].height_px);
   double rms = 0;
   cv::Mat k, dist;

@@ -50,18 +50,9 @@ struct OpenCVRun {
 
 OpenCVRun CalibrateWithOpenCV(const std::vector<ImageDetections>& dets, const TargetSpec& target,
                               int flags) {
-  const auto pts = TargetPoints(target);
   std::vector<std::vector<cv::Point3f>> object;
   std::vector<std::vector<cv::Point2f>> image;
-  for (const auto& d : dets) {
-    object.emplace_back();
-    image.emplace_back();
-    for (std::size_t k = 0; k < d.ids.size(); ++k) {
-      const auto& p = pts[d.ids[k]];
-      object.back().emplace_back(p.x(), p.y(), p.z());
-      image.back().emplace_back(d.points_px[k].x(), d.points_px[k].y());
-    }
-  }
+  ToOpenCVCorrespondences(dets, target, &object, &image);
   cv::Mat k = cv::Mat::eye(3, 3, CV_64F), dist;
   std::vector<cv::Mat> rv, tv;
   OpenCVRun r;

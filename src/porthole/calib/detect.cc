@@ -134,4 +134,22 @@ DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& 
   return run;
 }
 
+void ToOpenCVCorrespondences(const std::vector<ImageDetections>& detections,
+                             const TargetSpec& target,
+                             std::vector<std::vector<cv::Point3f>>* object_points,
+                             std::vector<std::vector<cv::Point2f>>* image_points) {
+  const auto pts = TargetPoints(target);
+  object_points->clear();
+  image_points->clear();
+  for (const auto& d : detections) {
+    object_points->emplace_back();
+    image_points->emplace_back();
+    for (std::size_t k = 0; k < d.ids.size(); ++k) {
+      const auto& p = pts[d.ids[k]];
+      object_points->back().emplace_back(p.x(), p.y(), p.z());
+      image_points->back().emplace_back(d.points_px[k].x(), d.points_px[k].y());
+    }
+  }
+}
+
 }  // namespace porthole::calib

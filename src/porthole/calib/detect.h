@@ -8,6 +8,7 @@
 #pragma once
 
 #include <functional>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,5 +40,12 @@ struct DetectionRun {
 // Detects the target in every image; `progress` (may be empty) gets one line per image.
 DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& target,
                        const std::function<void(const std::string&)>& progress = {});
+
+// The detections as OpenCV's calibrateCamera takes them: per image, target points (target frame,
+// mm) and their pixels. For comparisons with OpenCV on the same points.
+void ToOpenCVCorrespondences(const std::vector<ImageDetections>& detections,
+                             const TargetSpec& target,
+                             std::vector<std::vector<cv::Point3f>>* object_points,
+                             std::vector<std::vector<cv::Point2f>>* image_points);
 
 }  // namespace porthole::calib
