@@ -453,5 +453,22 @@ TEST(OpenCV, InvalidInputsAreRejected) {
   EXPECT_THROW(OpenCVToBrown(OpenCVParams{}, kD300), InvalidInput);  // fx = 0
 }
 
+TEST(OpenCVConversion, StronglyDistortedLensStaysFiniteAndCountsCorners) {
+  // OpenCV's sample calibration of its left01..left14 chessboards (Debian opencv-doc,
+  // examples/data/left_intrinsics.yml): k3 = 0.238 makes Brown's K1..K3 correction non-invertible
+  // in the extreme corners. The refit must stay finite and say how many grid points it lost.
+  const OpenCVParams o{535.91573396163199, 535.91573396163199, 342.28315473308373, 235.57082909788173,
+                       -2.6637260909660682e-01, -3.8588898922304653e-02, 1.7831947042852964e-03,
+                       -2.8122100441115472e-04, 2.3839153080878486e-01};
+  CameraConversionOptions opt;
+  opt.fit_k3 = true;
+  const auto r = OpenCVToBrown(o, Sensor{640, 480, 1.0}, opt);
+  EXPECT_TRUE(std::isfinite(r.fit.rms_px));
+  EXPECT_LT(r.fit.rms_px, 0.2);
+  EXPECT_LT(r.fit.num_not_projected, r.fit.num_points / 50);  // a few corner points at most
+  EXPECT_NEAR(r.brown.c_mm, o.fx, 0.01 * o.fx);
+  EXPECT_GT(r.brown.K1, 0);  // barrel (k1 < 0 in OpenCV's forward sense)
+}
+
 }  // namespace
 }  // namespace porthole::camera

@@ -60,16 +60,23 @@ ceres::Solver::Options SolverOptions(const CameraConversionOptions& o) {
   return so;
 }
 
-// Fit statistics from per-point 2-D pixel distances (an infinite distance marks a failed point).
+// Fit statistics from per-point 2-D pixel distances (an infinite distance marks a point the model
+// could not project: counted, not averaged).
 ConversionFit Stats(const std::vector<double>& dist_px) {
   ConversionFit f;
   f.num_points = static_cast<int>(dist_px.size());
   double sum2 = 0;
+  int used = 0;
   for (double d : dist_px) {
+    if (!std::isfinite(d)) {
+      ++f.num_not_projected;
+      continue;
+    }
     sum2 += d * d;
+    ++used;
     f.max_px = std::max(f.max_px, d);
   }
-  f.rms_px = dist_px.empty() ? 0.0 : std::sqrt(sum2 / dist_px.size());
+  f.rms_px = used == 0 ? std::numeric_limits<double>::infinity() : std::sqrt(sum2 / used);
   return f;
 }
 
@@ -107,7 +114,10 @@ struct BrownPixelResidual {
   template <typename T>
   bool operator()(const T* p, T* r) const {
     const auto xy = Project<T>(p, Vec3<T>(T(g.xn), T(g.yn), T(1)));
-    if (!xy) return false;
+    // Where the correction polynomial has no inverse (possible in the corners of a strongly
+    // distorted lens while the fit moves), the correction-space residual stands in: the same units
+    // and equal to first order, so the problem stays defined and is pulled back to invertibility.
+    if (!xy) return BrownCorrectionResidual{g, s}(p, r);
     const Vec2<T> uv = ImageMmToPixel(s, (*xy)(0), (*xy)(1));
     r[0] = uv(0) - T(g.u);
     r[1] = uv(1) - T(g.v);

@@ -76,11 +76,15 @@ struct CameraConversionOptions {
 };
 
 // Refit quality: the image distance between the two models' measured points for the same ray,
-// over the grid, in pixels (RMS of the 2-D distance, and its maximum).
+// over the grid, in pixels (RMS of the 2-D distance, and its maximum), over the grid points where
+// the target model can project the ray. A strongly distorted lens can leave the refitted
+// polynomial non-invertible in the frame corners: those points are counted in num_not_projected
+// (and left out of the RMS) rather than making the RMS infinite.
 struct ConversionFit {
   double rms_px = 0;
   double max_px = 0;
   int num_points = 0;
+  int num_not_projected = 0;
 };
 
 struct BrownToOpenCVResult {
