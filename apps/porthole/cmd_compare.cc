@@ -98,8 +98,14 @@ void RegisterCompare(CLI::App& app) {
                 {"max_a_um", r.max_a_um}, {"max_b_um", r.max_b_um}, {"max_diff_um", r.max_diff_um},
                 {"curves", curves}, {"map_cols", o->compare.map_cols},
                 {"map_rows", o->compare.map_rows}, {"map", map}};
-      if (fit_a.num_points > 0) j["a_refit_rms_px"] = fit_a.rms_px;
-      if (fit_b.num_points > 0) j["b_refit_rms_px"] = fit_b.rms_px;
+      if (fit_a.num_points > 0) {
+        j["a_refit_rms_px"] = Num(fit_a.rms_px);
+        j["a_refit_points_not_projected"] = fit_a.num_not_projected;
+      }
+      if (fit_b.num_points > 0) {
+        j["b_refit_rms_px"] = Num(fit_b.rms_px);
+        j["b_refit_points_not_projected"] = fit_b.num_not_projected;
+      }
       return fmt::print("{}\n", j.dump(2));
     }
     auto cell = [](bool adj, double v, double s) {

@@ -7,18 +7,18 @@
 
 namespace porthole::cli {
 
-void RegisterMaterials(CLI::App& app);
 void RegisterVirtualImage(CLI::App& app);
 void RegisterTrace(CLI::App& app);
+void RegisterMaterials(CLI::App& app);
 void RegisterPresets(CLI::App& app);
-void RegisterFit(CLI::App& app);
-void RegisterSynthScan(CLI::App& app);
 void RegisterPlan(CLI::App& app);
 void RegisterFlat(CLI::App& app);
+void RegisterSimulate(CLI::App& app);
+void RegisterFit(CLI::App& app);
+void RegisterSynthScan(CLI::App& app);
+void RegisterAssemble(CLI::App& app);
 void RegisterDetect(CLI::App& app);
 void RegisterCalibrate(CLI::App& app);
 void RegisterCompare(CLI::App& app);
-void RegisterAssemble(CLI::App& app);
-void RegisterSimulate(CLI::App& app);
 
 }  // namespace porthole::cli

@@ -16,19 +16,19 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string(PORTHOLE_VERSION));
   app.get_formatter()->column_width(36);
 
-  porthole::cli::RegisterMaterials(app);
   porthole::cli::RegisterVirtualImage(app);
   porthole::cli::RegisterTrace(app);
+  porthole::cli::RegisterMaterials(app);
   porthole::cli::RegisterPresets(app);
-  porthole::cli::RegisterFit(app);
-  porthole::cli::RegisterSynthScan(app);
   porthole::cli::RegisterPlan(app);
   porthole::cli::RegisterFlat(app);
+  porthole::cli::RegisterSimulate(app);
+  porthole::cli::RegisterFit(app);
+  porthole::cli::RegisterSynthScan(app);
+  porthole::cli::RegisterAssemble(app);
   porthole::cli::RegisterDetect(app);
   porthole::cli::RegisterCalibrate(app);
   porthole::cli::RegisterCompare(app);
-  porthole::cli::RegisterAssemble(app);
-  porthole::cli::RegisterSimulate(app);
 
   try {
     app.parse(argc, argv);
