@@ -80,6 +80,7 @@ def test_flat_port_limits():
     (("plan", "--aperture", "32"), "--aperture"),
     (("plan", "--aperture", "1.4"), "--aperture"),
     (("plan", "--lens", "no-such-lens-xyz"), "--lens"),
+    (("plan", "--lens", "nikkor-99mm"), "--lens"),  # lensfun would loosely match a 50 mm
     (("plan", "--coc", "-1", "--wd", "1000"), "--coc"),
     (("flat", "--port", "nimar-ni320"), "--port"),
 ])

@@ -1,5 +1,7 @@
 #include "porthole/planning/lensfun.h"
 
+#include <regex>
+
 #include <fmt/format.h>
 #include <lensfun/lensfun.h>
 
@@ -104,6 +106,17 @@ lens::LensSpec FindLens(const std::string& name, std::optional<double> focal_mm)
                                  "the lensfun database");
   }
   const lfLens* l = found[0];
+  // lensfun's loose search returns its best guess even for a name that does not exist
+  // ("nikkor-99mm" → a 50 mm lens): a focal length written in the query must match.
+  static const std::regex kFocal(R"((\d+(?:\.\d+)?)\s*mm)", std::regex::icase);
+  for (auto it = std::sregex_iterator(name.begin(), name.end(), kFocal); it != std::sregex_iterator(); ++it) {
+    const double asked = std::stod((*it)[1].str());
+    if (asked < l->MinFocal - 0.5 || asked > l->MaxFocal + 0.5) {
+      throw InvalidInput("--lens", fmt::format("unknown lens '{}': not a preset ('porthole presets'), a file, nor in "
+                                               "the lensfun database (nearest: {})",
+                                               name, FullName(l->Maker, l->Model)));
+    }
+  }
   lens::LensSpec s;
   s.name = FullName(l->Maker, l->Model);
   for (char** m = l->Mounts; m && *m && s.mount.empty(); ++m) s.mount = MountFromLensfun(*m).value_or("");
