@@ -2,7 +2,30 @@
 
 #include <pybind11/pybind11.h>
 
+#include <optional>
+#include <string>
+
+#include "porthole/ports/environment.h"
+
 namespace porthole::python {
+
+// The water a port works in, from the keyword arguments every binding accepts (one place, so the
+// bindings cannot drift apart). Validation happens where the indices are resolved.
+inline ports::Environment MakeEnvironment(const std::string& water, std::optional<double> water_index,
+                                          std::optional<double> glass_index, double lambda_nm,
+                                          double temperature_c, double salinity_psu,
+                                          double pressure_dbar, bool extrapolate = false) {
+  ports::Environment env;
+  env.water = water;
+  env.water_index = water_index;
+  env.glass_index = glass_index;
+  env.conditions.lambda_nm = lambda_nm;
+  env.conditions.temperature_c = temperature_c;
+  env.conditions.salinity_psu = salinity_psu;
+  env.conditions.pressure_dbar = pressure_dbar;
+  env.conditions.extrapolate = extrapolate;
+  return env;
+}
 
 void RegisterMaterials(pybind11::module_& m);
 void RegisterPorts(pybind11::module_& m);

@@ -23,12 +23,8 @@ planning::Setup MakeSetup(const std::string& camera, const std::string& lens, co
   s.camera = planning::FindCamera(camera, pixel_pitch_mm);
   s.lens = planning::FindLens(lens, focal_mm);
   s.port = io::LoadPort(port);
-  s.env.water = water;
-  s.env.water_index = water_index;
-  s.env.conditions.lambda_nm = lambda_nm;
-  s.env.conditions.temperature_c = temperature_c;
-  s.env.conditions.salinity_psu = salinity_psu;
-  s.env.conditions.pressure_dbar = pressure_dbar;
+  s.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
+                          pressure_dbar);
   return s;
 }
 

@@ -131,15 +131,8 @@ void RegisterPorts(py::module_& m) {
       [](const ports::PortSpec& spec, const std::string& water, std::optional<double> water_index,
          std::optional<double> glass_index, std::optional<Vec3> ep_mm, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, bool extrapolate) {
-        ports::Environment env;
-        env.water = water;
-        env.water_index = water_index;
-        env.glass_index = glass_index;
-        env.conditions.lambda_nm = lambda_nm;
-        env.conditions.temperature_c = temperature_c;
-        env.conditions.salinity_psu = salinity_psu;
-        env.conditions.pressure_dbar = pressure_dbar;
-        env.conditions.extrapolate = extrapolate;
+        const ports::Environment env = MakeEnvironment(water, water_index, glass_index, lambda_nm,
+                                                       temperature_c, salinity_psu, pressure_dbar, extrapolate);
         return ports::MakeSystem(spec, env, ep_mm);
       },
       py::arg("port"), py::kw_only(), py::arg("water") = "seawater", py::arg("water_index") = py::none(),

@@ -33,11 +33,8 @@ void RegisterSimulate(py::module_& m) {
         spec.port = io::LoadPort(port);
         spec.body = io::LoadCamera(camera);
         spec.lens = io::LoadLens(lens);
-        spec.env.water = water;
-        spec.env.water_index = water_index;
-        spec.env.conditions.lambda_nm = lambda_nm;
-        spec.env.conditions.temperature_c = temperature_c;
-        spec.env.conditions.salinity_psu = salinity_psu;
+        spec.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c,
+                                   salinity_psu, /*pressure_dbar=*/0.0);
         spec.object_distance_mm = focus_distance_mm;
         spec.ep_offset_mm = simulate::Vec3(ep_offset_mm[0], ep_offset_mm[1], ep_offset_mm[2]);
         spec.c_mm = c_mm;
