@@ -124,6 +124,19 @@ class PointSink {
 // ---------------------------------------------------------------------------------------------
 // XYZ / CSV / TXT
 
+// Parses fields[0..2] as x, y, z and adds the point; `what` names a field in errors ("field 2 is
+// not a number"). Fails with the file and line for a non-number or a non-finite coordinate.
+void AddPointFromFields(const std::vector<std::string_view>& fields, const char* what,
+                        const std::filesystem::path& path, int64_t line_no, PointSink* sink) {
+  double v[3];
+  for (int k = 0; k < 3; ++k) {
+    const auto num = ParseNumber(fields[k]);
+    if (!num) FailLine(path, line_no, fmt::format("{} {} is not a number: {}", what, k + 1, Quote(fields[k])));
+    v[k] = *num;
+  }
+  if (!sink->Add(v[0], v[1], v[2])) FailLine(path, line_no, "coordinate is not finite");
+}
+
 PointCloud ReadXyz(const std::filesystem::path& path) {
   std::vector<char> buf;
   std::ifstream in = OpenOrThrow(path, buf);
@@ -153,15 +166,7 @@ PointCloud ReadXyz(const std::filesystem::path& path) {
     if (fields.size() < 3)
       FailLine(path, lines.line_no(),
                fmt::format("expected at least 3 fields (x y z), found {}", fields.size()));
-    double v[3];
-    for (int k = 0; k < 3; ++k) {
-      const auto num = ParseNumber(fields[k]);
-      if (!num)
-        FailLine(path, lines.line_no(),
-                 fmt::format("field {} is not a number: {}", k + 1, Quote(fields[k])));
-      v[k] = *num;
-    }
-    if (!sink.Add(v[0], v[1], v[2])) FailLine(path, lines.line_no(), "coordinate is not finite");
+    AddPointFromFields(fields, "field", path, lines.line_no(), &sink);
   }
   if (in.bad()) throw InvalidInput(path.string(), "read error");
   return sink.Finish(path);
@@ -184,15 +189,7 @@ PointCloud ReadObj(const std::filesystem::path& path) {
     if (fields.size() < 3)
       FailLine(path, lines.line_no(),
                fmt::format("'v' line needs 3 coordinates, found {}", fields.size()));
-    double v[3];
-    for (int k = 0; k < 3; ++k) {
-      const auto num = ParseNumber(fields[k]);
-      if (!num)
-        FailLine(path, lines.line_no(),
-                 fmt::format("coordinate {} is not a number: {}", k + 1, Quote(fields[k])));
-      v[k] = *num;
-    }
-    if (!sink.Add(v[0], v[1], v[2])) FailLine(path, lines.line_no(), "coordinate is not finite");
+    AddPointFromFields(fields, "coordinate", path, lines.line_no(), &sink);
   }
   if (in.bad()) throw InvalidInput(path.string(), "read error");
   return sink.Finish(path);
