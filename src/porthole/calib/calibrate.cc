@@ -4,12 +4,14 @@
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <set>
 
+#include "porthole/calib/residual.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
@@ -134,82 +136,16 @@ std::array<int, 3> ChooseDatum(const std::vector<Eigen::Vector3d>& pts, const st
   return {a, b, c};
 }
 
-// The bundle residual on scaled camera parameters: camera[i] = scale[i]·scaled[i], with scales
-// that give every parameter a comparable effect at the image corner (K_n by R^-2n, P by R^-1, for
-// R the half-diagonal in mm). Without it the Jacobian columns of c and K2 differ by ~R⁵ and the
+// Scales of the camera parameters in the adjustment (camera[i] = scale[i]·scaled[i], residual.h):
+// every parameter gets a comparable effect at the image corner (K_n by R^-2n, P by R^-1, for R
+// the half-diagonal in mm). Without them the Jacobian columns of c and K2 differ by ~R⁵ and the
 // covariance is numerically singular in pixel units.
-//
-// Two forms of the same model (camera/brown.h):
-//  - kProject: camera::BrownBundleResidual, projected − observed measured point (px): the image
-//    residual the statistics and the RMS are defined on (Distort's Newton inversion per point);
-//  - kCorrect: the classical photogrammetric form, corrected observation − collinearity,
-//    (Undistort(x_obs) − x0 − c·X/Z, Undistort(y_obs) − y0 + c·Y/Z)/pitch: no inversion, ~4×
-//    cheaper under automatic differentiation. It differs from kProject by the factor
-//    (I + ∂Δ/∂x̄) on each residual, so it serves as the start and kProject as the final adjustment.
-enum class Form { kCorrect, kProject };
-
-template <Form kForm>
-struct ScaledResidual {
-  double x_mm, y_mm, pitch_mm;
-  std::array<double, kBrownNumParams> scale;
-
-  template <typename T>
-  bool Eval(const T* scaled, const T* rotation, const T* translation, const T* point,
-            T* r) const {
-    T cam[kBrownNumParams];
-    for (int i = 0; i < kBrownNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
-    if constexpr (kForm == Form::kProject) {
-      return camera::BrownBundleResidual(x_mm, y_mm, pitch_mm)(cam, rotation, translation, point,
-                                                               r);
-    } else {
-      T p[3];
-      ceres::AngleAxisRotatePoint(rotation, point, p);
-      for (int k = 0; k < 3; ++k) p[k] += translation[k];
-      if (!(camera::ScalarValue(p[2]) > 0)) return false;
-      const camera::Vec2<T> u = camera::Undistort<T>(cam, T(x_mm), T(y_mm));
-      r[0] = (u(0) - cam[camera::kBrownX0] - cam[camera::kBrownC] * p[0] / p[2]) / T(pitch_mm);
-      r[1] = (u(1) - cam[camera::kBrownY0] + cam[camera::kBrownC] * p[1] / p[2]) / T(pitch_mm);
-      return true;
-    }
-  }
-};
-
-// Blocks: camera (scaled) [10], rotation [3], translation [3], target point [3].
-template <Form kForm>
-struct FreePointResidual : ScaledResidual<kForm> {
-  template <typename T>
-  bool operator()(const T* cam, const T* rot, const T* tr, const T* point, T* r) const {
-    return this->Eval(cam, rot, tr, point, r);
-  }
-};
-
-// Blocks: camera (scaled) [10], rotation [3], translation [3]; the target point is a constant
-// (smaller Jets than a constant parameter block).
-template <Form kForm>
-struct FixedPointResidual : ScaledResidual<kForm> {
-  Eigen::Vector3d point;
-  template <typename T>
-  bool operator()(const T* cam, const T* rot, const T* tr, T* r) const {
-    const T p[3] = {T(point.x()), T(point.y()), T(point.z())};
-    return this->Eval(cam, rot, tr, p, r);
-  }
-};
-
-template <Form kForm>
-ceres::CostFunction* MakeCost(const ScaledResidual<kForm>& base, const double* point,
-                              bool point_free) {
-  if (point_free) {
-    return new ceres::AutoDiffCostFunction<FreePointResidual<kForm>, 2, kBrownNumParams, 3, 3, 3>(
-        new FreePointResidual<kForm>{base});
-  }
-  return new ceres::AutoDiffCostFunction<FixedPointResidual<kForm>, 2, kBrownNumParams, 3, 3>(
-      new FixedPointResidual<kForm>{base, Eigen::Vector3d(point)});
-}
-
 std::array<double, kBrownNumParams> ParameterScales(const camera::Sensor& s) {
   const double r = 0.5 * std::hypot(s.width_px, s.height_px) * s.pixel_pitch_mm;
   return {r, r, r, std::pow(r, -2), std::pow(r, -4), std::pow(r, -6), 1 / r, 1 / r, 1, 1};
 }
+
+using CameraMatrix = Eigen::Matrix<double, kBrownNumParams, kBrownNumParams>;
 
 class Adjustment {
  public:
@@ -219,48 +155,12 @@ class Adjustment {
     if (o_.target_free) datum_ = ChooseDatum(s_->points, used_);
   }
 
-  // Least squares over the active observations with the free parameters `free`; returns the
-  // Ceres iterations. With `covariance`, also the marginal covariance of the camera (unscaled).
-  // Form::kCorrect is the cheap start; covariance is only meaningful for Form::kProject.
-  int Solve(const FreeMask& free, Form form,
-            Eigen::Matrix<double, kBrownNumParams, kBrownNumParams>* covariance, bool* cov_ok) {
-    ceres::Problem::Options po;
-    ceres::Problem problem(po);
+  // Least squares over the active observations with the free parameters `free` in the residual
+  // form `form` (residual.h); updates the state and returns the Ceres iterations.
+  int Solve(const FreeMask& free, Form form) {
     std::array<double, kBrownNumParams> scaled;
-    for (int i = 0; i < kBrownNumParams; ++i) scaled[i] = s_->camera[i] / scale_[i];
-    for (const auto& ob : *obs_) {
-      if (!ob.active) continue;
-      ceres::LossFunction* loss = nullptr;
-      if (o_.loss == LossKind::kHuber) loss = new ceres::HuberLoss(o_.loss_scale_px);
-      if (o_.loss == LossKind::kCauchy) loss = new ceres::CauchyLoss(o_.loss_scale_px);
-      double* point = s_->points[ob.point].data();
-      const bool point_free = o_.target_free && ob.point != datum_[0] && ob.point != datum_[1];
-      ceres::CostFunction* cost =
-          form == Form::kProject
-              ? MakeCost(ScaledResidual<Form::kProject>{ob.x_mm, ob.y_mm, o_.pixel_pitch_mm, scale_},
-                         point, point_free)
-              : MakeCost(ScaledResidual<Form::kCorrect>{ob.x_mm, ob.y_mm, o_.pixel_pitch_mm, scale_},
-                         point, point_free);
-      if (point_free) {
-        problem.AddResidualBlock(cost, loss, scaled.data(), s_->rotation[ob.image].data(),
-                                 s_->translation[ob.image].data(), point);
-      } else {
-        problem.AddResidualBlock(cost, loss, scaled.data(), s_->rotation[ob.image].data(),
-                                 s_->translation[ob.image].data());
-      }
-    }
-    std::vector<int> fixed;
-    for (int i = 0; i < kBrownNumParams; ++i) {
-      if (!free[i]) fixed.push_back(i);
-    }
-    if (static_cast<int>(fixed.size()) == kBrownNumParams) {
-      problem.SetParameterBlockConstant(scaled.data());
-    } else if (!fixed.empty()) {
-      problem.SetManifold(scaled.data(), new ceres::SubsetManifold(kBrownNumParams, fixed));
-    }
-    if (o_.target_free && problem.HasParameterBlock(s_->points[datum_[2]].data())) {
-      problem.SetManifold(s_->points[datum_[2]].data(), new ceres::SubsetManifold(3, {2}));
-    }
+    ceres::Problem problem;
+    Build(free, form, &scaled, &problem);
     ceres::Solver::Options so;
     // Schur elimination of the poses (and free target points): the reduced camera system is
     // small, so the dense variant is the fastest; large free targets use the sparse one.
@@ -276,31 +176,148 @@ class Adjustment {
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
     for (int i = 0; i < kBrownNumParams; ++i) s_->camera[i] = scaled[i] * scale_[i];
-    if (covariance != nullptr) {
-      ceres::Covariance::Options co;
-      co.num_threads = o_.num_threads;
-      ceres::Covariance cov(co);
-      const double* cam = scaled.data();
-      const std::vector<std::pair<const double*, const double*>> blocks = {{cam, cam}};
-      *cov_ok = cov.Compute(blocks, &problem) &&
-                cov.GetCovarianceBlock(cam, cam, covariance->data());
-      // Ceres writes row-major; the matrix is symmetric, so the storage order does not matter.
-      // Back to the parameters' own units: Σ = S Σ_scaled S.
-      const Eigen::Map<const Eigen::Matrix<double, kBrownNumParams, 1>> sv(scale_.data());
-      *covariance = sv.asDiagonal() * (*covariance) * sv.asDiagonal();
-    }
     return static_cast<int>(summary.iterations.size());
   }
 
+  // The unscaled marginal covariance of the camera parameters, (JᵀJ)⁻¹ of the image residual
+  // (px, not yet multiplied by σ0²), rows and columns of fixed parameters 0. False if singular.
+  bool Covariance(const FreeMask& free, CameraMatrix* covariance) {
+    covariance->setZero();
+    bool ok = (o_.target_free || o_.loss != LossKind::kNone || o_.ceres_covariance)
+                  ? CeresCovariance(free, covariance)
+                  : ReducedCameraCovariance(free, covariance);
+    // Back to the parameters' own units: Σ = S Σ_scaled S.
+    const Eigen::Map<const Eigen::Matrix<double, kBrownNumParams, 1>> sv(scale_.data());
+    *covariance = sv.asDiagonal() * (*covariance) * sv.asDiagonal();
+    return ok;
+  }
+
  private:
+  void Build(const FreeMask& free, Form form, std::array<double, kBrownNumParams>* scaled,
+             ceres::Problem* problem) {
+    for (int i = 0; i < kBrownNumParams; ++i) (*scaled)[i] = s_->camera[i] / scale_[i];
+    for (const auto& ob : *obs_) {
+      if (!ob.active) continue;
+      ceres::LossFunction* loss = nullptr;
+      if (o_.loss == LossKind::kHuber) loss = new ceres::HuberLoss(o_.loss_scale_px);
+      if (o_.loss == LossKind::kCauchy) loss = new ceres::CauchyLoss(o_.loss_scale_px);
+      double* point = s_->points[ob.point].data();
+      double* rot = s_->rotation[ob.image].data();
+      double* tr = s_->translation[ob.image].data();
+      const bool point_free = o_.target_free && ob.point != datum_[0] && ob.point != datum_[1];
+      const double pitch = o_.pixel_pitch_mm;
+      if (point_free) {
+        ceres::CostFunction* cost =
+            form == Form::kProject
+                ? static_cast<ceres::CostFunction*>(new AnalyticResidual<Form::kProject, true>(
+                      ob.x_mm, ob.y_mm, pitch, scale_, s_->points[ob.point]))
+                : new AnalyticResidual<Form::kCorrect, true>(ob.x_mm, ob.y_mm, pitch, scale_,
+                                                             s_->points[ob.point]);
+        problem->AddResidualBlock(cost, loss, scaled->data(), rot, tr, point);
+      } else {
+        ceres::CostFunction* cost =
+            form == Form::kProject
+                ? static_cast<ceres::CostFunction*>(new AnalyticResidual<Form::kProject, false>(
+                      ob.x_mm, ob.y_mm, pitch, scale_, s_->points[ob.point]))
+                : new AnalyticResidual<Form::kCorrect, false>(ob.x_mm, ob.y_mm, pitch, scale_,
+                                                              s_->points[ob.point]);
+        problem->AddResidualBlock(cost, loss, scaled->data(), rot, tr);
+      }
+    }
+    std::vector<int> fixed;
+    for (int i = 0; i < kBrownNumParams; ++i) {
+      if (!free[i]) fixed.push_back(i);
+    }
+    if (static_cast<int>(fixed.size()) == kBrownNumParams) {
+      problem->SetParameterBlockConstant(scaled->data());
+    } else if (!fixed.empty()) {
+      problem->SetManifold(scaled->data(), new ceres::SubsetManifold(kBrownNumParams, fixed));
+    }
+    if (o_.target_free && problem->HasParameterBlock(s_->points[datum_[2]].data())) {
+      problem->SetManifold(s_->points[datum_[2]].data(), new ceres::SubsetManifold(3, {2}));
+    }
+  }
+
+  // Ceres's marginal covariance over all unknowns (sparse QR): the general path (free target,
+  // robust loss) and the reference of ReducedCameraCovariance. Scaled units.
+  bool CeresCovariance(const FreeMask& free, CameraMatrix* covariance) {
+    std::array<double, kBrownNumParams> scaled;
+    ceres::Problem problem;
+    Build(free, Form::kProject, &scaled, &problem);
+    ceres::Covariance::Options co;
+    co.num_threads = o_.num_threads;
+    ceres::Covariance cov(co);
+    const double* cam = scaled.data();
+    const std::vector<std::pair<const double*, const double*>> blocks = {{cam, cam}};
+    // Ceres writes row-major; the matrix is symmetric, so the storage order does not matter.
+    return cov.Compute(blocks, &problem) && cov.GetCovarianceBlock(cam, cam, covariance->data());
+  }
+
+  // Fixed target, no robust loss: the camera block of (JᵀJ)⁻¹ is the inverse of the reduced camera
+  // system S = U − Σ_i W_i V_i⁻¹ W_iᵀ (U = J_camᵀJ_cam, W_i = J_camᵀJ_pose_i, V_i = J_pose_iᵀJ_pose_i
+  // per image), built from the analytic Jacobians: a 10×10 problem instead of a sparse QR over all
+  // unknowns. Singular (false) if an image's pose or the free camera block has a reciprocal
+  // condition number below 1e-14 (Ceres's default for its covariance). Scaled units.
+  bool ReducedCameraCovariance(const FreeMask& free, CameraMatrix* covariance) {
+    const int n_images = static_cast<int>(s_->rotation.size());
+    std::array<double, kBrownNumParams> scaled;
+    for (int i = 0; i < kBrownNumParams; ++i) scaled[i] = s_->camera[i] / scale_[i];
+    CameraMatrix u = CameraMatrix::Zero();
+    std::vector<Eigen::Matrix<double, kBrownNumParams, 6>> w(
+        n_images, Eigen::Matrix<double, kBrownNumParams, 6>::Zero());
+    std::vector<Eigen::Matrix<double, 6, 6>> v(n_images, Eigen::Matrix<double, 6, 6>::Zero());
+    RowJacobianCamera jc;
+    RowJacobian3 jr, jt;
+    Eigen::Matrix<double, 2, 6> jp;
+    double r[2];
+    for (const auto& ob : *obs_) {
+      if (!ob.active) continue;
+      if (!EvaluateResidual<Form::kProject>(scaled.data(), scale_, s_->rotation[ob.image].data(),
+                                            s_->translation[ob.image].data(),
+                                            s_->points[ob.point].data(), ob.x_mm, ob.y_mm,
+                                            o_.pixel_pitch_mm, r, &jc, &jr, &jt, nullptr)) {
+        return false;
+      }
+      jp << jr, jt;
+      u.noalias() += jc.transpose() * jc;
+      w[ob.image].noalias() += jc.transpose() * jp;
+      v[ob.image].noalias() += jp.transpose() * jp;
+    }
+    for (int i = 0; i < n_images; ++i) {
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(v[i]);
+      const auto& ev = es.eigenvalues();
+      if (!(ev(0) > 1e-14 * ev(5))) return false;
+      const Eigen::Matrix<double, kBrownNumParams, 6> wq = w[i] * es.eigenvectors();
+      u.noalias() -= wq * ev.cwiseInverse().asDiagonal() * wq.transpose();
+    }
+    std::vector<int> idx;
+    for (int i = 0; i < kBrownNumParams; ++i) {
+      if (free[i]) idx.push_back(i);
+    }
+    const int nf = static_cast<int>(idx.size());
+    if (nf == 0) return true;
+    Eigen::MatrixXd sf(nf, nf);
+    for (int a = 0; a < nf; ++a) {
+      for (int b = 0; b < nf; ++b) sf(a, b) = u(idx[a], idx[b]);
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(sf);
+    const Eigen::VectorXd& ev = es.eigenvalues();
+    if (!(ev(0) > 1e-14 * ev(nf - 1))) return false;
+    const Eigen::MatrixXd inv =
+        es.eigenvectors() * ev.cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
+    for (int a = 0; a < nf; ++a) {
+      for (int b = 0; b < nf; ++b) (*covariance)(idx[a], idx[b]) = inv(a, b);
+    }
+    return true;
+  }
+
   const CalibrationOptions& o_;
   std::vector<Observation>* obs_;
   State* s_;
-  std::array<double, kBrownNumParams> scale_;
+  CameraScales scale_;
   std::set<int> used_;
   std::array<int, 3> datum_{-1, -1, -1};
 };
-
 }  // namespace
 
 FreeMask ParseFreeParameters(const std::string& list, const std::string& field) {
@@ -347,6 +364,9 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
   RequireNonNegative("--reject-k", options.reject_k);
   RequirePositive("--loss-scale-px", options.loss_scale_px);
   RequirePositive("--significance-t", options.significance_t);
+  if (options.drop_insignificant && !options.statistics) {
+    throw InvalidInput("statistics", "stepwise dropping needs the statistics (σ of each parameter)");
+  }
   if (!options.free[camera::kBrownC] && !options.initial) {
     throw InvalidInput("--free", "c may be fixed only with a start camera (--initial)");
   }
@@ -435,13 +455,13 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
   }
 
   Adjustment adj(options, &obs, &s, res.sensor, used_points);
-  res.iterations += adj.Solve(options.free, Form::kCorrect, nullptr, nullptr);
+  res.iterations += adj.Solve(options.free, Form::kCorrect);
   say(fmt::format("{} images, {} points: adjusting {}", n_images, obs.size(),
                   FreeParametersToString(options.free)));
 
   // Adjust, reject outliers, evaluate statistics; stepwise drop non-significant parameters.
   FreeMask free = options.free;
-  Eigen::Matrix<double, kBrownNumParams, kBrownNumParams> cov;
+  CameraMatrix cov = CameraMatrix::Zero();
   while (true) {
     int n_free_now = 0;
     for (bool f : free) n_free_now += f ? 1 : 0;
@@ -449,9 +469,7 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     double ss = 0;
     int n_active = 0;
     for (int round = 0;; ++round) {
-      bool cov_ok = false;
-      res.iterations += adj.Solve(free, Form::kProject, &cov, &cov_ok);
-      res.covariance_ok = cov_ok;
+      res.iterations += adj.Solve(free, Form::kProject);
       ss = 0;
       n_active = 0;
       for (const auto& ob : obs) {
@@ -482,6 +500,11 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     res.sigma0_px = std::sqrt(ss / res.redundancy);
     res.rms_px = std::sqrt(ss / n_active);
     res.n_points = n_active;
+    if (!options.statistics) {
+      res.sigma.fill(NAN);
+      break;
+    }
+    res.covariance_ok = adj.Covariance(free, &cov);
     res.covariance = cov * (res.sigma0_px * res.sigma0_px);
     res.significance.clear();
     int weakest = -1;
@@ -532,9 +555,10 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     im.rotation_rad = Eigen::Vector3d(s.rotation[i].data());
     im.translation_mm = Eigen::Vector3d(s.translation[i].data());
   }
-  res.message = res.covariance_ok ? "ok"
-                                  : "the covariance is singular: some free parameters are not "
-                                    "determined by these images (fix them with --free)";
+  res.message = !options.statistics ? "ok (statistics not computed)"
+                : res.covariance_ok   ? "ok"
+                                      : "the covariance is singular: some free parameters are not "
+                                        "determined by these images (fix them with --free)";
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   say(fmt::format("done: sigma0 {:.4f} px, RMS {:.4f} px, {} iterations, {:.3f} s", res.sigma0_px,
                   res.rms_px, res.iterations, res.seconds));

@@ -217,6 +217,33 @@ Vec3<T> Unproject(const T* params, const T& x, const T& y) {
   return dir / dir.norm();
 }
 
+// ∂Δ/∂(x, y) at a MEASURED point (image mm): the 2×2 Jacobian of Correction with respect to the
+// point. ∂Δ/∂(x0, y0) is its negative. I + this is the matrix A whose inverse maps an ideal-point
+// change to a measured-point change (implicit-function theorem on Undistort = ideal).
+template <typename T>
+Eigen::Matrix<T, 2, 2> CorrectionPointJacobian(const T* params, const T& x, const T& y) {
+  Eigen::Matrix<T, 2, 2> jac;
+  detail::CentredCorrection<T>(params, x - params[kBrownX0], y - params[kBrownY0], &jac);
+  return jac;
+}
+
+// The additional parameters K1, K2, K3, P1, P2, B1, B2 (BrownIndex kBrownK1 … kBrownB2).
+inline constexpr int kBrownNumAdditional = kBrownNumParams - kBrownK1;
+
+// ∂Δ/∂(K1, K2, K3, P1, P2, B1, B2) at a MEASURED point (image mm). Δ is linear in these seven, so
+// column j is the j-th term of the correction polynomial and Correction = this · (K1 … B2).
+// Units: mm per unit of each parameter (kBrownParamInfo).
+template <typename T>
+Eigen::Matrix<T, 2, kBrownNumAdditional> CorrectionParamJacobian(const T* params, const T& x,
+                                                                  const T& y) {
+  const T xb = x - params[kBrownX0], yb = y - params[kBrownY0];
+  const T r2 = xb * xb + yb * yb, r4 = r2 * r2, r6 = r4 * r2;
+  Eigen::Matrix<T, 2, kBrownNumAdditional> b;
+  b << xb * r2, xb * r4, xb * r6, r2 + T(2) * xb * xb, T(2) * xb * yb, xb, yb,  //
+      yb * r2, yb * r4, yb * r6, T(2) * xb * yb, r2 + T(2) * yb * yb, T(0), T(0);
+  return b;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Struct form: the same functions for fixed (double) parameters and a point of scalar type T.
 
