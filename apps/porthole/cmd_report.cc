@@ -1,0 +1,85 @@
+// `porthole report`: everything the paper shows about one camera–lens–port–water system, as
+// figures (gnuplot, PNG and SVG, with their data and scripts), one self-contained index.html and
+// report.json, written whole into --out or not at all (docs/report.md).
+#include <fmt/format.h>
+
+#include "camera_options.h"
+#include "commands.h"
+#include "common.h"
+#include "porthole/calib/result_json.h"
+#include "porthole/io/presets.h"
+#include "porthole/report/report.h"
+
+namespace porthole::cli {
+
+void RegisterReport(CLI::App& app) {
+  struct Options {
+    CameraLensOptions camera;
+    std::string port = "nimar-ni320", other_port;
+    WaterOptions water;
+    double subject_distance_mm = 1000, aperture = 8;
+    std::optional<double> coc_mm;
+    std::string air_calibration, water_calibration;
+    double calibration_pitch_mm = 0;
+    std::string out;
+    bool force = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "report", "Figures and one HTML page of a camera-lens-port-water system: port and rays, virtual image "
+                "and focus, minimum WD, depth of field, field curvature, dome vs flat, predicted calibration, "
+                "tolerances, distortion maps, and your calibrations compared");
+  o->camera.Add(cmd);
+  cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
+      ->capture_default_str()->group("Port");
+  cmd->add_option("--compare-port", o->other_port,
+                  "The port to compare with (default: flat-acrylic-10mm for a dome, nimar-ni320-nominal for a flat port)")
+      ->group("Port");
+  o->water.Add(cmd);
+  cmd->add_option("--subject-distance", o->subject_distance_mm, "Target: subject to entrance pupil, mm")
+      ->capture_default_str();
+  cmd->add_option("--aperture", o->aperture, "f-number N")->capture_default_str();
+  cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
+  cmd->add_option("--air-calibration", o->air_calibration,
+                  "In-air calibration of the camera in its housing (porthole calibrate JSON or OpenCV YAML)")
+      ->group("Calibrations");
+  cmd->add_option("--water-calibration", o->water_calibration,
+                  "Underwater calibration (needs --air-calibration): adds the comparison, Figs. 14 and 15")
+      ->group("Calibrations");
+  cmd->add_option("--out", o->out, "Directory to write the report into")->required();
+  cmd->add_flag("--force", o->force, "Replace an existing report in --out");
+
+  cmd->callback([o, cmd] {
+    report::ReportInputs in;
+    in.setup = o->camera.ToSetup(PortOptions{o->port, {}}, o->water);
+    in.other_port = io::LoadPort(o->other_port.empty() ? report::DefaultOtherPort(in.setup.port) : o->other_port);
+    in.subject_distance_mm = o->subject_distance_mm;
+    in.f_number = o->aperture;
+    in.coc_mm = o->coc_mm;
+    const double pitch = in.setup.camera.sensor.pixel_pitch_mm;
+    if (!o->air_calibration.empty()) {
+      in.air_calibration = calib::LoadCalibration(o->air_calibration, pitch, "--air-calibration", nullptr);
+    }
+    if (!o->water_calibration.empty()) {
+      in.water_calibration = calib::LoadCalibration(o->water_calibration, pitch, "--water-calibration", nullptr);
+    }
+    for (const CLI::Option* opt : cmd->get_options()) {
+      if (opt->count() == 0 || opt->get_name() == "--help" || opt->get_name() == "--out" || opt->get_name() == "--force") {
+        continue;
+      }
+      const auto results = opt->results();
+      std::string v = results.empty() ? "true" : fmt::format("{}", fmt::join(results, ","));
+      in.echo.emplace_back(opt->get_name(), v);
+    }
+    if (in.echo.empty()) in.echo.emplace_back("(defaults)", "the paper's system");
+
+    report::ReportOptions ro;
+    ro.out_dir = o->out;
+    ro.force = o->force;
+    ro.progress = [](const std::string& line) { fmt::print(stderr, "porthole report: {}\n", line); };
+    const report::ReportSummary s = report::WriteReport(in, ro);
+    fmt::print("report: {} ({} figures, {:.1f} s)\n", s.index_html.string(), s.figures.size(), s.seconds);
+  });
+}
+
+}  // namespace porthole::cli

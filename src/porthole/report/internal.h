@@ -1,0 +1,117 @@
+// The report's parts: the gathered library results (Gather), the figures (data file + gnuplot
+// script each), the page and the JSON. Private to src/porthole/report/.
+#pragma once
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "porthole/calib/compare.h"
+#include "porthole/planning/flat.h"
+#include "porthole/planning/plan.h"
+#include "porthole/report/report.h"
+#include "porthole/simulate/simulate.h"
+
+namespace porthole::report {
+
+using Json = nlohmann::ordered_json;
+
+// One working distance: where its virtual image is and the focus that makes it sharp, with the
+// pupil where the lens puts it at that focus (planning::SolveFocus).
+struct VirtualRow {
+  double wd_mm = 0;
+  double d_s2ep_mm = 0, vwd_mm = 0, magnification = 0;  // paraxial
+  double d_s2ep_real_mm = NAN;      // real rays through the pupil rim at f/(2N)
+  std::optional<double> fd_mm;      // the focus scale to set; nullopt: closer than the lens goes
+  double closeup_dioptre = 0;       // the weakest close-up that reaches it (0: reachable)
+};
+
+// Depth of field for one subject distance from the pupil, in air and under water.
+struct DofRow {
+  double subject_mm = 0;
+  planning::DofAir air;
+  planning::DofWater water;
+};
+
+// A chief ray's angle in the water against its angle in air, for both ports (NaN: blocked).
+struct AngleRow {
+  double theta_air_deg = 0, theta_main_deg = NAN, theta_other_deg = NAN;
+};
+
+// Everything the report shows, straight from the libraries.
+struct Results {
+  const ReportInputs* in = nullptr;
+  planning::Setup other_setup;            // the same camera and lens behind the other port
+  planning::Plan plan, other_plan;        // at the target subject distance
+  std::optional<planning::FlatAnalysis> flat;  // of whichever of the two ports is flat
+  std::vector<VirtualRow> table;          // the paper's Table 5 working distances
+  std::vector<VirtualRow> curve;          // dense, for the figures
+  std::vector<DofRow> dof;
+  std::vector<AngleRow> angles;
+  std::vector<optics::RayPath> fan;       // chief rays in the x-z plane, out into the water
+  std::vector<double> fan_angles_deg;
+  simulate::Prediction prediction, other_prediction;
+  std::vector<simulate::MapPoint> map;
+  std::vector<double> offsets_z_mm, offsets_x_mm;
+  std::vector<simulate::SweepRow> sweep_z, sweep_x;
+  std::optional<calib::CompareResult> compare;
+};
+
+// Times each step; reports those over a second through options.progress.
+class Steps {
+ public:
+  explicit Steps(const ReportOptions& o) : options_(o) {}
+  template <typename F>
+  auto Run(const std::string& what, F&& f) {
+    const auto t0 = Now();
+    if constexpr (std::is_void_v<decltype(f())>) {
+      f();
+      Done(what, t0);
+    } else {
+      auto r = f();
+      Done(what, t0);
+      return r;
+    }
+  }
+  const std::vector<std::pair<std::string, double>>& seconds() const { return seconds_; }
+
+ private:
+  static double Now();
+  void Done(const std::string& what, double t0);
+  const ReportOptions& options_;
+  std::vector<std::pair<std::string, double>> seconds_;
+};
+
+// Runs the libraries (planning, simulate, calib). Throws InvalidInput for bad inputs.
+Results Gather(const ReportInputs& in, Steps& steps);
+
+struct Figure {
+  std::string id;       // file stem: figures/<id>.{dat,gp,png,svg}
+  std::string section;  // the page section it belongs to
+  std::string title, caption;
+  int width_px = 960, height_px = 560;
+  std::string data;     // the data file, with a header naming columns and units
+  std::string body;     // gnuplot commands after the terminal and output are set
+};
+std::vector<Figure> MakeFigures(const Results& r);
+
+// The gnuplot script written beside a figure: sets each terminal in turn (pngcairo, svg) and runs
+// the figure's commands; `gnuplot <id>.gp` in figures/ remakes <id>.png and <id>.svg.
+std::string FigureScript(const Figure& f);
+
+// An SVG from gnuplot made fit to inline in a page: no XML prolog, every id (and reference to it)
+// prefixed with the figure id so that several figures on one page do not collide.
+std::string InlineSvg(const std::string& svg, const std::string& id);
+
+Json ReportJson(const Results& r, const std::vector<Figure>& figures);
+// svgs: figure id → inline SVG text.
+std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
+                       const std::map<std::string, std::string>& svgs);
+
+// Escapes &, <, >, " for HTML text and attributes.
+std::string Html(const std::string& s);
+
+}  // namespace porthole::report

@@ -1,0 +1,430 @@
+// The report's JSON (every number, through the libraries' serialisers) and its HTML page (plain
+// HTML and CSS, figures inline as SVG, no script).
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "porthole/camera/json.h"
+#include "porthole/camera/profile.h"
+#include "porthole/planning/json.h"
+#include "porthole/simulate/report.h"
+#include "porthole/report/internal.h"
+
+namespace porthole::report {
+namespace {
+
+// A length for JSON: a number, "inf" for infinity, null when unavailable (docs/conventions.md).
+Json L(double v) {
+  if (std::isnan(v)) return nullptr;
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return v;
+}
+
+Json VirtualRowJson(const VirtualRow& v) {
+  return {{"wd_mm", L(v.wd_mm)}, {"d_s2ep_mm", L(v.d_s2ep_mm)}, {"vwd_mm", L(v.vwd_mm)},
+          {"d_s2ep_real_mm", L(v.d_s2ep_real_mm)}, {"magnification", v.magnification},
+          {"focus_scale_fd_mm", v.fd_mm ? L(*v.fd_mm) : Json(nullptr)},
+          {"closeup_dioptre_needed", v.closeup_dioptre}};
+}
+
+// The comparison of two calibrations (calib::Compare), with the same keys as `porthole compare
+// --json`.
+Json CompareJson(const calib::CompareResult& c) {
+  Json rows = Json::array(), curves = Json::array();
+  for (const auto& row : c.rows) {
+    rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
+                    {"a", row.adjusted_a || row.a != 0 ? Json(row.a) : Json(nullptr)},
+                    {"sigma_a", L(row.sigma_a)},
+                    {"b", row.adjusted_b || row.b != 0 ? Json(row.b) : Json(nullptr)},
+                    {"sigma_b", L(row.sigma_b)},
+                    {"diff_b_minus_a", row.diff},
+                    {"sigma_diff", L(row.sigma_diff)},
+                    {"z", L(row.z)}});
+  }
+  for (const auto& p : c.curves) {
+    curves.push_back({{"r_mm", p.r_mm}, {"radial_a_um", p.radial_a_um}, {"radial_b_um", p.radial_b_um},
+                      {"decentring_a_um", p.decentring_a_um}, {"decentring_b_um", p.decentring_b_um}});
+  }
+  return {{"a", "air"}, {"b", "water"}, {"parameters", rows}, {"units", camera::BrownUnitsJson()},
+          {"chi2", L(c.chi2)}, {"dof", c.dof}, {"p_value", L(c.p_value)}, {"significant", c.significant},
+          {"covariance", c.covariance_note}, {"max_a_um", c.max_a_um}, {"max_b_um", c.max_b_um},
+          {"max_diff_um", c.max_diff_um}, {"curves", curves}};
+}
+
+// Numbers for the page: fixed decimals, "∞", or "–".
+std::string F(double v, int decimals) {
+  if (std::isnan(v)) return "–";
+  if (std::isinf(v)) return v > 0 ? "∞" : "−∞";
+  return fmt::format("{:.{}f}", v, decimals);
+}
+std::string G(double v) { return std::isfinite(v) ? fmt::format("{:.4g}", v) : F(v, 0); }
+std::string E(double v) { return std::isfinite(v) ? fmt::format("{:.4e}", v) : F(v, 0); }
+
+std::string Row(const std::vector<std::string>& cells, bool head = false) {
+  std::string s = "<tr>";
+  for (std::size_t k = 0; k < cells.size(); ++k) {
+    const char* tag = head || k == 0 ? "th" : "td";
+    s += fmt::format("<{0}{1}>{2}</{0}>", tag, head || k > 0 ? "" : " scope=\"row\"", cells[k]);
+  }
+  return s + "</tr>\n";
+}
+
+std::string Table(const std::string& caption, const std::vector<std::string>& head,
+                  const std::vector<std::vector<std::string>>& rows) {
+  std::string s = fmt::format("<table>\n<caption>{}</caption>\n<thead>{}</thead>\n<tbody>\n", caption, Row(head, true));
+  for (const auto& r : rows) s += Row(r);
+  return s + "</tbody>\n</table>\n";
+}
+
+std::string Card(const std::string& label, const std::string& value, const std::string& note) {
+  return fmt::format("<div class=\"card\"><div class=\"label\">{}</div><div class=\"value\">{}</div>"
+                     "<div class=\"note\">{}</div></div>\n", label, value, note);
+}
+
+// One Brown parameter in a table: values of the size of K2 need exponents.
+std::string Param(int index, double v) { return index <= camera::kBrownY0 ? F(v, 4) : E(v); }
+
+std::string BrownTable(const std::string& caption, const std::vector<std::pair<std::string, camera::BrownParams>>& cols,
+                       const std::vector<std::pair<std::string, double>>& extra_row = {}) {
+  std::vector<std::string> head = {"parameter"};
+  for (const auto& c : cols) head.push_back(c.first);
+  std::vector<std::vector<std::string>> rows;
+  for (int i = camera::kBrownC; i <= camera::kBrownP2; ++i) {
+    const auto& info = camera::kBrownParamInfo[i];
+    std::vector<std::string> row = {fmt::format("{} <span class=\"unit\">{}</span>", info.name, info.unit)};
+    for (const auto& c : cols) row.push_back(Param(i, c.second.ToArray()[i]));
+    rows.push_back(row);
+  }
+  if (!extra_row.empty()) {
+    std::vector<std::string> row = {extra_row.front().first};
+    for (const auto& e : extra_row) row.push_back(std::isfinite(e.second) ? F(e.second, 3) : "");
+    rows.push_back(row);
+  }
+  return Table(caption, head, rows);
+}
+
+const char* kCss = R"(
+:root { --ink:#1d2733; --muted:#5b6774; --line:#dfe5ec; --paper:#ffffff; --bg:#f3f6f9; --accent:#1f5fa8; --air:#c8322d; }
+* { box-sizing: border-box; }
+body { margin:0; background:var(--bg); color:var(--ink); font:16px/1.55 "DejaVu Sans", "Segoe UI", Helvetica, Arial, sans-serif; }
+header { background:linear-gradient(120deg,#0b3a63,#1f5fa8 60%,#2a9d8f); color:#fff; padding:2.2rem 1rem 2rem; }
+header .wrap, main, footer { max-width:1180px; margin:0 auto; }
+header h1 { margin:0 0 .3rem; font-size:1.9rem; font-weight:600; letter-spacing:.01em; }
+header p { margin:.2rem 0; opacity:.92; }
+main { padding:1.2rem 1rem 2rem; }
+nav.toc { display:flex; flex-wrap:wrap; gap:.4rem .6rem; margin:0 0 1.2rem; }
+nav.toc a { background:#fff; border:1px solid var(--line); border-radius:999px; padding:.2rem .8rem; color:var(--accent); text-decoration:none; font-size:.9rem; }
+section { background:var(--paper); border:1px solid var(--line); border-radius:10px; padding:1.2rem 1.5rem 1.4rem; margin:0 0 1.4rem; box-shadow:0 1px 2px rgba(0,0,0,.04); }
+h2 { margin:.1rem 0 .6rem; font-size:1.35rem; color:#0b3a63; }
+h3 { margin:1rem 0 .4rem; font-size:1.08rem; }
+p.lead { color:var(--muted); margin-top:0; }
+.cards { display:grid; grid-template-columns:repeat(auto-fill,minmax(210px,1fr)); gap:.8rem; }
+.card { border:1px solid var(--line); border-left:4px solid var(--accent); border-radius:8px; padding:.6rem .8rem; background:#fbfcfe; }
+.card .label { font-size:.82rem; color:var(--muted); text-transform:uppercase; letter-spacing:.04em; }
+.card .value { font-size:1.35rem; font-weight:600; font-variant-numeric:tabular-nums; }
+.card .note { font-size:.85rem; color:var(--muted); }
+ul.warnings { padding-left:1.2rem; } ul.warnings li { margin:.25rem 0; }
+ul.warnings li::marker { content:"⚠  "; color:#c77c02; }
+table { border-collapse:collapse; margin:.6rem 0 1rem; font-size:.92rem; font-variant-numeric:tabular-nums; }
+caption { text-align:left; font-weight:600; padding:.2rem 0 .4rem; color:var(--ink); }
+th, td { border-bottom:1px solid var(--line); padding:.28rem .7rem; text-align:right; white-space:nowrap; }
+thead th { background:#eef3f8; color:#0b3a63; font-weight:600; }
+tbody th { text-align:left; font-weight:500; }
+tbody tr:nth-child(even) { background:#f8fafc; }
+.unit { color:var(--muted); font-weight:400; font-size:.85em; }
+.scroll { overflow-x:auto; }
+figure { margin:1rem 0 1.4rem; }
+figure .plot { border:1px solid var(--line); border-radius:8px; background:#fff; padding:.3rem; }
+figure svg { display:block; width:100%; height:auto; }
+figcaption { color:var(--muted); font-size:.92rem; margin-top:.45rem; }
+figcaption .files a { color:var(--accent); margin-right:.6rem; font-size:.85rem; }
+dl.inputs { display:grid; grid-template-columns:max-content 1fr; gap:.2rem 1.2rem; margin:.4rem 0; }
+dl.inputs dt { color:var(--muted); } dl.inputs dd { margin:0; font-family:"DejaVu Sans Mono", monospace; font-size:.9rem; }
+footer { color:var(--muted); font-size:.85rem; padding:0 1rem 2rem; }
+code { font-family:"DejaVu Sans Mono", monospace; font-size:.9em; background:#eef3f8; padding:0 .25rem; border-radius:3px; }
+)";
+
+}  // namespace
+
+std::string Html(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+Json ReportJson(const Results& r, const std::vector<Figure>& figures) {
+  const ReportInputs& in = *r.in;
+  Json j;
+  j["porthole_report"] = 1;  // format version; also marks a directory as a porthole report
+  Json echo = Json::object();
+  for (const auto& [k, v] : in.echo) echo[k] = v;
+  j["inputs"] = {{"options", echo}, {"subject_distance_mm", in.subject_distance_mm}, {"f_number", in.f_number}};
+  j["system"] = planning::SetupToJson(in.setup, r.plan.system);
+  j["plan"] = planning::PlanToJson(in.setup, r.plan);
+  Json table = Json::array(), curve = Json::array();
+  for (const auto& v : r.table) table.push_back(VirtualRowJson(v));
+  for (const auto& v : r.curve) curve.push_back(VirtualRowJson(v));
+  j["virtual_image"] = {{"rows", table}, {"curve", curve}};
+  Json dof = Json::array();
+  for (const auto& d : r.dof) {
+    dof.push_back({{"subject_mm", d.subject_mm},
+                   {"air", {{"near_mm", L(d.air.near_mm)}, {"far_mm", L(d.air.far_mm)}, {"total_mm", L(d.air.total_mm)}}},
+                   {"water", {{"near_mm", L(d.water.near_mm)}, {"far_mm", L(d.water.far_mm)},
+                              {"total_mm", L(d.water.total_mm)}, {"virtual_near_mm", L(d.water.virtual_near_mm)},
+                              {"virtual_far_mm", L(d.water.virtual_far_mm)}}}});
+  }
+  j["depth_of_field"] = dof;
+  j["other_port"] = planning::PlanToJson(r.other_setup, r.other_plan);
+  if (r.flat) j["flat_port"] = planning::FlatToJson(r.flat->system.spec.name == in.setup.port.name ? in.setup : r.other_setup, *r.flat);
+  Json angles = Json::array();
+  for (const auto& a : r.angles) {
+    angles.push_back({{"theta_air_deg", a.theta_air_deg}, {"theta_water_deg", L(a.theta_main_deg)},
+                      {"theta_water_other_port_deg", L(a.theta_other_deg)}});
+  }
+  j["chief_ray_angles"] = angles;
+  j["simulation"] = simulate::PredictionJson(r.prediction);
+  j["simulation_other_port"] = simulate::PredictionJson(r.other_prediction);
+  const std::vector<double> radii = {5.0, 10.0, simulate::ProfileRadiiMm(r.prediction.camera.sensor).back()};
+  j["sweeps"] = {{"z", simulate::SweepJson(r.sweep_z, 2, radii)}, {"x", simulate::SweepJson(r.sweep_x, 0, radii)}};
+  j["distortion_map"] = simulate::MapJson(r.map);
+  if (in.air_calibration) j["air_calibration"] = camera::BrownToJson(in.air_calibration->camera);
+  if (in.water_calibration) j["water_calibration"] = camera::BrownToJson(in.water_calibration->camera);
+  if (r.compare) j["comparison"] = CompareJson(*r.compare);
+  Json figs = Json::array();
+  for (const auto& f : figures) {
+    figs.push_back({{"id", f.id}, {"section", f.section}, {"title", f.title}, {"caption", f.caption},
+                    {"png", "figures/" + f.id + ".png"}, {"svg", "figures/" + f.id + ".svg"},
+                    {"data", "figures/" + f.id + ".dat"}, {"script", "figures/" + f.id + ".gp"}});
+  }
+  j["figures"] = figs;
+  return j;
+}
+
+std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
+                       const std::map<std::string, std::string>& svgs) {
+  const ReportInputs& in = *r.in;
+  const planning::Setup& s = in.setup;
+  const planning::Plan& p = r.plan;
+  const planning::TargetPlan& t = *p.target;
+  const simulate::Prediction& sim = r.prediction;
+  const std::string port = s.port.name, other = in.other_port.name;
+
+  auto figs_of = [&](const std::string& section) {
+    std::string out;
+    for (const auto& f : figures) {
+      if (f.section != section) continue;
+      const auto svg = svgs.find(f.id);
+      out += fmt::format(
+          "<figure id=\"fig-{0}\" class=\"fig\" data-figure=\"{0}\">\n<h3>{1}</h3>\n<div class=\"plot\">\n{2}\n</div>\n"
+          "<figcaption>{3}<br><span class=\"files\"><a href=\"figures/{0}.png\">PNG</a><a href=\"figures/{0}.svg\">SVG</a>"
+          "<a href=\"figures/{0}.dat\">data</a><a href=\"figures/{0}.gp\">gnuplot script</a></span></figcaption>\n"
+          "</figure>\n",
+          f.id, Html(f.title), svg == svgs.end() ? "" : svg->second, Html(f.caption));
+    }
+    return out;
+  };
+
+  std::string h;
+  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
+  h += fmt::format("<title>porthole report: {} + {} behind {}</title>\n", Html(s.camera.name), Html(s.lens.name), Html(port));
+  h += fmt::format("<style>{}</style>\n</head>\n<body>\n", kCss);
+  h += fmt::format(
+      "<header><div class=\"wrap\"><h1>{} + {} behind {}</h1>\n"
+      "<p>{} {} port · water n = {:.4f} at {:g} nm · glass n = {:.4f} · target {:.0f} mm from the entrance pupil "
+      "(WD {:.0f} mm) at f/{:g}</p>\n"
+      "<p>Made by <code>porthole report</code> after Menna et al. 2016, <i>Sensors</i> 16(1):48. Lengths in mm, "
+      "angles in degrees, distortions in µm.</p></div></header>\n<main>\n",
+      Html(s.camera.name), Html(s.lens.name), Html(port), p.system.IsDome() ? "dome" : "flat", Html(s.port.material()),
+      p.system.n_water, s.env.conditions.lambda_nm, p.system.n_glass, t.subject_distance_mm, t.wd_mm, p.f_number);
+  h += "<nav class=\"toc\"><a href=\"#summary\">Summary</a><a href=\"#inputs\">Inputs</a><a href=\"#port\">Port and rays</a>"
+       "<a href=\"#focus\">Focus and minimum WD</a><a href=\"#dof\">Depth of field</a><a href=\"#ports\">Dome vs flat</a>"
+       "<a href=\"#simulate\">Predicted calibration</a>";
+  if (r.compare) h += "<a href=\"#compare\">Your calibrations</a>";
+  h += "</nav>\n";
+
+  // Summary.
+  h += "<section id=\"summary\"><h2>Summary</h2>\n<div class=\"cards\">\n";
+  h += Card("Set the focus scale to", t.focus.focus_distance_mm ? F(*t.focus.focus_distance_mm, 0) + " mm" : "out of reach",
+            fmt::format("virtual image {} mm from the pupil", F(t.virtual_image.d_s2ep_mm, 1)));
+  h += Card("Minimum working distance", F(p.min_wd_mm, 0) + " mm",
+            fmt::format("closest focus {} mm from the pupil", F(p.closest_d_s2ep_mm, 1)));
+  h += Card("Virtual image of infinity", F(p.d_s2ep_infinity_mm, 1) + " mm", "from the entrance pupil");
+  h += Card("Depth of field under water", F(t.water.total_mm, 0) + " mm",
+            fmt::format("{} mm in air: ×{}", F(t.air.total_mm, 0), F(t.dof_ratio_water_to_air, 2)));
+  h += Card("Field of view in water", F(p.fov.water.horizontal_deg, 1) + "°",
+            fmt::format("horizontal; {}° in air", F(p.fov.air.horizontal_deg, 1)));
+  if (t.field) {
+    h += Card("Corner blur", F(t.field->corner_blur_px, 1) + " px",
+              fmt::format("at f/{:g}; sharp from f/{}", p.f_number, F(t.field->f_number_for_sharp_corners, 1)));
+  }
+  h += Card("Principal distance under water", "×" + F(sim.water.params.c_mm / sim.air.params.c_mm, 4),
+            fmt::format("{} → {} mm (simulated)", F(sim.air.params.c_mm, 3), F(sim.water.params.c_mm, 3)));
+  if (r.compare) {
+    h += Card("Your calibrations", r.compare->significant ? "differ" : "agree",
+              fmt::format("χ² = {} with {} dof, p = {}", F(r.compare->chi2, 1), r.compare->dof, G(r.compare->p_value)));
+  }
+  h += "</div>\n";
+  if (!p.warnings.empty()) {
+    h += "<h3>Advice</h3>\n<ul class=\"warnings\">\n";
+    for (const auto& w : p.warnings) h += "<li>" + Html(w) + "</li>\n";
+    h += "</ul>\n";
+  }
+  h += "</section>\n";
+
+  // Inputs.
+  h += "<section id=\"inputs\"><h2>Inputs</h2>\n<p class=\"lead\">As given on the command line, then as resolved "
+       "by porthole.</p>\n<dl class=\"inputs\">\n";
+  for (const auto& [k, v] : in.echo) h += fmt::format("<dt>{}</dt><dd>{}</dd>\n", Html(k), Html(v));
+  h += "</dl>\n<div class=\"scroll\">";
+  const auto& ep = p.system.ep_in_housing_mm;
+  h += Table("The system", {"item", "value"},
+             {{"camera", Html(fmt::format("{}: {} × {} px, {:g} mm pixels ({:.1f} × {:.1f} mm)", s.camera.name,
+                                          s.camera.sensor.width_px, s.camera.sensor.height_px, s.camera.sensor.pixel_pitch_mm,
+                                          s.camera.SensorWidthMm(), s.camera.SensorHeightMm()))},
+              {"lens", Html(fmt::format("{}: f = {:g} mm, f/{:g}–f/{:g}, closest focus {:g} mm{}", s.lens.name,
+                                        s.lens.focal_length_mm, s.lens.f_number_min, s.lens.f_number_max,
+                                        s.lens.min_focus_mm, s.lens.pupil_estimated ? " (pupil estimated)" : ""))},
+              {"port", Html(fmt::format("{} — {}", port, s.port.description))},
+              {"compared with", Html(fmt::format("{} — {}", other, in.other_port.description))},
+              {"water", Html(fmt::format("{}: n = {:.5f} ({:g} °C, {:g} ‰, {:g} dbar, {:g} nm)",
+                                         s.env.water_index ? "fixed index" : s.env.water, p.system.n_water,
+                                         s.env.conditions.temperature_c, s.env.conditions.salinity_psu,
+                                         s.env.conditions.pressure_dbar, s.env.conditions.lambda_nm))},
+              {"entrance pupil", fmt::format("({:.2f}, {:.2f}, {:.2f}) mm in the housing frame at the target's focus",
+                                             ep.x(), ep.y(), ep.z())},
+              {"aperture, circle of confusion", Html(fmt::format("f/{:g}, {:.4f} mm ({})", p.f_number, p.coc_mm, p.coc_source))}});
+  h += "</div></section>\n";
+
+  // The port.
+  h += "<section id=\"port\"><h2>The port and its rays</h2>\n<p class=\"lead\">A dome is a diverging lens: the camera "
+       "focuses not on the subject but on its virtual image, close in front of the glass.</p>\n" + figs_of("port") +
+       "</section>\n";
+
+  // Focus.
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& v : r.table) {
+    rows.push_back({F(v.wd_mm, 0), F(v.d_s2ep_mm, 1), F(v.vwd_mm, 1), F(v.d_s2ep_real_mm, 2), F(v.magnification, 4),
+                    v.fd_mm ? F(*v.fd_mm, 1) : fmt::format("closer than the lens (+{:.2f} dpt)", v.closeup_dioptre)});
+  }
+  h += "<section id=\"focus\"><h2>Where to focus, and how close</h2>\n<div class=\"scroll\">";
+  h += Table("Virtual image against working distance (the paper's Table 5 distances)",
+             {"WD <span class=\"unit\">mm</span>", "D<sub>S2EP</sub> <span class=\"unit\">mm</span>",
+              "VWD <span class=\"unit\">mm</span>", fmt::format("real rays f/{:g} <span class=\"unit\">mm</span>", p.f_number),
+              "magnification", "focus scale FD <span class=\"unit\">mm</span>"},
+             rows);
+  rows.clear();
+  for (const auto& c : p.closeup) rows.push_back({fmt::format("+{:g}", c.dioptre), F(c.min_wd_mm, 0), F(c.max_wd_mm, 0)});
+  h += Table("Close-up lenses", {"dioptres", "WD from <span class=\"unit\">mm</span>", "WD to <span class=\"unit\">mm</span>"}, rows);
+  h += "</div>\n" + figs_of("focus") + "</section>\n";
+
+  // Depth of field.
+  h += "<section id=\"dof\"><h2>Depth of field and field curvature</h2>\n<div class=\"scroll\">";
+  h += Table(fmt::format("Focused {:.0f} mm from the entrance pupil, f/{:g}", t.subject_distance_mm, p.f_number),
+             {"", "focus <span class=\"unit\">mm</span>", "near <span class=\"unit\">mm</span>",
+              "far <span class=\"unit\">mm</span>", "total <span class=\"unit\">mm</span>", "focus scale <span class=\"unit\">mm</span>"},
+             {{"in air", F(t.air.focus_mm, 0), F(t.air.near_mm, 0), F(t.air.far_mm, 0), F(t.air.total_mm, 0),
+               t.air.focus_distance_mm ? F(*t.air.focus_distance_mm, 0) : "–"},
+              {"under water, virtual image", F(t.water.virtual_focus_mm, 1), F(t.water.virtual_near_mm, 1),
+               F(t.water.virtual_far_mm, 1), F(t.water.virtual_total_mm, 1), ""},
+              {"under water, real objects", F(t.water.focus_mm, 0), F(t.water.near_mm, 0), F(t.water.far_mm, 0),
+               F(t.water.total_mm, 0), t.focus.focus_distance_mm ? F(*t.focus.focus_distance_mm, 0) : "–"}});
+  h += "</div>\n" + figs_of("dof") + "</section>\n";
+
+  // Dome vs flat.
+  const auto fov_row = [](const std::string& name, const planning::Fov& f) {
+    return std::vector<std::string>{Html(name), F(f.horizontal_deg, 1), F(f.vertical_deg, 1), F(f.diagonal_deg, 1)};
+  };
+  h += "<section id=\"ports\"><h2>Dome against flat port</h2>\n<div class=\"scroll\">";
+  h += Table("Field of view, full angles",
+             {"", "horizontal <span class=\"unit\">°</span>", "vertical <span class=\"unit\">°</span>",
+              "diagonal <span class=\"unit\">°</span>"},
+             {fov_row("in air", p.fov.air), fov_row("under water, " + port, p.fov.water),
+              fov_row("under water, " + other, r.other_plan.fov.water)});
+  if (r.flat) {
+    const auto& fl = *r.flat;
+    h += Table(fmt::format("The flat port {} (Section 2.2)", Html(fl.system.spec.name)), {"quantity", "value"},
+               {{"apparent focal length", F(fl.apparent_focal_length_mm, 2) + " mm (+" + F(fl.focal_length_increase_pct, 1) + " %)"},
+                {"critical angle, widest possible field", F(fl.critical_angle_deg, 1) + "°, " + F(fl.max_fov_deg, 1) + "°"},
+                {"lateral colour at the corner", F(fl.lateral_colour_corner_px, 1) + " px (F − C lines)"}});
+  }
+  h += "</div>\n" + figs_of("ports") + "</section>\n";
+
+  // Simulation.
+  std::vector<std::pair<std::string, camera::BrownParams>> cols = {
+      {"air (fit)", sim.air.params}, {"water (fit)", sim.water.params}, {"change", sim.change}};
+  std::vector<std::pair<std::string, double>> rms = {{"RMS residual <span class=\"unit\">µm</span>", sim.air.rms_um},
+                                                     {"", sim.water.rms_um}, {"", NAN}};
+  if (sim.predicted_water) {
+    cols.push_back({"your in-air calibration", sim.camera.lens});
+    cols.push_back({"water, predicted", *sim.predicted_water});
+    rms.push_back({"", NAN});
+    rms.push_back({"", NAN});
+  }
+  h += "<section id=\"simulate\"><h2>The underwater calibration to expect</h2>\n<p class=\"lead\">";
+  h += Html(fmt::format("Rays from a {} × {} image grid traced through the port onto planes at {} mm; the central "
+                        "Brown model fitted to them as a self-calibration would (docs/simulate.md). Lens focused "
+                        "under water on an object {:.0f} mm from its pupil (focus scale {:.1f} mm), c = {:.3f} mm.",
+                        sim.options.grid_cols, sim.options.grid_rows,
+                        fmt::join(simulate::Distances(sim.options), ", "), sim.focus.object_distance_mm,
+                        sim.focus.fd_mm, sim.camera.lens.c_mm));
+  h += "</p>\n<div class=\"scroll\">" + BrownTable("Brown parameters (correction form, image mm)", cols, rms);
+  rows.clear();
+  const double corner = simulate::ProfileRadiiMm(sim.camera.sensor).back();
+  for (const auto& row : r.sweep_z) {
+    rows.push_back({F(row.offset_mm, 1), F(row.water.params.c_mm - row.air.params.c_mm, 4),
+                    F(row.water.params.c_mm / row.air.params.c_mm, 5),
+                    F(1000 * (camera::RadialProfileMm(row.water.params, 10) - camera::RadialProfileMm(row.air.params, 10)), 2),
+                    F(1000 * (camera::RadialProfileMm(row.water.params, corner) - camera::RadialProfileMm(row.air.params, corner)), 2),
+                    F(row.water.rms_um, 3)});
+  }
+  h += Table("Pupil moved along z (toward the glass): the change water − air",
+             {"offset <span class=\"unit\">mm</span>", "Δc <span class=\"unit\">mm</span>", "c water/air",
+              "Δδr at 10 mm <span class=\"unit\">µm</span>",
+              fmt::format("Δδr at {:.1f} mm <span class=\"unit\">µm</span>", corner), "water RMS <span class=\"unit\">µm</span>"},
+             rows);
+  h += "</div>\n" + figs_of("simulate") + "</section>\n";
+
+  // Comparison.
+  if (r.compare) {
+    const auto& c = *r.compare;
+    rows.clear();
+    for (const auto& row : c.rows) {
+      const int i = row.index;
+      const auto& info = camera::kBrownParamInfo[i];
+      auto val = [i](bool adj, double v, double sg) {
+        return adj ? Param(i, v) + " ± " + G(sg) : (v != 0 ? Param(i, v) + " (fixed)" : std::string("–"));
+      };
+      const double pred = sim.predicted_water ? sim.predicted_water->ToArray()[i] : NAN;
+      rows.push_back({fmt::format("{} <span class=\"unit\">{}</span>", info.name, info.unit),
+                      val(row.adjusted_a, row.a, row.sigma_a), val(row.adjusted_b, row.b, row.sigma_b),
+                      Param(i, row.diff), std::isfinite(row.z) ? F(row.z, 1) : "",
+                      i <= camera::kBrownP2 && std::isfinite(pred) ? Param(i, pred) : ""});
+    }
+    h += "<section id=\"compare\"><h2>Your calibrations: in air and under water</h2>\n<div class=\"scroll\">";
+    h += Table("Parameters with their standard deviations (the paper's Table 6)",
+               {"parameter", "air ± σ", "water ± σ", "water − air", "z", "water, predicted"}, rows);
+    h += "</div>\n<p>" +
+         Html(std::isfinite(c.chi2)
+                  ? fmt::format("χ² = {:.2f} with {} degrees of freedom, p = {:.3g}: the calibrations {} (covariance: {}).",
+                                c.chi2, c.dof, c.p_value, c.significant ? "differ significantly" : "do not differ significantly",
+                                c.covariance_note)
+                  : "χ² not computed: " + c.covariance_note) +
+         "</p>\n" + figs_of("compare") + "</section>\n";
+  }
+
+  h += "</main>\n<footer>Every number on this page is in <a href=\"report.json\">report.json</a>; each figure's data file "
+       "and gnuplot script are in <code>figures/</code> (run <code>gnuplot all.gp</code> there to remake them all). "
+       "porthole: optics and geometry of underwater camera housings.</footer>\n</body>\n</html>\n";
+  return h;
+}
+
+}  // namespace porthole::report

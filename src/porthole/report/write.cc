@@ -1,0 +1,176 @@
+// Writing the report: a temporary directory beside --out holds everything until gnuplot has made
+// every figure; it is then renamed into place (exchanged atomically with an existing report under
+// --force, renameat2 RENAME_EXCHANGE, so the old report stays whole until the new one is there).
+#include <fcntl.h>
+#include <stdio.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "porthole/core/atomic_file.h"
+#include "porthole/core/error.h"
+#include "porthole/report/internal.h"
+
+namespace porthole::report {
+namespace fs = std::filesystem;
+namespace {
+
+// Removes the directory on destruction unless released.
+class TempDir {
+ public:
+  explicit TempDir(const fs::path& out) {
+    std::string tmpl = (out.parent_path() / ("." + out.filename().string() + ".tmp-XXXXXX")).string();
+    if (!mkdtemp(tmpl.data())) {
+      throw InvalidInput("--out", fmt::format("cannot write in {}: {}", out.parent_path().string(), std::strerror(errno)));
+    }
+    path_ = tmpl;
+  }
+  ~TempDir() {
+    if (!path_.empty()) {
+      std::error_code ec;
+      fs::remove_all(path_, ec);
+    }
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// A directory a report may replace: empty, or holding a porthole report.json.
+bool IsReportDir(const fs::path& dir) {
+  if (fs::is_empty(dir)) return true;
+  const std::string json = ReadFile(dir / "report.json");
+  return json.find("\"porthole_report\"") != std::string::npos;
+}
+
+// Runs `gnuplot all.gp` in `dir` (no shell); its messages go to dir/gnuplot.log.
+void RunGnuplot(const std::string& gnuplot, const fs::path& dir) {
+  const std::string log = (dir / "gnuplot.log").string();
+  const pid_t pid = fork();
+  if (pid < 0) throw InternalError(fmt::format("fork: {}", std::strerror(errno)));
+  if (pid == 0) {
+    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      dup2(fd, STDOUT_FILENO);
+      dup2(fd, STDERR_FILENO);
+      close(fd);
+    }
+    if (chdir(dir.c_str()) != 0) _exit(126);
+    execlp(gnuplot.c_str(), gnuplot.c_str(), "all.gp", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  if (code == 127) {
+    throw InvalidInput("gnuplot", fmt::format("'{}' not found: install Debian's gnuplot-nox (scripts/install-deps)", gnuplot));
+  }
+  if (code != 0) {
+    std::string msg = ReadFile(log);
+    std::replace(msg.begin(), msg.end(), '\n', ' ');
+    throw InvalidInput("gnuplot", fmt::format("failed (exit {}): {}", code, msg.substr(0, 400)));
+  }
+  fs::remove(log);
+}
+
+// Moves the finished directory to `out`: exchanged atomically with an existing one (which then
+// sits at `tmp` and is removed with it), else renamed.
+void MoveIntoPlace(const fs::path& tmp, const fs::path& out, bool exists) {
+  if (exists) {
+    if (renameat2(AT_FDCWD, tmp.c_str(), AT_FDCWD, out.c_str(), RENAME_EXCHANGE) == 0) return;
+    // A file system without RENAME_EXCHANGE: move the old one aside first.
+    const fs::path aside = tmp.string() + ".old";
+    fs::rename(out, aside);
+    fs::rename(tmp, out);
+    fs::remove_all(aside);
+    return;
+  }
+  if (rename(tmp.c_str(), out.c_str()) != 0) {
+    throw InvalidInput("--out", fmt::format("cannot create {}: {}", out.string(), std::strerror(errno)));
+  }
+}
+
+}  // namespace
+
+ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& options) {
+  Steps steps(options);
+  const auto t0 = std::chrono::steady_clock::now();
+  if (options.out_dir.empty()) throw InvalidInput("--out", "give the report's directory");
+  fs::path out = fs::absolute(options.out_dir).lexically_normal();
+  if (out.filename().empty()) out = out.parent_path();  // a trailing slash
+  if (!fs::is_directory(out.parent_path())) {
+    throw InvalidInput("--out", fmt::format("{} is not a directory", out.parent_path().string()));
+  }
+  const bool exists = fs::exists(fs::symlink_status(out));
+  if (exists) {
+    if (!fs::is_directory(fs::symlink_status(out))) {
+      throw InvalidInput("--out", fmt::format("{} exists and is not a directory", out.string()));
+    }
+    if (!options.force) throw InvalidInput("--out", fmt::format("{} exists: --force replaces it", out.string()));
+    if (!IsReportDir(out)) {
+      throw InvalidInput("--out", fmt::format("{} is not empty and holds no porthole report: not replaced", out.string()));
+    }
+  }
+  TempDir tmp(out);
+  const fs::path figdir = tmp.path() / "figures";
+  fs::create_directory(figdir);
+
+  const Results results = Gather(inputs, steps);
+  const std::vector<Figure> figures = MakeFigures(results);
+  std::map<std::string, std::string> svgs;
+  steps.Run("figures (gnuplot)", [&] {
+    std::string all = "# Remakes every figure of the report: gnuplot all.gp (in this directory).\n";
+    for (const auto& f : figures) {
+      WriteFileAtomically(figdir / (f.id + ".dat"), f.data, "--out");
+      WriteFileAtomically(figdir / (f.id + ".gp"), FigureScript(f), "--out");
+      all += fmt::format("load \"{}.gp\"\n", f.id);
+    }
+    WriteFileAtomically(figdir / "all.gp", all, "--out");
+    RunGnuplot(options.gnuplot, figdir);
+    for (const auto& f : figures) {
+      for (const char* ext : {".png", ".svg"}) {
+        const fs::path p = figdir / (f.id + ext);
+        std::error_code ec;
+        if (fs::file_size(p, ec) == 0 || ec) {
+          throw InvalidInput("gnuplot", fmt::format("made no {}{}", f.id, ext));
+        }
+      }
+      svgs[f.id] = InlineSvg(ReadFile(figdir / (f.id + ".svg")), f.id);
+    }
+  });
+  steps.Run("page and JSON", [&] {
+    WriteFileAtomically(tmp.path() / "report.json", ReportJson(results, figures).dump(2) + "\n", "--out");
+    WriteFileAtomically(tmp.path() / "index.html", ReportHtml(results, figures, svgs), "--out");
+  });
+  chmod(tmp.path().c_str(), 0755);  // mkdtemp made it private
+  MoveIntoPlace(tmp.path(), out, exists);
+
+  ReportSummary summary;
+  summary.index_html = out / "index.html";
+  for (const auto& f : figures) summary.figures.push_back(f.id);
+  summary.step_seconds = steps.seconds();
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return summary;
+}
+
+}  // namespace porthole::report
