@@ -1,5 +1,5 @@
 # Thin wrapper over scripts/install-deps, CMake and CTest. The README's two commands:
-#   make demo   install what is missing, build, run the main job on the paper's system
+#   make demo   install what is missing, build, write the report of the paper's system ($(BUILD)/report)
 #   make test   install what is missing, build, run every test
 BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
@@ -20,7 +20,7 @@ build: configure
 	@cmake --build $(BUILD) -j $(JOBS)
 
 demo: build
-	@$(PORTHOLE) virtual-image
+	@$(PORTHOLE) report --out $(BUILD)/report --force
 
 test: build
 	@ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)

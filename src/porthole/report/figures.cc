@@ -40,7 +40,7 @@ std::string MapPanel(const std::string& title, int index, int column, const std:
 
 const char* kMapSetup =
     "set size ratio -1\nset xlabel \"x (mm, image)\"\nset ylabel \"y (mm, image, up)\"\n"
-    "set cblabel \"|Δ| (µm)\"\nset palette defined (0 \"#30123b\", 1 \"#4662d7\", 2 \"#36aaf9\", "
+    "set cblabel \"|Δ| (µm)\" offset 1.5,0\nset palette defined (0 \"#30123b\", 1 \"#4662d7\", 2 \"#36aaf9\", "
     "3 \"#1ae4b6\", 4 \"#72fe5e\", 5 \"#c8ef34\", 6 \"#faba39\", 7 \"#f66b19\", 8 \"#ca2a04\")\n"
     "set autoscale fix\nunset grid\n";
 
@@ -94,15 +94,23 @@ Figure PortRays(const Results& r) {
     d += fmt::format("{} {}\n{} {}\n\n", N(ep.z()), N(ep.x()), N(ep.z() + d_target),
                      N(ep.x() + d_target * std::tan(a / kDeg)));
   }
-  d += Block(5, "marked points", "z_mm x_mm label");
-  d += fmt::format("{} {} \"entrance pupil\"\n", N(ep.z()), N(ep.x()));
+  // Labels sit beside their points (label_z, label_x), staggered so that the pupil and the two
+  // centres, a few mm apart, stay legible.
+  d += Block(5, "marked points", "z_mm x_mm label label_z_mm label_x_mm");
+  auto mark = [&d](double z, double x, const std::string& label, double lz, double lx) {
+    d += fmt::format("{} {} \"{}\" {} {}\n", N(z), N(x), label, N(lz), N(lx));
+  };
+  mark(ep.z(), ep.x(), "entrance pupil", ep.z() + 6, ep.x() - 0.1 * half);
   if (sys.IsDome()) {
-    d += fmt::format("{} {} \"outer centre\"\n", N(sys.dome().outer.center_mm.z()), N(sys.dome().outer.center_mm.x()));
-    d += fmt::format("{} {} \"inner centre\"\n", N(sys.dome().inner.center_mm.z()), N(sys.dome().inner.center_mm.x()));
+    const ports::Vec3 oc = sys.dome().outer.center_mm, ic = sys.dome().inner.center_mm;
+    mark(oc.z(), oc.x(), "outer centre", oc.z() - 3, oc.x() + 0.1 * half);
+    mark(ic.z(), ic.x(), "inner centre", ic.z() - 3, ic.x() + 0.2 * half);
   }
-  d += fmt::format("{} {} \"virtual image (WD {:.0f} mm)\"\n", N(ep.z() + d_target), N(ep.x()), r.plan.target->wd_mm);
+  mark(ep.z() + d_target, ep.x(), fmt::format("virtual image (WD {:.0f} mm)", r.plan.target->wd_mm),
+       ep.z() + d_target + 3, ep.x() - 0.1 * half);
   if (std::isfinite(r.plan.d_s2ep_infinity_mm)) {
-    d += fmt::format("{} {} \"image of infinity\"\n", N(ep.z() + r.plan.d_s2ep_infinity_mm), N(ep.x()));
+    mark(ep.z() + r.plan.d_s2ep_infinity_mm, ep.x(), "image of infinity", ep.z() + r.plan.d_s2ep_infinity_mm + 3,
+         ep.x() + 0.06 * half);
   }
   const double zmax = std::isfinite(r.plan.d_s2ep_infinity_mm)
                           ? ep.z() + std::max(r.plan.d_s2ep_infinity_mm, d_target) + 40
@@ -124,7 +132,7 @@ Figure PortRays(const Results& r) {
       "     data index 4 using 1:2 with lines ls 5 title \"as the camera sees them\", \\\n"
       "     data index 3 using 1:2 with lines ls 3 lw 2.5 title \"virtual image of the object plane\", \\\n"
       "     data index 5 using 1:2 with points pt 7 ps 1.2 lc rgb \"#222222\" notitle, \\\n"
-      "     data index 5 using 1:2:3 with labels left offset 0.6,0.8 font \",9\" notitle\n",
+      "     data index 5 using 4:5:3 with labels left font \",9\" notitle\n",
       N(zmin), N(zmax), N(-half), N(half));
   return f;
 }
@@ -407,7 +415,7 @@ Figure Tolerance(const Results& r) {
       "     data index 0 using 1:5 with linespoints ls 1 pt 5 title \"r = 10 mm\", \\\n"
       "     data index 0 using 1:6 with linespoints ls 2 pt 9 title \"corner, {:.1f} mm\"\n"
       "set title \"(c) profile against z offset\"\nset xlabel \"r (mm)\"\nset cblabel \"z offset (mm)\"\n"
-      "set palette defined (0 \"#c8322d\", 1 \"#dddddd\", 2 \"#1f5fa8\")\n"
+      "set palette defined (0 \"#c8322d\", 1 \"#dddddd\", 2 \"#1f5fa8\")\nunset key\n"
       "plot data index 2 using 1:2:3 with lines lw 2 lc palette notitle\n",
       corner);
   return f;

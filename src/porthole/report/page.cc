@@ -71,7 +71,10 @@ std::string Row(const std::vector<std::string>& cells, bool head = false) {
 
 std::string Table(const std::string& caption, const std::vector<std::string>& head,
                   const std::vector<std::vector<std::string>>& rows) {
-  std::string s = fmt::format("<table>\n<caption>{}</caption>\n<thead>{}</thead>\n<tbody>\n", caption, Row(head, true));
+  // A two-column table of descriptions reads left-aligned; tables of numbers right-aligned.
+  const bool text = head.size() == 2;
+  std::string s = fmt::format("<table{}>\n", text ? " class=\"text\"" : "");
+  s += fmt::format("<caption>{}</caption>\n<thead>{}</thead>\n<tbody>\n", caption, Row(head, true));
   for (const auto& r : rows) s += Row(r);
   return s + "</tbody>\n</table>\n";
 }
@@ -142,6 +145,8 @@ dl.inputs { display:grid; grid-template-columns:max-content 1fr; gap:.2rem 1.2re
 dl.inputs dt { color:var(--muted); } dl.inputs dd { margin:0; font-family:"DejaVu Sans Mono", monospace; font-size:.9rem; }
 footer { color:var(--muted); font-size:.85rem; padding:0 1rem 2rem; }
 code { font-family:"DejaVu Sans Mono", monospace; font-size:.9em; background:#eef3f8; padding:0 .25rem; border-radius:3px; }
+header code { background:rgba(255,255,255,.18); color:#fff; }
+table.text td, table.text th { text-align:left; white-space:normal; }
 )";
 
 }  // namespace

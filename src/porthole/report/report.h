@@ -53,8 +53,9 @@ struct ReportSummary {
   double seconds = 0;                // total
 };
 
-// Throws InvalidInput("--out", …) when the output directory cannot be written, exists without
-// force, or exists and does not hold a porthole report (never replaced, even with force);
+// An empty existing directory is filled; a previous report is replaced only with force.
+// Throws InvalidInput("--out", …) when the output directory cannot be written, is not empty and
+// force is off, or is not empty and holds no porthole report (never replaced, even with force);
 // InvalidInput naming the input for bad inputs; InvalidInput("gnuplot", …) when gnuplot is
 // missing or fails. Nothing is left behind on failure.
 ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& options);

@@ -126,7 +126,9 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
     if (!fs::is_directory(fs::symlink_status(out))) {
       throw InvalidInput("--out", fmt::format("{} exists and is not a directory", out.string()));
     }
-    if (!options.force) throw InvalidInput("--out", fmt::format("{} exists: --force replaces it", out.string()));
+    if (!options.force && !fs::is_empty(out)) {
+      throw InvalidInput("--out", fmt::format("{} exists: --force replaces it", out.string()));
+    }
     if (!IsReportDir(out)) {
       throw InvalidInput("--out", fmt::format("{} is not empty and holds no porthole report: not replaced", out.string()));
     }
