@@ -12,11 +12,12 @@
 //    coordinates: one point fully, a second far from it fully (scale from the nominal target),
 //    and the Z of a third far from their line.
 //  - Start: Zhang's closed form from plane homographies (principal point at the image centre,
-//    one principal distance for all images), then poses from each homography, then a
-//    c-and-poses adjustment, then all free parameters.
+//    one principal distance for all images), then poses from each homography, then all free
+//    parameters in the correction (collinearity) form, then in the image residual (residual.h).
 //  - Statistics: σ0 = sqrt(Σ|r|² / (2n − u)) (px, a posteriori), covariance of the camera
-//    parameters = σ0²·(JᵀJ)⁻¹ with J the Jacobian of the px residuals (Ceres marginal covariance
-//    over all unknowns), σ and correlation from it; rms_px = sqrt(Σ|r|² / n) as OpenCV reports.
+//    parameters = σ0²·(JᵀJ)⁻¹ with J the Jacobian of the px image residuals (marginal over all
+//    unknowns: the 10×10 reduced camera system for a fixed target without robust loss, Ceres's
+//    Covariance otherwise), σ and correlation from it; rms_px = sqrt(Σ|r|² / n) as OpenCV reports.
 //  - Significance of each free additional parameter (K1…B2): t = |p|/σp. With stepwise dropping on,
 //    the least significant one below the threshold is fixed to 0 and the adjustment rerun, until
 //    all remaining ones pass (the paper's Table 6 leaves such parameters out).
