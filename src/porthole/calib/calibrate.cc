@@ -147,6 +147,18 @@ std::array<double, kBrownNumParams> ParameterScales(const camera::Sensor& s) {
 
 using CameraMatrix = Eigen::Matrix<double, kBrownNumParams, kBrownNumParams>;
 
+// The analytic cost of one observation in the residual form `form`.
+template <bool kPointFree>
+ceres::CostFunction* NewCost(Form form, const Observation& ob, double pitch_mm,
+                             const CameraScales& scale, const Eigen::Vector3d& point) {
+  if (form == Form::kProject) {
+    return new AnalyticResidual<Form::kProject, kPointFree>(ob.x_mm, ob.y_mm, pitch_mm, scale,
+                                                            point);
+  }
+  return new AnalyticResidual<Form::kCorrect, kPointFree>(ob.x_mm, ob.y_mm, pitch_mm, scale,
+                                                          point);
+}
+
 class Adjustment {
  public:
   Adjustment(const CalibrationOptions& options, std::vector<Observation>* obs, State* state,
@@ -207,26 +219,16 @@ class Adjustment {
       ceres::LossFunction* loss = nullptr;
       if (o_.loss == LossKind::kHuber) loss = new ceres::HuberLoss(o_.loss_scale_px);
       if (o_.loss == LossKind::kCauchy) loss = new ceres::CauchyLoss(o_.loss_scale_px);
-      double* point = s_->points[ob.point].data();
+      Eigen::Vector3d* point = &s_->points[ob.point];
       double* rot = s_->rotation[ob.image].data();
       double* tr = s_->translation[ob.image].data();
       const bool point_free = o_.target_free && ob.point != datum_[0] && ob.point != datum_[1];
       const double pitch = o_.pixel_pitch_mm;
+      ceres::CostFunction* cost = point_free ? NewCost<true>(form, ob, pitch, scale_, *point)
+                                             : NewCost<false>(form, ob, pitch, scale_, *point);
       if (point_free) {
-        ceres::CostFunction* cost =
-            form == Form::kProject
-                ? static_cast<ceres::CostFunction*>(new AnalyticResidual<Form::kProject, true>(
-                      ob.x_mm, ob.y_mm, pitch, scale_, s_->points[ob.point]))
-                : new AnalyticResidual<Form::kCorrect, true>(ob.x_mm, ob.y_mm, pitch, scale_,
-                                                             s_->points[ob.point]);
-        problem->AddResidualBlock(cost, loss, scaled->data(), rot, tr, point);
+        problem->AddResidualBlock(cost, loss, scaled->data(), rot, tr, point->data());
       } else {
-        ceres::CostFunction* cost =
-            form == Form::kProject
-                ? static_cast<ceres::CostFunction*>(new AnalyticResidual<Form::kProject, false>(
-                      ob.x_mm, ob.y_mm, pitch, scale_, s_->points[ob.point]))
-                : new AnalyticResidual<Form::kCorrect, false>(ob.x_mm, ob.y_mm, pitch, scale_,
-                                                              s_->points[ob.point]);
         problem->AddResidualBlock(cost, loss, scaled->data(), rot, tr);
       }
     }
