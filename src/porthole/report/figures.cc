@@ -114,7 +114,7 @@ Figure PortRays(const Results& r) {
   }
   const double zmax = std::isfinite(r.plan.d_s2ep_infinity_mm)
                           ? ep.z() + std::max(r.plan.d_s2ep_infinity_mm, d_target) + 40
-                          : ep.z() + std::min(d_target, 600.0) + 60;
+                          : ep.z() + 1.1 * d_target + 20;
   const double zmin = std::min(0.0, ep.z() - 30);
   f.caption = fmt::format(
       "Cross-section (x–z plane of the housing frame, origin at the lens-mount flange) of {} with the "
@@ -474,7 +474,7 @@ Figure CompareCurves(const Results& r) {
 
 Figure CompareMaps(const Results& r) {
   const calib::CompareResult& c = *r.compare;
-  Figure f{"compare-maps", "compare", "Your calibrations: distortion maps (Fig. 15)", "", 1200, 420, "", ""};
+  Figure f{"compare-maps", "compare", "Your calibrations: distortion maps (Fig. 15)", "", 1200, 380, "", ""};
   std::string& d = f.data;
   d += Block(0, "over the frame (rows separated by a blank line)", "x_mm y_mm air_um water_um difference_um");
   double last_v = NAN;

@@ -159,7 +159,7 @@ Results Gather(const ReportInputs& in, Steps& steps) {
       optics::RayPath path;
       const auto st = optics::TraceSequence<double>(
           seq, {r.plan.system.ep_in_housing_mm, ports::Vec3(std::sin(a), 0, std::cos(a))}, &out, &path);
-      if (st == optics::RayStatus::kOk) path.points.push_back(out.origin + 400 * out.dir);
+      if (st == optics::RayStatus::kOk) path.points.push_back(out.origin + in.subject_distance_mm * out.dir);
       r.fan.push_back(path);
       r.fan_angles_deg.push_back(a * kDeg);
     }

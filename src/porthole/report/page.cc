@@ -404,6 +404,7 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
     rows.clear();
     for (const auto& row : c.rows) {
       const int i = row.index;
+      if (!row.adjusted_a && !row.adjusted_b && row.a == 0 && row.b == 0) continue;  // in neither
       const auto& info = camera::kBrownParamInfo[i];
       auto val = [i](bool adj, double v, double sg) {
         return adj ? Param(i, v) + " ± " + G(sg) : (v != 0 ? Param(i, v) + " (fixed)" : std::string("–"));
