@@ -16,7 +16,6 @@ namespace porthole::cli {
 namespace {
 
 Json Num(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
-Json Vec(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
 
 }  // namespace
 
@@ -52,29 +51,13 @@ void RegisterCompare(CLI::App& app) {
     const auto b = calib::LoadCalibration(o->b, o->pitch_mm, "B", &fit_b);
     const auto r = calib::Compare(a, b, o->compare);
 
-    Json rows = Json::array(), curves = Json::array(), map = Json::array();
-    for (const auto& row : r.rows) {
-      rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
-                      {"a", row.adjusted_a || row.a != 0 ? Json(row.a) : Json(nullptr)},
-                      {"sigma_a", Num(row.sigma_a)},
-                      {"b", row.adjusted_b || row.b != 0 ? Json(row.b) : Json(nullptr)},
-                      {"sigma_b", Num(row.sigma_b)},
-                      {"diff_b_minus_a", row.diff},
-                      {"sigma_diff", Num(row.sigma_diff)},
-                      {"z", Num(row.z)}});
-    }
     std::string curves_csv = "r_mm,radial_a_um,radial_b_um,decentring_a_um,decentring_b_um\n";
     for (const auto& p : r.curves) {
-      curves.push_back({{"r_mm", p.r_mm}, {"radial_a_um", p.radial_a_um},
-                        {"radial_b_um", p.radial_b_um}, {"decentring_a_um", p.decentring_a_um},
-                        {"decentring_b_um", p.decentring_b_um}});
       curves_csv += fmt::format("{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", p.r_mm, p.radial_a_um,
                                 p.radial_b_um, p.decentring_a_um, p.decentring_b_um);
     }
     std::string map_csv = "u_px,v_px,x_mm,y_mm,a_um,b_um,diff_um,ax_um,ay_um,bx_um,by_um\n";
     for (const auto& p : r.map) {
-      map.push_back({{"u_px", p.u_px}, {"v_px", p.v_px}, {"x_mm", p.x_mm}, {"y_mm", p.y_mm},
-                     {"a_um", Vec(p.a_um)}, {"b_um", Vec(p.b_um)}, {"diff_um", Vec(p.diff_um)}});
       map_csv += fmt::format("{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
                              "{:.6g},{:.6g}\n", p.u_px, p.v_px, p.x_mm, p.y_mm, p.a_um.norm(),
                              p.b_um.norm(), p.diff_um.norm(), p.a_um.x(), p.a_um.y(), p.b_um.x(),
@@ -91,13 +74,11 @@ void RegisterCompare(CLI::App& app) {
                       r.significant ? "DIFFER significantly" : "do not differ significantly",
                       o->compare.alpha, r.covariance_note);
     if (o->json) {
-      Json j = {{"a", o->a}, {"b", o->b}, {"parameters", rows}, {"units", camera::BrownUnitsJson()},
-                {"chi2", Num(r.chi2)}, {"dof", r.dof}, {"p_value", Num(r.p_value)},
-                {"alpha", o->compare.alpha}, {"significant", r.significant},
-                {"covariance", r.covariance_note}, {"verdict", verdict},
-                {"max_a_um", r.max_a_um}, {"max_b_um", r.max_b_um}, {"max_diff_um", r.max_diff_um},
-                {"curves", curves}, {"map_cols", o->compare.map_cols},
-                {"map_rows", o->compare.map_rows}, {"map", map}};
+      Json j = calib::CompareToJson(r, o->a, o->b, /*with_map=*/true);
+      j["alpha"] = o->compare.alpha;
+      j["verdict"] = verdict;
+      j["map_cols"] = o->compare.map_cols;
+      j["map_rows"] = o->compare.map_rows;
       if (fit_a.num_points > 0) {
         j["a_refit_rms_px"] = Num(fit_a.rms_px);
         j["a_refit_points_not_projected"] = fit_a.num_not_projected;

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 
+#include "porthole/camera/json.h"
 #include "porthole/camera/profile.h"
 #include "porthole/camera/sensor.h"
 #include "porthole/core/error.h"
@@ -136,6 +137,43 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
     }
   }
   return r;
+}
+
+nlohmann::ordered_json CompareToJson(const CompareResult& r, const std::string& a_label,
+                                     const std::string& b_label, bool with_map) {
+  using Json = nlohmann::ordered_json;
+  auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  auto vec = [](const Eigen::Vector2d& v) { return Json::array({v.x(), v.y()}); };
+  Json rows = Json::array(), curves = Json::array();
+  for (const auto& row : r.rows) {
+    rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
+                    {"a", row.adjusted_a || row.a != 0 ? Json(row.a) : Json(nullptr)},
+                    {"sigma_a", num(row.sigma_a)},
+                    {"b", row.adjusted_b || row.b != 0 ? Json(row.b) : Json(nullptr)},
+                    {"sigma_b", num(row.sigma_b)},
+                    {"diff_b_minus_a", row.diff},
+                    {"sigma_diff", num(row.sigma_diff)},
+                    {"z", num(row.z)}});
+  }
+  for (const auto& p : r.curves) {
+    curves.push_back({{"r_mm", p.r_mm}, {"radial_a_um", p.radial_a_um},
+                      {"radial_b_um", p.radial_b_um}, {"decentring_a_um", p.decentring_a_um},
+                      {"decentring_b_um", p.decentring_b_um}});
+  }
+  Json j = {{"a", a_label}, {"b", b_label}, {"parameters", rows},
+            {"units", camera::BrownUnitsJson()}, {"chi2", num(r.chi2)}, {"dof", r.dof},
+            {"p_value", num(r.p_value)}, {"significant", r.significant},
+            {"covariance", r.covariance_note}, {"max_a_um", r.max_a_um},
+            {"max_b_um", r.max_b_um}, {"max_diff_um", r.max_diff_um}, {"curves", curves}};
+  if (with_map) {
+    Json map = Json::array();
+    for (const auto& p : r.map) {
+      map.push_back({{"u_px", p.u_px}, {"v_px", p.v_px}, {"x_mm", p.x_mm}, {"y_mm", p.y_mm},
+                     {"a_um", vec(p.a_um)}, {"b_um", vec(p.b_um)}, {"diff_um", vec(p.diff_um)}});
+    }
+    j["map"] = map;
+  }
+  return j;
 }
 
 }  // namespace porthole::calib

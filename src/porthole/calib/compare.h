@@ -60,6 +60,14 @@ struct CompareResult {
 CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
                       const CompareOptions& options = {});
 
+// The comparison as JSON, with the keys of `porthole compare --json` (which adds its options):
+// a, b (the labels), parameters [{parameter, a, sigma_a, b, sigma_b, diff_b_minus_a, sigma_diff,
+// z}], units, chi2, dof, p_value, significant, covariance, max_a_um, max_b_um, max_diff_um,
+// curves [{r_mm, radial_a_um, radial_b_um, decentring_a_um, decentring_b_um}] and, with_map,
+// map [{u_px, v_px, x_mm, y_mm, a_um, b_um, diff_um}]. Non-finite numbers are null.
+nlohmann::ordered_json CompareToJson(const CompareResult& r, const std::string& a_label,
+                                     const std::string& b_label, bool with_map);
+
 // Upper regularised incomplete gamma Q(s, x): the χ² survival function is Q(dof/2, χ²/2).
 double UpperIncompleteGammaQ(double s, double x);
 

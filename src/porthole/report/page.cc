@@ -27,30 +27,6 @@ Json VirtualRowJson(const VirtualRow& v) {
           {"closeup_dioptre_needed", v.closeup_dioptre}};
 }
 
-// The comparison of two calibrations (calib::Compare), with the same keys as `porthole compare
-// --json`.
-Json CompareJson(const calib::CompareResult& c) {
-  Json rows = Json::array(), curves = Json::array();
-  for (const auto& row : c.rows) {
-    rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
-                    {"a", row.adjusted_a || row.a != 0 ? Json(row.a) : Json(nullptr)},
-                    {"sigma_a", L(row.sigma_a)},
-                    {"b", row.adjusted_b || row.b != 0 ? Json(row.b) : Json(nullptr)},
-                    {"sigma_b", L(row.sigma_b)},
-                    {"diff_b_minus_a", row.diff},
-                    {"sigma_diff", L(row.sigma_diff)},
-                    {"z", L(row.z)}});
-  }
-  for (const auto& p : c.curves) {
-    curves.push_back({{"r_mm", p.r_mm}, {"radial_a_um", p.radial_a_um}, {"radial_b_um", p.radial_b_um},
-                      {"decentring_a_um", p.decentring_a_um}, {"decentring_b_um", p.decentring_b_um}});
-  }
-  return {{"a", "air"}, {"b", "water"}, {"parameters", rows}, {"units", camera::BrownUnitsJson()},
-          {"chi2", L(c.chi2)}, {"dof", c.dof}, {"p_value", L(c.p_value)}, {"significant", c.significant},
-          {"covariance", c.covariance_note}, {"max_a_um", c.max_a_um}, {"max_b_um", c.max_b_um},
-          {"max_diff_um", c.max_diff_um}, {"curves", curves}};
-}
-
 // Numbers for the page: fixed decimals, "∞", or "–".
 std::string F(double v, int decimals) {
   if (std::isnan(v)) return "–";
@@ -202,7 +178,7 @@ Json ReportJson(const Results& r, const std::vector<Figure>& figures) {
   j["distortion_map"] = simulate::MapJson(r.map);
   if (in.air_calibration) j["air_calibration"] = camera::BrownToJson(in.air_calibration->camera);
   if (in.water_calibration) j["water_calibration"] = camera::BrownToJson(in.water_calibration->camera);
-  if (r.compare) j["comparison"] = CompareJson(*r.compare);
+  if (r.compare) j["comparison"] = calib::CompareToJson(*r.compare, "air", "water", /*with_map=*/false);
   Json figs = Json::array();
   for (const auto& f : figures) {
     figs.push_back({{"id", f.id}, {"section", f.section}, {"title", f.title}, {"caption", f.caption},
