@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "porthole/core/error.h"
+#include "porthole/core/json_length.h"
 #include "porthole/io/presets.h"
 #include "porthole/materials/materials.h"
 
@@ -61,11 +62,7 @@ std::optional<ports::Vec3> PortOptions::Ep() const {
   return v;
 }
 
-Json Length(double mm) {
-  if (std::isnan(mm)) return nullptr;
-  if (std::isinf(mm)) return mm > 0 ? "inf" : "-inf";
-  return mm;
-}
+Json Length(double mm) { return JsonLength<Json>(mm); }
 
 Json Vec3Json(const ports::Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 

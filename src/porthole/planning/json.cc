@@ -1,16 +1,14 @@
 #include "porthole/planning/json.h"
 
+#include "porthole/core/json_length.h"
+
 #include <cmath>
 
 namespace porthole::planning {
 namespace {
 
-// A length: a number, "inf" for infinity, null for NaN or nullopt.
-Json L(double v) {
-  if (std::isnan(v)) return nullptr;
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  return v;
-}
+// A length (core/json_length.h); null for nullopt.
+Json L(double v) { return JsonLength<Json>(v); }
 Json L(const std::optional<double>& v) { return v ? L(*v) : Json(nullptr); }
 
 Json FovJson(const Fov& f) {

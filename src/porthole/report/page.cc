@@ -8,17 +8,13 @@
 #include "porthole/camera/profile.h"
 #include "porthole/planning/json.h"
 #include "porthole/simulate/report.h"
+#include "porthole/core/json_length.h"
 #include "porthole/report/internal.h"
 
 namespace porthole::report {
 namespace {
 
-// A length for JSON: a number, "inf" for infinity, null when unavailable (docs/conventions.md).
-Json L(double v) {
-  if (std::isnan(v)) return nullptr;
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  return v;
-}
+Json L(double v) { return JsonLength<Json>(v); }  // core/json_length.h
 
 Json VirtualRowJson(const VirtualRow& v) {
   return {{"wd_mm", L(v.wd_mm)}, {"d_s2ep_mm", L(v.d_s2ep_mm)}, {"vwd_mm", L(v.vwd_mm)},
