@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -56,6 +57,12 @@ class Reader {
     const auto v = OptDouble(key);
     if (!v) Fail(key, "is required");
     return *v;
+  }
+  // A whole number in [1, 1e6] (pixel counts): no silent truncation, no overflowing cast.
+  int PositiveInt(const std::string& key) {
+    const double v = Double(key);
+    if (!(v >= 1 && v <= 1e6 && v == std::floor(v))) Fail(key, "must be a whole number from 1 to 1000000", Node(key));
+    return static_cast<int>(v);
   }
   std::optional<std::string> OptString(const std::string& key) {
     const toml::node* n = Node(key);
@@ -203,8 +210,8 @@ lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origi
   b.description = r.OptString("description").value_or("");
   b.source = r.OptString("source").value_or("");
   b.mount = r.OptString("mount").value_or("");
-  b.sensor.width_px = static_cast<int>(r.Double("width_px"));
-  b.sensor.height_px = static_cast<int>(r.Double("height_px"));
+  b.sensor.width_px = r.PositiveInt("width_px");
+  b.sensor.height_px = r.PositiveInt("height_px");
   b.sensor.pixel_pitch_mm = r.Double("pixel_pitch_mm");
   r.RejectUnknown();
   lens::Validate(b, origin + ": camera");

@@ -96,6 +96,11 @@ TEST(Presets, CameraAndLensPresetsCarryThePapersValues) {
   EXPECT_EQ(l35.min_focus_mm, 250);
   EXPECT_THROW(LoadLens("nikkor-999mm"), InvalidInput);
   EXPECT_THROW(ParseLensToml("focal_length_mm = 24\n", "x.toml"), InvalidInput);
+  const std::string body = "mount = \"nikon-f\"\nheight_px = 2848\npixel_pitch_mm = 0.0055\n";
+  for (const char* w : {"4288.7", "1e20", "0", "-5"}) {
+    EXPECT_THROW(ParseCameraToml(body + "width_px = " + w + "\n", "cam.toml"), InvalidInput) << w;
+  }
+  EXPECT_EQ(ParseCameraToml(body + "width_px = 4288\n", "cam.toml").sensor.width_px, 4288);
 }
 
 }  // namespace
