@@ -19,6 +19,7 @@
 #include <optional>
 #include <string_view>
 
+#include "porthole/camera/scalar.h"
 #include "porthole/core/error.h"
 
 namespace porthole::camera {
@@ -46,11 +47,13 @@ enum BrownIndex : int {
 
 // Name, file/JSON key (the key carries the unit, as docs/conventions.md asks) and unit of each
 // parameter, indexed by BrownIndex. The one list of names and units; everything else refers to it.
-struct BrownParamInfo {
+// (The same record describes the parameters of every model of camera/models.h.)
+struct ParamInfo {
   std::string_view name;
   std::string_view json_key;
   std::string_view unit;
 };
+using BrownParamInfo = ParamInfo;
 inline constexpr std::array<BrownParamInfo, kBrownNumParams> kBrownParamInfo = {{
     {"c", "c_mm", "mm"},
     {"x0", "x0_mm", "mm"},
@@ -91,12 +94,6 @@ inline void ValidateBrownParams(const BrownParams& p) {
   RequirePositive(std::string(kBrownParamInfo[kBrownC].json_key), p.c_mm);
 }
 
-// The value part of a scalar: itself for double, the (recursive) real part for a ceres::Jet.
-inline double ScalarValue(double v) { return v; }
-template <typename S, int N>
-double ScalarValue(const ceres::Jet<S, N>& v) {
-  return ScalarValue(v.a);
-}
 
 namespace detail {
 
