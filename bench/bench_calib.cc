@@ -66,7 +66,7 @@ void RunPorthole(benchmark::State& state, bool statistics) {
   const auto& s = GetSamples();
   CalibrationOptions o;
   o.reject_k = 0;  // the same points as the peers
-  o.free = ParseFreeParameters("c,x0,y0,K1,K2,K3,P1,P2");
+  o.free = ParseFreeParameters(porthole::camera::CameraModelId::kBrown, "c,x0,y0,K1,K2,K3,P1,P2");
   o.statistics = statistics;
   CalibrationResult r;
   for (auto _ : state) {
@@ -75,7 +75,7 @@ void RunPorthole(benchmark::State& state, bool statistics) {
     benchmark::DoNotOptimize(rms);
   }
   state.counters["rms_px"] = r.rms_px;
-  state.counters["c_px"] = r.camera.c_mm;
+  state.counters["c_px"] = r.camera.params[porthole::camera::kBrownC];
   if (statistics) state.counters["sigma_c_px"] = r.sigma[porthole::camera::kBrownC];
   state.counters["iterations"] = r.iterations;
 }

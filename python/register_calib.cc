@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 
 #include <nlohmann/json.hpp>
+#include <cstdio>
 
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/compare.h"
@@ -37,9 +38,9 @@ calib::LossKind Loss(const std::string& name) {
 void RegisterCalib(py::module_& m) {
   m.def(
       "calibrate",
-      [](const py::list& detections, const std::string& target, double pixel_pitch_mm,
-         const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
-         bool target_free, bool drop_insignificant, double significance_t) {
+      [](const py::list& detections, const std::string& target, const std::string& model,
+         double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
+         bool target_free, bool drop_insignificant, double significance_t, bool progress) {
         const auto t = calib::ParseTarget(target, "target");
         std::vector<calib::ImageDetections> dets;
         for (std::size_t i = 0; i < detections.size(); ++i) {
@@ -48,13 +49,17 @@ void RegisterCalib(py::module_& m) {
         }
         calib::CalibrationOptions o;
         o.pixel_pitch_mm = pixel_pitch_mm;
-        o.free = calib::ParseFreeParameters(free, "free");
+        o.model = camera::ModelFromName(model, "model");
+        o.free = calib::ParseFreeParameters(o.model, free, "free");
         o.reject_k = reject_k;
         o.loss = Loss(loss);
         o.loss_scale_px = loss_scale_px;
         o.target_free = target_free;
         o.drop_insignificant = drop_insignificant;
         o.significance_t = significance_t;
+        if (progress) {
+          o.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
+        }
         calib::CalibrationResult r;
         {
           py::gil_scoped_release release;
@@ -62,22 +67,39 @@ void RegisterCalib(py::module_& m) {
         }
         return FromJson(calib::CalibrationToJson(r, t, o));
       },
-      py::arg("detections"), py::arg("target"), py::kw_only(), py::arg("pixel_pitch_mm") = 1.0,
-      py::arg("free") = "c,x0,y0,K1,K2,P1,P2", py::arg("reject_k") = 5.0,
+      py::arg("detections"), py::arg("target"), py::kw_only(), py::arg("model") = "brown",
+      py::arg("pixel_pitch_mm") = 1.0, py::arg("free") = "default", py::arg("reject_k") = 5.0,
       py::arg("loss") = "none", py::arg("loss_scale_px") = 1.0, py::arg("target_free") = false,
       py::arg("drop_insignificant") = false, py::arg("significance_t") = 2.0,
+      py::arg("progress") = false,
       "Self-calibration from detections (list of dicts: image, width_px, height_px, ids, "
-      "points_px). Returns the calibration dict of `porthole calibrate --json`.");
+      "points_px), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
+      "stereographic, orthographic). Returns the calibration dict of `porthole calibrate --json`.");
 
   m.def(
       "synthetic_detections",
       [](const py::dict& camera, int width_px, int height_px, double pixel_pitch_mm,
-         const std::string& target, int n_images, double noise_px, uint64_t seed) {
+         const std::string& target, int n_images, double noise_px, uint64_t seed,
+         double max_tilt_deg, double max_off_axis_deg, double fill) {
         calib::SyntheticOptions o;
-        o.camera = camera::BrownFromJson(ToJson(camera), "camera").value;
-        o.sensor = {width_px, height_px, pixel_pitch_mm};
+        // The camera dict: {"model": name (default brown), parameter keys…}.
+        nlohmann::json cam = ToJson(camera);
+        nlohmann::json wrapped = {{"camera", nlohmann::json::object()},
+                                  {"sensor", {{"width_px", width_px}, {"height_px", height_px},
+                                              {"pixel_pitch_mm", pixel_pitch_mm}}}};
+        for (const auto& [key, val] : cam.items()) {
+          if (key == "model") {
+            wrapped["model"] = val;
+          } else {
+            wrapped["camera"][key] = val;
+          }
+        }
+        o.camera = calib::CalibrationFromJson(wrapped, "camera").camera;
         o.target = calib::ParseTarget(target, "target");
         o.n_images = n_images;
+        o.max_tilt_deg = max_tilt_deg;
+        o.max_off_axis_deg = max_off_axis_deg;
+        o.fill = fill;
         o.noise_px = noise_px;
         o.noise_seed = seed;
         const auto set = calib::MakeSyntheticSet(o);
@@ -88,8 +110,10 @@ void RegisterCalib(py::module_& m) {
       py::arg("camera"), py::kw_only(), py::arg("width_px"), py::arg("height_px"),
       py::arg("pixel_pitch_mm"), py::arg("target") = "chessboard:13x9:40",
       py::arg("n_images") = 12, py::arg("noise_px") = 0.3, py::arg("seed") = 2,
-      "Detections of a planar target seen by a known Brown camera (dict c_mm … B2), with "
-      "Gaussian pixel noise: ground truth for tests.");
+      py::arg("max_tilt_deg") = 40.0, py::arg("max_off_axis_deg") = 0.0, py::arg("fill") = 0.7,
+      "Detections of a planar target seen by a known camera (dict: model, default brown, and its "
+      "parameter keys, e.g. c_mm … B2 or fx_px, fy_px, cx_px, cy_px, k1 … k4), with Gaussian pixel "
+      "noise: ground truth for tests. max_off_axis_deg turns views away from the target (fisheyes).");
 
   m.def(
       "compare",
@@ -100,7 +124,7 @@ void RegisterCalib(py::module_& m) {
                                       calib::CalibrationFromJson(ToJson(b), "b"), o);
         nlohmann::ordered_json rows = nlohmann::ordered_json::array(), curves = rows;
         for (const auto& row : r.rows) {
-          rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
+          rows.push_back({{"parameter", std::string(camera::Info(r.model).params[row.index].json_key)},
                           {"a", row.a}, {"b", row.b}, {"diff_b_minus_a", row.diff},
                           {"sigma_diff", std::isfinite(row.sigma_diff) ? nlohmann::ordered_json(row.sigma_diff) : nullptr},
                           {"z", std::isfinite(row.z) ? nlohmann::ordered_json(row.z) : nullptr}});

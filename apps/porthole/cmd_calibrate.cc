@@ -1,6 +1,7 @@
 // `porthole calibrate`: self-calibration by bundle adjustment from images (detected here) or from
-// saved detections; the parameter table with σ and significance as in the paper's Table 6, σ0,
-// RMS, correlations; JSON (--json, --out) and OpenCV YAML (--opencv-yaml) outputs.
+// saved detections, with any camera model of the list (--model); the parameter table with σ and
+// significance as in the paper's Table 6, σ0, RMS, correlations; JSON (--json, --out) and OpenCV
+// YAML (--opencv-yaml) outputs.
 #include <fmt/format.h>
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
 #include "porthole/calib/result_json.h"
+#include "porthole/camera/camera.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
 
@@ -21,13 +23,17 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
   std::string t = fmt::format(
       "{} images, {} points ({} rejected), {} unknowns, redundancy {}; free: {}\n",
       r.n_images, r.n_points, r.n_rejected, r.n_unknowns, r.redundancy,
-      calib::FreeParametersToString(r.free));
-  if (o.pixel_pitch_mm == 1.0) t += "no --pixel-pitch-mm: pitch 1, so millimetres are pixels\n";
+      calib::FreeParametersToString(r.camera.model, r.free));
+  const camera::ModelInfo& m = r.camera.info();
+  t += fmt::format("model {}: {}\n", m.name, m.description);
+  if (m.caps.image_mm && o.pixel_pitch_mm == 1.0) {
+    t += "no --pixel-pitch-mm: pitch 1, so millimetres are pixels\n";
+  }
   t += fmt::format("{:<10} {:>14} {:>11} {:>8}  {}\n", "parameter", "value", "std", "|p|/std",
                    "unit");
-  const auto v = r.camera.ToArray();
-  for (int i = 0; i < camera::kBrownNumParams; ++i) {
-    const auto& info = camera::kBrownParamInfo[i];
+  const std::vector<double>& v = r.camera.params;
+  for (int i = 0; i < m.num_params; ++i) {
+    const auto& info = m.params[i];
     if (!r.free[i]) {
       t += fmt::format("{:<10} {:>14} {:>11} {:>8}  {}\n", info.json_key,
                        v[i] != 0 ? fmt::format("{:.6g}", v[i]) : "-", "-", "", info.unit);
@@ -42,17 +48,17 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
   }
   for (const auto& d : r.dropped) {
     t += fmt::format("dropped {} = {:.3g} ± {:.2g} (|p|/std {:.2f} < {:g}): not significant\n",
-                     camera::kBrownParamInfo[d.index].json_key, d.value, d.sigma, d.t,
+                     m.params[d.index].json_key, d.value, d.sigma, d.t,
                      o.significance_t);
   }
   t += fmt::format("sigma0 {:.4f} px   RMS {:.4f} px   ({} iterations, {:.3f} s)\n", r.sigma0_px,
                    r.rms_px, r.iterations, r.seconds);
   std::string high;
-  for (int i = 0; i < camera::kBrownNumParams; ++i) {
-    for (int j = i + 1; j < camera::kBrownNumParams; ++j) {
+  for (int i = 0; i < m.num_params; ++i) {
+    for (int j = i + 1; j < m.num_params; ++j) {
       if (r.free[i] && r.free[j] && std::abs(r.correlation(i, j)) > 0.9) {
-        high += fmt::format(" {}/{} {:+.2f}", camera::kBrownParamInfo[i].name,
-                            camera::kBrownParamInfo[j].name, r.correlation(i, j));
+        high += fmt::format(" {}/{} {:+.2f}", m.params[i].name, m.params[j].name,
+                            r.correlation(i, j));
       }
     }
   }
@@ -67,15 +73,15 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
 
 void RegisterCalibrate(CLI::App& app) {
   struct Options {
-    std::string images, detections, target, free = "c,x0,y0,K1,K2,P1,P2", loss = "none", out,
-                                            yaml;
+    std::string images, detections, target, model = "brown", free = "default", loss = "none", out,
+                                                            yaml;
     double pitch_mm = 1.0;
     calib::CalibrationOptions calib;
     bool json = false, quiet = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
-      "calibrate", "Self-calibrate a camera (Brown model, bundle adjustment) with statistics");
+      "calibrate", "Self-calibrate a camera (bundle adjustment, any camera model) with statistics");
   auto* img = cmd->add_option("--images", o->images, "Directory of images: detect the target");
   auto* det = cmd->add_option("--detections", o->detections,
                               "Detections from 'porthole detect' (set file, file or directory)");
@@ -85,7 +91,13 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch, mm; without it millimetres are pixels")
       ->capture_default_str();
-  cmd->add_option("--free", o->free, "Adjusted parameters: c,x0,y0,K1,K2,K3,P1,P2,B1,B2 or all")
+  std::string models;
+  for (const auto& m : camera::CameraModels()) models += (models.empty() ? "" : " | ") + std::string(m.name);
+  cmd->add_option("--model", o->model, "Camera model: " + models)->capture_default_str();
+  cmd->add_option("--free", o->free,
+                  "Adjusted parameters, by name (brown: c,x0,y0,K1,K2,K3,P1,P2,B1,B2; opencv: "
+                  "fx,fy,cx,cy,k1..k6,p1,p2; kannala-brandt: fx,fy,cx,cy,k1..k4), all, or default "
+                  "(brown c,x0,y0,K1,K2,P1,P2; opencv without k3..k6; fisheyes all)")
       ->capture_default_str();
   cmd->add_option("--reject-k", o->calib.reject_k,
                   "Reject points beyond k*sigma0 (2-D residual), iterated; 0 = off")
@@ -115,7 +127,8 @@ void RegisterCalibrate(CLI::App& app) {
     if (!o->images.empty() && o->target.empty()) {
       throw InvalidInput("--target", "required with --images");
     }
-    o->calib.free = calib::ParseFreeParameters(o->free);
+    o->calib.model = camera::ModelFromName(o->model, "--model");
+    o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
     o->calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o->pitch_mm);
     o->calib.loss = o->loss == "huber"    ? calib::LossKind::kHuber
                     : o->loss == "cauchy" ? calib::LossKind::kCauchy

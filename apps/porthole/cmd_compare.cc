@@ -97,7 +97,7 @@ void RegisterCompare(CLI::App& app) {
                                 "param", "A value      std", "B value      std", "B - A", "z");
     for (const auto& row : r.rows) {
       t += fmt::format("{:<8} {} {} {:>12.4g} {:>7}\n",
-                       camera::kBrownParamInfo[row.index].json_key,
+                       camera::Info(r.model).params[row.index].json_key,
                        cell(row.adjusted_a, row.a, row.sigma_a),
                        cell(row.adjusted_b, row.b, row.sigma_b), row.diff,
                        std::isfinite(row.z) ? fmt::format("{:.1f}", row.z) : "");
@@ -111,7 +111,7 @@ void RegisterCompare(CLI::App& app) {
     }
     t += fmt::format("distortion maps (Fig. 15): max |D| A {:.1f} um, B {:.1f} um, A-B {:.1f} um\n",
                      r.max_a_um, r.max_b_um, r.max_diff_um);
-    if (a.sensor.pixel_pitch_mm == 1.0) t += "pitch 1: millimetres are pixels, um are 1e-3 px\n";
+    if (a.camera.sensor.pixel_pitch_mm == 1.0) t += "pitch 1: millimetres are pixels, um are 1e-3 px\n";
     if (fit_a.num_points > 0) t += fmt::format("A refit from OpenCV: RMS {:.4f} px\n", fit_a.rms_px);
     if (fit_b.num_points > 0) t += fmt::format("B refit from OpenCV: RMS {:.4f} px\n", fit_b.rms_px);
     fmt::print("{}{}\n", t, verdict);

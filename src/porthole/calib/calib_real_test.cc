@@ -98,14 +98,15 @@ TEST_F(CalibRealTest, MatchesOpenCVCalibrateCamera) {
     const auto cv_run = CalibrateWithOpenCV(run_->detections, *target_, flags);
     CalibrationOptions o;
     o.reject_k = 0;  // the same points as OpenCV
-    o.free = ParseFreeParameters(k3 ? "c,x0,y0,K1,K2,K3,P1,P2" : "c,x0,y0,K1,K2,P1,P2");
+    o.free = ParseFreeParameters(camera::CameraModelId::kBrown,
+                                 k3 ? "c,x0,y0,K1,K2,K3,P1,P2" : "c,x0,y0,K1,K2,P1,P2");
     const auto r = Calibrate(run_->detections, *target_, o);
     ASSERT_TRUE(r.covariance_ok) << r.message;
     EXPECT_NEAR(r.rms_px, cv_run.rms_px, 0.01 * cv_run.rms_px) << "k3 " << k3;
-    EXPECT_NEAR(r.camera.c_mm, cv_run.fx, 0.005 * cv_run.fx) << "k3 " << k3;
-    EXPECT_GT(r.camera.K1, 0);  // barrel in the correction convention (OpenCV k1 < 0)
+    EXPECT_NEAR(r.camera.params[camera::kBrownC], cv_run.fx, 0.005 * cv_run.fx) << "k3 " << k3;
+    EXPECT_GT(r.camera.params[camera::kBrownK1], 0);  // barrel in the correction convention (OpenCV k1 < 0)
     std::printf("k3 %d: porthole RMS %.5f px, c %.3f px; OpenCV RMS %.5f px, fx %.3f px\n", k3,
-                r.rms_px, r.camera.c_mm, cv_run.rms_px, cv_run.fx);
+                r.rms_px, r.camera.params[camera::kBrownC], cv_run.rms_px, cv_run.fx);
   }
 }
 

@@ -1,33 +1,37 @@
 // Photogrammetric self-calibration of one camera from planar-target detections (the paper's
-// Section 5): bundle adjustment with Ceres on the Brown–Conrady model of camera/brown.h (the same
-// implementation the simulation uses), with the statistics of the paper's Table 6.
+// Section 5): bundle adjustment with Ceres on any model of the camera-model list (camera/models.h),
+// with the statistics of the paper's Table 6.
 //
 // Contract:
-//  - Observations are pixels (observations.h), converted to image mm (y up) with the pixel pitch
-//    (camera/sensor.h); with pitch 1 "millimetres" are pixels. Residuals are projected − observed
-//    measured points in pixels.
+//  - Observations are pixels (observations.h). The residual is projected − observed, in px, through
+//    the model's Project (camera/models.h); for the Brown model (parameters in image mm, y up) the
+//    pixel pitch converts, and with pitch 1 its "millimetres" are pixels.
 //  - Unknowns: the free camera parameters (the rest fixed at their start value, 0 for the
-//    additional parameters), every image's cam_from_target pose (angle-axis rad, translation mm),
+//    distortion parameters), every image's cam_from_target pose (angle-axis rad, translation mm),
 //    and optionally the target points (self-calibration) with a minimal datum of 7 fixed
 //    coordinates: one point fully, a second far from it fully (scale from the nominal target),
 //    and the Z of a third far from their line.
-//  - Start: Zhang's closed form from plane homographies (principal point at the image centre,
-//    one principal distance for all images), then poses from each homography, then all free
-//    parameters in the correction (collinearity) form, then in the image residual (residual.h).
+//  - Start: a focal length from Zhang's closed form on plane homographies (principal point at the
+//    image centre, one focal length for all images) for rectilinear models, or, for fisheye
+//    models, the focal length among a range of candidates whose ideal projection best explains
+//    the views; then poses from each homography of the ideal camera's rays; then the adjustment.
+//    The Brown model first adjusts in the correction (collinearity) form (residual.h), with
+//    analytic Jacobians; every other model in the image residual by automatic differentiation.
 //  - Statistics: σ0 = sqrt(Σ|r|² / (2n − u)) (px, a posteriori), covariance of the camera
 //    parameters = σ0²·(JᵀJ)⁻¹ with J the Jacobian of the px image residuals (marginal over all
-//    unknowns: the 10×10 reduced camera system for a fixed target without robust loss, Ceres's
-//    Covariance otherwise), σ and correlation from it; rms_px = sqrt(Σ|r|² / n) as OpenCV reports.
-//  - Significance of each free additional parameter (K1…B2): t = |p|/σp. With stepwise dropping on,
-//    the least significant one below the threshold is fixed to 0 and the adjustment rerun, until
-//    all remaining ones pass (the paper's Table 6 leaves such parameters out).
+//    unknowns: the reduced camera system from the analytic Jacobians for the Brown model with a
+//    fixed target and no robust loss, Ceres's Covariance otherwise), σ and correlation from it;
+//    rms_px = sqrt(Σ|r|² / n) as OpenCV reports.
+//  - Significance of each free distortion parameter (from ModelInfo::first_distortion on; Brown:
+//    K1…B2): t = |p|/σp. With stepwise dropping on, the least significant one below the threshold
+//    is fixed to 0 and the adjustment rerun, until all remaining ones pass (the paper's Table 6
+//    leaves such parameters out).
 //  - Outliers: iterated k·σ0 rejection on the 2-D residual length, and/or a robust loss.
 // Bad input (too few images or points for the free parameters, mixed image sizes) throws
 // InvalidInput naming the field.
 #pragma once
 
 #include <Eigen/Core>
-#include <array>
 #include <functional>
 #include <optional>
 #include <string>
@@ -35,30 +39,36 @@
 
 #include "porthole/calib/observations.h"
 #include "porthole/calib/target.h"
-#include "porthole/camera/brown.h"
-#include "porthole/camera/sensor.h"
+#include "porthole/camera/camera.h"
 
 namespace porthole::calib {
 
-using FreeMask = std::array<bool, camera::kBrownNumParams>;
+// One flag per parameter of the model, in the model's order: true = adjusted.
+using FreeMask = std::vector<bool>;
 
-// c, x0, y0, K1, K2, P1, P2 free; K3, B1, B2 fixed at 0: the paper's usual set (Table 6 rows).
-inline constexpr FreeMask kDefaultFree = {true, true, true, true, true,
-                                          false, true, true, false, false};
-
-// Parses "c,x0,y0,K1,K2,P1,P2" (names of kBrownParamInfo, case-sensitive); "all" frees all ten.
-FreeMask ParseFreeParameters(const std::string& list, const std::string& field = "--free");
-std::string FreeParametersToString(const FreeMask& free);
+// The usual free set of each model: Brown c, x0, y0, K1, K2, P1, P2 (K3, B1, B2 fixed at 0: the
+// paper's Table 6 rows); OpenCV fx, fy, cx, cy, k1, k2, p1, p2 (COLMAP's OPENCV; k3…k6 fixed at 0);
+// every parameter of the fisheye models.
+FreeMask DefaultFree(camera::CameraModelId model);
+// Parses "c,x0,y0,K1,K2,P1,P2" (parameter names of the model, case-sensitive; JSON keys accepted
+// too); "all" frees every parameter, "default" gives DefaultFree.
+FreeMask ParseFreeParameters(camera::CameraModelId model, const std::string& list,
+                             const std::string& field = "--free");
+std::string FreeParametersToString(camera::CameraModelId model, const FreeMask& free);
 
 enum class LossKind { kNone, kHuber, kCauchy };
 
 struct CalibrationOptions {
-  FreeMask free = kDefaultFree;  // which camera parameters are adjusted
-  // Pixel pitch, mm. 1 means image "millimetres" are pixels (no sensor data needed).
+  camera::CameraModelId model = camera::CameraModelId::kBrown;  // which model of the list
+  // Which camera parameters are adjusted; unset: DefaultFree(model).
+  std::optional<FreeMask> free;
+  // Pixel pitch, mm. 1 means image "millimetres" are pixels (no sensor data needed); only the
+  // Brown model (parameters in mm) uses it.
   double pixel_pitch_mm = 1.0;
-  // Start values of the fixed additional parameters and of c/x0/y0 if those are fixed; nullopt:
-  // Zhang's start with additional parameters 0.
-  std::optional<camera::BrownParams> initial;
+  // Start values of the fixed parameters and of the focal length/principal point if those are
+  // fixed (its model must be `model`; its sensor is replaced by the images'); unset: the start
+  // described above with distortion 0.
+  std::optional<camera::Camera> initial;
   // Outlier rejection: points whose 2-D residual exceeds reject_k·σ0 are dropped and the
   // adjustment rerun (at most max_reject_rounds times). 0 = off. 5 drops ~4e-6 of Gaussian data.
   double reject_k = 5.0;
@@ -68,7 +78,7 @@ struct CalibrationOptions {
   double loss_scale_px = 1.0;
   // Self-calibration: adjust the target points too (with the datum above).
   bool target_free = false;
-  // Stepwise dropping of additional parameters with |p|/σp below significance_t. 2 ≈ 95 %
+  // Stepwise dropping of distortion parameters with |p|/σp below significance_t. 2 ≈ 95 %
   // two-sided for the large redundancy of a calibration.
   bool drop_insignificant = false;
   double significance_t = 2.0;
@@ -79,12 +89,14 @@ struct CalibrationOptions {
   // Covariance, σ, correlation and significance. Off only to time the adjustment alone (the
   // benchmark); sigma and correlation are then NaN and covariance_ok false.
   bool statistics = true;
-  // Ceres's Covariance (sparse QR over all unknowns) instead of the 10×10 reduced camera system
-  // from the analytic Jacobians. Always used with a free target or a robust loss; here the
-  // reference the fast path is tested against (~3 ms more on 13 images).
+  // Ceres's Covariance (sparse QR over all unknowns) instead of the reduced camera system from
+  // the analytic Jacobians (Brown). Always used with a free target, a robust loss or a model
+  // without analytic Jacobians; here the reference the fast path is tested against.
   bool ceres_covariance = false;
   // Progress messages (long runs), e.g. printed on stderr by the CLI. May be empty.
   std::function<void(const std::string&)> progress;
+
+  FreeMask FreeOrDefault() const { return free ? *free : DefaultFree(model); }
 };
 
 struct ImageResult {
@@ -97,29 +109,26 @@ struct ImageResult {
 };
 
 struct Significance {
-  int index = 0;     // BrownIndex
+  int index = 0;     // parameter index in the model's order
   double t = 0;      // |p| / σp
   bool significant = false;
 };
 
 struct DroppedParameter {
-  int index = 0;     // BrownIndex
+  int index = 0;     // parameter index in the model's order
   double value = 0;  // its estimate when it was dropped
   double sigma = 0;  // and its σ
   double t = 0;      // |value| / sigma
 };
 
 struct CalibrationResult {
-  camera::BrownParams camera;
-  camera::Sensor sensor;
-  FreeMask free{};  // after stepwise dropping
-  // σ0²-scaled covariance of the ten camera parameters (BrownIndex order); rows and columns of
-  // fixed parameters are 0. Units: products of the kBrownParamInfo units.
-  Eigen::Matrix<double, camera::kBrownNumParams, camera::kBrownNumParams> covariance =
-      decltype(covariance)::Zero();
-  std::array<double, camera::kBrownNumParams> sigma{};  // NaN for fixed parameters
-  Eigen::Matrix<double, camera::kBrownNumParams, camera::kBrownNumParams> correlation =
-      decltype(correlation)::Zero();  // NaN rows/columns for fixed parameters
+  camera::Camera camera;  // model, sensor (the images' size, the pitch), adjusted parameters
+  FreeMask free;          // after stepwise dropping
+  // σ0²-scaled covariance of the camera parameters (n×n, the model's order); rows and columns of
+  // fixed parameters are 0. Units: products of the parameters' units.
+  Eigen::MatrixXd covariance;
+  std::vector<double> sigma;  // NaN for fixed parameters
+  Eigen::MatrixXd correlation;  // NaN rows/columns for fixed parameters
   bool covariance_ok = false;
   double sigma0_px = 0;
   double rms_px = 0;
@@ -131,7 +140,7 @@ struct CalibrationResult {
   int iterations = 0;    // Ceres iterations, all adjustments
   double seconds = 0;    // wall time
   std::vector<ImageResult> images;
-  std::vector<Significance> significance;  // free additional parameters, after dropping
+  std::vector<Significance> significance;  // free distortion parameters, after dropping
   std::vector<DroppedParameter> dropped;   // in the order dropped
   std::vector<Eigen::Vector3d> target_points_mm;  // adjusted if target_free, else nominal
   std::string message;   // "ok" or what went wrong (e.g. singular covariance)

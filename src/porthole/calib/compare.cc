@@ -1,6 +1,7 @@
 #include "porthole/calib/compare.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 
 #include "porthole/camera/json.h"
@@ -41,17 +42,27 @@ double UpperIncompleteGammaQ(double s, double x) {
 
 CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
                       const CompareOptions& o) {
-  if (a.sensor.width_px != b.sensor.width_px || a.sensor.height_px != b.sensor.height_px ||
-      a.sensor.pixel_pitch_mm != b.sensor.pixel_pitch_mm) {
+  const camera::Sensor& s = a.camera.sensor;
+  const camera::Sensor& sb = b.camera.sensor;
+  if (s.width_px != sb.width_px || s.height_px != sb.height_px ||
+      s.pixel_pitch_mm != sb.pixel_pitch_mm) {
     throw InvalidInput("B", "the two calibrations are of different sensors (size or pixel pitch)");
   }
+  if (a.camera.model != b.camera.model) {
+    throw InvalidInput("B", "A is a " + std::string(a.camera.model_name()) + " calibration, B a " +
+                                std::string(b.camera.model_name()) +
+                                " one: compare calibrations of one model");
+  }
+
   if (o.curve_points < 2 || o.map_cols < 2 || o.map_rows < 2) {
     throw InvalidInput("--map", "at least 2 curve points and a 2x2 map");
   }
   CompareResult r;
-  const auto va = a.camera.ToArray(), vb = b.camera.ToArray();
+  r.model = a.camera.model;
+  const std::vector<double>& va = a.camera.params;
+  const std::vector<double>& vb = b.camera.params;
   std::vector<int> tested;
-  for (int i = 0; i < camera::kBrownNumParams; ++i) {
+  for (int i = 0; i < a.camera.info().num_params; ++i) {
     CompareRow row;
     row.index = i;
     row.adjusted_a = a.free[i];
@@ -71,9 +82,10 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
   }
 
   // χ² on the parameters adjusted in either calibration.
-  if (!a.has_covariance && a.free != FreeMask{}) {
+  const auto any = [](const FreeMask& f) { return std::find(f.begin(), f.end(), true) != f.end(); };
+  if (!a.has_covariance && any(a.free)) {
     r.covariance_note = "A has no covariance";
-  } else if (!b.has_covariance && b.free != FreeMask{}) {
+  } else if (!b.has_covariance && any(b.free)) {
     r.covariance_note = "B has no covariance";
   } else {
     const int n = static_cast<int>(tested.size());
@@ -106,16 +118,19 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
     }
   }
 
+  // The curves and maps are the Brown model's (the paper's Figs. 14-15).
+  if (r.model != camera::CameraModelId::kBrown) return r;
+  const camera::BrownParams ba = camera::ToBrown(a.camera, "A");
+  const camera::BrownParams bb = camera::ToBrown(b.camera, "B");
   // Curves to the frame corner, from each calibration's principal point.
-  const auto& s = a.sensor;
   const double r_max = 0.5 * std::hypot(s.width_px, s.height_px) * s.pixel_pitch_mm;
   for (int k = 0; k < o.curve_points; ++k) {
     CurvePoint c;
     c.r_mm = r_max * k / (o.curve_points - 1);
-    c.radial_a_um = 1e3 * camera::RadialProfileMm(a.camera, c.r_mm);
-    c.radial_b_um = 1e3 * camera::RadialProfileMm(b.camera, c.r_mm);
-    c.decentring_a_um = 1e3 * camera::DecentringProfileMm(a.camera, c.r_mm);
-    c.decentring_b_um = 1e3 * camera::DecentringProfileMm(b.camera, c.r_mm);
+    c.radial_a_um = 1e3 * camera::RadialProfileMm(ba, c.r_mm);
+    c.radial_b_um = 1e3 * camera::RadialProfileMm(bb, c.r_mm);
+    c.decentring_a_um = 1e3 * camera::DecentringProfileMm(ba, c.r_mm);
+    c.decentring_b_um = 1e3 * camera::DecentringProfileMm(bb, c.r_mm);
     r.curves.push_back(c);
   }
   // Maps: Δ of each at the same measured image point.
@@ -127,8 +142,8 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
       const Eigen::Vector2d xy = camera::PixelToImageMm(s, p.u_px, p.v_px);
       p.x_mm = xy.x();
       p.y_mm = xy.y();
-      p.a_um = 1e3 * camera::Correction(a.camera, xy.x(), xy.y());
-      p.b_um = 1e3 * camera::Correction(b.camera, xy.x(), xy.y());
+      p.a_um = 1e3 * camera::Correction(ba, xy.x(), xy.y());
+      p.b_um = 1e3 * camera::Correction(bb, xy.x(), xy.y());
       p.diff_um = p.a_um - p.b_um;
       r.max_a_um = std::max(r.max_a_um, p.a_um.norm());
       r.max_b_um = std::max(r.max_b_um, p.b_um.norm());
@@ -146,7 +161,7 @@ nlohmann::ordered_json CompareToJson(const CompareResult& r, const std::string& 
   auto vec = [](const Eigen::Vector2d& v) { return Json::array({v.x(), v.y()}); };
   Json rows = Json::array(), curves = Json::array();
   for (const auto& row : r.rows) {
-    rows.push_back({{"parameter", std::string(camera::kBrownParamInfo[row.index].json_key)},
+    rows.push_back({{"parameter", std::string(camera::Info(r.model).params[row.index].json_key)},
                     {"a", row.adjusted_a || row.a != 0 ? Json(row.a) : Json(nullptr)},
                     {"sigma_a", num(row.sigma_a)},
                     {"b", row.adjusted_b || row.b != 0 ? Json(row.b) : Json(nullptr)},
@@ -161,7 +176,8 @@ nlohmann::ordered_json CompareToJson(const CompareResult& r, const std::string& 
                       {"decentring_b_um", p.decentring_b_um}});
   }
   Json j = {{"a", a_label}, {"b", b_label}, {"parameters", rows},
-            {"units", camera::BrownUnitsJson()}, {"chi2", num(r.chi2)}, {"dof", r.dof},
+            {"model", std::string(camera::Info(r.model).name)},
+            {"units", CameraUnitsJson(r.model)}, {"chi2", num(r.chi2)}, {"dof", r.dof},
             {"p_value", num(r.p_value)}, {"significant", r.significant},
             {"covariance", r.covariance_note}, {"max_a_um", r.max_a_um},
             {"max_b_um", r.max_b_um}, {"max_diff_um", r.max_diff_um}, {"curves", curves}};

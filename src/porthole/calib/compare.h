@@ -24,7 +24,7 @@ struct CompareOptions {
 };
 
 struct CompareRow {
-  int index = 0;          // BrownIndex
+  int index = 0;          // parameter index in the model's order
   bool adjusted_a = false, adjusted_b = false;
   double a = 0, sigma_a = NAN, b = 0, sigma_b = NAN;
   double diff = 0;        // b − a
@@ -45,6 +45,7 @@ struct ComparePoint {
 };
 
 struct CompareResult {
+  camera::CameraModelId model = camera::CameraModelId::kBrown;  // of both calibrations
   std::vector<CompareRow> rows;
   std::vector<CurvePoint> curves;
   std::vector<ComparePoint> map;  // row-major from the top-left pixel
@@ -56,7 +57,8 @@ struct CompareResult {
   std::string covariance_note;   // "full" or why not
 };
 
-// Throws InvalidInput("B") if the sensors differ (size or pitch).
+// Throws InvalidInput("B") if the sensors (size or pitch) or the models differ. Curves and maps
+// are computed for the Brown model only (empty otherwise).
 CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
                       const CompareOptions& options = {});
 

@@ -80,8 +80,8 @@ TEST(CompareTest, PaperTable6AirVersusWater) {
 
 TEST(CompareTest, ChiSquareAcceptsSameCameraRejectsChangedOne) {
   SyntheticOptions o;
-  o.camera = {26.208, -0.058, -0.207, 1.663e-4, -2.582e-7, 0, 6.582e-6, 1.620e-5, 0, 0};
-  o.sensor = {4288, 2848, 0.0055};
+  o.camera = camera::FromBrown(
+      {26.208, -0.058, -0.207, 1.663e-4, -2.582e-7, 0, 6.582e-6, 1.620e-5, 0, 0}, {4288, 2848, 0.0055});
   o.target = ParseTarget("chessboard:13x9:40");
   o.n_images = 12;
   CalibrationOptions c;
@@ -100,7 +100,7 @@ TEST(CompareTest, ChiSquareAcceptsSameCameraRejectsChangedOne) {
   EXPECT_EQ(same.covariance_note, "full");
   EXPECT_EQ(same.dof, 7);
   EXPECT_GT(same.p_value, 0.01) << same.chi2;
-  o.camera.c_mm += 0.03;  // ~10σ
+  o.camera.params[camera::kBrownC] += 0.03;  // ~10σ
   const auto changed = Compare(a, record(o));
   EXPECT_LT(changed.p_value, 1e-6) << changed.chi2;
 }

@@ -143,8 +143,8 @@ TEST(ResidualTest, ParamJacobianIsTheCorrectionBasis) {
 
 TEST(ResidualTest, ReducedCameraCovarianceEqualsCeres) {
   SyntheticOptions so;
-  so.camera = {26.208, -0.058, -0.207, 1.663e-4, -2.582e-7, 0, 6.582e-6, 1.620e-5, 0, 0};
-  so.sensor = {4288, 2848, kPitch};
+  so.camera = camera::FromBrown(
+      {26.208, -0.058, -0.207, 1.663e-4, -2.582e-7, 0, 6.582e-6, 1.620e-5, 0, 0}, {4288, 2848, kPitch});
   so.target = ParseTarget("chessboard:13x9:40");
   so.n_images = 12;
   so.noise_px = 0.3;
@@ -152,7 +152,7 @@ TEST(ResidualTest, ReducedCameraCovarianceEqualsCeres) {
   CalibrationOptions o;
   o.pixel_pitch_mm = kPitch;
   o.reject_k = 0;
-  o.free = ParseFreeParameters("all");  // every column, including the weak K3, B1, B2
+  o.free = ParseFreeParameters(camera::CameraModelId::kBrown, "all");  // every column, including the weak K3, B1, B2
   const auto fast = Calibrate(set.detections, so.target, o);
   o.ceres_covariance = true;
   const auto ref = Calibrate(set.detections, so.target, o);

@@ -13,53 +13,64 @@
 namespace porthole::calib {
 namespace {
 
-using camera::kBrownNumParams;
-using camera::kBrownParamInfo;
 using Json = nlohmann::ordered_json;
 
 Json Number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
-Json Matrix(const FreeMask& free, const Eigen::Matrix<double, 10, 10>& m) {
+Json Matrix(const camera::ModelInfo& m, const FreeMask& free, const Eigen::MatrixXd& mat) {
   Json keys = Json::array(), rows = Json::array();
-  for (int i = 0; i < kBrownNumParams; ++i) {
+  for (int i = 0; i < m.num_params; ++i) {
     if (!free[i]) continue;
-    keys.push_back(std::string(kBrownParamInfo[i].json_key));
+    keys.push_back(std::string(m.params[i].json_key));
     Json row = Json::array();
-    for (int j = 0; j < kBrownNumParams; ++j) {
-      if (free[j]) row.push_back(Number(m(i, j)));
+    for (int j = 0; j < m.num_params; ++j) {
+      if (free[j]) row.push_back(Number(mat(i, j)));
     }
     rows.push_back(row);
   }
   return {{"parameters", keys}, {"matrix", rows}};
 }
 
-int KeyIndex(const std::string& key) {
-  for (int i = 0; i < kBrownNumParams; ++i) {
-    if (kBrownParamInfo[i].json_key == key) return i;
+int KeyIndex(const camera::ModelInfo& m, const std::string& key) {
+  for (int i = 0; i < m.num_params; ++i) {
+    if (m.params[i].json_key == key) return i;
   }
   return -1;
 }
 
+std::string KnownKeys(const camera::ModelInfo& m) {
+  std::string known;
+  for (const auto& p : m.params) known += (known.empty() ? "" : ", ") + std::string(p.json_key);
+  return known;
+}
+
 }  // namespace
+
+Json CameraUnitsJson(camera::CameraModelId model) {
+  Json j = Json::object();
+  for (const auto& p : camera::Info(model).params) j[std::string(p.json_key)] = std::string(p.unit);
+  return j;
+}
 
 Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                        const CalibrationOptions& options) {
-  const auto value = r.camera.ToArray();
+  const camera::ModelInfo& m = r.camera.info();
+  const std::vector<double>& value = r.camera.params;
   Json cam = Json::object(), sig = Json::object(), fixed = Json::array();
-  for (int i = 0; i < kBrownNumParams; ++i) {
-    const std::string key(kBrownParamInfo[i].json_key);
+  for (int i = 0; i < m.num_params; ++i) {
+    const std::string key(m.params[i].json_key);
     cam[key] = r.free[i] || value[i] != 0 ? Json(value[i]) : Json(nullptr);
     sig[key] = r.free[i] ? Number(r.sigma[i]) : Json(nullptr);
     if (!r.free[i] && value[i] != 0) fixed.push_back(key);
   }
   Json significance = Json::array(), dropped = Json::array(), images = Json::array();
   for (const auto& s : r.significance) {
-    significance.push_back({{"parameter", std::string(kBrownParamInfo[s.index].json_key)},
+    significance.push_back({{"parameter", std::string(m.params[s.index].json_key)},
                             {"t", Number(s.t)},
                             {"significant", s.significant}});
   }
   for (const auto& d : r.dropped) {
-    dropped.push_back({{"parameter", std::string(kBrownParamInfo[d.index].json_key)},
+    dropped.push_back({{"parameter", std::string(m.params[d.index].json_key)},
                        {"value", d.value},
                        {"sigma", Number(d.sigma)},
                        {"t", Number(d.t)}});
@@ -73,24 +84,26 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                       {"translation_mm",
                        {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()}}});
   }
-  const bool px = options.pixel_pitch_mm == 1.0;
+  const bool px = m.caps.image_mm && options.pixel_pitch_mm == 1.0;
+  const camera::Sensor& sensor = r.camera.sensor;
   Json j = {
+      {"model", std::string(m.name)},
       {"camera", cam},
       {"sigma", sig},
-      {"units", camera::BrownUnitsJson()},
+      {"units", CameraUnitsJson(r.camera.model)},
       {"pixels_are_mm", px},
       {"note", px ? "no --pixel-pitch-mm: pitch 1, so every _mm value is in pixels (K1 in px^-2 …)"
                   : fmt::format("pixel pitch {:g} mm", options.pixel_pitch_mm)},
-      {"correlation", Matrix(r.free, r.correlation)},
-      {"covariance", Matrix(r.free, r.covariance)},
+      {"correlation", Matrix(m, r.free, r.correlation)},
+      {"covariance", Matrix(m, r.free, r.covariance)},
       {"sigma0_px", Number(r.sigma0_px)},
       {"rms_px", Number(r.rms_px)},
       {"sensor",
-       {{"width_px", r.sensor.width_px},
-        {"height_px", r.sensor.height_px},
-        {"pixel_pitch_mm", r.sensor.pixel_pitch_mm}}},
+       {{"width_px", sensor.width_px},
+        {"height_px", sensor.height_px},
+        {"pixel_pitch_mm", sensor.pixel_pitch_mm}}},
       {"target", target.ToString()},
-      {"free", FreeParametersToString(r.free)},
+      {"free", FreeParametersToString(r.camera.model, r.free)},
       {"fixed", fixed},
       {"significance_t", options.significance_t},
       {"significance", significance},
@@ -114,54 +127,76 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
   if (!j.is_object() || !j.contains("camera") || !j["camera"].is_object()) {
     throw InvalidInput(field, "not a calibration: no \"camera\" object");
   }
-  // null = not adjusted: drop it and let camera::BrownFromJson check keys and values.
-  nlohmann::json cam = nlohmann::json::object();
-  for (const auto& [key, val] : j["camera"].items()) {
-    if (val.is_null()) continue;
-    cam[key] = val;
-    const int i = KeyIndex(key);
-    if (i >= 0) rec.free[i] = true;
+  rec.camera.model = camera::CameraModelId::kBrown;
+  if (j.contains("model")) {
+    if (!j["model"].is_string()) throw InvalidInput(field + ".model", "must be a model name");
+    rec.camera.model = camera::ModelFromName(j["model"].get<std::string>(), field + ".model");
   }
-  rec.camera = camera::BrownFromJson(cam, field + ".camera").value;
+  const camera::ModelInfo& m = rec.camera.info();
+  rec.camera.params.assign(m.num_params, 0.0);
+  rec.free.assign(m.num_params, false);
+  rec.covariance = Eigen::MatrixXd::Zero(m.num_params, m.num_params);
+  // null = not adjusted (0); a number = adjusted unless listed in `fixed`.
+  for (const auto& [key, val] : j["camera"].items()) {
+    const int i = KeyIndex(m, key);
+    if (i < 0) {
+      throw InvalidInput(field + ".camera." + key, "unknown key (" + std::string(m.name) +
+                                                       " parameters are " + KnownKeys(m) + ")");
+    }
+    if (val.is_null()) continue;
+    if (!val.is_number()) throw InvalidInput(field + ".camera." + key, "must be a number or null");
+    rec.camera.params[i] = val.get<double>();
+    rec.free[i] = true;
+  }
+  if (rec.camera.params[0] == 0 && !j["camera"].contains(std::string(m.params[0].json_key))) {
+    throw InvalidInput(field + ".camera." + std::string(m.params[0].json_key), "is required");
+  }
   if (j.contains("fixed")) {
+    if (!j["fixed"].is_array()) throw InvalidInput(field + ".fixed", "must be a list of keys");
     for (const auto& k : j["fixed"]) {
-      const int i = KeyIndex(k.get<std::string>());
+      const int i = k.is_string() ? KeyIndex(m, k.get<std::string>()) : -1;
       if (i >= 0) rec.free[i] = false;
     }
   }
   try {
     const auto& s = j.at("sensor");
-    rec.sensor = {s.at("width_px").get<int>(), s.at("height_px").get<int>(),
-                  s.at("pixel_pitch_mm").get<double>()};
+    rec.camera.sensor = {s.at("width_px").get<int>(), s.at("height_px").get<int>(),
+                         s.at("pixel_pitch_mm").get<double>()};
   } catch (const nlohmann::json::exception&) {
     throw InvalidInput(field, "sensor: needs width_px, height_px, pixel_pitch_mm");
   }
-  camera::ValidateSensor(rec.sensor);
+  camera::ValidateCamera(rec.camera, field + ".camera");
   if (j.contains("covariance") && j["covariance"].is_object()) {
     const auto& c = j["covariance"];
     std::vector<int> idx;
-    for (const auto& k : c.at("parameters")) {
-      const int i = KeyIndex(k.get<std::string>());
+    if (!c.contains("parameters") || !c["parameters"].is_array() || !c.contains("matrix") ||
+        !c["matrix"].is_array()) {
+      throw InvalidInput(field + ".covariance", "needs parameters [...] and matrix [[...]]");
+    }
+    for (const auto& k : c["parameters"]) {
+      const int i = k.is_string() ? KeyIndex(m, k.get<std::string>()) : -1;
       if (i < 0) throw InvalidInput(field, "covariance: unknown parameter " + k.dump());
       idx.push_back(i);
     }
-    const auto& m = c.at("matrix");
-    if (m.size() != idx.size()) throw InvalidInput(field, "covariance: matrix size");
+    const auto& mat = c["matrix"];
+    if (mat.size() != idx.size()) throw InvalidInput(field, "covariance: matrix size");
     for (std::size_t a = 0; a < idx.size(); ++a) {
-      if (m[a].size() != idx.size()) throw InvalidInput(field, "covariance: matrix size");
+      if (!mat[a].is_array() || mat[a].size() != idx.size()) {
+        throw InvalidInput(field, "covariance: matrix size");
+      }
       for (std::size_t b = 0; b < idx.size(); ++b) {
-        rec.covariance(idx[a], idx[b]) = m[a][b].is_number() ? m[a][b].get<double>() : NAN;
+        rec.covariance(idx[a], idx[b]) = mat[a][b].is_number() ? mat[a][b].get<double>() : NAN;
       }
     }
     rec.has_covariance = rec.covariance.allFinite() && !idx.empty();
   } else if (j.contains("sigma") && j["sigma"].is_object()) {
     for (const auto& [key, val] : j["sigma"].items()) {
-      const int i = KeyIndex(key);
+      const int i = KeyIndex(m, key);
       if (i < 0) throw InvalidInput(field, "sigma." + key + ": unknown parameter");
       if (val.is_number() && rec.free[i]) rec.covariance(i, i) = val.get<double>() * val.get<double>();
     }
     rec.has_covariance = true;
-    for (int i = 0; i < kBrownNumParams; ++i) {
+    for (int i = 0; i < m.num_params; ++i) {
       if (rec.free[i] && !(rec.covariance(i, i) > 0)) rec.has_covariance = false;
     }
     rec.covariance_note = "diagonal from sigma";
@@ -171,7 +206,23 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
 }
 
 std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit* fit) {
-  const auto conv = camera::BrownToOpenCV(rec.camera, rec.sensor);
+  const camera::Sensor& sensor = rec.camera.sensor;
+  if (rec.camera.model == camera::CameraModelId::kOpenCV) {
+    using M = camera::OpenCVModel;
+    const std::vector<double>& p = rec.camera.params;
+    if (fit != nullptr) *fit = camera::ConversionFit{};
+    return fmt::format(
+        "%YAML:1.0\n---\n"
+        "# porthole calibration, OpenCV rational model (exact)\n"
+        "image_width: {}\nimage_height: {}\n"
+        "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+        "   data: [ {:.17g}, 0., {:.17g}, 0., {:.17g}, {:.17g}, 0., 0., 1. ]\n"
+        "distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 8\n   dt: d\n"
+        "   data: [ {:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g} ]\n",
+        sensor.width_px, sensor.height_px, p[M::kFx], p[M::kCx], p[M::kFy], p[M::kCy], p[M::kK1],
+        p[M::kK2], p[M::kP1], p[M::kP2], p[M::kK3], p[M::kK4], p[M::kK5], p[M::kK6]);
+  }
+  const auto conv = camera::BrownToOpenCV(camera::ToBrown(rec.camera, "--opencv-yaml"), sensor);
   if (fit != nullptr) *fit = conv.fit;
   const auto& o = conv.opencv;
   return fmt::format(
@@ -182,7 +233,7 @@ std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit
       "   data: [ {:.17g}, 0., {:.17g}, 0., {:.17g}, {:.17g}, 0., 0., 1. ]\n"
       "distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n"
       "   data: [ {:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g} ]\n",
-      conv.fit.rms_px, conv.fit.max_px, rec.sensor.width_px, rec.sensor.height_px, o.fx, o.cx,
+      conv.fit.rms_px, conv.fit.max_px, sensor.width_px, sensor.height_px, o.fx, o.cx,
       o.fy, o.cy, o.k1, o.k2, o.p1, o.p2, o.k3);
 }
 
@@ -228,12 +279,13 @@ CalibrationRecord ImportOpenCVYaml(const std::string& yaml, double pixel_pitch_m
   }
   camera::OpenCVParams o{k[0], k[4], k[2], k[5], d[0], d[1], d[2], d[3], d.size() > 4 ? d[4] : 0};
   CalibrationRecord rec;
-  rec.sensor = {YamlInt(yaml, "image_width", field), YamlInt(yaml, "image_height", field),
-                pixel_pitch_mm};
-  const auto conv = camera::OpenCVToBrown(o, rec.sensor);
+  const camera::Sensor sensor{YamlInt(yaml, "image_width", field),
+                              YamlInt(yaml, "image_height", field), pixel_pitch_mm};
+  const auto conv = camera::OpenCVToBrown(o, sensor);
   if (fit != nullptr) *fit = conv.fit;
-  rec.camera = conv.brown;
-  rec.free = {true, true, true, true, true, true, true, true, true, true};
+  rec.camera = camera::FromBrown(conv.brown, sensor);
+  rec.free.assign(camera::kBrownNumParams, true);
+  rec.covariance = Eigen::MatrixXd::Zero(camera::kBrownNumParams, camera::kBrownNumParams);
   return rec;
 }
 

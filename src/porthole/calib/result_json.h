@@ -2,8 +2,10 @@
 // `porthole compare`), and OpenCV YAML export/import.
 //
 // JSON keys (units per docs/conventions.md; the `units` object repeats them):
-//   camera {c_mm, x0_mm, y0_mm, K1, K2, K3, P1, P2, B1, B2}: adjusted values; a parameter that was
-//     not adjusted is null (fixed at 0) or its fixed value (listed in `fixed`);
+//   model: the camera model's name (camera/models.h; absent = "brown", as files before the list);
+//   camera {the model's parameter keys, e.g. c_mm, x0_mm, y0_mm, K1 … B2 for Brown}: adjusted
+//     values; a parameter that was not adjusted is null (fixed at 0) or its fixed value (listed in
+//     `fixed`);
 //   sigma {same keys}: 1σ = sqrt(σ0²·(JᵀJ)⁻¹ diagonal), null when not adjusted;
 //   correlation {parameters: [keys of the adjusted ones], matrix: [[…]]}; covariance likewise;
 //   sigma0_px, rms_px, sensor {width_px, height_px, pixel_pitch_mm}, pixels_are_mm,
@@ -22,15 +24,16 @@ namespace porthole::calib {
 // The fields compare and the format conversions need.
 struct CalibrationRecord {
   std::string label;
-  camera::BrownParams camera;
-  camera::Sensor sensor;
-  FreeMask free{};
-  Eigen::Matrix<double, camera::kBrownNumParams, camera::kBrownNumParams> covariance =
-      decltype(covariance)::Zero();
+  camera::Camera camera;  // model, sensor, parameters
+  FreeMask free;          // one flag per parameter: adjusted
+  Eigen::MatrixXd covariance;  // n×n in the model's order (0 for fixed parameters)
   bool has_covariance = false;
   std::string covariance_note;  // "" (full), or "diagonal from sigma" when the file had only σ
   double sigma0_px = NAN;
 };
+
+// {key: unit} for every parameter of the model.
+nlohmann::ordered_json CameraUnitsJson(camera::CameraModelId model);
 
 nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                                          const CalibrationOptions& options);
@@ -41,8 +44,10 @@ nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const Targe
 CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string& field);
 
 // OpenCV FileStorage YAML (camera_matrix, distortion_coefficients k1 k2 p1 p2 k3, image size), in
-// OpenCV's pixel convention. Export refits OpenCV's forward model to the Brown correction over the
-// image (camera::BrownToOpenCV); `fit` receives the refit RMS/max in px.
+// OpenCV's pixel convention. Export of a Brown calibration refits OpenCV's forward model to the
+// Brown correction over the image (camera::BrownToOpenCV; `fit` receives the refit RMS/max in px);
+// of an OpenCV-model calibration it is exact (k1 k2 p1 p2 k3 k4 k5 k6). Other models throw
+// InvalidInput("--opencv-yaml").
 std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit* fit);
 // Import: reads the YAML (image_width/height, camera_matrix, distortion_coefficients with 4, 5 or
 // more entries — beyond k3 must be 0), refits Brown with the given pitch (camera::OpenCVToBrown);

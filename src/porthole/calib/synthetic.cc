@@ -8,15 +8,15 @@
 namespace porthole::calib {
 
 SyntheticSet MakeSyntheticSet(const SyntheticOptions& o) {
-  camera::ValidateBrownParams(o.camera);
-  camera::ValidateSensor(o.sensor);
+  camera::ValidateCamera(o.camera, "camera");
+  const camera::Sensor& sensor = o.camera.sensor;
+  RequireNonNegative("max_off_axis_deg", o.max_off_axis_deg);
   const auto pts = TargetPoints(o.target);
   Eigen::Vector3d lo = pts[0], hi = pts[0];
   for (const auto& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const double extent = (hi - lo).head<2>().maxCoeff();
-  const double width_mm = o.sensor.width_px * o.sensor.pixel_pitch_mm;
-  const double distance = o.camera.c_mm * extent / (o.fill * width_mm);
+  const double distance = o.camera.FocalLengthPx() * extent / (o.fill * sensor.width_px);
 
   std::mt19937_64 pose_rng(o.pose_seed), noise_rng(o.noise_seed);
   std::uniform_real_distribution<double> uni(-1, 1);
@@ -32,7 +32,15 @@ SyntheticSet MakeSyntheticSet(const SyntheticOptions& o) {
                               -std::cos(tilt));
     const Eigen::Vector3d eye = centre + distance * (1 + 0.15 * uni(pose_rng)) * dir;
     const Eigen::Vector3d aim = centre + 0.05 * extent * Eigen::Vector3d(uni(pose_rng), uni(pose_rng), 0);
-    const Eigen::Vector3d z = (aim - eye).normalized();
+    Eigen::Vector3d z = (aim - eye).normalized();
+    if (o.max_off_axis_deg > 0) {
+      // Turn the view away from the target by up to max_off_axis_deg, in a random direction.
+      const double off = o.max_off_axis_deg * M_PI / 180 * std::sqrt(std::abs(uni(pose_rng)));
+      const double dir_az = M_PI * uni(pose_rng);
+      const Eigen::Vector3d axis =
+          z.cross(Eigen::Vector3d(std::cos(dir_az), std::sin(dir_az), 0)).normalized();
+      z = Eigen::AngleAxisd(off, axis) * z;
+    }
     const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - z.x() * z).normalized();
     const Eigen::Vector3d y0 = z.cross(x);
     const double roll = 0.3 * uni(pose_rng);
@@ -45,14 +53,14 @@ SyntheticSet MakeSyntheticSet(const SyntheticOptions& o) {
     const Eigen::Vector3d t = -r * eye;
     ImageDetections d;
     d.image = fmt::format("synthetic{:02d}", i);
-    d.width_px = o.sensor.width_px;
-    d.height_px = o.sensor.height_px;
+    d.width_px = sensor.width_px;
+    d.height_px = sensor.height_px;
     for (std::size_t k = 0; k < pts.size(); ++k) {
-      const auto xy = camera::Project<double>(o.camera, Eigen::Vector3d(r * pts[k] + t));
-      if (!xy) continue;
-      const Eigen::Vector2d uv = camera::ImageMmToPixel(o.sensor, (*xy)(0), (*xy)(1));
-      if (uv.x() < 0 || uv.y() < 0 || uv.x() > o.sensor.width_px - 1 ||
-          uv.y() > o.sensor.height_px - 1) {
+      const auto px = o.camera.Project(Eigen::Vector3d(r * pts[k] + t));
+      if (!px) continue;
+      const Eigen::Vector2d& uv = *px;
+      if (uv.x() < 0 || uv.y() < 0 || uv.x() > sensor.width_px - 1 ||
+          uv.y() > sensor.height_px - 1) {
         continue;
       }
       d.ids.push_back(static_cast<int>(k));

@@ -1,6 +1,6 @@
-// Synthetic calibration sets with known truth: a camera, views of a planar target from known
-// poses, projected with camera::Project (the model the calibration adjusts) plus Gaussian pixel
-// noise. Used by the solver tests, the benchmark and the Python tests.
+// Synthetic calibration sets with known truth: a camera of any model of the list, views of a
+// planar target from known poses, projected with the model's Project (what the calibration
+// adjusts) plus Gaussian pixel noise. Used by the solver tests, the benchmark and the Python tests.
 #pragma once
 
 #include <cstdint>
@@ -15,8 +15,7 @@
 namespace porthole::calib {
 
 struct SyntheticOptions {
-  camera::BrownParams camera;  // truth
-  camera::Sensor sensor;
+  camera::Camera camera;  // truth (model, sensor, parameters)
   TargetSpec target;
   int n_images = 15;
   // Largest tilt of the target normal from the optical axis, deg: 40° gives the convergent views
@@ -24,6 +23,9 @@ struct SyntheticOptions {
   double max_tilt_deg = 40;
   // The target's extent covers about this fraction of the image width.
   double fill = 0.7;
+  // Largest angle (deg) between the optical axis and the direction to the target centre: 0 keeps
+  // the target centred; a fisheye calibration needs views that put it far off axis.
+  double max_off_axis_deg = 0;
   double noise_px = 0.3;  // σ of the Gaussian noise per coordinate
   uint64_t pose_seed = 1;   // the views
   uint64_t noise_seed = 2;  // the noise (change it alone for Monte-Carlo runs)

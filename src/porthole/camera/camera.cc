@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 
+#include <ceres/ceres.h>
+
 namespace porthole::camera {
 namespace {
 
@@ -121,6 +123,78 @@ void ValidateCamera(const Camera& camera, const std::string& where) {
   if (!(camera.FocalLengthPx() > 0)) {
     throw InvalidInput(where + "." + std::string(m.params[0].json_key), "focal length must be > 0");
   }
+}
+
+namespace {
+
+// Residual (px) of one ray: the model's projection minus the ideal projection's pixel.
+template <typename M>
+struct ProjectionFitResidual {
+  Sensor sensor;
+  Eigen::Vector3d ray;
+  Eigen::Vector2d target_px;
+  template <typename T>
+  bool operator()(const T* p, T* r) const {
+    const auto uv = M::template Project<T>(sensor, p, ray.cast<T>());
+    if (!uv) return false;
+    r[0] = (*uv)(0) - T(target_px.x());
+    r[1] = (*uv)(1) - T(target_px.y());
+    return true;
+  }
+};
+
+}  // namespace
+
+Camera FitToProjection(CameraModelId model, const Sensor& sensor, Projection projection,
+                       double f_px, double max_field_rad, double* fit_rms_px) {
+  RequirePositive("f_px", f_px);
+  RequirePositive("max_field_rad", max_field_rad);
+  const double theta_max = std::min(max_field_rad, MaxFieldAngleRad(projection) * 0.999);
+  Camera cam = Camera::Ideal(model, sensor, f_px);
+  const Eigen::Vector2d centre = cam.PrincipalPointPx();
+  // Rays on two azimuths (the fit is radial; two keep fx and fy apart) out to theta_max.
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector2d>> rays;
+  const int n = 40;
+  for (int k = 1; k <= n; ++k) {
+    const double th = theta_max * k / n;
+    const double rr = f_px * ProjectionRadius(projection, th);
+    rays.push_back({{std::sin(th), 0, std::cos(th)}, centre + Eigen::Vector2d(rr, 0)});
+    rays.push_back({{0, std::sin(th), std::cos(th)}, centre + Eigen::Vector2d(0, rr)});
+  }
+  const double rms = VisitModel(model, [&](auto m) {
+    using M = decltype(m);
+    std::array<double, M::kNumParams> p;
+    std::copy(cam.params.begin(), cam.params.end(), p.begin());
+    ceres::Problem problem;
+    for (const auto& [ray, px] : rays) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<ProjectionFitResidual<M>, 2, M::kNumParams>(
+              new ProjectionFitResidual<M>{sensor, ray, px}),
+          nullptr, p.data());
+    }
+    // The principal point stays at the centre; the focal length too where the model can take
+    // the projection's shape with its distortion terms alone.
+    std::vector<int> fixed;
+    for (int i = M::kNumFocal; i < M::kFirstDistortion; ++i) fixed.push_back(i);
+    if (M::kFirstDistortion < M::kNumParams) {
+      for (int i = 0; i < M::kNumFocal; ++i) fixed.push_back(i);
+    }
+    if (static_cast<int>(fixed.size()) == M::kNumParams) {
+      problem.SetParameterBlockConstant(p.data());
+    } else {
+      problem.SetManifold(p.data(), new ceres::SubsetManifold(M::kNumParams, fixed));
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = 100;
+    so.max_num_consecutive_invalid_steps = 50;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    cam.params.assign(p.begin(), p.end());
+    return std::sqrt(2 * summary.final_cost / rays.size());
+  });
+  if (fit_rms_px != nullptr) *fit_rms_px = rms;
+  return cam;
 }
 
 Camera FromBrown(const BrownParams& brown, const Sensor& sensor) {

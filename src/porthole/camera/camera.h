@@ -64,6 +64,15 @@ void SetFocalLengthPx(Camera* camera, double f_px);
 // parameter is finite and the focal length is positive.
 void ValidateCamera(const Camera& camera, const std::string& where = "camera");
 
+// The camera of model `model` closest to the ideal projection `projection` with focal length f_px
+// and the principal point at the image centre, over the field 0 … max_field_rad off axis: all its
+// parameters fitted by least squares to the ideal image positions of rays on that field (the
+// focal length stays f_px when the model has the projection itself). A calibration's start for a
+// fisheye (a Kannala–Brandt camera close to an equisolid lens), and a planning lens as a camera.
+// `fit_rms_px` (optional) receives the RMS misfit in px.
+Camera FitToProjection(CameraModelId model, const Sensor& sensor, Projection projection,
+                       double f_px, double max_field_rad, double* fit_rms_px = nullptr);
+
 // Brown parameters ↔ a Camera of the Brown model.
 Camera FromBrown(const BrownParams& brown, const Sensor& sensor);
 // Throws InvalidInput(field) when the camera is not of the Brown model.

@@ -60,7 +60,9 @@ simulate::SystemSpec SimSpec(const ReportInputs& in, const ports::PortSpec& port
   spec.body = in.setup.camera;
   spec.lens = in.setup.lens;
   spec.object_distance_mm = in.subject_distance_mm;
-  if (in.air_calibration) spec.air_calibration = in.air_calibration->camera;
+  if (in.air_calibration) {
+    spec.air_calibration = camera::ToBrown(in.air_calibration->camera, "--air-calibration");
+  }
   return spec;
 }
 
@@ -96,11 +98,13 @@ Results Gather(const ReportInputs& in, Steps& steps) {
   const camera::Sensor& cam = in.setup.camera.sensor;
   for (const auto* rec : {in.air_calibration ? &*in.air_calibration : nullptr,
                           in.water_calibration ? &*in.water_calibration : nullptr}) {
-    if (rec && (rec->sensor.width_px != cam.width_px || rec->sensor.height_px != cam.height_px ||
-                std::abs(rec->sensor.pixel_pitch_mm - cam.pixel_pitch_mm) > 1e-9)) {
+    if (rec && (rec->camera.sensor.width_px != cam.width_px ||
+                rec->camera.sensor.height_px != cam.height_px ||
+                std::abs(rec->camera.sensor.pixel_pitch_mm - cam.pixel_pitch_mm) > 1e-9)) {
       throw InvalidInput(rec == &*in.air_calibration ? "--air-calibration" : "--water-calibration",
                          fmt::format("its sensor ({}x{} px, {:g} mm) is not the camera's ({}x{} px, {:g} mm)",
-                                     rec->sensor.width_px, rec->sensor.height_px, rec->sensor.pixel_pitch_mm,
+                                     rec->camera.sensor.width_px, rec->camera.sensor.height_px,
+                                     rec->camera.sensor.pixel_pitch_mm,
                                      cam.width_px, cam.height_px, cam.pixel_pitch_mm));
     }
   }

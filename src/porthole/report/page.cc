@@ -172,8 +172,8 @@ Json ReportJson(const Results& r, const std::vector<Figure>& figures) {
   const std::vector<double> radii = {5.0, 10.0, simulate::ProfileRadiiMm(r.prediction.camera.sensor).back()};
   j["sweeps"] = {{"z", simulate::SweepJson(r.sweep_z, 2, radii)}, {"x", simulate::SweepJson(r.sweep_x, 0, radii)}};
   j["distortion_map"] = simulate::MapJson(r.map);
-  if (in.air_calibration) j["air_calibration"] = camera::BrownToJson(in.air_calibration->camera);
-  if (in.water_calibration) j["water_calibration"] = camera::BrownToJson(in.water_calibration->camera);
+  if (in.air_calibration) j["air_calibration"] = camera::BrownToJson(camera::ToBrown(in.air_calibration->camera));
+  if (in.water_calibration) j["water_calibration"] = camera::BrownToJson(camera::ToBrown(in.water_calibration->camera));
   if (r.compare) j["comparison"] = calib::CompareToJson(*r.compare, "air", "water", /*with_map=*/false);
   Json figs = Json::array();
   for (const auto& f : figures) {
