@@ -1,6 +1,7 @@
 // Python bindings of the calib module: calibrate from detections (dicts as `porthole detect --json`
 // writes them), synthetic detection sets with known truth, and the comparison of two
 // calibrations. Inputs and outputs are the JSON objects of the CLI as Python dicts.
+#include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
 #include <nlohmann/json.hpp>
@@ -26,6 +27,23 @@ py::object FromJson(const nlohmann::ordered_json& j) {
   return py::module_::import("json").attr("loads")(j.dump());
 }
 
+// A camera from a dict {"model": name (default brown), parameter keys…} and the sensor.
+camera::Camera CameraFromDict(const py::dict& camera, int width_px, int height_px,
+                              double pixel_pitch_mm) {
+  nlohmann::json wrapped = {{"camera", nlohmann::json::object()},
+                            {"sensor", {{"width_px", width_px}, {"height_px", height_px},
+                                        {"pixel_pitch_mm", pixel_pitch_mm}}}};
+  const nlohmann::json given = ToJson(camera);  // kept alive: items() refers into it
+  for (const auto& [key, val] : given.items()) {
+    if (key == "model") {
+      wrapped["model"] = val;
+    } else {
+      wrapped["camera"][key] = val;
+    }
+  }
+  return calib::CalibrationFromJson(wrapped, "camera").camera;
+}
+
 calib::LossKind Loss(const std::string& name) {
   if (name == "none") return calib::LossKind::kNone;
   if (name == "huber") return calib::LossKind::kHuber;
@@ -36,6 +54,70 @@ calib::LossKind Loss(const std::string& name) {
 }  // namespace
 
 void RegisterCalib(py::module_& m) {
+  m.def(
+      "camera_models",
+      [] {
+        py::list out;
+        for (const auto& info : camera::CameraModels()) {
+          py::list params;
+          for (const auto& p : info.params) {
+            params.append(py::dict(py::arg("name") = std::string(p.name),
+                                   py::arg("key") = std::string(p.json_key),
+                                   py::arg("unit") = std::string(p.unit)));
+          }
+          out.append(py::dict(py::arg("name") = std::string(info.name),
+                              py::arg("description") = std::string(info.description),
+                              py::arg("parameters") = params,
+                              py::arg("fisheye") = info.caps.fisheye,
+                              py::arg("central") = info.caps.central,
+                              py::arg("correction_form") = info.caps.correction_form));
+        }
+        return out;
+      },
+      "The camera models porthole knows (the closed list of camera/models.h): name, description, "
+      "parameters (name, JSON key, unit) and capabilities.");
+
+  m.def(
+      "project",
+      [](const py::dict& camera, const py::array_t<double>& points_in_cam, int width_px,
+         int height_px, double pixel_pitch_mm) {
+        const auto cam = CameraFromDict(camera, width_px, height_px, pixel_pitch_mm);
+        const auto p = points_in_cam.unchecked<2>();
+        if (p.shape(1) != 3) throw InvalidInput("points_in_cam", "must be an N x 3 array (mm)");
+        py::array_t<double> out({p.shape(0), py::ssize_t(2)});
+        auto o = out.mutable_unchecked<2>();
+        for (py::ssize_t i = 0; i < p.shape(0); ++i) {
+          const auto uv = cam.Project(Eigen::Vector3d(p(i, 0), p(i, 1), p(i, 2)));
+          o(i, 0) = uv ? (*uv)(0) : NAN;
+          o(i, 1) = uv ? (*uv)(1) : NAN;
+        }
+        return out;
+      },
+      py::arg("camera"), py::arg("points_in_cam"), py::kw_only(), py::arg("width_px"),
+      py::arg("height_px"), py::arg("pixel_pitch_mm") = 1.0,
+      "Projects N x 3 points in the camera frame (mm; X right, Y down, Z forward) to N x 2 pixels "
+      "((0, 0) = centre of the top-left pixel) with a camera dict (model and its parameter keys); "
+      "NaN where the model cannot project (behind the camera, beyond a fisheye's field).");
+
+  m.def(
+      "unproject",
+      [](const py::dict& camera, const py::array_t<double>& pixels, int width_px, int height_px,
+         double pixel_pitch_mm) {
+        const auto cam = CameraFromDict(camera, width_px, height_px, pixel_pitch_mm);
+        const auto p = pixels.unchecked<2>();
+        if (p.shape(1) != 2) throw InvalidInput("pixels", "must be an N x 2 array (px)");
+        py::array_t<double> out({p.shape(0), py::ssize_t(3)});
+        auto o = out.mutable_unchecked<2>();
+        for (py::ssize_t i = 0; i < p.shape(0); ++i) {
+          const auto ray = cam.Unproject(Eigen::Vector2d(p(i, 0), p(i, 1)));
+          for (int k = 0; k < 3; ++k) o(i, k) = ray ? (*ray)(k) : NAN;
+        }
+        return out;
+      },
+      py::arg("camera"), py::arg("pixels"), py::kw_only(), py::arg("width_px"),
+      py::arg("height_px"), py::arg("pixel_pitch_mm") = 1.0,
+      "Unit rays (N x 3, camera frame) of N x 2 pixels; NaN where the model cannot be inverted.");
+
   m.def(
       "calibrate",
       [](const py::list& detections, const std::string& target, const std::string& model,
@@ -82,19 +164,7 @@ void RegisterCalib(py::module_& m) {
          const std::string& target, int n_images, double noise_px, uint64_t seed,
          double max_tilt_deg, double max_off_axis_deg, double fill) {
         calib::SyntheticOptions o;
-        // The camera dict: {"model": name (default brown), parameter keys…}.
-        nlohmann::json cam = ToJson(camera);
-        nlohmann::json wrapped = {{"camera", nlohmann::json::object()},
-                                  {"sensor", {{"width_px", width_px}, {"height_px", height_px},
-                                              {"pixel_pitch_mm", pixel_pitch_mm}}}};
-        for (const auto& [key, val] : cam.items()) {
-          if (key == "model") {
-            wrapped["model"] = val;
-          } else {
-            wrapped["camera"][key] = val;
-          }
-        }
-        o.camera = calib::CalibrationFromJson(wrapped, "camera").camera;
+        o.camera = CameraFromDict(camera, width_px, height_px, pixel_pitch_mm);
         o.target = calib::ParseTarget(target, "target");
         o.n_images = n_images;
         o.max_tilt_deg = max_tilt_deg;
