@@ -102,6 +102,8 @@ Json FlatToJson(const Setup& s, const FlatAnalysis& a) {
                 {"water_traced", FovJson(a.water_traced)}};
   out["critical_angle_deg"] = a.critical_angle_deg;
   out["max_fov_deg"] = a.max_fov_deg;
+  out["corner_outer_radius_mm"] = L(a.corner_outer_radius_mm);
+  out["clear_aperture_needed_mm"] = L(a.clear_aperture_needed_mm);
   out["wd_mm"] = L(a.wd_mm);
   out["coverage"] = {{"thin_mm", L(a.coverage_thin_mm)}, {"traced_mm", L(a.coverage_traced_mm)}};
   out["lateral_colour"] = {{"n_water_blue", a.n_water_blue}, {"n_water_red", a.n_water_red},
