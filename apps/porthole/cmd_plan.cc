@@ -22,10 +22,17 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil\n", Fixed(p.d_s2ep_infinity_mm, 1));
   t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm, Eq. 2)\n",
                    Fixed(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm);
-  t += fmt::format("minimum working distance       {:>9} mm\n", Fixed(p.min_wd_mm, 0));
-  for (const auto& r : p.closeup) {
-    t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {} mm\n", r.dioptre, Fixed(r.min_wd_mm, 0),
-                     Fixed(r.max_wd_mm, 0));
+  if (p.lens_covers_virtual_range) {
+    t += fmt::format("minimum working distance       {:>9} mm: the glass (the lens focuses on the whole virtual-image "
+                     "range, {:.1f} to {} mm)\n",
+                     Fixed(p.min_wd_mm, 0), p.d_s2ep_touching_mm, Fixed(p.d_s2ep_infinity_mm, 1));
+    t += "  close-up lens                  not needed\n";
+  } else {
+    t += fmt::format("minimum working distance       {:>9} mm (set by the lens's minimum focus)\n", Fixed(p.min_wd_mm, 0));
+    for (const auto& r : p.closeup) {
+      t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {} mm\n", r.dioptre, Fixed(r.min_wd_mm, 0),
+                       Fixed(r.max_wd_mm, 0));
+    }
   }
   const auto& i = p.infinity;
   t += fmt::format("infinity sharp, under water    focus on {} mm (focus scale {} mm): sharp from WD {} mm\n",

@@ -40,9 +40,13 @@ Json PlanToJson(const Setup& s, const Plan& p) {
   out["d_s2ep_infinity_mm"] = L(p.d_s2ep_infinity_mm);
   out["closest_d_s2ep_mm"] = L(p.closest_d_s2ep_mm);
   out["min_wd_mm"] = L(p.min_wd_mm);
+  out["min_wd_set_by"] = p.lens_covers_virtual_range ? "glass" : "lens";
+  out["d_s2ep_touching_mm"] = L(p.d_s2ep_touching_mm);
+  out["pupil_to_outer_mm"] = L(p.pupil_to_outer_mm);
   Json cu = Json::array();
   for (const CloseupRow& r : p.closeup) {
-    cu.push_back({{"dioptre", r.dioptre}, {"min_wd_mm", L(r.min_wd_mm)}, {"max_wd_mm", L(r.max_wd_mm)}});
+    cu.push_back({{"dioptre", r.dioptre}, {"min_wd_mm", L(r.min_wd_mm)}, {"max_wd_mm", L(r.max_wd_mm)},
+                  {"needed", r.needed}});
   }
   out["closeup"] = cu;
   const InfinityFocus& i = p.infinity;

@@ -194,5 +194,43 @@ TEST(Plan, CloseupBringsACloserSubjectIntoReach) {
   for (std::size_t k = 1; k < p.closeup.size(); ++k) EXPECT_LT(p.closeup[k].min_wd_mm, p.closeup[k - 1].min_wd_mm);
 }
 
+// Issue 12: a 16 mm lens focusing to 150 mm behind an 8-inch (R 101.6 / 93.6 mm) concentric dome
+// focuses on the whole virtual-image range; the plan used to print "minimum working distance 0 mm"
+// and "+2 dioptre: WD 0 to inf" as if the lens set them. It must say the glass sets the closest
+// distance, give where that is, and mark close-up lenses as not needed. The image of an object
+// touching the glass: the outer surface images it in place; the inner surface (glass → air,
+// R2 = 93.6, object t = 8 mm before it) puts it at 1/s' = (1 − n_g)/R2 − n_g/t (closed form).
+TEST(Plan, WideLensBehindALargeDomeIsLimitedByTheGlassNotTheLens) {
+  planning::Setup s = PaperSetup();
+  ports::PortSpec dome;
+  dome.name = "8in";
+  dome.frame = ports::PortFrame::kCam;
+  ports::DomePort d;
+  d.outer.radius_mm = 101.6;
+  d.inner.radius_mm = 93.6;
+  dome.shape = d;
+  s.port = dome;
+  s.env.glass_index = 1.5168;
+  s.lens.focal_length_mm = 16;
+  s.lens.min_focus_mm = 150;
+  s.lens.pupil = {{kInf, 40.0}};
+  const Plan p = MakePlan(s, {});
+  ASSERT_LT(p.closest_d_s2ep_mm, 101.6);  // 150 − 46.5 − 40 = 63.5 mm: nearer than the glass
+  EXPECT_TRUE(p.lens_covers_virtual_range);
+  EXPECT_EQ(p.min_wd_mm, 0);
+  const double ng = p.system.n_glass;
+  ASSERT_NEAR(ng, 1.5168, 1e-12);
+  EXPECT_NEAR(p.d_s2ep_touching_mm, 93.6 - 1 / ((1 - ng) / 93.6 - ng / 8.0), 1e-6);
+  EXPECT_NEAR(p.pupil_to_outer_mm, 101.6, 1e-9);
+  for (const CloseupRow& r : p.closeup) EXPECT_FALSE(r.needed) << r.dioptre;
+  bool says_glass = false;
+  for (const std::string& w : p.warnings) says_glass |= w.find("whole virtual-image range") != std::string::npos;
+  EXPECT_TRUE(says_glass);
+  // The paper's 24 mm behind the NI320 does not reach the glass: its minimum WD is the lens's.
+  const Plan paper = MakePlan(PaperSetup(), {});
+  EXPECT_FALSE(paper.lens_covers_virtual_range);
+  for (const CloseupRow& r : paper.closeup) EXPECT_TRUE(r.needed);
+}
+
 }  // namespace
 }  // namespace porthole::planning
