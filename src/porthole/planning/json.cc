@@ -58,6 +58,17 @@ Json PlanToJson(const Setup& s, const Plan& p) {
                  {"focus_distance_mm", L(i.water_focus_distance_mm)}}}};
   out["principal_distance_mm"] = p.principal_distance_mm;
   out["fov"] = {{"air", FovJson(p.fov.air)}, {"water", FovJson(p.fov.water)}};
+  if (p.centring) {
+    const PupilCentring& c = *p.centring;
+    out["pupil_centring"] = {{"axial_offset_mm", c.axial_offset_mm},
+                             {"lateral_offset_mm", c.lateral_offset_mm},
+                             {"focus_distance_mm", L(c.focus_distance_mm)},
+                             {"extension_mm", c.extension_mm},
+                             {"focus_distance_after_mm", L(c.focus_distance_after_mm)},
+                             {"residual_mm", L(c.residual_mm)}};
+  } else {
+    out["pupil_centring"] = nullptr;
+  }
   if (p.target) {
     const TargetPlan& t = *p.target;
     out["wd_mm"] = L(t.wd_mm);

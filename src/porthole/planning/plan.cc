@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "porthole/core/error.h"
@@ -160,9 +161,11 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   inf.air_focus_mm = FocusForFarLimitMm(kInf, f, n, coc);
   inf.air_near_mm = ThinLensDof(inf.air_focus_mm, f, n, coc).near_mm;
   inf.air_focus_distance_mm = lens::FocusForSubjectMm(ln, mount, inf.air_focus_mm);
-  const Solved hyper = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) {
+  // The focus the plan is for: the target's virtual image, or else the infinity focus.
+  std::function<double(const ports::PortSystem&)> plan_focus = [&](const ports::PortSystem& sys) {
     return FocusForFarLimitMm(VirtualD(sys, kInf), f, n, coc);
-  });
+  };
+  const Solved hyper = SolveFocus(setup, mount, plan_focus);
   inf.water_virtual_focus_mm = hyper.d_s2ep_mm;
   inf.water_virtual_near_mm = ThinLensDof(hyper.d_s2ep_mm, f, n, coc).near_mm;
   inf.water_near_mm = RealFromVirtual(hyper.sys, inf.water_virtual_near_mm, &inf.water_near_wd_mm);
@@ -187,7 +190,8 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     auto wd_of = [&](const ports::PortSystem& sys) {
       return o.wd_mm ? *o.wd_mm : *o.subject_distance_mm - PupilToOuterMm(sys);
     };
-    const Solved sol = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) { return VirtualD(sys, wd_of(sys)); });
+    plan_focus = [&, wd_of](const ports::PortSystem& sys) { return VirtualD(sys, wd_of(sys)); };
+    const Solved sol = SolveFocus(setup, mount, plan_focus);
     TargetPlan t;
     const ports::PortSystem& sys = sol.sys;
     t.wd_mm = wd_of(sys);
@@ -230,6 +234,7 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     plan.target = t;
   }
   plan.fov = FieldOfView(plan.system, setup.camera, plan.principal_distance_mm);
+  plan.centring = CentrePupil(setup, mount, plan_focus);
 
   // Plain-language warnings, the paper's advice (Sections 2.3, 3.1, 4 and 6).
   auto& warn = plan.warnings;

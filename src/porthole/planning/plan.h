@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "porthole/planning/centring.h"
 #include "porthole/planning/focus.h"
 
 namespace porthole::planning {
@@ -133,6 +134,9 @@ struct Plan {
   double principal_distance_mm = 0;    // used for the field of view
   FovPair fov;
   std::optional<TargetPlan> target;
+  // Domes: the pupil against the dome's centre at the plan's focus (the target's, else the
+  // infinity focus) and the extension ring that would centre it (centring.h). nullopt: flat port.
+  std::optional<PupilCentring> centring;
   std::vector<std::string> warnings;   // plain language, the paper's advice
 };
 

@@ -232,5 +232,38 @@ TEST(Plan, WideLensBehindALargeDomeIsLimitedByTheGlassNotTheLens) {
   for (const CloseupRow& r : paper.closeup) EXPECT_TRUE(r.needed);
 }
 
+// Issue 12, advice: the extension ring that puts the pupil at the dome's centre. The paper's as-built
+// NI320 with the 24 mm focused under water at 1 m: the pupil is 5.4 mm ahead of the outer sphere's
+// centre (Table 4: pupil at 26.9 mm, centre at 21.5 mm from the flange) and sqrt(0.4² + 1.0²) mm
+// off its axis. A port moved forward by the advised length, refocused, has the pupil at its centre.
+TEST(Plan, ExtensionRingThatCentresThePupil) {
+  PlanOptions o;
+  o.wd_mm = 1000;
+  const planning::Setup s = PaperSetup("nikkor-24mm-f2.8d", "nimar-ni320");
+  const Plan p = MakePlan(s, o);
+  ASSERT_TRUE(p.centring.has_value());
+  const PupilCentring& c = *p.centring;
+  EXPECT_NEAR(c.axial_offset_mm, 26.9 - 21.5, 0.1);  // Table 4, to its 0.1 mm (pupil at FD 300; here farther)
+  EXPECT_NEAR(c.axial_offset_mm, p.system.ep_in_housing_mm.z() - 21.5, 1e-9);
+  EXPECT_NEAR(c.lateral_offset_mm, std::hypot(0.4, 1.0), 1e-9);
+  ASSERT_TRUE(c.focus_distance_mm.has_value());
+  EXPECT_NEAR(*c.focus_distance_mm, *p.target->focus.focus_distance_mm, 1e-6);
+  // Closed loop: move the port by the advised length and plan again.
+  planning::Setup moved = s;
+  auto& d = std::get<ports::DomePort>(moved.port.shape);
+  d.outer.center_mm.z() += c.extension_mm;
+  d.inner.center_mm.z() += c.extension_mm;
+  const Plan after = MakePlan(moved, o);
+  EXPECT_NEAR(after.centring->axial_offset_mm, 0, 1e-6);
+  EXPECT_NEAR(after.centring->extension_mm, 0, 1e-6);
+  // The ring is the offset to first order; refocusing moves the pupil by less than 0.1 mm here.
+  EXPECT_NEAR(c.extension_mm, c.axial_offset_mm, 0.1);
+  // A concentric dome written about the pupil is centred whatever the lens; a flat port has no centre.
+  const Plan nominal = MakePlan(PaperSetup(), o);
+  EXPECT_NEAR(nominal.centring->axial_offset_mm, 0, 1e-12);
+  EXPECT_NEAR(nominal.centring->extension_mm, 0, 1e-12);
+  EXPECT_FALSE(MakePlan(PaperSetup("nikkor-24mm-f2.8d", "flat-acrylic-10mm"), o).centring.has_value());
+}
+
 }  // namespace
 }  // namespace porthole::planning
