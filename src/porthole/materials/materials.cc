@@ -137,7 +137,7 @@ const std::vector<Entry>& Registry() {
           "Quan & Fry 1995 (Appl. Opt. 34:3477) + Millard & Seaver 1990 pressure term, and its "
           "salinity term above 35 PSU; 500-700 nm when pressure > 0 or salinity > 35",
           kQfLambdaMin, kQfLambdaMax, kQfTMin, kQfTMax, kQfSMin, kMsSMax, kMsPMax},
-         "Quan-Fry 1995 (+ Millard-Seaver 1990 pressure term)",
+         "Quan-Fry 1995 (+ Millard-Seaver 1990 pressure term; its salinity term above 35 PSU)",
          [](const Conditions& c) { return SeawaterIndex(c, c.salinity_psu, "seawater"); }});
     r.push_back(
         {{"freshwater",
