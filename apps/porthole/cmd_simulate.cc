@@ -98,6 +98,10 @@ void RegisterSimulate(CLI::App& app) {
     spec.body = io::LoadCamera(o->camera);
     spec.lens = io::LoadLens(o->lens);
     spec.env = o->water.ToEnvironment();
+    WarnIfImplausiblePort(spec.port, o->port + ": port");
+    WarnIfImplausible(o->camera + ": pixel_pitch_mm", spec.body.sensor.pixel_pitch_mm, kPixelPitchRange);
+    if (!o->sweep_out.empty()) CheckOutputFile(o->sweep_out, "--sweep-out");
+    if (!o->map_out.empty()) CheckOutputFile(o->map_out, "--map");
     spec.object_distance_mm = RequirePositive("--focus-distance", o->focus_distance_mm);
     if (!o->ep_offset.empty()) {
       spec.ep_offset_mm = simulate::Vec3(o->ep_offset[0], o->ep_offset[1], o->ep_offset[2]);
