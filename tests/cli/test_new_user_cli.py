@@ -5,6 +5,8 @@ folders created when missing and outputs checked before long work, and --json / 
 accepted where the issue asked."""
 import json
 import math
+import os
+import re
 
 import pytest
 
@@ -152,3 +154,29 @@ def test_outputs_are_checked_before_long_work(tmp_path):
 def test_trace_takes_json():
     j = run("trace", "--json", "--rays", "3").json()
     assert len(j["rays"]) == 3 and j["rays"][1]["status"] == "ok"
+
+
+def test_every_command_takes_json():
+    listing = run("--help").out
+    commands = re.findall(r"^  ([a-z][a-z-]+)\s", listing[listing.index("Subcommands"):], re.M)
+    assert len(commands) >= 14, listing
+    for cmd in commands:
+        assert "--json" in run(cmd, "--help").out, cmd
+
+
+def test_report_and_synth_scan_json(tmp_path):
+    j = run("synth-scan", tmp_path / "cap.ply", "--points", "500", "--json").json()
+    assert j["points"] == 500 and (tmp_path / "cap.ply").exists()
+    r = run("report", "--out", tmp_path / "r", "--json").json()
+    assert r["figures"] and os.path.exists(r["index_html"]) and os.path.exists(r["report_json"])
+
+
+def test_toml_errors_name_the_line_of_the_key(tmp_path):
+    text = DOME8.format(outer=101.6, inner=93.6).replace('frame = "cam"', 'frame = "camm"')
+    (tmp_path / "d.toml").write_text(text)
+    line = text.splitlines().index('frame = "camm"') + 1
+    assert f"d.toml:{line}: frame:" in run_bad("virtual-image", "--port", tmp_path / "d.toml")
+    text = DOME8.format(outer=101.6, inner=120)
+    (tmp_path / "e.toml").write_text(text)
+    line = text.splitlines().index("radius_mm = 120") + 1
+    assert f"e.toml:{line}: inner.radius_mm:" in run_bad("virtual-image", "--port", tmp_path / "e.toml")

@@ -62,10 +62,14 @@ TEST(PortToml, ErrorsNameFileLineAndKey) {
   // Geometry rules come from ports::Validate, with the file named.
   std::string bad = good;
   bad.replace(bad.find("75.7"), 4, "90.0");
-  EXPECT_NE(ErrorOf(bad).find("my-dome.toml: port.inner.radius_mm: must be smaller"), std::string::npos)
+  EXPECT_NE(ErrorOf(bad).find("my-dome.toml:7: inner.radius_mm: must be smaller"), std::string::npos)
       << ErrorOf(bad);
+  // Issue 12: an enum with a bad value names its own line, not the table's (line 1).
+  EXPECT_EQ(ErrorOf("name = \"x\"\nframe = \"camm\"\n" + good),
+            "my-dome.toml:2: frame: must be \"housing\" (flange origin) or \"cam\" (entrance-pupil origin)");
+  EXPECT_NE(ErrorOf("\ntype = \"cone\"\n").find("my-dome.toml:2: type:"), std::string::npos) << ErrorOf("\ntype = \"cone\"\n");
   EXPECT_NE(ErrorOf("type = \"flat\"\nthickness_mm = -3\ninner_point_mm = [0,0,20]\n")
-                .find("thickness_mm: must be > 0"),
+                .find("my-dome.toml:2: thickness_mm: must be > 0"),
             std::string::npos);
   EXPECT_NE(ErrorOf("type = \"flat\"\nthickness_mm = nan\ninner_point_mm = [0,0,20]\n")
                 .find("thickness_mm: must be a finite number"),
