@@ -2,13 +2,10 @@
 // (presets, TOML files, or names in Debian's lensfun database).
 #pragma once
 
-#include <algorithm>
-#include <cmath>
 #include <optional>
 #include <string>
 
 #include "common.h"
-#include "porthole/core/error.h"
 #include "porthole/planning/focus.h"
 #include "porthole/planning/lensfun.h"
 
@@ -32,13 +29,9 @@ struct CameraLensOptions {
   planning::Setup ToSetup(const PortOptions& port, const WaterOptions& water) const {
     planning::Setup s;
     s.camera = planning::FindCamera(camera, pixel_pitch_mm);
+    // A preset or file body with another pitch: the same sensor (its size in mm), other pixels.
     if (pixel_pitch_mm && *pixel_pitch_mm != s.camera.sensor.pixel_pitch_mm) {
-      // A preset or file body with another pitch: the same sensor (its size in mm), other pixels.
-      const double w = s.camera.SensorWidthMm(), h = s.camera.SensorHeightMm();
-      const double pitch = RequirePositive("--pixel-pitch-mm", *pixel_pitch_mm);
-      if (!(w / pitch < 1e6)) throw InvalidInput("--pixel-pitch-mm", "gives a million pixels or more across the sensor");
-      s.camera.sensor = {static_cast<int>(std::max(1L, std::lround(w / pitch))),
-                         static_cast<int>(std::max(1L, std::lround(h / pitch))), pitch};
+      s.camera = WithPixelPitch(s.camera, *pixel_pitch_mm);
     }
     s.lens = planning::FindLens(lens, focal_mm);
     WarnIfImplausible(pixel_pitch_mm ? "--pixel-pitch-mm" : camera + ": pixel_pitch_mm", s.camera.sensor.pixel_pitch_mm,

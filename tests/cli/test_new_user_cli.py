@@ -87,6 +87,7 @@ def test_extension_ring_advice_in_text_and_json():
     (["plan", "--coc", "11"], "--coc"),
     (["plan", "--pixel-pitch-mm", "5.5"], "--pixel-pitch-mm"),
     (["flat", "--pixel-pitch", "5.5"], "--pixel-pitch-mm"),
+    (["simulate", "--pixel-pitch-mm", "5.5"], "--pixel-pitch-mm"),
 ])
 def test_values_in_the_wrong_unit_warn_once_and_run(args, field):
     res = run(*args)
@@ -109,6 +110,8 @@ def test_pixel_pitch_mm_replaces_a_preset_bodys_pitch_keeping_its_size():
     b = run("plan", "--pixel-pitch-mm", "0.011", "--json").json()["camera"]
     assert b["pixel_pitch_mm"] == 0.011
     assert b["width_px"] * 0.011 == pytest.approx(a["width_px"] * a["pixel_pitch_mm"], abs=0.011)
+    s = run("simulate", "--pixel-pitch-mm", "0.011", "--json").json()["camera"]
+    assert (s["width_px"], s["pixel_pitch_mm"]) == (4288 * 0.0055 / 0.011, 0.011)
 
 
 def test_mediterranean_salinity_runs_with_a_note():
