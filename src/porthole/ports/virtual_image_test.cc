@@ -173,6 +173,17 @@ TEST(VirtualImage, DecentredDomesParaxialIsTheLimitOfRealRays) {
   }
 }
 
+// docs/port-optics.md: the NI320's longitudinal spherical aberration at 1 m, h = 1.5 mm (f/8 on the
+// 24 mm lens), is about -0.03 mm; and it is the difference from the paraxial image (real rays
+// focus nearer to the dome, as for any spherical surface).
+TEST(VirtualImage, Ni320SphericalAberrationAtOneMetre) {
+  for (double nw : {1.341, 1.34094}) {
+    const PortSystem port = NominalNi320(1.5168, nw);
+    const double sa = RealRayVirtualImage(port, 1000, 1.5)->d_s2ep_mm - ParaxialVirtualImage(port, 1000).d_s2ep_mm;
+    EXPECT_NEAR(sa, -0.03, 0.005) << nw;
+  }
+}
+
 TEST(VirtualImage, RejectsNonPositiveWorkingDistance) {
   EXPECT_THROW(ParaxialVirtualImage(NominalNi320(), 0), InvalidInput);
   EXPECT_THROW(ParaxialVirtualImage(NominalNi320(), NAN), InvalidInput);
