@@ -130,6 +130,9 @@ void RegisterCalibrate(CLI::App& app) {
     o->calib.model = camera::ModelFromName(o->model, "--model");
     o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
     o->calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o->pitch_mm);
+    if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
+    if (!o->out.empty()) CheckOutputFile(o->out, "--out");
+    if (!o->yaml.empty()) CheckOutputFile(o->yaml, "--opencv-yaml");
     o->calib.loss = o->loss == "huber"    ? calib::LossKind::kHuber
                     : o->loss == "cauchy" ? calib::LossKind::kCauchy
                                           : calib::LossKind::kNone;

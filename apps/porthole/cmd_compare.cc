@@ -39,13 +39,12 @@ void RegisterCompare(CLI::App& app) {
   cmd->add_option("--map-cols", o->compare.map_cols, "Distortion map columns")->capture_default_str();
   cmd->add_option("--map-rows", o->compare.map_rows, "Distortion map rows")->capture_default_str();
   cmd->add_option("--csv-dir", o->csv_dir,
-                  "Write curves.csv (Fig. 14) and map.csv (Fig. 15) into this directory");
+                  "Write curves.csv (Fig. 14) and map.csv (Fig. 15) into this directory (created if missing)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->callback([o] {
     if (!(o->compare.alpha > 0 && o->compare.alpha < 1)) throw InvalidInput("--alpha", "in (0, 1)");
-    if (!o->csv_dir.empty() && !std::filesystem::is_directory(o->csv_dir)) {
-      throw InvalidInput("--csv-dir", o->csv_dir + " is not a directory");
-    }
+    if (!o->csv_dir.empty()) EnsureOutputDirectory(o->csv_dir, "--csv-dir");
+    if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
     camera::ConversionFit fit_a, fit_b;
     const auto a = calib::LoadCalibration(o->a, o->pitch_mm, "A", &fit_a);
     const auto b = calib::LoadCalibration(o->b, o->pitch_mm, "B", &fit_b);

@@ -27,14 +27,12 @@ void RegisterDetect(CLI::App& app) {
                   "chessboard:COLSxROWS:SQUARE_MM (inner corners) | charuco:SQXxSQY:SQUARE_MM:"
                   "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM")
       ->required();
-  cmd->add_option("--out-dir", o->out_dir, "Write <image>.json detections into this directory");
+  cmd->add_option("--out-dir", o->out_dir, "Write <image>.json detections into this directory (created if missing)");
   cmd->add_flag("--json", o->json, "Print all detections as one JSON set");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
   cmd->callback([o] {
     const auto target = calib::ParseTarget(o->target);
-    if (!o->out_dir.empty() && !std::filesystem::is_directory(o->out_dir)) {
-      throw InvalidInput("--out-dir", o->out_dir + " is not a directory");
-    }
+    if (!o->out_dir.empty()) EnsureOutputDirectory(o->out_dir, "--out-dir");
     const auto paths = calib::ListImages(o->images);
     const auto run = calib::DetectAll(paths, target, [&](const std::string& m) {
       if (!o->quiet) fmt::print(stderr, "detect: {}\n", m);

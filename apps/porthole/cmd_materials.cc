@@ -168,6 +168,10 @@ void Run(const MaterialsOptions& o) {
     }
   }
   const std::string out = Render(o, c, rows);
+  for (const Row& r : rows) {
+    if (!r.n) continue;
+    if (const auto note = mat::SeawaterNote(r.name, c)) fmt::print(stderr, "porthole: note: {}\n", *note);
+  }
   fmt::print("{}", out);
 }
 

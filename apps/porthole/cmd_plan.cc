@@ -4,6 +4,8 @@
 // port's field curvature (issue 3; docs/planning.md).
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "commands.h"
 #include "common.h"
 #include "camera_options.h"
@@ -22,10 +24,17 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil\n", Fixed(p.d_s2ep_infinity_mm, 1));
   t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm, Eq. 2)\n",
                    Fixed(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm);
-  t += fmt::format("minimum working distance       {:>9} mm\n", Fixed(p.min_wd_mm, 0));
-  for (const auto& r : p.closeup) {
-    t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {} mm\n", r.dioptre, Fixed(r.min_wd_mm, 0),
-                     Fixed(r.max_wd_mm, 0));
+  if (p.lens_covers_virtual_range) {
+    t += fmt::format("minimum working distance       {:>9} mm: the glass (the lens focuses on the whole virtual-image "
+                     "range, {:.1f} to {} mm)\n",
+                     Fixed(p.min_wd_mm, 0), p.d_s2ep_touching_mm, Fixed(p.d_s2ep_infinity_mm, 1));
+    t += "  close-up lens                  not needed\n";
+  } else {
+    t += fmt::format("minimum working distance       {:>9} mm (set by the lens's minimum focus)\n", Fixed(p.min_wd_mm, 0));
+    for (const auto& r : p.closeup) {
+      t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {} mm\n", r.dioptre, Fixed(r.min_wd_mm, 0),
+                       Fixed(r.max_wd_mm, 0));
+    }
   }
   const auto& i = p.infinity;
   t += fmt::format("infinity sharp, under water    focus on {} mm (focus scale {} mm): sharp from WD {} mm\n",
@@ -37,6 +46,22 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                    p.principal_distance_mm, Fixed(p.fov.air.horizontal_deg, 1), Fixed(p.fov.air.vertical_deg, 1),
                    Fixed(p.fov.air.diagonal_deg, 1), Fixed(p.fov.water.horizontal_deg, 1),
                    Fixed(p.fov.water.vertical_deg, 1), Fixed(p.fov.water.diagonal_deg, 1));
+  if (p.centring) {
+    const auto& c = *p.centring;
+    const std::string where = std::abs(c.axial_offset_mm) < 0.05
+                                  ? std::string("at the dome's centre along the axis")
+                                  : fmt::format("{:.1f} mm {} the dome's centre", std::abs(c.axial_offset_mm),
+                                                c.axial_offset_mm > 0 ? "ahead of" : "behind");
+    t += fmt::format("entrance pupil                 {}, {:.1f} mm off its axis (focus scale {} mm)\n", where,
+                     c.lateral_offset_mm, Fixed(c.focus_distance_mm.value_or(NAN), 0));
+    if (std::abs(c.extension_mm) >= 0.05) {
+      t += fmt::format("  to centre it                 {} (then focus scale {} mm){}\n",
+                       c.extension_mm > 0 ? fmt::format("add a {:.1f} mm extension ring", c.extension_mm)
+                                          : fmt::format("shorten the extension by {:.1f} mm", -c.extension_mm),
+                       Fixed(c.focus_distance_after_mm.value_or(NAN), 0),
+                       c.lateral_offset_mm >= 0.05 ? "; no ring corrects the lateral offset" : "");
+    }
+  }
   if (p.target) {
     const auto& g = *p.target;
     t += fmt::format("\ntarget: WD {} mm, {} mm from the entrance pupil\n", Fixed(g.wd_mm, 1),
@@ -106,6 +131,7 @@ void RegisterPlan(CLI::App& app) {
     po.subject_distance_mm = o->subject_mm;
     po.f_number = o->aperture;
     po.coc_mm = o->coc_mm;
+    if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
     po.lambda_nm = setup.env.conditions.lambda_nm;
     const planning::Plan plan = planning::MakePlan(setup, po);
     fmt::print("{}", o->json ? planning::PlanToJson(setup, plan).dump(2) + "\n" : PlanText(setup, plan));

@@ -23,6 +23,7 @@ void RegisterReport(CLI::App& app) {
     double calibration_pitch_mm = 0;
     std::string out;
     bool force = false;
+    bool json = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -48,6 +49,7 @@ void RegisterReport(CLI::App& app) {
       ->group("Calibrations");
   cmd->add_option("--out", o->out, "Directory to write the report into")->required();
   cmd->add_flag("--force", o->force, "Replace an existing report in --out");
+  cmd->add_flag("--json", o->json, "Print the summary (page, report.json, figures, timings) as JSON");
 
   cmd->callback([o, cmd] {
     report::ReportInputs in;
@@ -64,7 +66,8 @@ void RegisterReport(CLI::App& app) {
       in.water_calibration = calib::LoadCalibration(o->water_calibration, pitch, "--water-calibration", nullptr);
     }
     for (const CLI::Option* opt : cmd->get_options()) {
-      if (opt->count() == 0 || opt->get_name() == "--help" || opt->get_name() == "--out" || opt->get_name() == "--force") {
+      if (opt->count() == 0 || opt->get_name() == "--help" || opt->get_name() == "--out" || opt->get_name() == "--force" ||
+          opt->get_name() == "--json") {
         continue;
       }
       const auto results = opt->results();
@@ -78,6 +81,15 @@ void RegisterReport(CLI::App& app) {
     ro.force = o->force;
     ro.progress = [](const std::string& line) { fmt::print(stderr, "porthole report: {}\n", line); };
     const report::ReportSummary s = report::WriteReport(in, ro);
+    if (o->json) {
+      Json steps = Json::object();
+      for (const auto& [name, sec] : s.step_seconds) steps[name] = sec;
+      const Json j = {{"index_html", s.index_html.string()},
+                      {"report_json", (s.index_html.parent_path() / "report.json").string()},
+                      {"figures", s.figures}, {"step_seconds", steps}, {"seconds", s.seconds}};
+      fmt::print("{}\n", j.dump(2));
+      return;
+    }
     fmt::print("report: {} ({} figures, {:.1f} s)\n", s.index_html.string(), s.figures.size(), s.seconds);
   });
 }

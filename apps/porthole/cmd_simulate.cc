@@ -38,6 +38,7 @@ void RegisterSimulate(CLI::App& app) {
     std::string port = "nimar-ni320";
     std::string camera = "nikon-d300";
     std::string lens = "nikkor-24mm-f2.8d";
+    std::optional<double> pixel_pitch_mm;
     WaterOptions water;
     double focus_distance_mm = 1000;
     std::vector<double> ep_offset;
@@ -62,6 +63,7 @@ void RegisterSimulate(CLI::App& app) {
   cmd->add_option("--camera", o->camera, "Camera body preset or TOML file")->capture_default_str();
   cmd->add_option("--lens", o->lens, "Lens preset or TOML file (entrance pupil vs focus)")
       ->capture_default_str();
+  cmd->add_option("--pixel-pitch-mm", o->pixel_pitch_mm, "Pixel pitch, mm: replaces the body's, keeping its sensor size");
   o->water.Add(cmd);
   cmd->add_option("--focus-distance", o->focus_distance_mm,
                   "Focused under water on an object this far from the entrance pupil, mm")
@@ -96,8 +98,14 @@ void RegisterSimulate(CLI::App& app) {
     simulate::SystemSpec spec;
     spec.port = io::LoadPort(o->port);
     spec.body = io::LoadCamera(o->camera);
+    if (o->pixel_pitch_mm) spec.body = WithPixelPitch(spec.body, *o->pixel_pitch_mm);
     spec.lens = io::LoadLens(o->lens);
     spec.env = o->water.ToEnvironment();
+    WarnIfImplausiblePort(spec.port, o->port + ": port");
+    WarnIfImplausible(o->pixel_pitch_mm ? "--pixel-pitch-mm" : o->camera + ": pixel_pitch_mm",
+                      spec.body.sensor.pixel_pitch_mm, kPixelPitchRange);
+    if (!o->sweep_out.empty()) CheckOutputFile(o->sweep_out, "--sweep-out");
+    if (!o->map_out.empty()) CheckOutputFile(o->map_out, "--map");
     spec.object_distance_mm = RequirePositive("--focus-distance", o->focus_distance_mm);
     if (!o->ep_offset.empty()) {
       spec.ep_offset_mm = simulate::Vec3(o->ep_offset[0], o->ep_offset[1], o->ep_offset[2]);

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "commands.h"
+#include "common.h"
 #include "porthole/core/error.h"
 #include "porthole/pointcloud/pointcloud.h"
 #include "porthole/pointcloud/synthetic.h"
@@ -15,6 +16,7 @@ void RegisterSynthScan(CLI::App& app) {
     pointcloud::SyntheticCapOptions cap;
     std::vector<double> center{-0.4, -1.0, 21.5}, axis{0, 0, 1};
     bool ascii = false;
+    bool json = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -48,12 +50,20 @@ void RegisterSynthScan(CLI::App& app) {
   cmd->add_option("--seed", o->cap.seed, "Random seed (same seed, same scan)")
       ->capture_default_str();
   cmd->add_flag("--ascii", o->ascii, "ASCII PLY instead of binary little endian");
+  cmd->add_flag("--json", o->json, "Print the summary as JSON");
   cmd->callback([o] {
     o->cap.center_mm = Eigen::Vector3d(o->center[0], o->center[1], o->center[2]);
     o->cap.axis = Eigen::Vector3d(o->axis[0], o->axis[1], o->axis[2]);
     const pointcloud::SyntheticCap cap = pointcloud::MakeSyntheticCap(o->cap);
     pointcloud::WritePointCloud(o->out, cap.points, nullptr, {.binary = !o->ascii});
     const auto n_out = std::count(cap.is_outlier.begin(), cap.is_outlier.end(), true);
+    if (o->json) {
+      const Json j = {{"out", o->out}, {"points", cap.points.cols()}, {"outliers", n_out},
+                      {"center_mm", o->center}, {"radius_mm", o->cap.radius_mm},
+                      {"half_angle_deg", o->cap.half_angle_deg}, {"noise_mm", o->cap.noise_sigma_mm}};
+      fmt::print("{}\n", j.dump(2));
+      return;
+    }
     fmt::print(
         "wrote {} points ({} outliers) to {}: sphere centre ({}, {}, {}) mm, R {} mm, half angle "
         "{} deg, noise {} mm\n",

@@ -2,7 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <system_error>
 
 #include "porthole/core/error.h"
 #include "porthole/core/json_length.h"
@@ -38,6 +43,9 @@ ports::Environment WaterOptions::ToEnvironment() const {
   if (water_index) {
     if (!(std::isfinite(*water_index) && *water_index >= 1)) throw InvalidInput("--water-index", "must be a number >= 1");
     env.water_index = water_index;
+  } else if (const auto note = materials::SeawaterNote(water, env.conditions)) {
+    materials::Index(water, env.conditions);  // out of every range: the error alone, no note
+    fmt::print(stderr, "porthole: note: {}\n", *note);
   }
   if (glass_index) {
     if (!(std::isfinite(*glass_index) && *glass_index >= 1)) throw InvalidInput("--glass-index", "must be a number >= 1");
@@ -53,7 +61,11 @@ void PortOptions::Add(CLI::App* cmd) {
       ->delimiter(',')->expected(3)->group("Port");
 }
 
-ports::PortSpec PortOptions::Spec() const { return io::LoadPort(port); }
+ports::PortSpec PortOptions::Spec() const {
+  ports::PortSpec spec = io::LoadPort(port);
+  WarnIfImplausiblePort(spec, port + ": port");
+  return spec;
+}
 
 std::optional<ports::Vec3> PortOptions::Ep() const {
   if (ep.empty()) return std::nullopt;
@@ -127,6 +139,66 @@ std::string Fixed(double v, int decimals) {
   if (std::isnan(v)) return "-";
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
   return fmt::format("{:.{}f}", v, decimals);
+}
+
+bool WarnIfImplausible(const std::string& field, double value, const PlausibleRange& range) {
+  // Non-positive or non-finite values are invalid, not implausible: the validity checks refuse them.
+  if (!std::isfinite(value) || !(value > 0) || (value >= range.lo && value <= range.hi)) return false;
+  fmt::print(stderr, "porthole: warning: {}: {:g} {} is outside the range of any physical camera or port ({:g}..{:g} {}): {}\n",
+             field, value, range.unit, range.lo, range.hi, range.unit, range.hint);
+  return true;
+}
+
+void WarnIfImplausiblePort(const ports::PortSpec& spec, const std::string& where) {
+  if (const auto* d = std::get_if<ports::DomePort>(&spec.shape)) {
+    WarnIfImplausible(where + ".outer.radius_mm", d->outer.radius_mm, kDomeRadiusRange);
+    WarnIfImplausible(where + ".inner.radius_mm", d->inner.radius_mm, kDomeRadiusRange);
+  } else {
+    WarnIfImplausible(where + ".thickness_mm", std::get<ports::FlatPort>(spec.shape).thickness_mm,
+                      kPortThicknessRange);
+  }
+}
+
+namespace {
+
+// Throws InvalidInput(field) unless `dir` is an existing directory this process may write into.
+void RequireWritableDirectory(const std::filesystem::path& dir, const std::string& field) {
+  if (!std::filesystem::is_directory(dir)) throw InvalidInput(field, dir.string() + " is not a directory");
+  if (access(dir.c_str(), W_OK | X_OK) != 0) throw InvalidInput(field, dir.string() + " is not writable");
+}
+
+}  // namespace
+
+lens::CameraBody WithPixelPitch(lens::CameraBody body, double pitch_mm) {
+  const double w = body.SensorWidthMm(), h = body.SensorHeightMm();
+  const double pitch = RequirePositive("--pixel-pitch-mm", pitch_mm);
+  if (!(w / pitch < 1e6 && h / pitch < 1e6)) {
+    throw InvalidInput("--pixel-pitch-mm", "gives a million pixels or more across the sensor");
+  }
+  body.sensor = {static_cast<int>(std::max(1L, std::lround(w / pitch))),
+                 static_cast<int>(std::max(1L, std::lround(h / pitch))), pitch};
+  return body;
+}
+
+void EnsureOutputDirectory(const std::string& dir, const std::string& field) {
+  if (dir.empty()) throw InvalidInput(field, "give a directory");
+  const std::filesystem::path p(dir);
+  std::error_code ec;
+  if (std::filesystem::exists(p, ec)) {
+    if (!std::filesystem::is_directory(p, ec)) throw InvalidInput(field, dir + " exists and is not a directory");
+  } else if (!std::filesystem::create_directories(p, ec) && !std::filesystem::is_directory(p)) {
+    throw InvalidInput(field, fmt::format("cannot create {}: {}", dir, ec ? ec.message() : "unknown error"));
+  }
+  RequireWritableDirectory(p, field);
+}
+
+void CheckOutputFile(const std::string& file, const std::string& field) {
+  if (file.empty()) throw InvalidInput(field, "give a file name");
+  const std::filesystem::path p(file);
+  if (std::filesystem::is_directory(p)) throw InvalidInput(field, file + " is a directory");
+  const std::filesystem::path parent = p.parent_path().empty() ? std::filesystem::path(".") : p.parent_path();
+  RequireWritableDirectory(parent, field);
+  if (std::filesystem::exists(p) && access(p.c_str(), W_OK) != 0) throw InvalidInput(field, file + " is not writable");
 }
 
 }  // namespace porthole::cli

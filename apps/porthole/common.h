@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "porthole/lens/lens.h"
 #include "porthole/ports/environment.h"
 #include "porthole/ports/port.h"
 
@@ -55,5 +56,45 @@ std::vector<double> ParseLengthList(const std::vector<std::string>& items, const
 
 // Formats a number for a table: fixed decimals, "inf", or "-" for NaN.
 std::string Fixed(double v, int decimals);
+
+// ---- Plausibility and outputs (issue 12) ----
+
+// The range of values that physical cameras, lenses and ports have, for one quantity: a value
+// outside it is most likely typed in the wrong unit (µm for mm, metres for mm). Lengths in mm.
+struct PlausibleRange {
+  double lo, hi;
+  const char* unit;  // as printed after the numbers, e.g. "mm"
+  const char* hint;  // the likely mistake, e.g. "a pitch in um?"
+};
+inline constexpr PlausibleRange kPixelPitchRange{0.0005, 0.03, "mm", "a pitch in um? 5.5 um is 0.0055 mm"};
+inline constexpr PlausibleRange kCocRange{0.001, 0.25, "mm", "a circle of confusion in um? 11 um is 0.011 mm"};
+inline constexpr PlausibleRange kDomeRadiusRange{15, 500, "mm", "a radius in metres or inches?"};
+inline constexpr PlausibleRange kPortThicknessRange{0.5, 60, "mm", "a thickness in metres or inches?"};
+inline constexpr PlausibleRange kFocalLengthRange{1, 2000, "mm", "a focal length in metres?"};
+inline constexpr PlausibleRange kPrincipalDistanceRange{1, 2000, "mm", "a principal distance in pixels?"};
+
+// Prints one line `porthole: warning: <field>: <value> <unit> is outside the range of any physical
+// camera or port (<lo>..<hi> <unit>): <hint>` on stderr when `value` is finite and outside
+// `range` (and > 0: invalid values are the validity checks' business); returns whether it warned.
+// Never throws: implausible is not invalid.
+bool WarnIfImplausible(const std::string& field, double value, const PlausibleRange& range);
+
+// Warns (WarnIfImplausible) for a port's radii or thickness, naming the port's fields.
+void WarnIfImplausiblePort(const ports::PortSpec& spec, const std::string& where = "port");
+
+// The same sensor (its size in mm) with pixels of pitch_mm: --pixel-pitch-mm given with a preset or
+// file body. Throws InvalidInput("--pixel-pitch-mm") unless pitch_mm > 0 and gives fewer than a
+// million pixels across.
+lens::CameraBody WithPixelPitch(lens::CameraBody body, double pitch_mm);
+
+// Makes `dir` a directory outputs can be written into: creates it (and missing parents) when it
+// does not exist, as `report --out` does, and checks it is writable. Throws InvalidInput(field, ...)
+// when it exists and is not a directory, cannot be created, or is not writable. Call it before
+// long work, so that a typo fails at once.
+void EnsureOutputDirectory(const std::string& dir, const std::string& field);
+
+// Checks, before long work, that `file` can be written: not a directory, and its directory exists
+// and is writable. Throws InvalidInput(field, ...). Writes nothing.
+void CheckOutputFile(const std::string& file, const std::string& field);
 
 }  // namespace porthole::cli

@@ -39,7 +39,9 @@ class Reader {
       : t_(t), origin_(std::move(origin)), prefix_(std::move(prefix)) {}
 
   [[noreturn]] void Fail(const std::string& key, const std::string& rule, const toml::node* n = nullptr) const {
-    const auto& src = n ? n->source() : t_.source();
+    // The key's own line when it is there (an enum with a bad value), else the table's.
+    const toml::node* at = n ? n : t_.get(key);
+    const auto& src = at ? at->source() : t_.source();
     throw InvalidInput(fmt::format("{}:{}: {}{}", origin_, src.begin.line, prefix_, key), rule);
   }
   const toml::node* Node(const std::string& key) {
@@ -114,6 +116,25 @@ toml::table ParseToml(std::string_view text, const std::string& origin) {
   }
 }
 
+// Runs a semantic check (ports::Validate, lens::Validate) whose errors name the field as
+// "<origin>: <what>.<key path>", and names the TOML line of that key as the Reader does:
+// "<origin>:<line>: <key path>". Errors about no single key pass through unchanged.
+template <typename Check>
+void CheckWithLine(const toml::table& t, const std::string& origin, const std::string& what, Check check) {
+  try {
+    check();
+  } catch (const InvalidInput& e) {
+    const std::string prefix = origin + ": " + what + ".";
+    const std::string& field = e.field();
+    if (field.rfind(prefix, 0) != 0) throw;
+    const std::string key = field.substr(prefix.size());
+    const toml::node* n = t.at_path(key).node();
+    if (!n) throw;
+    const std::string rule = std::string(e.what()).substr(field.size() + 2);
+    throw InvalidInput(fmt::format("{}:{}: {}", origin, n->source().begin.line, key), rule);
+  }
+}
+
 }  // namespace
 
 ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) {
@@ -156,7 +177,7 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
     r.Fail("type", "must be \"dome\" or \"flat\"");
   }
   r.RejectUnknown();
-  ports::Validate(p, origin + ": port");
+  CheckWithLine(t, origin, "port", [&] { ports::Validate(p, origin + ": port"); });
   return p;
 }
 
@@ -214,7 +235,7 @@ lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origi
   b.sensor.height_px = r.PositiveInt("height_px");
   b.sensor.pixel_pitch_mm = r.Double("pixel_pitch_mm");
   r.RejectUnknown();
-  lens::Validate(b, origin + ": camera");
+  CheckWithLine(t, origin, "camera", [&] { lens::Validate(b, origin + ": camera"); });
   return b;
 }
 
@@ -243,7 +264,7 @@ lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin) {
     l.pupil.push_back({*fd, *d});
   }
   r.RejectUnknown();
-  lens::Validate(l, origin + ": lens");
+  CheckWithLine(t, origin, "lens", [&] { lens::Validate(l, origin + ": lens"); });
   return l;
 }
 

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <limits>
+#include <sstream>
 
 #include "porthole/core/error.h"
 
@@ -62,10 +64,14 @@ TEST(PortToml, ErrorsNameFileLineAndKey) {
   // Geometry rules come from ports::Validate, with the file named.
   std::string bad = good;
   bad.replace(bad.find("75.7"), 4, "90.0");
-  EXPECT_NE(ErrorOf(bad).find("my-dome.toml: port.inner.radius_mm: must be smaller"), std::string::npos)
+  EXPECT_NE(ErrorOf(bad).find("my-dome.toml:7: inner.radius_mm: must be smaller"), std::string::npos)
       << ErrorOf(bad);
+  // Issue 12: an enum with a bad value names its own line, not the table's (line 1).
+  EXPECT_EQ(ErrorOf("name = \"x\"\nframe = \"camm\"\n" + good),
+            "my-dome.toml:2: frame: must be \"housing\" (flange origin) or \"cam\" (entrance-pupil origin)");
+  EXPECT_NE(ErrorOf("\ntype = \"cone\"\n").find("my-dome.toml:2: type:"), std::string::npos) << ErrorOf("\ntype = \"cone\"\n");
   EXPECT_NE(ErrorOf("type = \"flat\"\nthickness_mm = -3\ninner_point_mm = [0,0,20]\n")
-                .find("thickness_mm: must be > 0"),
+                .find("my-dome.toml:2: thickness_mm: must be > 0"),
             std::string::npos);
   EXPECT_NE(ErrorOf("type = \"flat\"\nthickness_mm = nan\ninner_point_mm = [0,0,20]\n")
                 .find("thickness_mm: must be a finite number"),
@@ -101,6 +107,54 @@ TEST(Presets, CameraAndLensPresetsCarryThePapersValues) {
     EXPECT_THROW(ParseCameraToml(body + "width_px = " + w + "\n", "cam.toml"), InvalidInput) << w;
   }
   EXPECT_EQ(ParseCameraToml(body + "width_px = 4288\n", "cam.toml").sensor.width_px, 4288);
+}
+
+// Issue 12: presets users have. Every camera body reproduces its maker's published sensor and image
+// size (tests/data/camera_bodies.csv): pixels x pitch = sensor size within the published rounding.
+TEST(Presets, CameraBodiesMatchTheirPublishedSensors) {
+  std::ifstream in(std::string(PORTHOLE_TEST_DATA_DIR) + "/camera_bodies.csv");
+  ASSERT_TRUE(in.good());
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line.rfind("preset,", 0) == 0) continue;
+    std::stringstream ss(line);
+    std::string name, w, h, wp, hp, mount;
+    std::getline(ss, name, ',');
+    std::getline(ss, w, ',');
+    std::getline(ss, h, ',');
+    std::getline(ss, wp, ',');
+    std::getline(ss, hp, ',');
+    std::getline(ss, mount, ',');
+    const auto b = LoadCamera(name);
+    EXPECT_EQ(b.sensor.width_px, std::stoi(wp)) << name;
+    EXPECT_EQ(b.sensor.height_px, std::stoi(hp)) << name;
+    EXPECT_EQ(b.mount, mount) << name;
+    EXPECT_NEAR(b.SensorWidthMm(), std::stod(w), 1e-3) << name;   // the pitch is width / pixels
+    // Square pixels: the height follows from the pitch; makers round their sizes (a7 IV, a6400: 0.07 mm).
+    EXPECT_NEAR(b.SensorHeightMm(), std::stod(h), 0.1) << name;
+    EXPECT_FALSE(b.source.empty()) << name;
+    ++n;
+  }
+  EXPECT_EQ(n, 6);
+}
+
+// Every preset names its source; a port whose geometry is not published says so in its description
+// (ASSUMED) instead of presenting assumed values as data.
+TEST(Presets, EveryPresetNamesItsSourceAndAssumedGeometryIsLabelled) {
+  int assumed = 0;
+  for (const Preset& p : BuiltinPresets()) {
+    const std::string toml(p.toml);
+    EXPECT_NE(toml.find("source = \""), std::string::npos) << p.name;
+    if (p.kind != "port") continue;
+    const auto spec = LoadPort(std::string(p.name));
+    EXPECT_FALSE(spec.source.empty()) << p.name;
+    if (spec.source.rfind("assumed", 0) == 0) {
+      ++assumed;
+      EXPECT_EQ(spec.description.rfind("ASSUMED", 0), 0u) << p.name;
+    }
+  }
+  EXPECT_GE(assumed, 4);
 }
 
 }  // namespace

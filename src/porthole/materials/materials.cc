@@ -86,10 +86,20 @@ double SeawaterIndex(const Conditions& c, double s, std::string_view name) {
   const bool x = c.extrapolate;
   const double t = c.temperature_c, p = c.pressure_dbar, lambda = c.lambda_nm;
   CheckRange("temperature_c", t, kQfTMin, kQfTMax, "°C", "Quan-Fry 1995", x);
-  CheckRange("salinity_psu", s, kQfSMin, kQfSMax, "PSU", "Quan-Fry 1995", x);
+  // Above Quan–Fry's 35 ‰ (the Mediterranean reaches 38–39 ‰, the Red Sea 40–41 ‰) the salinity
+  // term continues by Millard–Seaver, valid to 43 ‰: n = n_QF(T, 35, λ) + n_MS(T, S, 0, λ) −
+  // n_MS(T, 35, 0, λ), continuous at 35 ‰ (SeawaterNote() says so to the user).
+  CheckRange("salinity_psu", s, kQfSMin, kMsSMax, "PSU", "Quan-Fry 1995 (to 35) continued by Millard-Seaver 1990", x);
   CheckRange("lambda_nm", lambda, kQfLambdaMin, kQfLambdaMax, "nm", "Quan-Fry 1995", x);
   CheckRange("pressure_dbar", p, 0.0, kMsPMax, "dbar", "the Millard-Seaver 1990 pressure term", x);
-  double n = QuanFry(t, s, lambda);
+  double n = 0;
+  if (s > kQfSMax) {
+    CheckRange("lambda_nm", lambda, kMsLambdaMin, kMsLambdaMax, "nm",
+               "the Millard-Seaver 1990 salinity term (used above 35 PSU)", x);
+    n = QuanFry(t, kQfSMax, lambda) + MillardSeaver(t, s, 0.0, lambda) - MillardSeaver(t, kQfSMax, 0.0, lambda);
+  } else {
+    n = QuanFry(t, s, lambda);
+  }
   if (p != 0.0) {
     CheckRange("lambda_nm", lambda, kMsLambdaMin, kMsLambdaMax, "nm",
                "the Millard-Seaver 1990 pressure term (used when pressure_dbar > 0)", x);
@@ -124,10 +134,10 @@ const std::vector<Entry>& Registry() {
                  [](const Conditions&) { return 1.0; }});
     r.push_back(
         {{"seawater",
-          "Quan & Fry 1995 (Appl. Opt. 34:3477) + Millard & Seaver 1990 pressure term; 500-700 "
-          "nm when pressure > 0",
-          kQfLambdaMin, kQfLambdaMax, kQfTMin, kQfTMax, kQfSMin, kQfSMax, kMsPMax},
-         "Quan-Fry 1995 (+ Millard-Seaver 1990 pressure term)",
+          "Quan & Fry 1995 (Appl. Opt. 34:3477) + Millard & Seaver 1990 pressure term, and its "
+          "salinity term above 35 PSU; 500-700 nm when pressure > 0 or salinity > 35",
+          kQfLambdaMin, kQfLambdaMax, kQfTMin, kQfTMax, kQfSMin, kMsSMax, kMsPMax},
+         "Quan-Fry 1995 (+ Millard-Seaver 1990 pressure term; its salinity term above 35 PSU)",
          [](const Conditions& c) { return SeawaterIndex(c, c.salinity_psu, "seawater"); }});
     r.push_back(
         {{"freshwater",
@@ -312,6 +322,13 @@ double UnescoDepthM(double p_dbar, double latitude_deg) {
   const double gr = 9.780318 * (1.0 + (5.2788e-3 + 2.36e-5 * x) * x) + 1.092e-6 * p_dbar;
   const double p = p_dbar;
   return (((-1.82e-15 * p + 2.279e-10) * p - 2.2512e-5) * p + 9.72659) * p / gr;
+}
+
+std::optional<std::string> SeawaterNote(std::string_view medium, const Conditions& c) {
+  if (Lower(medium) != "seawater" || !(c.salinity_psu > kQfSMax)) return std::nullopt;
+  return fmt::format("salinity {:g} PSU is above Quan-Fry's 35: the seawater index uses Quan-Fry at 35 PSU plus "
+                     "the Millard-Seaver 1990 salinity term from 35 to {:g} PSU (valid to 43 PSU, 500-700 nm)",
+                     c.salinity_psu, c.salinity_psu);
 }
 
 double DepthToPressureDbar(double depth_m, double latitude_deg) {

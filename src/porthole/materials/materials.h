@@ -12,6 +12,7 @@
 // extrapolation for which the model has no real index (e.g. at a Sellmeier pole).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -44,6 +45,11 @@ double Index(std::string_view medium, const Conditions& c = {});
 // Short name of the model behind `medium` ("Quan–Fry 1995", "Schott Sellmeier", "constant", ...),
 // for reports. Throws InvalidInput("medium", ...) like Index().
 std::string ModelOf(std::string_view medium);
+
+// The note to show a user when `medium` at `c` is not the plain model ModelOf() names: for
+// "seawater" above 35 ‰, that Quan–Fry is continued by the Millard–Seaver salinity term.
+// nullopt otherwise.
+std::optional<std::string> SeawaterNote(std::string_view medium, const Conditions& c);
 
 struct MediumInfo {
   std::string name;                             // as accepted by Index()

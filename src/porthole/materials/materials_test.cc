@@ -244,7 +244,8 @@ TEST(Ranges, OutOfRangeInputNamesTheField) {
   EXPECT_EQ(FieldOfError("seawater", At(350.0)), "lambda_nm");
   EXPECT_EQ(FieldOfError("seawater", At(546.07, 35.0)), "temperature_c");
   EXPECT_EQ(FieldOfError("seawater", At(546.07, -1.0)), "temperature_c");
-  EXPECT_EQ(FieldOfError("seawater", At(546.07, 20.0, 40.0)), "salinity_psu");
+  EXPECT_EQ(FieldOfError("seawater", At(546.07, 20.0, 44.0)), "salinity_psu");  // beyond Millard-Seaver's 43
+  EXPECT_EQ(FieldOfError("seawater", At(450.0, 20.0, 38.0)), "lambda_nm");  // the 35-43 term is 500-700 nm
   EXPECT_EQ(FieldOfError("seawater", At(546.07, 20.0, 35.0, 12000.0)), "pressure_dbar");
   EXPECT_EQ(FieldOfError("seawater", At(546.07, 20.0, 35.0, -5.0)), "pressure_dbar");
   // With pressure the Millard–Seaver term restricts the wavelength to 500–700 nm.
@@ -273,13 +274,40 @@ TEST(Ranges, MessageStatesTheRange) {
 }
 
 TEST(Ranges, ExtrapolateAllowsUseOutsideTheRange) {
-  Conditions c = At(350.0, 35.0, 40.0, 0.0, /*extrapolate=*/true);
+  Conditions c = At(350.0, 35.0, 30.0, 0.0, /*extrapolate=*/true);
   const double n = Index("seawater", c);
   EXPECT_TRUE(std::isfinite(n));
-  EXPECT_DOUBLE_EQ(n, QuanFry(35.0, 40.0, 350.0));
+  EXPECT_DOUBLE_EQ(n, QuanFry(35.0, 30.0, 350.0));
   EXPECT_GT(Index("n-bk7", At(250.0, 20, 35, 0, true)), Index("n-bk7", At(300.0)));
   EXPECT_GT(Index("seawater", At(450.0, 20.0, 35.0, 100.0, true)), Index("seawater", At(450.0)));
   EXPECT_NO_THROW(Index("seawater-millard-seaver", At(450.0, 20.0, 35.0, 0.0, true)));
+}
+
+// Issue 12: `--salinity 38` (the Mediterranean, where the paper worked) failed because Quan–Fry stops
+// at 35 ‰. Above 35 the seawater index continues by the Millard–Seaver salinity term (valid to
+// 43 ‰): continuous at 35, within 1e-4 of the independent Millard–Seaver model itself (as at
+// 35 ‰), rising with salinity at Millard–Seaver's rate, with a note saying so.
+TEST(Ranges, MediterraneanSalinityUsesTheMillardSeaverSalinityTerm) {
+  for (double t : {13.0, 20.0, 26.0}) {
+    for (double lambda : {500.0, 546.07, 650.0}) {
+      const double at35 = Index("seawater", At(lambda, t, 35.0));
+      EXPECT_NEAR(Index("seawater", At(lambda, t, 35.0 + 1e-9)), at35, 1e-12);
+      double prev = at35;
+      for (double s : {36.0, 38.0, 40.0, 43.0}) {
+        const double n = Index("seawater", At(lambda, t, s));
+        EXPECT_NEAR(n, MillardSeaver(t, s, 0, lambda), 1e-4) << t << " " << lambda << " " << s;
+        EXPECT_NEAR(n - at35, MillardSeaver(t, s, 0, lambda) - MillardSeaver(t, 35.0, 0, lambda), 1e-12);
+        EXPECT_GT(n, prev);
+        prev = n;
+      }
+    }
+  }
+  // The Mediterranean (38 ‰, 20 °C, e line): about 1.9e-4 per ‰ above the 35 ‰ value.
+  const double med = Index("seawater", At(546.07, 20.0, 38.0));
+  EXPECT_NEAR((med - Index("seawater", At(546.07, 20.0, 35.0))) / 3, 1.9e-4, 0.2e-4);
+  EXPECT_TRUE(SeawaterNote("seawater", At(546.07, 20.0, 38.0)).has_value());
+  EXPECT_FALSE(SeawaterNote("seawater", At(546.07, 20.0, 35.0)).has_value());
+  EXPECT_FALSE(SeawaterNote("freshwater", At(546.07, 20.0, 38.0)).has_value());
 }
 
 TEST(Ranges, ExtrapolatingPastASellmeierPoleIsRefused) {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "porthole/core/error.h"
@@ -125,11 +126,34 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
     if (t >= corner_deg) break;
   }
 
-  if (a.air.diagonal_deg > a.max_fov_deg) {
-    a.warnings.push_back(fmt::format("The lens sees {:.1f} deg across the diagonal in air, more than the {:.1f} deg "
-                                     "any flat port passes in this water: the corners see the inside of the "
-                                     "housing (total internal reflection).",
-                                     a.air.diagonal_deg, a.max_fov_deg));
+  // The aperture the corner rays need: where they leave the outer face, from the pupil's axis.
+  a.corner_outer_radius_mm = 0;
+  for (const auto& [sx, sy] : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
+    const optics::Ray corner{sys.ep_in_housing_mm, Vec3(sx * half_w, -sy * half_h, c).normalized()};
+    const double r = optics::TraceSequence<double>(sys.Outward(), corner, &out) == optics::RayStatus::kOk
+                         ? (out.origin - sys.ep_in_housing_mm).head<2>().norm()
+                         : std::nan("");
+    a.corner_outer_radius_mm = std::isnan(r) ? r : std::max(a.corner_outer_radius_mm, r);
+    if (std::isnan(r)) break;
+  }
+  a.clear_aperture_needed_mm = 2 * a.corner_outer_radius_mm;
+
+  // What limits the field: not total reflection of the camera's rays (light going from air into
+  // water is never totally reflected) but, for light coming in from the water, the critical angle
+  // at the glass-air face, and the port's aperture.
+  if (a.air.diagonal_deg > 0.9 * a.max_fov_deg) {
+    a.warnings.push_back(fmt::format(
+        "The lens sees {:.1f} deg across the diagonal in air; through a flat port it sees {:.1f} deg of the water. "
+        "No flat port shows more than {:.1f} deg: water light steeper than the critical angle ({:.1f} deg to the "
+        "port's normal) is totally reflected on its way into the housing, so the frame's edges are compressed "
+        "(distortion factor {:.2f} at the corner against {:.3f} at the centre).",
+        a.air.diagonal_deg, a.water_traced.diagonal_deg, a.max_fov_deg, a.critical_angle_deg,
+        FlatDistortionFactor(0.5 * a.air.diagonal_deg / kDeg, a.n_water), a.n_water));
+  }
+  if (!std::isnan(a.clear_aperture_needed_mm)) {
+    a.warnings.push_back(fmt::format("The corner rays leave the port {:.1f} mm from the axis: its clear aperture must "
+                                     "be at least {:.0f} mm across, or the corners see the port's rim.",
+                                     a.corner_outer_radius_mm, a.clear_aperture_needed_mm));
   }
   a.warnings.push_back(fmt::format("Behind this flat port the lens behaves as a {:.1f} mm lens (x{:.3f}): the field "
                                    "of view narrows from {:.1f} to {:.1f} deg across the diagonal.",

@@ -49,8 +49,17 @@ struct FlatAnalysis {
   double apparent_focal_length_mm = 0;   // paraxial n_w c
   double focal_length_increase_pct = 0;  // (n_w − 1) · 100
   Fov air, water_thin, water_traced;
-  double critical_angle_deg = 0;  // asin(1/n_w): the steepest water ray that reaches the air
-  double max_fov_deg = 0;         // twice that, whatever the lens
+  // Light from the water reaches the housing air only if it meets the port at less than the
+  // critical angle asin(1/n_w) to its normal: steeper water rays are totally reflected at the
+  // glass-air face on their way in. Light from the air into the water is never totally reflected,
+  // so every air angle below 90 deg passes; the field in water is what this limit compresses.
+  double critical_angle_deg = 0;  // asin(1/n_w)
+  double max_fov_deg = 0;         // twice that: the widest field in water, whatever the lens
+  // Where the corner chief rays cross the port's outer face, as a distance from the axis through
+  // the pupil (the largest of the four corners): the port's clear aperture must be at least twice
+  // this, or the corners of the frame see the port's rim instead of the water.
+  double corner_outer_radius_mm = 0;
+  double clear_aperture_needed_mm = 0;  // 2 × corner_outer_radius_mm; NaN when a corner ray fails
   double wd_mm = 0;
   // Horizontal width of the scene covered at wd_mm: thin port (pupil at the glass) and traced.
   double coverage_thin_mm = 0, coverage_traced_mm = 0;

@@ -79,6 +79,38 @@ TEST(Flat, RealPortFieldOfViewFollowsSnell) {
   }
 }
 
+// Issue 12: a 10 mm lens on the D300 (110 deg across the diagonal in air) behind the 10 mm acrylic
+// port. Light from the air into the water is never totally reflected: the corner ray must trace
+// into the water, and no warning may claim that the corners see the housing by total reflection.
+// What limits the field is the critical angle for light coming in (the water field stays below
+// 2 asin(1/n_w)) and the port's aperture (the corner rays' radius on the outer face, closed form).
+TEST(Flat, WideLensIsLimitedByTheCriticalAngleInwardAndTheAperture) {
+  planning::Setup s = FlatSetup(io::LoadPort("flat-acrylic-10mm"), 1.341);
+  s.lens.focal_length_mm = 10;
+  const FlatAnalysis a = AnalyseFlat(s, {.wd_mm = 1000});
+  ASSERT_GT(a.air.diagonal_deg, a.max_fov_deg);
+  for (const FlatRow& r : a.rows) EXPECT_TRUE(std::isfinite(r.distortion_factor_traced)) << r.theta_air_deg;
+  EXPECT_LT(a.water_traced.diagonal_deg, a.max_fov_deg);
+  // Snell through parallel faces: n_w sin(θ_w) = sin(θ_a) at the corner.
+  EXPECT_NEAR(a.n_water * std::sin(0.5 * a.water_traced.diagonal_deg / kDeg), std::sin(0.5 * a.air.diagonal_deg / kDeg),
+              1e-9);
+  for (const std::string& w : a.warnings) {
+    EXPECT_EQ(w.find("inside of the housing"), std::string::npos) << w;
+    EXPECT_EQ(w.find("total internal reflection"), std::string::npos) << w;
+  }
+  // The corner ray leaves the pupil at θ_a, crosses 20 mm of air and 10 mm of acrylic.
+  const double ta = 0.5 * a.air.diagonal_deg / kDeg, tg = std::asin(std::sin(ta) / a.n_glass);
+  EXPECT_NEAR(a.corner_outer_radius_mm, 20 * std::tan(ta) + 10 * std::tan(tg), 1e-9);
+  EXPECT_NEAR(a.clear_aperture_needed_mm, 2 * a.corner_outer_radius_mm, 1e-12);
+  bool names_critical = false, names_aperture = false;
+  for (const std::string& w : a.warnings) {
+    names_critical |= w.find("critical angle") != std::string::npos;
+    names_aperture |= w.find("clear aperture") != std::string::npos;
+  }
+  EXPECT_TRUE(names_critical);
+  EXPECT_TRUE(names_aperture);
+}
+
 TEST(Flat, RejectsADome) { EXPECT_THROW(AnalyseFlat(FlatSetup(io::LoadPort("nimar-ni320"), 1.341), {}), InvalidInput); }
 
 }  // namespace

@@ -40,9 +40,13 @@ Json PlanToJson(const Setup& s, const Plan& p) {
   out["d_s2ep_infinity_mm"] = L(p.d_s2ep_infinity_mm);
   out["closest_d_s2ep_mm"] = L(p.closest_d_s2ep_mm);
   out["min_wd_mm"] = L(p.min_wd_mm);
+  out["min_wd_set_by"] = p.lens_covers_virtual_range ? "glass" : "lens";
+  out["d_s2ep_touching_mm"] = L(p.d_s2ep_touching_mm);
+  out["pupil_to_outer_mm"] = L(p.pupil_to_outer_mm);
   Json cu = Json::array();
   for (const CloseupRow& r : p.closeup) {
-    cu.push_back({{"dioptre", r.dioptre}, {"min_wd_mm", L(r.min_wd_mm)}, {"max_wd_mm", L(r.max_wd_mm)}});
+    cu.push_back({{"dioptre", r.dioptre}, {"min_wd_mm", L(r.min_wd_mm)}, {"max_wd_mm", L(r.max_wd_mm)},
+                  {"needed", r.needed}});
   }
   out["closeup"] = cu;
   const InfinityFocus& i = p.infinity;
@@ -54,6 +58,17 @@ Json PlanToJson(const Setup& s, const Plan& p) {
                  {"focus_distance_mm", L(i.water_focus_distance_mm)}}}};
   out["principal_distance_mm"] = p.principal_distance_mm;
   out["fov"] = {{"air", FovJson(p.fov.air)}, {"water", FovJson(p.fov.water)}};
+  if (p.centring) {
+    const PupilCentring& c = *p.centring;
+    out["pupil_centring"] = {{"axial_offset_mm", c.axial_offset_mm},
+                             {"lateral_offset_mm", c.lateral_offset_mm},
+                             {"focus_distance_mm", L(c.focus_distance_mm)},
+                             {"extension_mm", c.extension_mm},
+                             {"focus_distance_after_mm", L(c.focus_distance_after_mm)},
+                             {"residual_mm", L(c.residual_mm)}};
+  } else {
+    out["pupil_centring"] = nullptr;
+  }
   if (p.target) {
     const TargetPlan& t = *p.target;
     out["wd_mm"] = L(t.wd_mm);
@@ -102,6 +117,8 @@ Json FlatToJson(const Setup& s, const FlatAnalysis& a) {
                 {"water_traced", FovJson(a.water_traced)}};
   out["critical_angle_deg"] = a.critical_angle_deg;
   out["max_fov_deg"] = a.max_fov_deg;
+  out["corner_outer_radius_mm"] = L(a.corner_outer_radius_mm);
+  out["clear_aperture_needed_mm"] = L(a.clear_aperture_needed_mm);
   out["wd_mm"] = L(a.wd_mm);
   out["coverage"] = {{"thin_mm", L(a.coverage_thin_mm)}, {"traced_mm", L(a.coverage_traced_mm)}};
   out["lateral_colour"] = {{"n_water_blue", a.n_water_blue}, {"n_water_red", a.n_water_red},

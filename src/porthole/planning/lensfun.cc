@@ -84,8 +84,8 @@ lens::CameraBody FindCamera(const std::string& name, std::optional<double> pitch
   b.name = FullName(c->Maker, c->Model);
   const auto mount = MountFromLensfun(c->Mount ? c->Mount : "");
   if (!mount) throw InvalidInput("--camera", fmt::format("{} has mount '{}', which porthole does not know", b.name, c->Mount ? c->Mount : ""));
-  if (!pitch) throw InvalidInput("--pixel-pitch", "lensfun does not know the pixel pitch of the " + b.name + "; give it in mm");
-  RequirePositive("--pixel-pitch", *pitch);
+  if (!pitch) throw InvalidInput("--pixel-pitch-mm", "lensfun does not know the pixel pitch of the " + b.name + "; give it in mm");
+  RequirePositive("--pixel-pitch-mm", *pitch);
   b.mount = *mount;
   const double diag = kFullFrameDiagonalMm / c->CropFactor;
   const double aspect = *mount == "mft" ? 4.0 / 3.0 : 1.5;

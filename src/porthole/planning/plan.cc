@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "porthole/core/error.h"
@@ -144,10 +145,14 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   plan.closest_d_s2ep_mm = lens::SubjectToPupilMm(ln, mount, ln.min_focus_mm);
   plan.d_s2ep_infinity_mm = VirtualD(at_inf, kInf);
   plan.min_wd_mm = WdForVirtualImage(at_min, plan.closest_d_s2ep_mm);
+  plan.d_s2ep_touching_mm = VirtualD(at_min, 1e-9);  // the limit WD → 0 (the paraxial trace needs WD > 0)
+  plan.lens_covers_virtual_range = plan.closest_d_s2ep_mm <= plan.d_s2ep_touching_mm;
+  plan.pupil_to_outer_mm = PupilToOuterMm(at_min);
   for (double p : o.closeup_dioptres) {
     const double lo = ApparentDistanceWithCloseupMm(plan.closest_d_s2ep_mm, -p);  // 1/d = 1/d' + P
     const double hi = p > 0 ? 1000.0 / p : kInf;
-    plan.closeup.push_back({p, WdForVirtualImage(at_min, lo), WdForVirtualImage(at_inf, hi)});
+    plan.closeup.push_back(
+        {p, WdForVirtualImage(at_min, lo), WdForVirtualImage(at_inf, hi), !plan.lens_covers_virtual_range});
   }
 
   // Infinity sharp: in air the hyperfocal distance; under water the focus whose far limit is the
@@ -156,9 +161,11 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   inf.air_focus_mm = FocusForFarLimitMm(kInf, f, n, coc);
   inf.air_near_mm = ThinLensDof(inf.air_focus_mm, f, n, coc).near_mm;
   inf.air_focus_distance_mm = lens::FocusForSubjectMm(ln, mount, inf.air_focus_mm);
-  const Solved hyper = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) {
+  // The focus the plan is for: the target's virtual image, or else the infinity focus.
+  std::function<double(const ports::PortSystem&)> plan_focus = [&](const ports::PortSystem& sys) {
     return FocusForFarLimitMm(VirtualD(sys, kInf), f, n, coc);
-  });
+  };
+  const Solved hyper = SolveFocus(setup, mount, plan_focus);
   inf.water_virtual_focus_mm = hyper.d_s2ep_mm;
   inf.water_virtual_near_mm = ThinLensDof(hyper.d_s2ep_mm, f, n, coc).near_mm;
   inf.water_near_mm = RealFromVirtual(hyper.sys, inf.water_virtual_near_mm, &inf.water_near_wd_mm);
@@ -183,7 +190,8 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     auto wd_of = [&](const ports::PortSystem& sys) {
       return o.wd_mm ? *o.wd_mm : *o.subject_distance_mm - PupilToOuterMm(sys);
     };
-    const Solved sol = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) { return VirtualD(sys, wd_of(sys)); });
+    plan_focus = [&, wd_of](const ports::PortSystem& sys) { return VirtualD(sys, wd_of(sys)); };
+    const Solved sol = SolveFocus(setup, mount, plan_focus);
     TargetPlan t;
     const ports::PortSystem& sys = sol.sys;
     t.wd_mm = wd_of(sys);
@@ -226,6 +234,7 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     plan.target = t;
   }
   plan.fov = FieldOfView(plan.system, setup.camera, plan.principal_distance_mm);
+  plan.centring = CentrePupil(setup, mount, plan_focus);
 
   // Plain-language warnings, the paper's advice (Sections 2.3, 3.1, 4 and 6).
   auto& warn = plan.warnings;
@@ -244,6 +253,20 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     warn.push_back(fmt::format("Do not set the focus to infinity: behind this dome even infinity is imaged "
                                "{:.1f} mm from the entrance pupil; at f/{:g} {}.",
                                plan.d_s2ep_infinity_mm, n, what));
+  }
+  if (plan.lens_covers_virtual_range) {
+    warn.push_back(fmt::format("The {} focuses on the whole virtual-image range behind this port, from the image of "
+                               "an object touching the glass ({:.1f} mm from the pupil) to that of infinity ({:.1f} "
+                               "mm); its own closest subject is {:.1f} mm. The closest working distance is set by "
+                               "the port, not the lens: the subject touching the glass (WD 0, {:.1f} mm from the "
+                               "pupil). No close-up lens is needed.",
+                               ln.name, plan.d_s2ep_touching_mm, plan.d_s2ep_infinity_mm, plan.closest_d_s2ep_mm,
+                               plan.pupil_to_outer_mm));
+  }
+  if (std::isnan(plan.fov.water.diagonal_deg) && !std::isnan(plan.fov.air.diagonal_deg)) {
+    warn.push_back(fmt::format("The frame's corners see past the {}: their rays miss the glass (its rim), so the "
+                               "corners are vignetted whatever the distance.",
+                               dome ? "dome's rim" : "port"));
   }
   if (plan.closest_d_s2ep_mm >= plan.d_s2ep_infinity_mm) {
     warn.push_back(fmt::format("The {} cannot focus on anything behind this port: its closest focus is {:.1f} "

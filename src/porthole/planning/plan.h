@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "porthole/planning/centring.h"
 #include "porthole/planning/focus.h"
 
 namespace porthole::planning {
@@ -111,6 +112,7 @@ struct InfinityFocus {
 struct CloseupRow {
   double dioptre = 0;
   double min_wd_mm = 0, max_wd_mm = 0;  // the WD range the lens then covers (max may be infinite)
+  bool needed = true;  // false when the lens alone already focuses on the whole virtual-image range
 };
 
 struct Plan {
@@ -120,11 +122,21 @@ struct Plan {
   double d_s2ep_infinity_mm = 0;       // virtual image of infinity from the pupil
   double closest_d_s2ep_mm = 0;        // the lens at its minimum focus (Eq. 2)
   double min_wd_mm = 0;                // infinite: nothing in the water is in reach
+  // The virtual image of an object touching the port's outer vertex (the limit WD → 0), at the
+  // lens's minimum focus. When the lens's closest subject is nearer than this, the lens focuses on
+  // the whole virtual-image range (touching the glass to infinity): min_wd_mm is 0 and it is the
+  // glass, not the lens, that sets the closest working distance.
+  double d_s2ep_touching_mm = 0;
+  bool lens_covers_virtual_range = false;
+  double pupil_to_outer_mm = 0;        // the glass on the axis, from the pupil (at minimum focus)
   std::vector<CloseupRow> closeup;
   InfinityFocus infinity;
   double principal_distance_mm = 0;    // used for the field of view
   FovPair fov;
   std::optional<TargetPlan> target;
+  // Domes: the pupil against the dome's centre at the plan's focus (the target's, else the
+  // infinity focus) and the extension ring that would centre it (centring.h). nullopt: flat port.
+  std::optional<PupilCentring> centring;
   std::vector<std::string> warnings;   // plain language, the paper's advice
 };
 

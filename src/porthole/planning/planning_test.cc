@@ -194,5 +194,76 @@ TEST(Plan, CloseupBringsACloserSubjectIntoReach) {
   for (std::size_t k = 1; k < p.closeup.size(); ++k) EXPECT_LT(p.closeup[k].min_wd_mm, p.closeup[k - 1].min_wd_mm);
 }
 
+// Issue 12: a 16 mm lens focusing to 150 mm behind an 8-inch (R 101.6 / 93.6 mm) concentric dome
+// focuses on the whole virtual-image range; the plan used to print "minimum working distance 0 mm"
+// and "+2 dioptre: WD 0 to inf" as if the lens set them. It must say the glass sets the closest
+// distance, give where that is, and mark close-up lenses as not needed. The image of an object
+// touching the glass: the outer surface images it in place; the inner surface (glass → air,
+// R2 = 93.6, object t = 8 mm before it) puts it at 1/s' = (1 − n_g)/R2 − n_g/t (closed form).
+TEST(Plan, WideLensBehindALargeDomeIsLimitedByTheGlassNotTheLens) {
+  planning::Setup s = PaperSetup();
+  ports::PortSpec dome;
+  dome.name = "8in";
+  dome.frame = ports::PortFrame::kCam;
+  ports::DomePort d;
+  d.outer.radius_mm = 101.6;
+  d.inner.radius_mm = 93.6;
+  dome.shape = d;
+  s.port = dome;
+  s.env.glass_index = 1.5168;
+  s.lens.focal_length_mm = 16;
+  s.lens.min_focus_mm = 150;
+  s.lens.pupil = {{kInf, 40.0}};
+  const Plan p = MakePlan(s, {});
+  ASSERT_LT(p.closest_d_s2ep_mm, 101.6);  // 150 − 46.5 − 40 = 63.5 mm: nearer than the glass
+  EXPECT_TRUE(p.lens_covers_virtual_range);
+  EXPECT_EQ(p.min_wd_mm, 0);
+  const double ng = p.system.n_glass;
+  ASSERT_NEAR(ng, 1.5168, 1e-12);
+  EXPECT_NEAR(p.d_s2ep_touching_mm, 93.6 - 1 / ((1 - ng) / 93.6 - ng / 8.0), 1e-6);
+  EXPECT_NEAR(p.pupil_to_outer_mm, 101.6, 1e-9);
+  for (const CloseupRow& r : p.closeup) EXPECT_FALSE(r.needed) << r.dioptre;
+  bool says_glass = false;
+  for (const std::string& w : p.warnings) says_glass |= w.find("whole virtual-image range") != std::string::npos;
+  EXPECT_TRUE(says_glass);
+  // The paper's 24 mm behind the NI320 does not reach the glass: its minimum WD is the lens's.
+  const Plan paper = MakePlan(PaperSetup(), {});
+  EXPECT_FALSE(paper.lens_covers_virtual_range);
+  for (const CloseupRow& r : paper.closeup) EXPECT_TRUE(r.needed);
+}
+
+// Issue 12, advice: the extension ring that puts the pupil at the dome's centre. The paper's as-built
+// NI320 with the 24 mm focused under water at 1 m: the pupil is 5.4 mm ahead of the outer sphere's
+// centre (Table 4: pupil at 26.9 mm, centre at 21.5 mm from the flange) and sqrt(0.4² + 1.0²) mm
+// off its axis. A port moved forward by the advised length, refocused, has the pupil at its centre.
+TEST(Plan, ExtensionRingThatCentresThePupil) {
+  PlanOptions o;
+  o.wd_mm = 1000;
+  const planning::Setup s = PaperSetup("nikkor-24mm-f2.8d", "nimar-ni320");
+  const Plan p = MakePlan(s, o);
+  ASSERT_TRUE(p.centring.has_value());
+  const PupilCentring& c = *p.centring;
+  EXPECT_NEAR(c.axial_offset_mm, 26.9 - 21.5, 0.1);  // Table 4, to its 0.1 mm (pupil at FD 300; here farther)
+  EXPECT_NEAR(c.axial_offset_mm, p.system.ep_in_housing_mm.z() - 21.5, 1e-9);
+  EXPECT_NEAR(c.lateral_offset_mm, std::hypot(0.4, 1.0), 1e-9);
+  ASSERT_TRUE(c.focus_distance_mm.has_value());
+  EXPECT_NEAR(*c.focus_distance_mm, *p.target->focus.focus_distance_mm, 1e-6);
+  // Closed loop: move the port by the advised length and plan again.
+  planning::Setup moved = s;
+  auto& d = std::get<ports::DomePort>(moved.port.shape);
+  d.outer.center_mm.z() += c.extension_mm;
+  d.inner.center_mm.z() += c.extension_mm;
+  const Plan after = MakePlan(moved, o);
+  EXPECT_NEAR(after.centring->axial_offset_mm, 0, 1e-6);
+  EXPECT_NEAR(after.centring->extension_mm, 0, 1e-6);
+  // The ring is the offset to first order; refocusing moves the pupil by less than 0.1 mm here.
+  EXPECT_NEAR(c.extension_mm, c.axial_offset_mm, 0.1);
+  // A concentric dome written about the pupil is centred whatever the lens; a flat port has no centre.
+  const Plan nominal = MakePlan(PaperSetup(), o);
+  EXPECT_NEAR(nominal.centring->axial_offset_mm, 0, 1e-12);
+  EXPECT_NEAR(nominal.centring->extension_mm, 0, 1e-12);
+  EXPECT_FALSE(MakePlan(PaperSetup("nikkor-24mm-f2.8d", "flat-acrylic-10mm"), o).centring.has_value());
+}
+
 }  // namespace
 }  // namespace porthole::planning

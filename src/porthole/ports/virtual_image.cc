@@ -55,32 +55,6 @@ void CheckWd(double wd_mm) {
 
 }  // namespace
 
-VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm) {
-  CheckWd(wd_mm);
-  const auto s = ParaxialModel(port);
-  const double w_ep = -port.ep_in_housing_mm.z();
-  const double w_outer = s.front().w_mm;
-  // A ray from the axial object point: unit object-side height at infinity, else slope u0.
-  const double n0 = s.front().n_before;
-  const double u0 = std::isinf(wd_mm) ? 0.0 : 1e-3;
-  const double y0 = std::isinf(wd_mm) ? 1.0 : u0 * wd_mm;
-  const YNu out = TraceYNu(s, y0, n0 * u0);
-  VirtualImage vi;
-  vi.wd_mm = wd_mm;
-  const double u = out.nu / out.n;
-  if (u == 0) {  // afocal: the image of infinity is at infinity
-    vi.d_s2ep_mm = vi.vwd_mm = kInf;
-    vi.magnification = 1;
-    return vi;
-  }
-  const double w_img = s.back().w_mm - out.y / u;
-  vi.d_s2ep_mm = w_ep - w_img;
-  vi.vwd_mm = w_outer - w_img;
-  // Lagrange invariant: n u h = n' u' h'  =>  m = (n0 u0) / (n' u').
-  vi.magnification = std::isinf(wd_mm) ? 0.0 : (n0 * u0) / (out.n * u);
-  return vi;
-}
-
 namespace {
 
 // The ray in the water that reaches the pupil point `pupil_point` (housing frame, on the pupil
@@ -123,7 +97,105 @@ std::optional<optics::Ray> RayThroughPupilPoint(const std::vector<optics::Interf
   return std::nullopt;
 }
 
+// The y-nu trace along the axis through the pupil: exact to first order when the port is
+// rotationally symmetric about that axis.
+VirtualImage AxialParaxialImage(const PortSystem& port, double wd_mm) {
+  const auto s = ParaxialModel(port);
+  const double w_ep = -port.ep_in_housing_mm.z();
+  const double w_outer = s.front().w_mm;
+  // A ray from the axial object point: unit object-side height at infinity, else slope u0.
+  const double n0 = s.front().n_before;
+  const double u0 = std::isinf(wd_mm) ? 0.0 : 1e-3;
+  const double y0 = std::isinf(wd_mm) ? 1.0 : u0 * wd_mm;
+  const YNu out = TraceYNu(s, y0, n0 * u0);
+  VirtualImage vi;
+  vi.wd_mm = wd_mm;
+  const double u = out.nu / out.n;
+  if (u == 0) {  // afocal: the image of infinity is at infinity
+    vi.d_s2ep_mm = vi.vwd_mm = kInf;
+    vi.magnification = 1;
+    return vi;
+  }
+  const double w_img = s.back().w_mm - out.y / u;
+  vi.d_s2ep_mm = w_ep - w_img;
+  vi.vwd_mm = w_outer - w_img;
+  // Lagrange invariant: n u h = n' u' h'  =>  m = (n0 u0) / (n' u').
+  vi.magnification = std::isinf(wd_mm) ? 0.0 : (n0 * u0) / (out.n * u);
+  return vi;
+}
+
+// True when the port is a surface of revolution about the axis through the pupil (parallel to
+// housing +Z): dome centres on that axis, or a flat port square to it. The chief ray of an axial
+// object is then the axis itself and the y-nu trace is the limit of real rays.
+bool SymmetricAboutAxis(const PortSystem& p) {
+  constexpr double kTol = 1e-12;
+  const Vec3& ep = p.ep_in_housing_mm;
+  if (p.IsDome()) {
+    const DomePort& d = p.dome();
+    return (d.outer.center_mm - ep).head<2>().norm() <= kTol * d.outer.radius_mm &&
+           (d.inner.center_mm - ep).head<2>().norm() <= kTol * d.inner.radius_mm;
+  }
+  return p.flat().normal.head<2>().norm() <= kTol;
+}
+
+// The object point on the axis through the pupil at wd_mm from the outer vertex (or at infinity).
+ObjectPoint AxialObject(const PortSystem& port, double wd_mm) {
+  const Vec3& ep = port.ep_in_housing_mm;
+  return std::isinf(wd_mm) ? ObjectPoint::Toward(Vec3(0, 0, 1))
+                           : ObjectPoint::At(Vec3(ep.x(), ep.y(), port.OuterVertexZ() + wd_mm));
+}
+
+// The first-order image about the chief ray (the parabasal image): the limit, as the pupil circle
+// shrinks, of the least-squares meeting point of RealRayVirtualPoint's eight rays. With the air
+// rays through pupil points ep + h a (a in the pupil plane) having unit directions d(a) ≈ d0 + h G a
+// (G a ⊥ d0), the squared distances from a point ep + s d0 sum, to first order in h, to
+// 4 h² ‖(P0 + s G) A‖²_F (A = [x̂ ŷ], P0 = I − d0 d0ᵀ), minimised at s = −⟨P0 A, G A⟩ / ‖G A‖².
+// G comes from central differences of traced rays. nullopt when a ray fails.
+std::optional<VirtualImage> ChiefRayParaxialImage(const PortSystem& port, double wd_mm) {
+  const auto inward = port.Inward();
+  const ObjectPoint object = AxialObject(port, wd_mm);
+  const Vec3& ep = port.ep_in_housing_mm;
+  const auto chief = RayThroughPupilPoint(inward, object, ep);
+  if (!chief) return std::nullopt;
+  const Vec3 d0 = chief->dir.normalized();
+  const Eigen::Matrix3d p0 = Eigen::Matrix3d::Identity() - d0 * d0.transpose();
+  constexpr double kStep = 1e-3;  // mm in the pupil plane: truncation O(step²/d²), rounding ~1e-12/step
+  Eigen::Matrix<double, 3, 2> ga, p0a;
+  for (int k = 0; k < 2; ++k) {
+    const Vec3 e = k == 0 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+    const auto plus = RayThroughPupilPoint(inward, object, ep + kStep * e);
+    const auto minus = RayThroughPupilPoint(inward, object, ep - kStep * e);
+    if (!plus || !minus) return std::nullopt;
+    ga.col(k) = p0 * (plus->dir.normalized() - minus->dir.normalized()) / (2 * kStep);
+    p0a.col(k) = p0 * e;
+  }
+  VirtualImage vi;
+  vi.wd_mm = wd_mm;
+  const double g2 = ga.squaredNorm();
+  if (!(g2 > 1e-24)) {  // parallel air rays: the image is at infinity
+    vi.d_s2ep_mm = vi.vwd_mm = kInf;
+    return vi;
+  }
+  const Vec3 x = ep - (p0a.cwiseProduct(ga).sum() / g2) * d0;
+  vi.d_s2ep_mm = x.z() - ep.z();
+  vi.vwd_mm = x.z() - port.OuterVertexZ();
+  vi.lateral_offset_mm = (x - ep).head<2>().norm();
+  return vi;
+}
+
 }  // namespace
+
+VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm) {
+  CheckWd(wd_mm);
+  VirtualImage axial = AxialParaxialImage(port, wd_mm);
+  if (SymmetricAboutAxis(port)) return axial;
+  const auto chief = ChiefRayParaxialImage(port, wd_mm);
+  if (!chief) return axial;  // a chief ray that cannot pass: keep the axial first-order model
+  // The y-nu magnification is kept: first order in the decentring (the image positions are exact).
+  VirtualImage vi = *chief;
+  vi.magnification = axial.magnification;
+  return vi;
+}
 
 std::optional<VirtualPoint> RealRayVirtualPoint(const PortSystem& port, const ObjectPoint& object,
                                                 double aperture_height_mm) {
@@ -169,10 +241,7 @@ std::optional<VirtualImage> RealRayVirtualImage(const PortSystem& port, double w
   CheckWd(wd_mm);
   const Vec3& ep = port.ep_in_housing_mm;
   const double z_outer = port.OuterVertexZ();
-  // The object on the axis through the pupil.
-  const ObjectPoint object = std::isinf(wd_mm) ? ObjectPoint::Toward(Vec3(0, 0, 1))
-                                               : ObjectPoint::At(Vec3(ep.x(), ep.y(), z_outer + wd_mm));
-  const auto vp = RealRayVirtualPoint(port, object, aperture_height_mm);
+  const auto vp = RealRayVirtualPoint(port, AxialObject(port, wd_mm), aperture_height_mm);
   if (!vp) return std::nullopt;
   VirtualImage vi;
   vi.wd_mm = wd_mm;

@@ -1,9 +1,11 @@
 // Where a port forms the virtual image of an object in the water, paraxially (a y-nu trace) and
 // with real rays at a chosen aperture height; the port's focal lengths. The paper's Table 5.
 //
-// Axis: the line through the entrance pupil parallel to housing +Z. The paraxial model takes each
-// surface's vertex where the axis meets it and the surface's radius there; it ignores the small
-// tilt of a decentred sphere (first order in the decentring), which the real-ray trace includes.
+// Axis: the line through the entrance pupil parallel to housing +Z; the object lies on it. For a
+// port symmetric about that axis the paraxial image is a y-nu trace along it. For a decentred or
+// tilted port it is the first-order image about the real chief ray (the ray from the object through
+// the pupil centre): the limit of RealRayVirtualImage as the aperture shrinks, so that their
+// difference is the port's aberration alone.
 // Distances are positive numbers as in the paper (docs/conventions.md): D_S2EP from the virtual
 // image to the entrance pupil, VWD from the virtual image to the outer vertex, WD from the object
 // to the outer vertex. Infinity is std::numeric_limits<double>::infinity().
@@ -23,7 +25,9 @@ struct VirtualImage {
   double lateral_offset_mm = 0;  // distance of the image from the axis (real rays, decentred ports)
 };
 
-// Paraxial (y-nu) trace from the object at wd_mm (may be infinite) through the port into the air.
+// The paraxial virtual image of the axial object at wd_mm (may be infinite): a y-nu trace for a
+// port symmetric about the axis; otherwise the limit of real rays about the chief ray (its
+// lateral_offset_mm set; magnification from the axial y-nu trace, first order in the decentring).
 // Throws InvalidInput("wd_mm") for wd_mm <= 0 or NaN.
 VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm);
 
