@@ -3,6 +3,11 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <string>
+
+#include "porthole/core/error.h"
+#include "porthole/optics/batch_isa.h"
 
 namespace porthole::optics {
 
@@ -25,55 +30,101 @@ Ray RayBatch::Get(std::size_t i) const {
   return Ray{Vec3(ox[i], oy[i], oz[i]), Vec3(dx[i], dy[i], dz[i])};
 }
 
+std::string_view ToString(Isa isa) {
+  switch (isa) {
+    case Isa::kAuto: return "auto";
+    case Isa::kSse2: return "sse2";
+    case Isa::kAvx2: return "avx2";
+    case Isa::kAvx512: return "avx512";
+  }
+  return "unknown";
+}
+
+Isa ParseIsa(std::string_view name, std::string_view field) {
+  for (Isa isa : {Isa::kAuto, Isa::kSse2, Isa::kAvx2, Isa::kAvx512}) {
+    if (name == ToString(isa)) return isa;
+  }
+  throw InvalidInput(std::string(field), "must be one of auto, sse2, avx2, avx512 (got '" +
+                                             std::string(name) + "')");
+}
+
 namespace {
 
-// One interface over rays [begin, end), reading `in` and writing `out` (which may be the same).
-// The loop body is Step() on locals, which gcc vectorises once inlined (the surface kind is the
-// same for every iteration).
-template <KindHint Kind>
-PORTHOLE_INLINE void TraceRangeOf(const Interface& f_in, const RayBatch& in, RayBatch* out, std::ptrdiff_t begin,
-                  std::ptrdiff_t end) {
-  const Interface f = f_in;  // a local copy: provably not aliased by the stores below
-  const double* __restrict ix = in.ox.data();
-  const double* __restrict iy = in.oy.data();
-  const double* __restrict iz = in.oz.data();
-  const double* __restrict jx = in.dx.data();
-  const double* __restrict jy = in.dy.data();
-  const double* __restrict jz = in.dz.data();
-  const RayStatus* __restrict is = in.status.data();
-  double* ox = out->ox.data();
-  double* oy = out->oy.data();
-  double* oz = out->oz.data();
-  double* dx = out->dx.data();
-  double* dy = out->dy.data();
-  double* dz = out->dz.data();
-  RayStatus* st = out->status.data();
-#pragma omp simd
-  for (std::ptrdiff_t i = begin; i < end; ++i) {
-    P3<double> o{ix[i], iy[i], iz[i]};
-    P3<double> d{jx[i], jy[i], jz[i]};
-    const RayStatus s = Step<double, Kind>(f, &o, &d);
-    const bool live = is[i] == RayStatus::kOk;
-    ox[i] = live ? o.x : ix[i];
-    oy[i] = live ? o.y : iy[i];
-    oz[i] = live ? o.z : iz[i];
-    dx[i] = live ? d.x : jx[i];
-    dy[i] = live ? d.y : jy[i];
-    dz[i] = live ? d.z : jz[i];
-    st[i] = live ? s : is[i];
+// Whether this build has the kernel and this processor (and its operating system, which must save
+// the wide registers: __builtin_cpu_supports checks that too) runs it.
+bool Runs(Isa isa) {
+#if defined(PORTHOLE_OPTICS_X86_KERNELS)
+  __builtin_cpu_init();
+  const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  switch (isa) {
+    case Isa::kSse2: return true;
+    case Isa::kAvx2: return avx2;
+    case Isa::kAvx512:
+      return avx2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw");
+    case Isa::kAuto: return false;
+  }
+  return false;
+#else
+  return isa == Isa::kSse2;
+#endif
+}
+
+batch_detail::Kernels KernelsOf(Isa isa) {
+  switch (isa) {
+#if defined(PORTHOLE_OPTICS_X86_KERNELS)
+    case Isa::kAvx2: return batch_detail::KernelsAvx2();
+    case Isa::kAvx512: return batch_detail::KernelsAvx512();
+#endif
+    default: return batch_detail::KernelsSse2();
   }
 }
 
-void TraceRange(const Interface& f, const RayBatch& in, RayBatch* out, std::ptrdiff_t begin,
-                std::ptrdiff_t end) {
-  if (f.surface.kind == Surface::Kind::kSphere) {
-    TraceRangeOf<KindHint::kSphere>(f, in, out, begin, end);
-  } else {
-    TraceRangeOf<KindHint::kPlane>(f, in, out, begin, end);
+std::string SupportedList() {
+  std::string s;
+  for (Isa isa : SupportedIsas()) s += (s.empty() ? "" : ", ") + std::string(ToString(isa));
+  return s;
+}
+
+Isa Require(Isa isa, const std::string& field) {
+  if (!Runs(isa)) {
+    throw InvalidInput(field, std::string(ToString(isa)) +
+                                  " is not supported by this processor or build (supported: " +
+                                  SupportedList() + ")");
   }
+  return isa;
+}
+
+// One interface over rays [begin, end) of `in`, written to `out` (which may be `in`).
+void TraceRange(const batch_detail::Kernels& k, const Interface& f, const RayBatch& in,
+                RayBatch* out, std::ptrdiff_t begin, std::ptrdiff_t end) {
+  const batch_detail::SoaView v{in.ox.data(), in.oy.data(), in.oz.data(), in.dx.data(),
+                                in.dy.data(), in.dz.data(), in.status.data()};
+  const batch_detail::SoaOut o{out->ox.data(), out->oy.data(), out->oz.data(), out->dx.data(),
+                               out->dy.data(), out->dz.data(), out->status.data()};
+  (f.surface.kind == Surface::Kind::kSphere ? k.sphere : k.plane)(f, v, o, begin, end);
 }
 
 }  // namespace
+
+std::vector<Isa> SupportedIsas() {
+  std::vector<Isa> out;
+  for (Isa isa : {Isa::kSse2, Isa::kAvx2, Isa::kAvx512}) {
+    if (Runs(isa)) out.push_back(isa);
+  }
+  return out;
+}
+
+Isa ResolveIsa(Isa requested) {
+  if (requested != Isa::kAuto) return Require(requested, "isa");
+  static const Isa from_env = [] {
+    const char* v = std::getenv("PORTHOLE_ISA");
+    return v == nullptr || *v == '\0' ? Isa::kAuto : ParseIsa(v, "PORTHOLE_ISA");
+  }();
+  if (from_env != Isa::kAuto) return Require(from_env, "PORTHOLE_ISA");
+  static const Isa widest = SupportedIsas().back();
+  return widest;
+}
 
 void TraceBatch(const std::vector<Interface>& seq, RayBatch* rays, const BatchOptions& options) {
   TraceBatch(seq, *rays, rays, options);
@@ -83,6 +134,7 @@ void TraceBatch(const std::vector<Interface>& seq, const RayBatch& in, RayBatch*
                 const BatchOptions& options) {
   const auto n = static_cast<std::ptrdiff_t>(in.size());
   if (out != &in) out->resize(in.size());
+  const batch_detail::Kernels kernels = KernelsOf(ResolveIsa(options.isa));
   if (seq.empty()) {
     if (out != &in) *out = in;
     return;
@@ -97,8 +149,8 @@ void TraceBatch(const std::vector<Interface>& seq, const RayBatch& in, RayBatch*
   for (std::ptrdiff_t b = 0; b < blocks; ++b) {
     const std::ptrdiff_t begin = b * kBlock;
     const std::ptrdiff_t end = std::min(n, begin + kBlock);
-    TraceRange(seq.front(), in, out, begin, end);
-    for (std::size_t k = 1; k < seq.size(); ++k) TraceRange(seq[k], *out, out, begin, end);
+    TraceRange(kernels, seq.front(), in, out, begin, end);
+    for (std::size_t k = 1; k < seq.size(); ++k) TraceRange(kernels, seq[k], *out, out, begin, end);
   }
 }
 
