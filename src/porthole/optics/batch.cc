@@ -145,7 +145,10 @@ void TraceBatch(const std::vector<Interface>& seq, const RayBatch& in, RayBatch*
   const int threads = static_cast<std::size_t>(n) < options.min_parallel ? 1
                       : options.num_threads > 0                        ? options.num_threads
                                                                        : omp_get_max_threads();
-#pragma omp parallel for schedule(static) num_threads(threads)
+  // Blocks are handed out one at a time (a few µs of work each): on a machine shared with other
+  // work, a thread the system pauses delays the batch by at most one block, as the others take
+  // over the rest (a static split would wait for its whole share).
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (std::ptrdiff_t b = 0; b < blocks; ++b) {
     const std::ptrdiff_t begin = b * kBlock;
     const std::ptrdiff_t end = std::min(n, begin + kBlock);
