@@ -88,7 +88,8 @@ void SetRates(benchmark::State& state, double rays_per_iteration, std::size_t su
   const double rays = static_cast<double>(state.iterations()) * rays_per_iteration;
   const double ray_surfaces = rays * static_cast<double>(surfaces);
   state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
-  state.counters["ray_surfaces_per_s"] = benchmark::Counter(ray_surfaces, benchmark::Counter::kIsRate);
+  state.counters["ray_surfaces_per_s"] =
+      benchmark::Counter(ray_surfaces, benchmark::Counter::kIsRate);
   if (cpu_seconds > 0) state.counters["ray_surfaces_per_cpu_s"] = ray_surfaces / cpu_seconds;
 }
 
@@ -165,11 +166,13 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
   namespace fs = std::filesystem;
   const std::string stem =
       (fs::temp_directory_path() / ("porthole_bench_trace_" + std::to_string(getpid()))).string();
-  const std::string rays_path = stem + ".rays", out_path = stem + ".out", spec_path = stem + ".json";
+  const std::string rays_path = stem + ".rays", out_path = stem + ".out",
+                    spec_path = stem + ".json";
   {
     std::ofstream f(rays_path, std::ios::binary);
     for (const auto* v : {&in.ox, &in.oy, &in.oz, &in.dx, &in.dy, &in.dz}) {
-      f.write(reinterpret_cast<const char*>(v->data()), static_cast<std::streamsize>(n * sizeof(double)));
+      f.write(reinterpret_cast<const char*>(v->data()),
+              static_cast<std::streamsize>(n * sizeof(double)));
     }
   }
   {
@@ -186,12 +189,13 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
       const auto& s = seq[k].surface;
       f << (k ? ", " : "") << "{\"center_mm\": " << vec(s.center) << ", \"radius_mm\": " << s.radius
         << ", \"aperture_point_mm\": " << vec(s.aperture_point)
-        << ", \"aperture_normal\": " << vec(s.aperture_normal) << ", \"n_before\": " << seq[k].n_before
-        << ", \"n_after\": " << seq[k].n_after << "}";
+        << ", \"aperture_normal\": " << vec(s.aperture_normal)
+        << ", \"n_before\": " << seq[k].n_before << ", \"n_after\": " << seq[k].n_after << "}";
     }
     f << "]}\n";
   }
-  const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_trace_numpy.py " + spec_path;
+  const std::string cmd =
+      "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_trace_numpy.py " + spec_path;
   double numpy_s = 0;
   for (auto _ : state) {
     std::string text;
@@ -218,7 +222,8 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
       for (int r = 0; r < 4 * kRepeats; ++r) {
         const auto t0 = std::chrono::steady_clock::now();
         porthole::optics::TraceBatch(seq, in, &out, opt);
-        best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        best = std::min(
+            best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       }
       return best;
     };
@@ -228,7 +233,8 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
     std::vector<double> np_rays(6 * n);
     std::vector<std::uint8_t> np_status(n);
     std::ifstream f(out_path, std::ios::binary);
-    f.read(reinterpret_cast<char*>(np_rays.data()), static_cast<std::streamsize>(np_rays.size() * sizeof(double)));
+    f.read(reinterpret_cast<char*>(np_rays.data()),
+           static_cast<std::streamsize>(np_rays.size() * sizeof(double)));
     f.read(reinterpret_cast<char*>(np_status.data()), static_cast<std::streamsize>(n));
     double max_diff = 0;
     int mismatches = 0;
@@ -247,9 +253,10 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
     state.counters["max_dir_diff"] = max_diff;
     state.counters["status_mismatches"] = mismatches;
     state.counters["threads"] = 1;
-    state.SetLabel("numpy (slices of " + std::to_string(chunk) + " rays) vs porthole " +
-                   std::string(porthole::optics::ToString(porthole::optics::ResolveIsa(Isa::kAuto))) +
-                   " 2 threads");
+    state.SetLabel(
+        "numpy (slices of " + std::to_string(chunk) + " rays) vs porthole " +
+        std::string(porthole::optics::ToString(porthole::optics::ResolveIsa(Isa::kAuto))) +
+        " 2 threads");
   }
   for (const auto& p : {rays_path, out_path, spec_path}) std::remove(p.c_str());
 }
@@ -259,11 +266,17 @@ BENCHMARK(BM_TraceSingleRayLoop)->Unit(benchmark::kMillisecond)->UseRealTime();
 void BatchArgs(benchmark::internal::Benchmark* b) {
   for (const Isa isa : {Isa::kSse2, Isa::kAvx2, Isa::kAvx512}) {
     for (const std::int64_t rays : {std::int64_t{kRays}, std::int64_t{1} << 15}) {
-      for (const std::int64_t threads : {1, 2}) b->Args({static_cast<std::int64_t>(isa), threads, rays});
+      for (const std::int64_t threads : {1, 2})
+        b->Args({static_cast<std::int64_t>(isa), threads, rays});
     }
   }
 }
 BENCHMARK(BM_TraceBatch)->Apply(BatchArgs)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_TraceNumpyPeer)->Arg(0)->Arg(1 << 15)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(1);
+BENCHMARK(BM_TraceNumpyPeer)
+    ->Arg(0)
+    ->Arg(1 << 15)
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->Iterations(1);
 
 }  // namespace

@@ -51,7 +51,8 @@ struct BatchOptions {
 
 // Traces every ray in `rays` through `seq`, in place: on return each ray with status kOk is the
 // ray after the last surface; others hold their failure status and the point where they stopped.
-void TraceBatch(const std::vector<Interface>& seq, RayBatch* rays, const BatchOptions& options = {});
+void TraceBatch(const std::vector<Interface>& seq, RayBatch* rays,
+                const BatchOptions& options = {});
 
 // The same, out of place: `in` is left as it is and `out` receives the traced rays (resized).
 void TraceBatch(const std::vector<Interface>& seq, const RayBatch& in, RayBatch* out,

@@ -31,7 +31,7 @@ struct Kernels {
 Kernels KernelsSse2();  // the compiler's baseline (SSE2 on x86-64): always present
 #if defined(PORTHOLE_OPTICS_X86_KERNELS)
 Kernels KernelsAvx2();    // compiled with -mavx2 -mfma
-Kernels KernelsAvx512();  // compiled with -mavx512f -mavx512vl -mavx512dq -mavx512bw (and AVX2, FMA)
+Kernels KernelsAvx512();  // compiled with -mavx512f/vl/dq/bw (and AVX2, FMA)
 #endif
 
 }  // namespace porthole::optics::batch_detail

@@ -58,8 +58,10 @@ TEST(Refract, TotalInternalReflectionBeyondCriticalAngle) {
   const double n1 = 1.5168, n2 = 1.0, crit = std::asin(n2 / n1);
   Vec3 t;
   const Vec3 n(0, 0, 1);
-  EXPECT_TRUE(Refract<double>(Vec3(std::sin(crit - 1e-6), 0, std::cos(crit - 1e-6)), n, n1, n2, &t));
-  EXPECT_FALSE(Refract<double>(Vec3(std::sin(crit + 1e-6), 0, std::cos(crit + 1e-6)), n, n1, n2, &t));
+  EXPECT_TRUE(
+      Refract<double>(Vec3(std::sin(crit - 1e-6), 0, std::cos(crit - 1e-6)), n, n1, n2, &t));
+  EXPECT_FALSE(
+      Refract<double>(Vec3(std::sin(crit + 1e-6), 0, std::cos(crit + 1e-6)), n, n1, n2, &t));
 }
 
 TEST(TraceSequence, ConcentricShellLeavesCentralRaysUndeviated) {
@@ -149,9 +151,10 @@ TEST(TraceBatch, EveryKernelAgreesBitForBitWithSingleRayTracer) {
   window.aperture_normal = Vec3(0, 0, 1);
   // Rays start in a dense glass (n 1.6), so those steeper than asin(1/1.6) cannot leave the last
   // interface into air: total internal reflection.
-  const std::vector<Interface> flat = {Interface{window, 1.6, 1.49},
-                                       Interface{Surface::MakePlane(Vec3(0, 0, 42), Vec3(0, 0, 1)), 1.49, 1.341},
-                                       Interface{Surface::MakePlane(Vec3(0, 0, 50), Vec3(0, 0, 1)), 1.341, 1.0}};
+  const std::vector<Interface> flat = {
+      Interface{window, 1.6, 1.49},
+      Interface{Surface::MakePlane(Vec3(0, 0, 42), Vec3(0, 0, 1)), 1.49, 1.341},
+      Interface{Surface::MakePlane(Vec3(0, 0, 50), Vec3(0, 0, 1)), 1.341, 1.0}};
   std::mt19937 rng(4);
   const std::size_t n = 20011;
   std::vector<Ray> rays(n);
@@ -202,7 +205,8 @@ TEST(TraceBatch, EveryKernelAgreesBitForBitWithSingleRayTracer) {
         for (std::size_t i = 0; i < n; ++i) {
           if (i == 5) continue;
           // Exact equality of every coordinate, and of the status.
-          const bool same = r.status[i] == expected_status[i] && r.Get(i).origin == expected[i].origin &&
+          const bool same = r.status[i] == expected_status[i] &&
+                            r.Get(i).origin == expected[i].origin &&
                             r.Get(i).dir == expected[i].dir;
           if (!same && mismatches++ < 3) {
             ADD_FAILURE() << "ray " << i << ": batch " << r.Get(i).dir.transpose() << " status "
