@@ -44,7 +44,7 @@ std::vector<Isa> SupportedIsas();
 Isa ResolveIsa(Isa requested);
 
 struct BatchOptions {
-  int num_threads = 0;             // 0: every core (OpenMP default); 1: this thread only
+  int num_threads = 0;  // 0: every core (omp_get_max_threads(), so OMP_NUM_THREADS); 1: this thread
   std::size_t min_parallel = 4096;  // smaller batches run on one thread: threads cost ~10 µs
   Isa isa = Isa::kAuto;            // the kernel's instruction set (see ResolveIsa)
 };

@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <random>
 #include <string>
+#include <thread>
 #include <utility>
 
 #include "porthole/core/error.h"
@@ -218,6 +220,46 @@ TEST(TraceBatch, EveryKernelAgreesBitForBitWithSingleRayTracer) {
       }
     }
   }
+}
+
+// The batch's threads: many batches in a row (helpers that wake late must not disturb the next
+// one), several callers at once (one uses the helpers, the others trace alone), and more threads
+// than cores; every answer is still the single-ray tracer's, bit for bit.
+TEST(TraceBatch, ManyAndConcurrentBatchesGiveTheSingleRayAnswer) {
+  const auto seq = Shell(Vec3(-0.4, -1.5, 20.3), Vec3(-0.4, -1.0, 21.5), 1.5168, 1.341);
+  std::mt19937 rng(9);
+  const std::size_t n = 9000;  // 9 blocks
+  RayBatch in;
+  in.resize(n);
+  std::vector<Ray> expected(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Ray r{Vec3(0, 0, 26.9), RandomUnitForward(rng, 1.2)};
+    in.Set(i, r);
+    TraceSequence<double>(seq, r, &expected[i]);
+  }
+  auto check = [&](const RayBatch& out) {
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      bad += !(out.Get(i).origin == expected[i].origin && out.Get(i).dir == expected[i].dir);
+    }
+    return bad;
+  };
+  std::atomic<std::size_t> bad{0};
+  auto caller = [&](int threads, int repeats) {
+    BatchOptions o;
+    o.num_threads = threads;
+    RayBatch out;
+    for (int r = 0; r < repeats; ++r) {
+      TraceBatch(seq, in, &out, o);
+      bad += check(out);
+    }
+  };
+  caller(2, 200);
+  caller(5, 50);
+  std::vector<std::thread> callers;
+  for (int t = 0; t < 4; ++t) callers.emplace_back(caller, 2 + t % 2, 50);
+  for (auto& t : callers) t.join();
+  EXPECT_EQ(bad.load(), 0u);
 }
 
 TEST(TraceBatch, InstructionSetsAreNamedAndAnUnsupportedOneIsRefused) {
