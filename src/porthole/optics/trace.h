@@ -80,6 +80,17 @@ struct Interface {
 
 // ---- Primitives (templated, inline, written with selects instead of early returns so that the
 // batched tracer's loops vectorise; shared by the single-ray, Jet and batched tracers) ----
+//
+// They live in an inline namespace named by PORTHOLE_OPTICS_ISA_NS. The batched tracer compiles
+// them once more per instruction set (batch_avx2.cc, batch_avx512.cc, with -mavx2 / -mavx512*),
+// each defining its own namespace name before including this header, so an out-of-line copy made
+// in a wide-vector file has a name of its own and the linker can never substitute it for the
+// baseline one (which would crash on a processor without AVX). Everything else in the program
+// sees the default name; callers never spell it.
+#ifndef PORTHOLE_OPTICS_ISA_NS
+#define PORTHOLE_OPTICS_ISA_NS isa_baseline
+#endif
+inline namespace PORTHOLE_OPTICS_ISA_NS {
 
 // A plain 3-vector for the per-ray maths. Eigen's explicit SIMD on 3-vectors keeps gcc from
 // vectorising *across* rays, which is what the batched tracer needs; this type converts to and
@@ -193,6 +204,8 @@ PORTHOLE_INLINE RayStatus Step(const Interface& f, P3<T>* o, P3<T>* d) {
   *d = Select<T>(status == RayStatus::kOk, d_new, *d);
   return status;
 }
+
+}  // inline namespace PORTHOLE_OPTICS_ISA_NS
 
 // ---- Tracing one ray through a sequence ----
 

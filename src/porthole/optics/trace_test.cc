@@ -5,9 +5,16 @@
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <random>
+#include <string>
+#include <thread>
+#include <utility>
 
+#include "porthole/core/error.h"
 #include "porthole/optics/batch.h"
 #include "porthole/optics/trace.h"
 
@@ -53,8 +60,10 @@ TEST(Refract, TotalInternalReflectionBeyondCriticalAngle) {
   const double n1 = 1.5168, n2 = 1.0, crit = std::asin(n2 / n1);
   Vec3 t;
   const Vec3 n(0, 0, 1);
-  EXPECT_TRUE(Refract<double>(Vec3(std::sin(crit - 1e-6), 0, std::cos(crit - 1e-6)), n, n1, n2, &t));
-  EXPECT_FALSE(Refract<double>(Vec3(std::sin(crit + 1e-6), 0, std::cos(crit + 1e-6)), n, n1, n2, &t));
+  EXPECT_TRUE(
+      Refract<double>(Vec3(std::sin(crit - 1e-6), 0, std::cos(crit - 1e-6)), n, n1, n2, &t));
+  EXPECT_FALSE(
+      Refract<double>(Vec3(std::sin(crit + 1e-6), 0, std::cos(crit + 1e-6)), n, n1, n2, &t));
 }
 
 TEST(TraceSequence, ConcentricShellLeavesCentralRaysUndeviated) {
@@ -128,33 +137,156 @@ TEST(TraceSequence, RecordsPathForDiagrams) {
   EXPECT_NEAR((path.points[2] - Vec3(0, 0, 21.5)).norm(), 83.4, 1e-10);
 }
 
-TEST(TraceBatch, AgreesWithSingleRayTracerIncludingFailures) {
-  const auto seq = Shell(Vec3(-0.4, -1.5, 20.3), Vec3(-0.4, -1.0, 21.5), 1.5168, 1.341);
+// Every kernel the machine runs (SSE2, AVX2, AVX-512) against the single-ray tracer, bit for bit:
+// the kernels are Step() itself compiled at other vector widths without contraction into FMA, and
+// IEEE sqrt and division are correctly rounded at every width, so nothing may differ — not even
+// in the last bit. Spheres (the as-built dome's shell) and planes (a flat port with a rim), rays
+// that pass, miss, leave the aperture or are totally internally reflected, in place and out of
+// place, over a count that is not a multiple of any vector width.
+TEST(TraceBatch, EveryKernelAgreesBitForBitWithSingleRayTracer) {
+  auto shell = Shell(Vec3(-0.4, -1.5, 20.3), Vec3(-0.4, -1.0, 21.5), 1.5168, 1.341);
+  // The inner sphere with a rim: rays beyond 60° from the axis leave its aperture.
+  shell[0].surface.aperture_point = Vec3(0, 0, 20.3 + 75.7 * std::cos(60 * M_PI / 180));
+  shell[0].surface.aperture_normal = Vec3(0, 0, 1);
+  Surface window = Surface::MakePlane(Vec3(0, 0, 30), Vec3(0, 0, 1));
+  window.aperture_point = Vec3(0, 0, 30);
+  window.aperture_normal = Vec3(0, 0, 1);
+  // Rays start in a dense glass (n 1.6), so those steeper than asin(1/1.6) cannot leave the last
+  // interface into air: total internal reflection.
+  const std::vector<Interface> flat = {
+      Interface{window, 1.6, 1.49},
+      Interface{Surface::MakePlane(Vec3(0, 0, 42), Vec3(0, 0, 1)), 1.49, 1.341},
+      Interface{Surface::MakePlane(Vec3(0, 0, 50), Vec3(0, 0, 1)), 1.341, 1.0}};
   std::mt19937 rng(4);
-  const std::size_t n = 20000;
-  RayBatch batch;
-  batch.resize(n);
+  const std::size_t n = 20011;
   std::vector<Ray> rays(n);
   for (std::size_t i = 0; i < n; ++i) {
     // Include backward rays (they hit the rear of the spheres) and rays from outside.
-    Vec3 d = RandomUnitForward(rng, 3.0);
-    rays[i] = Ray{Vec3(0, 0, i % 7 == 0 ? 200.0 : 26.9), d};
-    batch.Set(i, rays[i]);
+    rays[i] = Ray{Vec3(0, 0, i % 7 == 0 ? 200.0 : 26.9), RandomUnitForward(rng, 3.0)};
   }
-  batch.status[5] = RayStatus::kMissed;  // an already-failed ray must stay untouched
-  const Ray untouched = batch.Get(5);
-  TraceBatch(seq, &batch);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (i == 5) {
-      EXPECT_EQ(batch.status[i], RayStatus::kMissed);
-      EXPECT_EQ(batch.Get(i).origin, untouched.origin);
-      continue;
+  const auto isas = SupportedIsas();
+  ASSERT_FALSE(isas.empty());
+  EXPECT_EQ(isas.front(), Isa::kSse2);
+  for (const std::vector<Interface>* seq : {&std::as_const(shell), &flat}) {
+    std::vector<Ray> expected(n);
+    std::vector<RayStatus> expected_status(n);
+    std::size_t count[4] = {0, 0, 0, 0};
+    for (std::size_t i = 0; i < n; ++i) {
+      expected_status[i] = TraceSequence<double>(*seq, rays[i], &expected[i]);
+      ++count[static_cast<int>(expected_status[i])];
     }
-    Ray out;
-    const RayStatus s = TraceSequence<double>(seq, rays[i], &out);
-    ASSERT_EQ(batch.status[i], s) << i;
-    EXPECT_NEAR((batch.Get(i).origin - out.origin).norm(), 0, 1e-9) << i;
-    EXPECT_NEAR((batch.Get(i).dir - out.dir).norm(), 0, 1e-12) << i;
+    // Every path is exercised: passed, missed, outside the aperture, and (flat port) TIR.
+    EXPECT_GT(count[0], n / 50);
+    EXPECT_GT(count[1], 0u);
+    EXPECT_GT(count[2], 0u);
+    if (seq == &flat) {
+      EXPECT_GT(count[3], 0u);
+    }
+    for (const Isa isa : isas) {
+      for (const bool in_place : {true, false}) {
+        SCOPED_TRACE(std::string(ToString(isa)) + (in_place ? " in place" : " out of place") +
+                     (seq == &shell ? " shell" : " flat"));
+        RayBatch batch;
+        batch.resize(n);
+        for (std::size_t i = 0; i < n; ++i) batch.Set(i, rays[i]);
+        batch.status[5] = RayStatus::kMissed;  // an already-failed ray must stay untouched
+        BatchOptions o;
+        o.isa = isa;
+        RayBatch out;
+        if (in_place) {
+          TraceBatch(*seq, &batch, o);
+        } else {
+          TraceBatch(*seq, batch, &out, o);
+          EXPECT_EQ(batch.Get(7).origin, rays[7].origin);  // the input is left as it was
+        }
+        const RayBatch& r = in_place ? batch : out;
+        EXPECT_EQ(r.status[5], RayStatus::kMissed);
+        EXPECT_EQ(r.Get(5).origin, rays[5].origin);
+        EXPECT_EQ(r.Get(5).dir, rays[5].dir);
+        std::size_t mismatches = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+          if (i == 5) continue;
+          // Exact equality of every coordinate, and of the status.
+          const bool same = r.status[i] == expected_status[i] &&
+                            r.Get(i).origin == expected[i].origin &&
+                            r.Get(i).dir == expected[i].dir;
+          if (!same && mismatches++ < 3) {
+            ADD_FAILURE() << "ray " << i << ": batch " << r.Get(i).dir.transpose() << " status "
+                          << ToString(r.status[i]) << ", single " << expected[i].dir.transpose()
+                          << " status " << ToString(expected_status[i]);
+          }
+        }
+        EXPECT_EQ(mismatches, 0u);
+      }
+    }
+  }
+}
+
+// The batch's threads: many batches in a row (helpers that wake late must not disturb the next
+// one), several callers at once (one uses the helpers, the others trace alone), and more threads
+// than cores; every answer is still the single-ray tracer's, bit for bit.
+TEST(TraceBatch, ManyAndConcurrentBatchesGiveTheSingleRayAnswer) {
+  const auto seq = Shell(Vec3(-0.4, -1.5, 20.3), Vec3(-0.4, -1.0, 21.5), 1.5168, 1.341);
+  std::mt19937 rng(9);
+  const std::size_t n = 9000;  // 9 blocks
+  RayBatch in;
+  in.resize(n);
+  std::vector<Ray> expected(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Ray r{Vec3(0, 0, 26.9), RandomUnitForward(rng, 1.2)};
+    in.Set(i, r);
+    TraceSequence<double>(seq, r, &expected[i]);
+  }
+  auto check = [&](const RayBatch& out) {
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      bad += !(out.Get(i).origin == expected[i].origin && out.Get(i).dir == expected[i].dir);
+    }
+    return bad;
+  };
+  std::atomic<std::size_t> bad{0};
+  auto caller = [&](int threads, int repeats) {
+    BatchOptions o;
+    o.num_threads = threads;
+    RayBatch out;
+    for (int r = 0; r < repeats; ++r) {
+      TraceBatch(seq, in, &out, o);
+      bad += check(out);
+    }
+  };
+  caller(2, 200);
+  caller(5, 50);
+  std::vector<std::thread> callers;
+  for (int t = 0; t < 4; ++t) callers.emplace_back(caller, 2 + t % 2, 50);
+  for (auto& t : callers) t.join();
+  EXPECT_EQ(bad.load(), 0u);
+}
+
+TEST(TraceBatch, InstructionSetsAreNamedAndAnUnsupportedOneIsRefused) {
+  for (const Isa isa : {Isa::kAuto, Isa::kSse2, Isa::kAvx2, Isa::kAvx512}) {
+    EXPECT_EQ(ParseIsa(ToString(isa)), isa);
+  }
+  EXPECT_THROW(ParseIsa("avx"), InvalidInput);
+  EXPECT_THROW(ParseIsa("AVX2"), InvalidInput);
+  const auto isas = SupportedIsas();
+  // Auto picks the widest the processor runs (unless PORTHOLE_ISA forces one for this run).
+  const char* env = std::getenv("PORTHOLE_ISA");
+  if (env == nullptr || *env == '\0') {
+    EXPECT_EQ(ResolveIsa(Isa::kAuto), isas.back());
+  }
+  for (const Isa isa : {Isa::kSse2, Isa::kAvx2, Isa::kAvx512}) {
+    const bool supported = std::find(isas.begin(), isas.end(), isa) != isas.end();
+    if (supported) {
+      EXPECT_EQ(ResolveIsa(isa), isa);
+    } else {
+      try {
+        ResolveIsa(isa);
+        ADD_FAILURE() << "expected InvalidInput for " << ToString(isa);
+      } catch (const InvalidInput& e) {
+        EXPECT_EQ(e.field(), "isa");
+        EXPECT_NE(std::string(e.what()).find("not supported"), std::string::npos) << e.what();
+      }
+    }
   }
 }
 
