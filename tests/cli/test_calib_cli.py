@@ -155,3 +155,52 @@ def test_compare_same_detections_and_yaml(detections, tmp_path):
     assert y["b_refit_rms_px"] < 0.1
     assert y["max_diff_um"] < 1e3 * 1.0  # < 1 px (pitch 1: um are 1e-3 px)
     assert "B" in run_bad("compare", tmp_path / "a.json", tmp_path / "missing.json")
+
+
+def test_calibrate_any_model_of_the_list(detections, tmp_path):
+    """--model picks any model of the list: the JSON names it and carries its keys; the fisheye and
+    OpenCV models fit these (ordinary, mildly barrel) images as well as Brown does."""
+    brown = run("calibrate", "--detections", detections, "--json", "--quiet").json()
+    assert brown["model"] == "brown"
+    for model, keys in [("kannala-brandt", ["fx_px", "fy_px", "cx_px", "cy_px", "k1", "k2", "k3", "k4"]),
+                        ("opencv", ["fx_px", "fy_px", "cx_px", "cy_px", "k1", "k2", "p1", "p2", "k3",
+                                    "k4", "k5", "k6"])]:
+        j = run("calibrate", "--detections", detections, "--model", model, "--json", "--quiet").json()
+        assert j["model"] == model and list(j["camera"].keys()) == keys
+        assert j["status"] == "ok"
+        assert j["camera"]["fx_px"] == pytest.approx(brown["camera"]["c_mm"], rel=0.01)
+        assert j["rms_px"] == pytest.approx(brown["rms_px"], rel=0.25)
+    # The OpenCV model's YAML is exact, and OpenCV itself reads and projects with it.
+    cv2 = pytest.importorskip("cv2")
+    import numpy as np
+    yml, out = tmp_path / "cv.yml", tmp_path / "cv.json"
+    j = run("calibrate", "--detections", detections, "--model", "opencv", "--opencv-yaml", yml,
+            "--out", out, "--json", "--quiet").json()
+    fs = cv2.FileStorage(str(yml), cv2.FILE_STORAGE_READ)
+    k, d = fs.getNode("camera_matrix").mat(), fs.getNode("distortion_coefficients").mat()
+    c = j["camera"]
+    assert k[0, 0] == c["fx_px"] and k[1, 2] == c["cy_px"] and d.size == 8 and d.ravel()[0] == c["k1"] and d.ravel()[4] == 0 and c["k3"] is None
+    pts = np.array([[x, y, 500.0] for x in (-200, 0, 150) for y in (-150, 0, 120)])
+    theirs, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+    if not os.environ.get("PORTHOLE_PY_DIR"):
+        pytest.skip("the Python module is not built")
+    import sys
+    sys.path.insert(0, os.environ["PORTHOLE_PY_DIR"])
+    import porthole
+    cam = dict(c, model="opencv")
+    ours = porthole.project(cam, pts, width_px=j["sensor"]["width_px"], height_px=j["sensor"]["height_px"])
+    assert np.max(np.abs(ours - theirs.reshape(-1, 2))) < 1e-6
+
+
+def test_unknown_model_is_one_line_exit_2(detections):
+    line = run_bad("calibrate", "--detections", detections, "--model", "pinhole-ish")
+    assert "--model" in line and "kannala-brandt" in line
+
+
+def test_calibration_out_is_read_by_simulate(detections, tmp_path):
+    """Every calibration porthole writes is read by every command: simulate --air-calibration
+    takes the file calibrate --out writes."""
+    out = tmp_path / "air.json"
+    run("calibrate", "--detections", detections, "--pixel-pitch-mm", "0.0055", "--out", out, "--quiet")
+    j = run("simulate", "--air-calibration", out, "--json").json()
+    assert j is not None

@@ -89,6 +89,25 @@ BrownEstimate LoadBrownJson(const std::string& text_or_path, const std::string& 
   } catch (const nlohmann::json::parse_error& err) {
     throw InvalidInput(field, std::string("not valid JSON: ") + err.what());
   }
+  // A calibration file as `porthole calibrate --out` writes it (calib/result_json.h): the Brown
+  // parameters under "camera" (null = not adjusted) and their σ under "sigma".
+  if (j.is_object() && j.contains("camera") && j["camera"].is_object()) {
+    if (j.contains("model") && !(j["model"].is_string() && j["model"].get<std::string>() == "brown")) {
+      throw InvalidInput(field, "needs a Brown calibration, got model " + j["model"].dump());
+    }
+    nlohmann::json brown = nlohmann::json::object();
+    for (const auto& [key, val] : j["camera"].items()) {
+      if (!val.is_null()) brown[key] = val;
+    }
+    if (j.contains("sigma") && j["sigma"].is_object()) {
+      nlohmann::json sigma = nlohmann::json::object();
+      for (const auto& [key, val] : j["sigma"].items()) {
+        if (!val.is_null()) sigma[key] = val;
+      }
+      brown["sigma"] = sigma;
+    }
+    return BrownFromJson(brown, field);
+  }
   return BrownFromJson(j, field);
 }
 

@@ -31,8 +31,10 @@ nlohmann::ordered_json BrownUnitsJson();
 // typo ("k1" for "K1") is never silently dropped. The values are validated (ValidateBrownParams).
 BrownEstimate BrownFromJson(const nlohmann::json& j, const std::string& where = "camera");
 
-// The same from a JSON text or a file path (anything not starting with '{' is a path);
-// `field` names the option in errors (e.g. "--air-calibration").
+// The same from a JSON text or a file path (anything not starting with '{' is a path), which may
+// also hold a whole calibration as `porthole calibrate --out` writes it (its "camera" and "sigma",
+// nulls = not adjusted; its model must be brown); `field` names the option in errors (e.g.
+// "--air-calibration").
 BrownEstimate LoadBrownJson(const std::string& text_or_path, const std::string& field);
 
 }  // namespace porthole::camera
