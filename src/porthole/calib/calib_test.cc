@@ -281,6 +281,22 @@ INSTANTIATE_TEST_SUITE_P(AllModels, CalibEveryModel,
                            return n;
                          });
 
+TEST(CalibModels, ReducedCameraCovarianceEqualsCeresForAutodiffModels) {
+  const auto opts = FisheyeSet();
+  const auto set = MakeSyntheticSet(opts);
+  auto c = FisheyeOptions();
+  const auto fast = Calibrate(set.detections, opts.target, c);
+  c.ceres_covariance = true;
+  const auto ref = Calibrate(set.detections, opts.target, c);
+  ASSERT_TRUE(fast.covariance_ok && ref.covariance_ok) << fast.message << ref.message;
+  for (int i = 0; i < camera::KannalaBrandtModel::kNumParams; ++i) {
+    EXPECT_NEAR(fast.sigma[i] / ref.sigma[i], 1, 1e-6) << camera::KannalaBrandtModel::kParams[i].name;
+    for (int j = 0; j < camera::KannalaBrandtModel::kNumParams; ++j) {
+      EXPECT_NEAR(fast.correlation(i, j), ref.correlation(i, j), 1e-6);
+    }
+  }
+}
+
 TEST(CalibModels, WrongModelNamesAndMismatchedStartAreRefused) {
   auto opts = PaperSet();
   const auto set = MakeSyntheticSet(opts);
