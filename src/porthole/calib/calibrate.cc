@@ -36,9 +36,14 @@ struct State {
   std::vector<Eigen::Vector3d> points;                       // target frame, mm
 };
 
-// Normalised DLT homography mapping target (X, Y) to image (x, −y) mm; unit Frobenius norm.
-Eigen::Matrix3d FitHomography(const std::vector<Eigen::Vector2d>& src,
-                              const std::vector<Eigen::Vector2d>& dst) {
+// Normalised DLT homography mapping src to dst points (Hartley's normalisation of both sets), unit
+// Frobenius norm. The right singular vector of the 2n×9 system is taken as the eigenvector of its
+// 9×9 normal matrix (the same solution at a fraction of the cost). nullopt when the points do not
+// determine a homography (4 of 5 on one line, say): the second-smallest singular value below 1e-3
+// of the largest.
+std::optional<Eigen::Matrix3d> FitHomography(const std::vector<Eigen::Vector2d>& src,
+                                             const std::vector<Eigen::Vector2d>& dst) {
+  if (src.size() < 4 || src.size() != dst.size()) return std::nullopt;
   auto normaliser = [](const std::vector<Eigen::Vector2d>& p) {
     Eigen::Vector2d mean = Eigen::Vector2d::Zero();
     for (const auto& q : p) mean += q;
@@ -59,12 +64,15 @@ Eigen::Matrix3d FitHomography(const std::vector<Eigen::Vector2d>& src,
     a.row(2 * i) << s.x(), s.y(), 1, 0, 0, 0, -d.x() * s.x(), -d.x() * s.y(), -d.x();
     a.row(2 * i + 1) << 0, 0, 0, s.x(), s.y(), 1, -d.y() * s.x(), -d.y() * s.y(), -d.y();
   }
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeFullV);
-  const Eigen::VectorXd h = svd.matrixV().col(8);
+  const Eigen::Matrix<double, 9, 9> ata = a.transpose() * a;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> es(ata);
+  const auto& ev = es.eigenvalues();  // σ², ascending
+  if (!(ev(1) > 1e-6 * ev(8))) return std::nullopt;
+  const Eigen::Matrix<double, 9, 1> h = es.eigenvectors().col(0);
   Eigen::Matrix3d hn;
   hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
-  Eigen::Matrix3d hm = td.inverse() * hn * ts;
-  return hm / hm.norm();
+  const Eigen::Matrix3d hm = td.inverse() * hn * ts;
+  return Eigen::Matrix3d(hm / hm.norm());
 }
 
 // Zhang's constraints with the principal point at the image-mm origin and one principal distance:
@@ -408,8 +416,7 @@ class Adjustment {
 // pixels of one image (H·X = λ·ray, λ > 0), by the normalised DLT in a frame turned so that the
 // rays' mean direction is its axis: a board seen by a fisheye 85° off axis is as well conditioned
 // as one seen straight on, and rays beyond 90° from the camera axis are no exception. nullopt with
-// fewer than 4 rays, or when the points do not determine a homography (4 of 5 on one line, say:
-// the second-smallest singular value of the DLT system below 1e-3 of the largest).
+// fewer than 4 rays, or when the points do not determine a homography (FitHomography).
 std::optional<Eigen::Matrix3d> RayHomography(const camera::Camera& cam, const ImageDetections& d,
                                              const std::vector<Eigen::Vector3d>& nominal) {
   std::vector<Eigen::Vector2d> src;
@@ -432,36 +439,9 @@ std::optional<Eigen::Matrix3d> RayHomography(const camera::Camera& cam, const Im
     if (!(q.z() > 0.05)) return std::nullopt;  // the board spans more than ~170° of view
     dst.emplace_back(q.x() / q.z(), q.y() / q.z());
   }
-  auto normaliser = [](const std::vector<Eigen::Vector2d>& p) {
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (const auto& q : p) mean += q;
-    mean /= static_cast<double>(p.size());
-    double spread = 0;
-    for (const auto& q : p) spread += (q - mean).norm();
-    spread /= static_cast<double>(p.size());
-    const double sc = spread > 0 ? std::sqrt(2.0) / spread : 1.0;
-    Eigen::Matrix3d t;
-    t << sc, 0, -sc * mean.x(), 0, sc, -sc * mean.y(), 0, 0, 1;
-    return t;
-  };
-  const Eigen::Matrix3d ts = normaliser(src), td = normaliser(dst);
-  Eigen::MatrixXd a(2 * src.size(), 9);
-  for (std::size_t i = 0; i < src.size(); ++i) {
-    const Eigen::Vector3d x = ts * src[i].homogeneous();
-    const Eigen::Vector3d y = td * dst[i].homogeneous();
-    a.row(2 * i) << x.transpose(), 0, 0, 0, -y.x() * x.transpose();
-    a.row(2 * i + 1) << 0, 0, 0, x.transpose(), -y.y() * x.transpose();
-  }
-  // The right singular vectors of A are the eigenvectors of AᵀA (9×9, ascending eigenvalues σ²):
-  // the same solution as an SVD of the 2n×9 matrix, at a fraction of the cost.
-  const Eigen::Matrix<double, 9, 9> ata = a.transpose() * a;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> es(ata);
-  const auto& ev = es.eigenvalues();
-  if (!(ev(1) > 1e-6 * ev(8))) return std::nullopt;  // σ(second smallest) ≤ 1e-3 σ(largest)
-  const Eigen::Matrix<double, 9, 1> h = es.eigenvectors().col(0);
-  Eigen::Matrix3d hn;
-  hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
-  Eigen::Matrix3d hm = turn.transpose() * td.inverse() * hn * ts;
+  const auto h = FitHomography(src, dst);
+  if (!h) return std::nullopt;
+  Eigen::Matrix3d hm = turn.transpose() * *h;
   // The sign that puts the observed points in front along their rays (H·X = +λ·ray).
   double along = 0;
   for (std::size_t i = 0; i < src.size(); ++i) along += (hm * src[i].homogeneous()).dot(rays[i]);
@@ -572,7 +552,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
           src.push_back(nominal[d->ids[k]].head<2>());
           dst.push_back(d->points_px[k] - mid);
         }
-        hs.push_back(FitHomography(src, dst));
+        if (const auto h = FitHomography(src, dst)) hs.push_back(*h);
       }
       const auto f = ZhangPrincipalDistance(hs);
       camera::SetFocalLengthPx(&start, f ? *f : std::max(sensor.width_px, sensor.height_px));
