@@ -115,7 +115,8 @@ void RegisterCalibrate(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Write the calibration JSON to this file");
   cmd->add_option("--opencv-yaml", o->yaml,
-                  "Write an OpenCV YAML (k1 k2 p1 p2 k3, refit; RMS reported)");
+                  "Write an OpenCV YAML: exact for --model opencv; a Brown calibration refit to k1 k2 p1 p2 k3 "
+                  "(RMS reported)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
   cmd->callback([o] {
