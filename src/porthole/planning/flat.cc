@@ -50,14 +50,13 @@ double TracedDistortionFactor(const ports::PortSystem& sys, double theta_air_rad
 }
 
 FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
-  lens::Validate(setup.lens, "--lens");
-  lens::Validate(setup.camera, "--camera");
-  if (setup.port.IsDome()) throw InvalidInput("--port", "'" + setup.port.name + "' is a dome; give a flat port");
-  if (std::isnan(o.wd_mm) || !(o.wd_mm > 0)) throw InvalidInput("--wd", "must be > 0 mm (or inf)");
-  RequirePositive("--step", o.step_deg);
-  RequirePositive("--lambda-blue", o.lambda_blue_nm);
-  RequirePositive("--lambda-red", o.lambda_red_nm);
-  const lens::Mount& mount = lens::MountByName(setup.lens.mount);
+  housing::Validate(setup);
+  if (setup.port.IsDome()) throw InvalidInput("port", "'" + setup.port.name + "' is a dome; give a flat port");
+  if (std::isnan(o.wd_mm) || !(o.wd_mm > 0)) throw InvalidInput("wd_mm", "must be > 0 mm (or inf)");
+  RequirePositive("step_deg", o.step_deg);
+  RequirePositive("lambda_blue_nm", o.lambda_blue_nm);
+  RequirePositive("lambda_red_nm", o.lambda_red_nm);
+  const lens::Mount& mount = housing::MountOf(setup);
   const double f = setup.lens.focal_length_mm, pitch = setup.camera.sensor.pixel_pitch_mm;
   const Solved sol = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) {
     return ports::ParaxialVirtualImage(sys, o.wd_mm).d_s2ep_mm;
@@ -67,12 +66,12 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   a.system = sys;
   a.n_water = sys.n_water;
   a.n_glass = sys.n_glass;
-  a.principal_distance_mm = PrincipalDistanceMm(sol.d_s2ep_mm, f);
+  a.principal_distance_mm = lens::PrincipalDistanceMm(f, sol.d_s2ep_mm);
   const double c = a.principal_distance_mm;
   a.apparent_focal_length_mm = a.n_water * c;
   a.focal_length_increase_pct = (a.n_water - 1) * 100;
 
-  const FovPair traced = FieldOfView(sys, setup.camera, c);
+  const FovPair traced = FieldOfView(sys, setup.camera, setup.lens, c);
   a.air = traced.air;
   a.water_traced = traced.water;
   auto thin = [&](double full_air_deg) {

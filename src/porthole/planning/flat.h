@@ -69,7 +69,8 @@ struct FlatAnalysis {
   std::vector<std::string> warnings;
 };
 
-// Throws InvalidInput("--port") for a dome, and whatever the lens, camera and water checks throw.
+// Throws InvalidInput("port") for a dome, "wd_mm", "step_deg", "lambda_blue_nm", "lambda_red_nm"
+// for bad options, and whatever the housed camera's checks throw.
 FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& options);
 
 }  // namespace porthole::planning

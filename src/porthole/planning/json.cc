@@ -1,5 +1,6 @@
 #include "porthole/planning/json.h"
 
+#include "porthole/camera/projection.h"
 #include "porthole/core/json_length.h"
 
 #include <cmath>
@@ -25,7 +26,9 @@ Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
                       {"height_px", cam.sensor.height_px}, {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
           {"lens", {{"name", ln.name}, {"focal_length_mm", ln.focal_length_mm}, {"f_number_min", ln.f_number_min},
                     {"f_number_max", ln.f_number_max}, {"min_focus_mm", ln.min_focus_mm},
-                    {"pupil_estimated", ln.pupil_estimated}}},
+                    {"pupil_estimated", ln.pupil_estimated},
+                    {"projection", camera::ProjectionName(ln.projection)},
+                    {"projection_estimated", ln.projection_estimated}}},
           {"port", {{"name", sys.spec.name}, {"type", sys.IsDome() ? "dome" : "flat"},
                     {"glass_index", sys.n_glass}, {"outer_vertex_z_mm", sys.OuterVertexZ()}}},
           {"water", {{"index", sys.n_water}, {"lambda_nm", s.env.conditions.lambda_nm}}},
@@ -69,6 +72,10 @@ Json PlanToJson(const Setup& s, const Plan& p) {
   } else {
     out["pupil_centring"] = nullptr;
   }
+  out["field_cut"] = {{"what", p.field_cut.what}, {"blocked_fraction", p.field_cut.blocked_fraction},
+                      {"clear_radius_mm", L(p.field_cut.clear_radius_mm)},
+                      {"clear_angle_deg", L(p.field_cut.clear_angle_deg)},
+                      {"clear_water_angle_deg", L(p.field_cut.clear_water_angle_deg)}};
   if (p.target) {
     const TargetPlan& t = *p.target;
     out["wd_mm"] = L(t.wd_mm);

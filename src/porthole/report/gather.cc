@@ -55,10 +55,8 @@ VirtualRow VirtualAt(const planning::Setup& s, const lens::Mount& mount, double 
 
 simulate::SystemSpec SimSpec(const ReportInputs& in, const ports::PortSpec& port) {
   simulate::SystemSpec spec;
+  static_cast<housing::HousedCamera&>(spec) = in.setup;
   spec.port = port;
-  spec.env = in.setup.env;
-  spec.body = in.setup.camera;
-  spec.lens = in.setup.lens;
   spec.object_distance_mm = in.subject_distance_mm;
   if (in.air_calibration) {
     spec.air_calibration = camera::ToBrown(in.air_calibration->camera, "--air-calibration");

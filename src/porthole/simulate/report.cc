@@ -65,10 +65,10 @@ std::vector<double> ProfileRadiiMm(const camera::Sensor& s) {
 
 Json PredictionJson(const Prediction& p) {
   Json j;
-  const FocusSetting& f = p.focus;
-  j["focus"] = {{"object_distance_mm", f.object_distance_mm}, {"wd_mm", f.wd_mm},
-                {"virtual_image_d_s2ep_mm", f.d_s2ep_mm}, {"focus_scale_fd_mm", f.fd_mm},
-                {"d_ep2f_mm", f.d_ep2f_mm}, {"ep_in_housing_mm", VecJson(f.ep_in_housing_mm)}};
+  const housing::FocusSetting& f = p.focus;
+  j["focus"] = {{"object_distance_mm", p.object_distance_mm}, {"wd_mm", p.wd_mm},
+                {"virtual_image_d_s2ep_mm", f.d_s2ep_mm}, {"focus_scale_fd_mm", f.focus_distance_mm.value_or(NAN)},
+                {"d_ep2f_mm", f.ep_to_flange_mm}, {"ep_in_housing_mm", VecJson(f.ep_in_housing_mm)}};
   j["camera"] = camera::BrownToJson(p.camera.lens);
   j["camera"]["width_px"] = p.camera.sensor.width_px;
   j["camera"]["height_px"] = p.camera.sensor.height_px;

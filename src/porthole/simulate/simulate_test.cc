@@ -21,7 +21,7 @@ namespace {
 SystemSpec PaperSystem(const std::string& port = "nimar-ni320") {
   SystemSpec s;
   s.port = io::LoadPort(port);
-  s.body = io::LoadCamera("nikon-d300");
+  s.camera = io::LoadCamera("nikon-d300");
   s.lens = io::LoadLens("nikkor-24mm-f2.8d");
   return s;
 }
@@ -164,16 +164,18 @@ TEST(Simulate, ThinFlatPortAtThePupilMultipliesCByTheWaterIndex) {
 
 TEST(Simulate, FocusIsTheFixedPointOfEq2AndTheVirtualImage) {
   const SystemSpec spec = PaperSystem();
-  const FocusSetting f = FocusUnderWater(spec);
+  const housing::FocusSetting f = FocusUnderWater(spec);
   const lens::Mount& mount = lens::MountByName(spec.lens.mount);
-  EXPECT_NEAR(lens::SubjectToPupilMm(spec.lens, mount, f.fd_mm), f.d_s2ep_mm, 1e-6);
-  EXPECT_NEAR(spec.lens.PupilToFlangeMm(f.fd_mm), f.ep_in_housing_mm.z(), 1e-9);
+  ASSERT_TRUE(f.focus_distance_mm);
+  const double fd_mm = *f.focus_distance_mm;
+  EXPECT_NEAR(lens::SubjectToPupilMm(spec.lens, mount, fd_mm), f.d_s2ep_mm, 1e-6);
+  EXPECT_NEAR(spec.lens.PupilToFlangeMm(fd_mm), f.ep_in_housing_mm.z(), 1e-9);
   // Paper Section 4: an object 1 m from a pupil concentric with the dome is imaged 238 mm from
   // the pupil; this pupil is ~5 mm ahead of the centre, so the image comes a little closer.
   EXPECT_GT(f.d_s2ep_mm, 220);
   EXPECT_LT(f.d_s2ep_mm, 238);
   // The lens must focus closer than its 300 mm minimum scale would allow on the real object.
-  EXPECT_GT(f.fd_mm, spec.lens.min_focus_mm);
+  EXPECT_GT(fd_mm, spec.lens.min_focus_mm);
 }
 
 // A flat port 20 mm ahead of the pupil makes a strongly non-central bundle: the Brown model that
