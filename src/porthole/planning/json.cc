@@ -17,6 +17,11 @@ Json FovJson(const Fov& f) {
           {"diagonal_deg", L(f.diagonal_deg)}};
 }
 
+Json FieldCutJson(const FieldCut& c) {
+  return {{"what", c.what}, {"blocked_fraction", c.blocked_fraction}, {"clear_radius_mm", L(c.clear_radius_mm)},
+          {"clear_angle_deg", L(c.clear_angle_deg)}, {"clear_water_angle_deg", L(c.clear_water_angle_deg)}};
+}
+
 }  // namespace
 
 Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
@@ -72,10 +77,7 @@ Json PlanToJson(const Setup& s, const Plan& p) {
   } else {
     out["pupil_centring"] = nullptr;
   }
-  out["field_cut"] = {{"what", p.field_cut.what}, {"blocked_fraction", p.field_cut.blocked_fraction},
-                      {"clear_radius_mm", L(p.field_cut.clear_radius_mm)},
-                      {"clear_angle_deg", L(p.field_cut.clear_angle_deg)},
-                      {"clear_water_angle_deg", L(p.field_cut.clear_water_angle_deg)}};
+  out["field_cut"] = FieldCutJson(p.field_cut);
   if (p.target) {
     const TargetPlan& t = *p.target;
     out["wd_mm"] = L(t.wd_mm);
@@ -122,6 +124,7 @@ Json FlatToJson(const Setup& s, const FlatAnalysis& a) {
   out["focal_length_increase_pct"] = a.focal_length_increase_pct;
   out["fov"] = {{"air", FovJson(a.air)}, {"water_thin", FovJson(a.water_thin)},
                 {"water_traced", FovJson(a.water_traced)}};
+  out["field_cut"] = FieldCutJson(a.field_cut);
   out["critical_angle_deg"] = a.critical_angle_deg;
   out["max_fov_deg"] = a.max_fov_deg;
   out["corner_outer_radius_mm"] = L(a.corner_outer_radius_mm);
