@@ -10,6 +10,7 @@
 #include "common.h"
 #include "camera_options.h"
 #include "porthole/camera/json.h"
+#include "porthole/camera/projection.h"
 #include "porthole/camera/profile.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/io/presets.h"
@@ -49,6 +50,39 @@ struct SimulateCliOptions {
   std::vector<std::string> check = {"300", "500", "800", "1300", "2000", "5000", "100000"};
   bool json = false;
 };
+
+// A fisheye lens: the Kannala–Brandt fits in water and in air (pixels).
+void PrintFisheye(const simulate::SystemSpec& spec, const simulate::Prediction& p, bool json) {
+  if (json) {
+    Json out = DescribeSystem(p.water_system, spec.env);
+    out["medium"] = out["water"];
+    out.erase("water");
+    out["camera_body"] = spec.camera.name;
+    out["lens"] = spec.lens.name;
+    const Json prediction = simulate::PredictionJson(p);
+    for (const auto& [k, v] : prediction.items()) out[k] = v;
+    fmt::print("{}\n", out.dump(2));
+    return;
+  }
+  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
+  t += fmt::format("{} + {} ({} fisheye) focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
+                   "focus scale {:.1f} mm; c = {:.3f} mm\n\nKannala-Brandt (OpenCV fisheye) fitted, pixels:\n",
+                   spec.camera.name, spec.lens.name, camera::ProjectionName(spec.lens.projection),
+                   p.object_distance_mm, p.focus.d_s2ep_mm, p.focus.focus_distance_mm.value_or(NAN),
+                   p.camera.lens.c_mm);
+  const camera::ModelInfo& info = p.water_fisheye->camera.info();
+  t += fmt::format("{:<16}", "");
+  for (int i = 0; i < info.num_params; ++i) t += fmt::format(" {:>11}", info.params[i].name);
+  t += fmt::format(" {:>9}\n", "rms px");
+  for (const auto& [label, fit] : {std::pair{"air (fitted)", &*p.air_fisheye}, {"water (fitted)", &*p.water_fisheye}}) {
+    t += fmt::format("{:<16}", label);
+    for (double v : fit->camera.params) t += fmt::format(" {:>11.5g}", v);
+    t += fmt::format(" {:>9.4f}\n", fit->rms_px);
+  }
+  t += fmt::format("\nfocal length water/air = {:.5f}\n",
+                   p.water_fisheye->camera.FocalLengthPx() / p.air_fisheye->camera.FocalLengthPx());
+  fmt::print("{}", t);
+}
 
 }  // namespace
 
@@ -145,7 +179,15 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
       throw InvalidInput("--offsets", "--offsets and --sweep-out need --sweep x|y|z");
     }
 
+    if (camera::IsFisheye(spec.lens.projection) && (axis >= 0 || !o->map_out.empty())) {
+      throw InvalidInput(axis >= 0 ? "--sweep" : "--map",
+                         "sweeps and maps are for the Brown fit; the " + spec.lens.name + " is a fisheye");
+    }
     const simulate::Prediction p = simulate::Predict(spec, fo);
+    if (p.water_fisheye) {
+      PrintFisheye(spec, p, o->json);
+      return;
+    }
     const auto errors = simulate::DistanceErrors(p.water_system, p.camera, p.water, check, p.options);
     std::vector<simulate::SweepRow> sweep;
     if (axis >= 0) sweep = simulate::SweepPupilOffset(p, axis, offsets);

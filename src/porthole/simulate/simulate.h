@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "porthole/camera/brown.h"
+#include "porthole/camera/camera.h"
 #include "porthole/camera/sensor.h"
 #include "porthole/housing/housed.h"
 #include "porthole/lens/lens.h"
@@ -88,6 +89,26 @@ std::vector<Eigen::Vector2d> ImageGrid(const camera::Sensor& s, int cols, int ro
 BrownFit SimulateFit(const ports::PortSystem& sys, const CameraSetup& camera,
                      const FitOptions& options = {});
 
+// One model of the camera list (camera/camera.h) fitted to rays traced through a port: the
+// fisheye path (a Kannala–Brandt fit for a fisheye lens), in pixels.
+struct CameraFit {
+  camera::Camera camera;  // the fitted model and its parameters (units in camera::Info(model))
+  Vec3 center_in_housing_mm = Vec3::Zero();
+  Vec3 rotation_deg = Vec3::Zero();  // cam_from_housing, angle-axis in degrees
+  double rms_px = 0, max_px = 0;     // image residual: what the central model cannot absorb
+  int num_points = 0, num_failed = 0;
+  bool converged = false;
+  std::vector<double> residual_px;   // per grid point (row-major), RMS over the distances; NaN: failed
+};
+
+// The grid's chief rays (the lens's projection at principal distance c_mm, leaving the pupil of
+// `sys`) traced out through the port; object points on spheres about the pupil at
+// Distances(options) (a fisheye sees beyond 90°); `model` fitted with its pose by Ceres automatic
+// differentiation through the model's Project<T> (camera pose free as FitOptions says; the
+// model's parameters all free). Throws InvalidInput as SimulateFit.
+CameraFit SimulateCameraFit(const ports::PortSystem& sys, const lens::LensSpec& lens, const camera::Sensor& sensor,
+                            double c_mm, camera::CameraModelId model, const FitOptions& options = {});
+
 // The port with air (n = 1) outside instead of water: the in-air calibration of the camera in its
 // housing.
 ports::PortSystem WithAirOutside(const ports::PortSystem& sys);
@@ -132,7 +153,11 @@ struct Prediction {
   FitOptions options;  // as used: reference_distance_mm = the spec's object distance
   CameraSetup camera;  // the camera the simulation used (c, lens model, pupil)
   ports::PortSystem water_system, air_system;
-  BrownFit water, air;  // the fits with water and with air outside the port
+  BrownFit water, air;  // the fits with water and with air outside the port (rectilinear lenses)
+  // A fisheye lens (its projection is not rectilinear): the Kannala–Brandt model fitted in water
+  // and in air instead of Brown (water and air above are then left empty).
+  std::optional<CameraFit> water_fisheye, air_fisheye;
+  camera::Projection lens_projection = camera::Projection::kRectilinear;
   camera::BrownParams change;  // water − air, parameter by parameter
   // The in-air calibration + change: the underwater calibration to expect (only with
   // air_calibration).

@@ -258,6 +258,28 @@ TEST(Simulate, InvalidOptionsNameTheField) {
   EXPECT_THROW(FocusUnderWater(spec), InvalidInput);
 }
 
+// A fisheye lens is fitted with the list's fisheye model (Kannala–Brandt). Behind a dome
+// concentric with the pupil every chief ray passes undeviated, so water and air give the lens's
+// own projection: for equisolid 2 sin(θ/2) = θ − θ³/24 + θ⁵/1920 − θ⁷/322560 + …, KB's k1..k4
+// are its Taylor coefficients (to the truncation the fit spreads over k3, k4), fx = c / pitch.
+TEST(Simulate, FisheyeBehindAConcentricDomeFitsTheProjectionsSeries) {
+  SystemSpec spec = PaperSystem("nimar-ni320-nominal");
+  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  const Prediction p = Predict(spec);
+  ASSERT_TRUE(p.water_fisheye && p.air_fisheye);
+  for (const CameraFit* f : {&*p.water_fisheye, &*p.air_fisheye}) {
+    EXPECT_EQ(f->camera.model, camera::CameraModelId::kKannalaBrandt);
+    EXPECT_TRUE(f->converged);
+    EXPECT_LT(f->rms_px, 1e-3);
+    const auto& k = f->camera.params;
+    EXPECT_NEAR(k[0] * spec.camera.sensor.pixel_pitch_mm, p.camera.lens.c_mm, 1e-6);
+    EXPECT_NEAR(k[4], -1.0 / 24, 1e-5);
+    EXPECT_NEAR(k[5], 1.0 / 1920, 2e-5);
+  }
+  spec.air_calibration = PaperAirLens();
+  EXPECT_THROW(Predict(spec), InvalidInput);  // a Brown calibration cannot describe a fisheye
+}
+
 TEST(CameraJson, RoundTripAndTyposAreRejected) {
   camera::BrownEstimate e;
   e.value = PaperAirLens();

@@ -42,16 +42,31 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
   Validate(p.options);
   p.camera.sensor = spec.camera.sensor;
   p.camera.ep_in_housing_mm = p.focus.ep_in_housing_mm;
+  const bool fisheye = camera::IsFisheye(spec.lens.projection);
+  p.lens_projection = spec.lens.projection;
+  if (spec.air_calibration && fisheye) {
+    throw InvalidInput("air_calibration", "is a Brown calibration; the " + spec.lens.name + " is a " +
+                                              std::string(camera::ProjectionName(spec.lens.projection)) +
+                                              " fisheye, which Brown cannot describe");
+  }
   if (spec.air_calibration) {
     p.camera.lens = *spec.air_calibration;
   } else {
     p.camera.lens.c_mm =
-        spec.c_mm ? RequirePositive("--c", *spec.c_mm)
+        spec.c_mm ? RequirePositive("c_mm", *spec.c_mm)
                   : lens::PrincipalDistanceMm(spec.lens.focal_length_mm, p.focus.d_s2ep_mm);
   }
   camera::ValidateBrownParams(p.camera.lens);
   p.water_system = focused.sys;
   p.air_system = WithAirOutside(p.water_system);
+  if (fisheye) {
+    // The lens's own projection in air; the fisheye model of the list fitted in water and in air.
+    p.water_fisheye = SimulateCameraFit(p.water_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm,
+                                        camera::CameraModelId::kKannalaBrandt, p.options);
+    p.air_fisheye = SimulateCameraFit(p.air_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm,
+                                      camera::CameraModelId::kKannalaBrandt, p.options);
+    return p;
+  }
   p.water = SimulateFit(p.water_system, p.camera, p.options);
   p.air = SimulateFit(p.air_system, p.camera, p.options);
   p.change = Subtract(p.water.params, p.air.params);
