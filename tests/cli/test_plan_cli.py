@@ -106,8 +106,18 @@ def test_fisheye_behind_dome_field_of_view_and_rim():
     # centre's plane, 23 mm ahead of the estimated pupil).
     assert out["fov"]["water"]["horizontal_deg"] > 100
     cut = out["field_cut"]
-    assert cut["what"] == "the corners" and 0 < cut["blocked_fraction"] < 0.1
-    assert cut["clear_angle_deg"] < 0.5 * out["fov"]["air"]["diagonal_deg"]
+    assert cut["what"] == "the corners"
+    # Closed form, ignoring the dome's 1.5 mm decentring: the inner sphere (R 75.7 mm, centre 1.2 mm
+    # behind the rim plane z = 21.5 mm) ends at a circle of radius sqrt(75.7^2 - 1.2^2) on the rim plane.
+    z_ep = out["ep_in_housing_mm"][2]
+    rim_deg = math.degrees(math.atan2(math.sqrt(75.7**2 - 1.2**2), 21.5 - z_ep))
+    assert abs(cut["clear_angle_deg"] - rim_deg) < 0.5
+    assert cut["clear_radius_mm"] == pytest.approx(2 * 10.5 * math.sin(math.radians(cut["clear_angle_deg"]) / 2))
+    # The frame's area outside the image circle of that radius (numerical integration over x).
+    w, h, rc, n = 4288 * 0.0055, 2848 * 0.0055, cut["clear_radius_mm"], 4000
+    outside = sum(max(0.0, h - 2 * min(math.sqrt(max(rc**2 - x**2, 0)), h / 2)) * w / n
+                  for x in (-w / 2 + (i + 0.5) * w / n for i in range(n)))
+    assert cut["blocked_fraction"] == pytest.approx(outside / (w * h), abs=0.005)
     text = run("plan", *FISHEYE).out
     assert "equisolid fisheye" in text and "cut off by the dome's rim" in text and "the corners" in text
 
@@ -115,6 +125,10 @@ def test_fisheye_behind_dome_field_of_view_and_rim():
 def test_fisheye_flat_port_is_cut_at_the_critical_angle():
     out = run("flat", "--lens", "nikkor-10.5mm-f2.8g-fisheye", "--json").json()
     assert out["fov"]["water_traced"]["diagonal_deg"] < out["max_fov_deg"]
+    # Parallel faces: n_w sin(theta_w) = sin(theta_a) for the corner's equisolid angle in air.
+    ta = 2 * math.asin(0.5 * math.hypot(4288 * 0.0055, 2848 * 0.0055) / 21)
+    tw = math.degrees(2 * math.asin(math.sin(ta) / out["water"]["index"]))
+    assert out["fov"]["water_traced"]["diagonal_deg"] == pytest.approx(tw, abs=1e-6)
     assert any("critical angle" in w for w in out["warnings"])
 
 
