@@ -93,7 +93,8 @@ void RegisterSimulate(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "simulate",
       "Predict the underwater calibration: fit the central Brown model (c, x0, y0, K1-K3, P1, P2, "
-      "free pose) to rays traced through the port in water and in air; sweeps and maps");
+      "free pose; Kannala-Brandt for a fisheye lens) to rays traced through the port in water and in air; sweeps "
+      "and maps");
   cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
       ->capture_default_str();
   o->camera.Add(cmd);
