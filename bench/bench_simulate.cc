@@ -13,11 +13,11 @@ using namespace porthole;
 void BM_SimulateFit50x50x3(benchmark::State& state) {
   simulate::SystemSpec spec;
   spec.port = io::LoadPort("nimar-ni320");
-  spec.body = io::LoadCamera("nikon-d300");
+  spec.camera = io::LoadCamera("nikon-d300");
   spec.lens = io::LoadLens("nikkor-24mm-f2.8d");
-  const simulate::FocusSetting focus = simulate::FocusUnderWater(spec);
+  const housing::FocusSetting focus = simulate::FocusUnderWater(spec);
   simulate::CameraSetup cam;
-  cam.sensor = spec.body.sensor;
+  cam.sensor = spec.camera.sensor;
   cam.lens.c_mm = 25.801;
   cam.ep_in_housing_mm = focus.ep_in_housing_mm;
   const ports::PortSystem water = ports::MakeSystem(spec.port, spec.env, cam.ep_in_housing_mm);

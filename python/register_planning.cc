@@ -7,7 +7,8 @@
 
 #include "porthole/io/presets.h"
 #include "porthole/planning/json.h"
-#include "porthole/planning/lensfun.h"
+#include "porthole/core/field_names.h"
+#include "porthole/io/lookup.h"
 #include "register.h"
 
 namespace py = pybind11;
@@ -19,9 +20,15 @@ planning::Setup MakeSetup(const std::string& camera, const std::string& lens, co
                           const std::string& water, std::optional<double> water_index, double lambda_nm,
                           double temperature_c, double salinity_psu, double pressure_dbar,
                           std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm) {
+  io::CameraLensQuery q;
+  q.camera = camera;
+  q.lens = lens;
+  q.pixel_pitch_mm = pixel_pitch_mm;
+  q.focal_length_mm = focal_mm;
+  const io::CameraAndLens cl = io::FindCameraAndLens(q);
   planning::Setup s;
-  s.camera = planning::FindCamera(camera, pixel_pitch_mm);
-  s.lens = planning::FindLens(lens, focal_mm);
+  s.camera = cl.camera;
+  s.lens = cl.lens;
   s.port = io::LoadPort(port);
   s.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
                           pressure_dbar);
@@ -40,17 +47,19 @@ void RegisterPlanning(py::module_& m) {
          const std::string& water, std::optional<double> water_index, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm) {
-        const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
-                                            salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
-        planning::PlanOptions o;
-        o.wd_mm = wd_mm;
-        o.subject_distance_mm = subject_distance_mm;
-        o.f_number = f_number;
-        o.coc_mm = coc_mm;
-        o.lambda_nm = lambda_nm;
-        return ToPython(planning::PlanToJson(s, planning::MakePlan(s, o)));
+        return WithFieldNames({{"focal_length_mm", "focal_mm"}}, [&] {
+          const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
+                                              salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
+          planning::PlanOptions o;
+          o.wd_mm = wd_mm;
+          o.subject_distance_mm = subject_distance_mm;
+          o.f_number = f_number;
+          o.coc_mm = coc_mm;
+          o.lambda_nm = lambda_nm;
+          return ToPython(planning::PlanToJson(s, planning::MakePlan(s, o)));
+        });
       },
-      py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "nikkor-24mm-f2.8d",
+      py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "",
       py::arg("port") = "nimar-ni320", py::arg("wd_mm") = py::none(), py::arg("subject_distance_mm") = py::none(),
       py::arg("f_number") = 8.0, py::arg("coc_mm") = py::none(), py::arg("water") = "seawater",
       py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07, py::arg("temperature_c") = 20.0,
@@ -63,13 +72,15 @@ void RegisterPlanning(py::module_& m) {
          const std::string& water, std::optional<double> water_index, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm) {
-        const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
-                                            salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
-        planning::FlatOptions o;
-        o.wd_mm = wd_mm;
-        return ToPython(planning::FlatToJson(s, planning::AnalyseFlat(s, o)));
+        return WithFieldNames({{"focal_length_mm", "focal_mm"}}, [&] {
+          const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
+                                              salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
+          planning::FlatOptions o;
+          o.wd_mm = wd_mm;
+          return ToPython(planning::FlatToJson(s, planning::AnalyseFlat(s, o)));
+        });
       },
-      py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "nikkor-24mm-f2.8d",
+      py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "",
       py::arg("port") = "flat-acrylic-10mm", py::arg("wd_mm") = std::numeric_limits<double>::infinity(),
       py::arg("water") = "seawater", py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07,
       py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,

@@ -4,6 +4,8 @@
 #include <pybind11/stl.h>
 
 #include "porthole/camera/json.h"
+#include "porthole/core/field_names.h"
+#include "porthole/io/lookup.h"
 #include "porthole/io/presets.h"
 #include "porthole/simulate/report.h"
 #include "register.h"
@@ -28,11 +30,19 @@ void RegisterSimulate(py::module_& m) {
          const std::string& water, std::optional<double> water_index, double lambda_nm,
          double temperature_c, double salinity_psu, int grid_cols, int grid_rows, bool fit_k3,
          bool free_rotation, const std::optional<std::string>& sweep_axis,
-         const std::vector<double>& offsets_mm, bool with_map) {
+         const std::vector<double>& offsets_mm, bool with_map, std::optional<double> pixel_pitch_mm,
+         std::optional<double> focal_mm) {
+        return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}}, [&] {
+        io::CameraLensQuery q;
+        q.camera = camera;
+        q.lens = lens;
+        q.pixel_pitch_mm = pixel_pitch_mm;
+        q.focal_length_mm = focal_mm;
+        const io::CameraAndLens cl = io::FindCameraAndLens(q);
         simulate::SystemSpec spec;
         spec.port = io::LoadPort(port);
-        spec.body = io::LoadCamera(camera);
-        spec.lens = io::LoadLens(lens);
+        spec.camera = cl.camera;
+        spec.lens = cl.lens;
         spec.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c,
                                    salinity_psu, /*pressure_dbar=*/0.0);
         spec.object_distance_mm = focus_distance_mm;
@@ -70,16 +80,17 @@ void RegisterSimulate(py::module_& m) {
           if (with_map) out["map"] = simulate::MapJson(simulate::DistortionMap(p));
         }
         return ToPython(out);
+        });
       },
       py::kw_only(), py::arg("port") = "nimar-ni320", py::arg("camera") = "nikon-d300",
-      py::arg("lens") = "nikkor-24mm-f2.8d", py::arg("focus_distance_mm") = 1000.0,
+      py::arg("lens") = "", py::arg("focus_distance_mm") = 1000.0,
       py::arg("ep_offset_mm") = std::array<double, 3>{0, 0, 0}, py::arg("c_mm") = py::none(),
       py::arg("air_calibration") = py::none(), py::arg("water") = "seawater",
       py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07,
       py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("grid_cols") = 25,
       py::arg("grid_rows") = 17, py::arg("fit_k3") = true, py::arg("free_rotation") = true,
       py::arg("sweep_axis") = py::none(), py::arg("offsets_mm") = std::vector<double>{},
-      py::arg("with_map") = false,
+      py::arg("with_map") = false, py::arg("pixel_pitch_mm") = py::none(), py::arg("focal_mm") = py::none(),
       "The central Brown model fitted in water and in air behind a port (dict, units in the keys;\n"
       "Brown coefficients K1..P2 in mm^-n as in 'units'). air_calibration: a dict {c_mm, x0_mm,\n"
       "y0_mm, K1, K2, P1, P2} gives 'predicted_water'. sweep_axis 'x'|'y'|'z' with offsets_mm adds\n"

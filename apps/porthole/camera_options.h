@@ -1,42 +1,57 @@
-// --camera, --lens, --pixel-pitch-mm (alias --pixel-pitch), --focal: the camera and lens options of `plan` and `flat`
-// (presets, TOML files, or names in Debian's lensfun database).
+// --camera, --lens, --pixel-pitch-mm (alias --pixel-pitch), --focal, --allow-adapter: the camera
+// and lens options of every command that takes a housed camera (plan, flat, simulate, report):
+// presets, TOML files, or names in Debian's lensfun database (io/lookup.h), and the library fields
+// they stand for.
 #pragma once
 
 #include <optional>
 #include <string>
 
 #include "common.h"
-#include "porthole/planning/focus.h"
-#include "porthole/planning/lensfun.h"
+#include "porthole/core/field_names.h"
+#include "porthole/housing/housed.h"
+#include "porthole/io/lookup.h"
 
 namespace porthole::cli {
 
-// The camera and lens options shared by `plan` and `flat`.
+// The library's field names for the camera, lens and port options, as this CLI's flags.
+#define PORTHOLE_CAMERA_FLAGS                                                                       \
+  {"camera", "--camera"}, {"lens", "--lens"}, {"pixel_pitch_mm", "--pixel-pitch-mm"},                \
+      {"focal_length_mm", "--focal"}, {"ep_offset_mm", "--ep-offset"}, {"ep_in_housing_mm", "--ep"}, \
+      {"port", "--port"}
+
 struct CameraLensOptions {
-  std::string camera = "nikon-d300";
-  std::string lens = "nikkor-24mm-f2.8d";
-  std::optional<double> pixel_pitch_mm, focal_mm;
+  io::CameraLensQuery query;
 
   void Add(CLI::App* cmd) {
-    cmd->add_option("--camera", camera, "Camera: a preset, a TOML file, or a name in Debian's lensfun database")
+    cmd->add_option("--camera", query.camera,
+                    "Camera: a preset, a TOML file, or a name in Debian's lensfun database (a fixed-lens "
+                    "camera brings its own lens)")
         ->capture_default_str()->group("Camera");
-    cmd->add_option("--lens", lens, "Lens: a preset, a TOML file, or a name in Debian's lensfun database")
-        ->capture_default_str()->group("Camera");
-    cmd->add_option("--pixel-pitch-mm,--pixel-pitch", pixel_pitch_mm, "Pixel pitch, mm (needed for a lensfun camera)")
+    cmd->add_option("--lens", query.lens,
+                    "Lens: a preset, a TOML file, or a name in Debian's lensfun database (default: " +
+                        query.default_lens + ", or the camera's own fixed lens)")
         ->group("Camera");
-    cmd->add_option("--focal", focal_mm, "Focal length, mm (needed for a lensfun zoom)")->group("Camera");
+    cmd->add_option("--pixel-pitch-mm,--pixel-pitch", query.pixel_pitch_mm,
+                    "Pixel pitch, mm (needed for a lensfun camera)")
+        ->group("Camera");
+    cmd->add_option("--focal", query.focal_length_mm, "Focal length, mm (needed for a lensfun zoom)")->group("Camera");
+    cmd->add_flag("--allow-adapter", query.allow_adapter,
+                  "Let a lens for a longer flange sit on an adapter (its pupil moves forward by the adapter)")
+        ->group("Camera");
   }
-  planning::Setup ToSetup(const PortOptions& port, const WaterOptions& water) const {
-    planning::Setup s;
-    s.camera = planning::FindCamera(camera, pixel_pitch_mm);
+  housing::HousedCamera ToHoused(const PortOptions& port, const WaterOptions& water) const {
+    const io::CameraAndLens cl = io::FindCameraAndLens(query);
+    housing::HousedCamera s;
+    s.camera = cl.camera;
     // A preset or file body with another pitch: the same sensor (its size in mm), other pixels.
-    if (pixel_pitch_mm && *pixel_pitch_mm != s.camera.sensor.pixel_pitch_mm) {
-      s.camera = WithPixelPitch(s.camera, *pixel_pitch_mm);
-    }
-    s.lens = planning::FindLens(lens, focal_mm);
-    WarnIfImplausible(pixel_pitch_mm ? "--pixel-pitch-mm" : camera + ": pixel_pitch_mm", s.camera.sensor.pixel_pitch_mm,
+    const auto& pitch = query.pixel_pitch_mm;
+    if (pitch && *pitch != s.camera.sensor.pixel_pitch_mm) s.camera = WithPixelPitch(s.camera, *pitch);
+    s.lens = cl.lens;
+    WarnIfImplausible(pitch ? "--pixel-pitch-mm" : query.camera + ": pixel_pitch_mm", s.camera.sensor.pixel_pitch_mm,
                       kPixelPitchRange);
-    WarnIfImplausible(focal_mm ? "--focal" : lens + ": focal_length_mm", s.lens.focal_length_mm, kFocalLengthRange);
+    WarnIfImplausible(query.focal_length_mm ? "--focal" : s.lens.name + ": focal_length_mm", s.lens.focal_length_mm,
+                      kFocalLengthRange);
     s.port = port.Spec();
     s.env = water.ToEnvironment();
     s.ep_in_housing_mm = port.Ep();

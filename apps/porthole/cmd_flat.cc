@@ -10,16 +10,63 @@
 
 namespace porthole::cli {
 
-void RegisterFlat(CLI::App& app) {
-  struct Options {
-    PortOptions port;
-    WaterOptions water;
-    CameraLensOptions camera;
-    std::string wd = "inf";
-    planning::FlatOptions flat;
-    bool json = false;
+namespace {
+
+struct FlatCliOptions {
+  PortOptions port;
+  WaterOptions water;
+  CameraLensOptions camera;
+  std::string wd = "inf";
+  planning::FlatOptions flat;
+  bool json = false;
+};
+
+void RunFlat(const FlatCliOptions* o) {
+  const planning::Setup setup = o->camera.ToHoused(o->port, o->water);
+  planning::FlatOptions fo = o->flat;
+  fo.wd_mm = ParseLengthList({o->wd}, "--wd").front();
+  const planning::FlatAnalysis a = planning::AnalyseFlat(setup, fo);
+
+  if (o->json) {
+    fmt::print("{}\n", planning::FlatToJson(setup, a).dump(2));
+    return;
+  }
+  auto fov = [](const planning::Fov& f) {
+    return fmt::format("{:>7} {:>7} {:>7}", Fixed(f.horizontal_deg, 1), Fixed(f.vertical_deg, 1),
+                       Fixed(f.diagonal_deg, 1));
   };
-  auto o = std::make_shared<Options>();
+  std::string t = fmt::format("{} + {} behind {} (water n = {:.4f}, glass n = {:.4f}), c = {:.2f} mm\n\n",
+                              setup.camera.name, setup.lens.name, a.system.spec.name, a.n_water, a.n_glass,
+                              a.principal_distance_mm);
+  t += fmt::format("{:<34} {:>7} {:>7} {:>7}\n", "field of view, deg", "horiz.", "vert.", "diag.");
+  t += fmt::format("{:<34} {}\n", "in air", fov(a.air));
+  t += fmt::format("{:<34} {}\n", "in water, thin port at the pupil", fov(a.water_thin));
+  t += fmt::format("{:<34} {}\n", "in water, traced real port", fov(a.water_traced));
+  t += fmt::format("\nmaximum field of view            {:.2f} deg (critical angle {:.2f} deg)\n", a.max_fov_deg,
+                   a.critical_angle_deg);
+  t += fmt::format("apparent focal length            {:.2f} mm (+{:.1f} %)\n", a.apparent_focal_length_mm,
+                   a.focal_length_increase_pct);
+  t += fmt::format("scene width at WD {} mm          thin {} mm, traced {} mm\n", Fixed(a.wd_mm, 0),
+                   Fixed(a.coverage_thin_mm, 0), Fixed(a.coverage_traced_mm, 0));
+  t += fmt::format("lateral colour {:g}-{:g} nm     n_w {:.5f} / {:.5f}; {} px at the corner\n\n",
+                   fo.lambda_blue_nm, fo.lambda_red_nm, a.n_water_blue, a.n_water_red,
+                   Fixed(a.lateral_colour_corner_px, 2));
+  t += fmt::format("{:>8} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}\n", "air deg", "water", "D (Eq. 1)", "D traced",
+                   "radius mm", "distort. px", "colour px");
+  for (const auto& r : a.rows) {
+    t += fmt::format("{:>8} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}\n", Fixed(r.theta_air_deg, 1),
+                     Fixed(r.theta_water_deg, 2), Fixed(r.distortion_factor, 5), Fixed(r.distortion_factor_traced, 5),
+                     Fixed(r.image_radius_mm, 3), Fixed(r.distortion_px, 1), Fixed(r.lateral_colour_px, 2));
+  }
+  t += "\n";
+  for (const auto& w : a.warnings) t += "! " + w + "\n";
+  fmt::print("{}", t);
+}
+
+}  // namespace
+
+void RegisterFlat(CLI::App& app) {
+  auto o = std::make_shared<FlatCliOptions>();
   o->port.port = "flat-acrylic-10mm";
   CLI::App* cmd = app.add_subcommand(
       "flat", "Flat port: field of view in water vs air (thin and traced), maximum field of view, Eq. 1 "
@@ -36,45 +83,11 @@ void RegisterFlat(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->callback([o] {
-    const planning::Setup setup = o->camera.ToSetup(o->port, o->water);
-    planning::FlatOptions fo = o->flat;
-    fo.wd_mm = ParseLengthList({o->wd}, "--wd").front();
-    const planning::FlatAnalysis a = planning::AnalyseFlat(setup, fo);
-    if (o->json) {
-      fmt::print("{}\n", planning::FlatToJson(setup, a).dump(2));
-      return;
-    }
-    auto fov = [](const planning::Fov& f) {
-      return fmt::format("{:>7} {:>7} {:>7}", Fixed(f.horizontal_deg, 1), Fixed(f.vertical_deg, 1),
-                         Fixed(f.diagonal_deg, 1));
-    };
-    std::string t = fmt::format("{} + {} behind {} (water n = {:.4f}, glass n = {:.4f}), c = {:.2f} mm\n\n",
-                                setup.camera.name, setup.lens.name, a.system.spec.name, a.n_water, a.n_glass,
-                                a.principal_distance_mm);
-    t += fmt::format("{:<34} {:>7} {:>7} {:>7}\n", "field of view, deg", "horiz.", "vert.", "diag.");
-    t += fmt::format("{:<34} {}\n", "in air", fov(a.air));
-    t += fmt::format("{:<34} {}\n", "in water, thin port at the pupil", fov(a.water_thin));
-    t += fmt::format("{:<34} {}\n", "in water, traced real port", fov(a.water_traced));
-    t += fmt::format("\nmaximum field of view            {:.2f} deg (critical angle {:.2f} deg)\n", a.max_fov_deg,
-                     a.critical_angle_deg);
-    t += fmt::format("apparent focal length            {:.2f} mm (+{:.1f} %)\n", a.apparent_focal_length_mm,
-                     a.focal_length_increase_pct);
-    t += fmt::format("scene width at WD {} mm          thin {} mm, traced {} mm\n", Fixed(a.wd_mm, 0),
-                     Fixed(a.coverage_thin_mm, 0), Fixed(a.coverage_traced_mm, 0));
-    t += fmt::format("lateral colour {:g}-{:g} nm     n_w {:.5f} / {:.5f}; {} px at the corner\n\n",
-                     fo.lambda_blue_nm, fo.lambda_red_nm, a.n_water_blue, a.n_water_red,
-                     Fixed(a.lateral_colour_corner_px, 2));
-    t += fmt::format("{:>8} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}\n", "air deg", "water", "D (Eq. 1)", "D traced",
-                     "radius mm", "distort. px", "colour px");
-    for (const auto& r : a.rows) {
-      t += fmt::format("{:>8} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}\n", Fixed(r.theta_air_deg, 1),
-                       Fixed(r.theta_water_deg, 2), Fixed(r.distortion_factor, 5), Fixed(r.distortion_factor_traced, 5),
-                       Fixed(r.image_radius_mm, 3), Fixed(r.distortion_px, 1), Fixed(r.lateral_colour_px, 2));
-    }
-    t += "\n";
-    for (const auto& w : a.warnings) t += "! " + w + "\n";
-    fmt::print("{}", t);
+    WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"wd_mm", "--wd"}, {"step_deg", "--step"},
+                    {"lambda_blue_nm", "--lambda-blue"}, {"lambda_red_nm", "--lambda-red"}},
+                   [&] { RunFlat(o.get()); });
   });
 }
+
 
 }  // namespace porthole::cli

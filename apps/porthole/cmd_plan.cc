@@ -9,6 +9,7 @@
 #include "commands.h"
 #include "common.h"
 #include "camera_options.h"
+#include "porthole/camera/projection.h"
 #include "porthole/planning/json.h"
 
 namespace porthole::cli {
@@ -17,9 +18,14 @@ namespace {
 
 std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   const auto& sys = p.system;
-  std::string t = fmt::format("{} + {} (f = {:g} mm) behind {} ({}), water n = {:.4f}; f/{:g}, circle of confusion "
-                              "{:.4f} mm ({})\n\n",
-                              s.camera.name, s.lens.name, s.lens.focal_length_mm, sys.spec.name,
+  const std::string projection =
+      s.lens.projection == camera::Projection::kRectilinear
+          ? ""
+          : fmt::format(", {} fisheye{}", camera::ProjectionName(s.lens.projection),
+                        s.lens.projection_estimated ? " (estimated)" : "");
+  std::string t = fmt::format("{} + {} (f = {:g} mm{}) behind {} ({}), water n = {:.4f}; f/{:g}, circle of "
+                              "confusion {:.4f} mm ({})\n\n",
+                              s.camera.name, s.lens.name, s.lens.focal_length_mm, projection, sys.spec.name,
                               sys.IsDome() ? "dome" : "flat", sys.n_water, p.f_number, p.coc_mm, p.coc_source);
   t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil\n", Fixed(p.d_s2ep_infinity_mm, 1));
   t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm, Eq. 2)\n",
@@ -62,6 +68,12 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                        c.lateral_offset_mm >= 0.05 ? "; no ring corrects the lateral offset" : "");
     }
   }
+  t += p.field_cut.blocked_fraction > 0
+           ? fmt::format("cut off by the {}{:>6} {} ({:.1f} % of the frame): beyond {:.1f} deg off axis in air "
+                         "({:.1f} deg in water), {:.2f} mm from the image centre\n",
+                         sys.IsDome() ? "dome's rim" : "port", "", p.field_cut.what, 100 * p.field_cut.blocked_fraction,
+                         p.field_cut.clear_angle_deg, p.field_cut.clear_water_angle_deg, p.field_cut.clear_radius_mm)
+           : fmt::format("cut off by the {}{:>6} nothing\n", sys.IsDome() ? "dome's rim" : "port", "");
   if (p.target) {
     const auto& g = *p.target;
     t += fmt::format("\ntarget: WD {} mm, {} mm from the entrance pupil\n", Fixed(g.wd_mm, 1),
@@ -83,8 +95,13 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
     t += fmt::format("\nground sample distance         {:.3f} mm/px under water ({:.3f} in air at the same distance)\n",
                      g.gsd_water_mm, g.gsd_air_mm);
     if (g.field) {
-      t += fmt::format("\nfield curvature (flat object plane at WD {:g} mm; real rays at {:.2f} mm pupil radius)\n",
-                       g.wd_mm, g.field->aperture_height_mm);
+      t += camera::IsFisheye(s.lens.projection)
+               ? fmt::format("\nfield curvature (fisheye: object sphere {:g} mm from the pupil, distances along the "
+                             "chief ray; real rays at {:.2f} mm pupil radius)\n",
+                             g.subject_distance_mm, g.field->aperture_height_mm)
+               : fmt::format("\nfield curvature (flat object plane at WD {:g} mm; real rays at {:.2f} mm pupil "
+                             "radius)\n",
+                             g.wd_mm, g.field->aperture_height_mm);
       t += fmt::format("{:>10} {:>9} {:>11} {:>10} {:>8} {:>8} {:>10}\n", "image mm", "angle", "object mm", "D_S2EP",
                        "sag mm", "blur px", "spread px");
       for (const auto& r : g.field->rows) {
@@ -125,16 +142,21 @@ void RegisterPlan(CLI::App& app) {
   cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->callback([o] {
-    const planning::Setup setup = o->camera.ToSetup(o->port, o->water);
-    planning::PlanOptions po;
-    po.wd_mm = o->wd_mm;
-    po.subject_distance_mm = o->subject_mm;
-    po.f_number = o->aperture;
-    po.coc_mm = o->coc_mm;
-    if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
-    po.lambda_nm = setup.env.conditions.lambda_nm;
-    const planning::Plan plan = planning::MakePlan(setup, po);
-    fmt::print("{}", o->json ? planning::PlanToJson(setup, plan).dump(2) + "\n" : PlanText(setup, plan));
+    WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"wd_mm", "--wd"}, {"subject_distance_mm", "--subject-distance"},
+                    {"f_number", "--aperture"}, {"coc_mm", "--coc"}},
+                   [&] {
+                     const planning::Setup setup = o->camera.ToHoused(o->port, o->water);
+                     planning::PlanOptions po;
+                     po.wd_mm = o->wd_mm;
+                     po.subject_distance_mm = o->subject_mm;
+                     po.f_number = o->aperture;
+                     po.coc_mm = o->coc_mm;
+                     if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
+                     po.lambda_nm = setup.env.conditions.lambda_nm;
+                     const planning::Plan plan = planning::MakePlan(setup, po);
+                     fmt::print("{}", o->json ? planning::PlanToJson(setup, plan).dump(2) + "\n"
+                                              : PlanText(setup, plan));
+                   });
   });
 }
 

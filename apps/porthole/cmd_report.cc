@@ -53,7 +53,7 @@ void RegisterReport(CLI::App& app) {
 
   cmd->callback([o, cmd] {
     report::ReportInputs in;
-    in.setup = o->camera.ToSetup(PortOptions{o->port, {}}, o->water);
+    in.setup = WithFieldNames({PORTHOLE_CAMERA_FLAGS}, [&] { return o->camera.ToHoused(PortOptions{o->port, {}}, o->water); });
     in.other_port = io::LoadPort(o->other_port.empty() ? report::DefaultOtherPort(in.setup.port) : o->other_port);
     in.subject_distance_mm = o->subject_distance_mm;
     in.f_number = o->aperture;
@@ -80,7 +80,10 @@ void RegisterReport(CLI::App& app) {
     ro.out_dir = o->out;
     ro.force = o->force;
     ro.progress = [](const std::string& line) { fmt::print(stderr, "porthole report: {}\n", line); };
-    const report::ReportSummary s = report::WriteReport(in, ro);
+    const report::ReportSummary s = WithFieldNames(
+        {PORTHOLE_CAMERA_FLAGS, {"f_number", "--aperture"}, {"subject_distance_mm", "--subject-distance"},
+         {"coc_mm", "--coc"}},
+        [&] { return report::WriteReport(in, ro); });
     if (o->json) {
       Json steps = Json::object();
       for (const auto& [name, sec] : s.step_seconds) steps[name] = sec;

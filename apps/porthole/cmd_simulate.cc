@@ -8,7 +8,9 @@
 
 #include "commands.h"
 #include "common.h"
+#include "camera_options.h"
 #include "porthole/camera/json.h"
+#include "porthole/camera/projection.h"
 #include "porthole/camera/profile.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/io/presets.h"
@@ -31,39 +33,71 @@ std::string ParamRow(const std::string& label, const camera::BrownParams& p, con
                      label, p.c_mm, p.x0_mm, p.y0_mm, p.K1, p.K2, p.K3, p.P1, p.P2, rms);
 }
 
+struct SimulateCliOptions {
+  std::string port = "nimar-ni320";
+  CameraLensOptions camera;
+  WaterOptions water;
+  double focus_distance_mm = 1000;
+  std::vector<double> ep_offset;
+  std::optional<double> c_mm;
+  std::string air_calibration;
+  int grid_cols = 25, grid_rows = 17;
+  std::vector<std::string> distances;
+  bool no_k3 = false, fixed_rotation = false;
+  std::string sweep;
+  std::vector<double> offsets;
+  std::string sweep_out, map_out;
+  std::vector<std::string> check = {"300", "500", "800", "1300", "2000", "5000", "100000"};
+  bool json = false;
+};
+
+// A fisheye lens: the Kannala–Brandt fits in water and in air (pixels).
+void PrintFisheye(const simulate::SystemSpec& spec, const simulate::Prediction& p, bool json) {
+  if (json) {
+    Json out = DescribeSystem(p.water_system, spec.env);
+    out["medium"] = out["water"];
+    out.erase("water");
+    out["camera_body"] = spec.camera.name;
+    out["lens"] = spec.lens.name;
+    const Json prediction = simulate::PredictionJson(p);
+    for (const auto& [k, v] : prediction.items()) out[k] = v;
+    fmt::print("{}\n", out.dump(2));
+    return;
+  }
+  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
+  t += fmt::format("{} + {} ({} fisheye) focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
+                   "focus scale {:.1f} mm; c = {:.3f} mm\n\nKannala-Brandt (OpenCV fisheye) fitted, pixels:\n",
+                   spec.camera.name, spec.lens.name, camera::ProjectionName(spec.lens.projection),
+                   p.object_distance_mm, p.focus.d_s2ep_mm, p.focus.focus_distance_mm.value_or(NAN),
+                   p.camera.lens.c_mm);
+  const camera::ModelInfo& info = p.water_fisheye->camera.info();
+  t += fmt::format("{:<16}", "");
+  for (int i = 0; i < info.num_params; ++i) t += fmt::format(" {:>11}", info.params[i].name);
+  t += fmt::format(" {:>9}\n", "rms px");
+  for (const auto& [label, fit] : {std::pair{"air (fitted)", &*p.air_fisheye}, {"water (fitted)", &*p.water_fisheye}}) {
+    t += fmt::format("{:<16}", label);
+    for (double v : fit->camera.params) t += fmt::format(" {:>11.5g}", v);
+    t += fmt::format(" {:>9.4f}\n", fit->rms_px);
+  }
+  t += fmt::format("\nfocal length water/air = {:.5f}\n",
+                   p.water_fisheye->camera.FocalLengthPx() / p.air_fisheye->camera.FocalLengthPx());
+  fmt::print("{}", t);
+}
+
 }  // namespace
 
+void RunSimulate(const SimulateCliOptions& o);
+
 void RegisterSimulate(CLI::App& app) {
-  struct Options {
-    std::string port = "nimar-ni320";
-    std::string camera = "nikon-d300";
-    std::string lens = "nikkor-24mm-f2.8d";
-    std::optional<double> pixel_pitch_mm;
-    WaterOptions water;
-    double focus_distance_mm = 1000;
-    std::vector<double> ep_offset;
-    std::optional<double> c_mm;
-    std::string air_calibration;
-    int grid_cols = 25, grid_rows = 17;
-    std::vector<std::string> distances;
-    bool no_k3 = false, fixed_rotation = false;
-    std::string sweep;
-    std::vector<double> offsets;
-    std::string sweep_out, map_out;
-    std::vector<std::string> check = {"300", "500", "800", "1300", "2000", "5000", "100000"};
-    bool json = false;
-  };
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<SimulateCliOptions>();
   CLI::App* cmd = app.add_subcommand(
       "simulate",
       "Predict the underwater calibration: fit the central Brown model (c, x0, y0, K1-K3, P1, P2, "
-      "free pose) to rays traced through the port in water and in air; sweeps and maps");
+      "free pose; Kannala-Brandt for a fisheye lens) to rays traced through the port in water and in air; sweeps "
+      "and maps");
   cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
       ->capture_default_str();
-  cmd->add_option("--camera", o->camera, "Camera body preset or TOML file")->capture_default_str();
-  cmd->add_option("--lens", o->lens, "Lens preset or TOML file (entrance pupil vs focus)")
-      ->capture_default_str();
-  cmd->add_option("--pixel-pitch-mm", o->pixel_pitch_mm, "Pixel pitch, mm: replaces the body's, keeping its sensor size");
+  o->camera.Add(cmd);
   o->water.Add(cmd);
   cmd->add_option("--focus-distance", o->focus_distance_mm,
                   "Focused under water on an object this far from the entrance pupil, mm")
@@ -95,15 +129,17 @@ void RegisterSimulate(CLI::App& app) {
   cmd->add_flag("--json", o->json, "JSON output for scripts");
 
   cmd->callback([o] {
+    WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--focus-distance"}, {"c_mm", "--c"}},
+                   [&] { RunSimulate(*o); });
+  });
+}
+
+void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the callback
+  const SimulateCliOptions* o = &o_ref;
+  {
     simulate::SystemSpec spec;
-    spec.port = io::LoadPort(o->port);
-    spec.body = io::LoadCamera(o->camera);
-    if (o->pixel_pitch_mm) spec.body = WithPixelPitch(spec.body, *o->pixel_pitch_mm);
-    spec.lens = io::LoadLens(o->lens);
-    spec.env = o->water.ToEnvironment();
+    static_cast<housing::HousedCamera&>(spec) = o->camera.ToHoused(PortOptions{o->port, {}}, o->water);
     WarnIfImplausiblePort(spec.port, o->port + ": port");
-    WarnIfImplausible(o->pixel_pitch_mm ? "--pixel-pitch-mm" : o->camera + ": pixel_pitch_mm",
-                      spec.body.sensor.pixel_pitch_mm, kPixelPitchRange);
     if (!o->sweep_out.empty()) CheckOutputFile(o->sweep_out, "--sweep-out");
     if (!o->map_out.empty()) CheckOutputFile(o->map_out, "--map");
     spec.object_distance_mm = RequirePositive("--focus-distance", o->focus_distance_mm);
@@ -144,7 +180,15 @@ void RegisterSimulate(CLI::App& app) {
       throw InvalidInput("--offsets", "--offsets and --sweep-out need --sweep x|y|z");
     }
 
+    if (camera::IsFisheye(spec.lens.projection) && (axis >= 0 || !o->map_out.empty())) {
+      throw InvalidInput(axis >= 0 ? "--sweep" : "--map",
+                         "sweeps and maps are for the Brown fit; the " + spec.lens.name + " is a fisheye");
+    }
     const simulate::Prediction p = simulate::Predict(spec, fo);
+    if (p.water_fisheye) {
+      PrintFisheye(spec, p, o->json);
+      return;
+    }
     const auto errors = simulate::DistanceErrors(p.water_system, p.camera, p.water, check, p.options);
     std::vector<simulate::SweepRow> sweep;
     if (axis >= 0) sweep = simulate::SweepPupilOffset(p, axis, offsets);
@@ -166,7 +210,7 @@ void RegisterSimulate(CLI::App& app) {
       Json out = DescribeSystem(p.water_system, spec.env);
       out["medium"] = out["water"];  // "water" and "air" are the fits below
       out.erase("water");
-      out["camera_body"] = spec.body.name;
+      out["camera_body"] = spec.camera.name;
       out["lens"] = spec.lens.name;
       const Json prediction = simulate::PredictionJson(p);  // outlives the loop over its items
       for (const auto& [k, v] : prediction.items()) out[k] = v;
@@ -178,8 +222,8 @@ void RegisterSimulate(CLI::App& app) {
     std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
     t += fmt::format("{} + {} focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
                      "focus scale {:.1f} mm, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
-                     spec.body.name, spec.lens.name, p.focus.object_distance_mm, p.focus.d_s2ep_mm,
-                     p.focus.fd_mm, p.focus.d_ep2f_mm, p.camera.lens.c_mm);
+                     spec.camera.name, spec.lens.name, p.object_distance_mm, p.focus.d_s2ep_mm,
+                     p.focus.focus_distance_mm.value_or(NAN), p.focus.ep_to_flange_mm, p.camera.lens.c_mm);
     t += fmt::format("{:<16} {:>9} {:>8} {:>8} {:>11} {:>11} {:>11} {:>11} {:>11} {:>8}\n", "", "c mm",
                      "x0 mm", "y0 mm", "K1 mm^-2", "K2 mm^-4", "K3 mm^-6", "P1 mm^-1", "P2 mm^-1", "rms um");
     t += ParamRow("air (fitted)", p.air.params, Fixed(p.air.rms_um, 3));
@@ -209,7 +253,7 @@ void RegisterSimulate(CLI::App& app) {
       }
     }
     fmt::print("{}", t);
-  });
+  }
 }
 
 }  // namespace porthole::cli

@@ -1,6 +1,6 @@
 """Proves porthole.plan() and porthole.flat() give the paper's Section 4 depth of field, the Fig. 12
 minimum working distance and the flat port's 97.2 deg limit, with keyword-only options and
-ValueError naming the flag."""
+ValueError naming the keyword."""
 import math
 
 import pytest
@@ -24,7 +24,21 @@ def test_flat_max_fov():
 
 
 def test_plan_errors():
-    with pytest.raises(ValueError, match="--aperture"):
+    with pytest.raises(ValueError, match="^f_number:"):
         porthole.plan(f_number=64)
     with pytest.raises(TypeError):
         porthole.plan("nikon-d300")  # keyword-only
+
+
+def test_same_names_and_keywords_as_the_cli():
+    # A fixed-lens camera brings its own lens; a lensfun fisheye is planned with its projection.
+    p = porthole.plan(camera="gopro-hero4-black", port="flat-acrylic-10mm", f_number=2.8)
+    assert p["lens"]["name"] == "gopro-hero4-black-wide"
+    f = porthole.plan(lens="Nikon AF DX Fisheye-Nikkor 10.5mm f/2.8G ED")
+    r = 0.5 * math.hypot(4288 * 0.0055, 2848 * 0.0055)
+    assert f["fov"]["air"]["diagonal_deg"] == pytest.approx(4 * math.degrees(math.asin(r / 21)))
+    # Errors name Python's keywords: a lensfun zoom needs focal_mm.
+    with pytest.raises(ValueError, match="^focal_mm:"):
+        porthole.plan(lens="Nikon AF-S DX Nikkor 18-300mm f/3.5-6.3G ED VR")
+    s = porthole.simulate(camera="olympus-tg6", port="flat-acrylic-10mm", grid_cols=5, grid_rows=5)
+    assert s["model"] == "brown"

@@ -4,6 +4,8 @@ import csv
 import json
 import os
 
+import pytest
+
 from conftest import read_table, run, run_bad
 
 KEYS = ["c_mm", "x0_mm", "y0_mm", "K1", "K2", "K3", "P1", "P2", "rms_um"]
@@ -86,3 +88,23 @@ def test_bad_input_is_one_line(tmp_path):
     target = tmp_path / "missing" / "m.csv"
     run_bad("simulate", "--map", target)
     assert not os.path.exists(target)
+
+
+def test_fisheye_is_fitted_with_kannala_brandt():
+    # Behind a dome centred on the pupil the equisolid fisheye's rays pass undeviated: water and air
+    # give its own projection, whose series 2 sin(t/2) = t - t^3/24 + ... sets k1 = -1/24.
+    out = run("simulate", "--lens", "nikkor-10.5mm-f2.8g-fisheye", "--port", "nimar-ni320-nominal", "--json").json()
+    assert out["model"] == "kannala-brandt" and out["lens_projection"] == "equisolid"
+    for medium in ("water", "air"):
+        assert out[medium]["k1"] == pytest.approx(-1 / 24, abs=1e-5)
+        assert out[medium]["rms_px"] < 1e-3
+    assert "Kannala-Brandt" in run("simulate", "--lens", "nikkor-10.5mm-f2.8g-fisheye").out
+    assert "--sweep" in run_bad("simulate", "--lens", "nikkor-10.5mm-f2.8g-fisheye", "--sweep", "z")
+
+
+def test_same_camera_and_lens_names_as_plan():
+    # A lensfun lens name and a fixed-lens camera work as in `porthole plan`.
+    out = run("simulate", "--lens", "Nikon AF DX Fisheye-Nikkor 10.5mm f/2.8G ED", "--json").json()
+    assert out["model"] == "kannala-brandt"
+    assert run("simulate", "--camera", "gopro-hero4-black", "--port", "flat-acrylic-10mm", "--json").json()["model"] == \
+        "kannala-brandt"

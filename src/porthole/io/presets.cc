@@ -223,35 +223,41 @@ lens::LensSpec LoadLens(const std::string& name_or_path) {
   return ParseLensToml(text, origin);
 }
 
-lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origin) {
-  const toml::table t = ParseToml(text, origin);
-  Reader r(t, origin, "");
-  lens::CameraBody b;
-  b.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
-  b.description = r.OptString("description").value_or("");
-  b.source = r.OptString("source").value_or("");
-  b.mount = r.OptString("mount").value_or("");
-  b.sensor.width_px = r.PositiveInt("width_px");
-  b.sensor.height_px = r.PositiveInt("height_px");
-  b.sensor.pixel_pitch_mm = r.Double("pixel_pitch_mm");
-  r.RejectUnknown();
-  CheckWithLine(t, origin, "camera", [&] { lens::Validate(b, origin + ": camera"); });
-  return b;
-}
+namespace {
 
-lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin) {
-  const toml::table t = ParseToml(text, origin);
-  Reader r(t, origin, "");
+// The lens keys (docs/presets.md), from a lens file or a fixed-lens camera's [lens] table.
+lens::LensSpec ReadLens(Reader& r, const std::string& default_name, bool fixed) {
   lens::LensSpec l;
-  l.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
+  l.name = r.OptString("name").value_or(default_name);
   l.description = r.OptString("description").value_or("");
   l.source = r.OptString("source").value_or("");
-  l.mount = r.OptString("mount").value_or("");
+  if (fixed) {
+    l.mount = "fixed";
+  } else if (const toml::node* m = r.Node("mount"); m && m->is_array()) {
+    // A lens made for several mounts: the pupil samples are for the first.
+    for (const toml::node& e : *m->as_array()) {
+      const auto v = e.value<std::string>();
+      if (!v) r.Fail("mount", "must be a mount name or an array of them", &e);
+      (l.mount.empty() ? l.mount : l.other_mounts.emplace_back()) = *v;
+    }
+    if (l.mount.empty()) r.Fail("mount", "must not be an empty array", m);
+  } else {
+    l.mount = r.OptString("mount").value_or("");
+  }
   l.focal_length_mm = r.Double("focal_length_mm");
   l.f_number_min = r.Double("f_number_min");
   l.f_number_max = r.Double("f_number_max");
   l.min_focus_mm = r.Double("min_focus_mm");
   if (const toml::node* n = r.Node("pupil_estimated")) l.pupil_estimated = n->value_or(false);
+  if (const auto proj = r.OptString("projection")) {
+    const auto p = camera::ProjectionFromName(*proj);
+    if (!p) {
+      r.Fail("projection", "must be \"rectilinear\", \"equidistant\", \"equisolid\", \"stereographic\" or "
+                           "\"orthographic\"", r.Node("projection"));
+    }
+    l.projection = *p;
+  }
+  if (const toml::node* n = r.Node("projection_estimated")) l.projection_estimated = n->value_or(false);
   const toml::node* pupil = r.Node("pupil");
   if (!pupil || !pupil->is_array()) r.Fail("pupil", "is required: an array of {focus_mm, d_ep2f_mm}");
   for (const toml::node& e : *pupil->as_array()) {
@@ -264,6 +270,35 @@ lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin) {
     l.pupil.push_back({*fd, *d});
   }
   r.RejectUnknown();
+  return l;
+}
+
+}  // namespace
+
+lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origin) {
+  const toml::table t = ParseToml(text, origin);
+  Reader r(t, origin, "");
+  lens::CameraBody b;
+  b.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
+  b.description = r.OptString("description").value_or("");
+  b.source = r.OptString("source").value_or("");
+  b.mount = r.OptString("mount").value_or("");
+  b.sensor.width_px = r.PositiveInt("width_px");
+  b.sensor.height_px = r.PositiveInt("height_px");
+  b.sensor.pixel_pitch_mm = r.Double("pixel_pitch_mm");
+  if (b.mount == "fixed") {
+    Reader lr = r.Table("lens");
+    b.fixed_lens = ReadLens(lr, b.name, true);
+  }
+  r.RejectUnknown();
+  CheckWithLine(t, origin, "camera", [&] { lens::Validate(b, origin + ": camera"); });
+  return b;
+}
+
+lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin) {
+  const toml::table t = ParseToml(text, origin);
+  Reader r(t, origin, "");
+  lens::LensSpec l = ReadLens(r, std::filesystem::path(origin).stem().string(), false);
   CheckWithLine(t, origin, "lens", [&] { lens::Validate(l, origin + ": lens"); });
   return l;
 }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <fmt/format.h>
+
 #include "porthole/core/error.h"
 
 namespace porthole::lens {
@@ -12,7 +14,8 @@ const std::vector<Mount>& KnownMounts() {
   // Flange focal distances, mm (manufacturers' specifications).
   static const std::vector<Mount> kMounts = {
       {"nikon-f", 46.5},  {"canon-ef", 44.0},   {"sony-e", 18.0},   {"nikon-z", 16.0},  {"canon-rf", 20.0},
-      {"mft", 19.25},     {"fujifilm-x", 17.7}, {"l-mount", 20.0},  {"pentax-k", 45.46}};
+      {"mft", 19.25},     {"fujifilm-x", 17.7}, {"l-mount", 20.0},  {"pentax-k", 45.46},
+      {"fixed", 0.0}};  // a lens built into the body: distances from the sensor plane
   return kMounts;
 }
 
@@ -67,6 +70,65 @@ std::optional<double> FocusForSubjectMm(const LensSpec& lens, const Mount& mount
   return 0.5 * (lo + hi);
 }
 
+double PrincipalDistanceMm(double f, double d) {
+  RequirePositive("focal_length_mm", f);
+  if (std::isinf(d) && d > 0) return f;
+  if (std::isnan(d) || !(d > f)) {
+    throw InvalidInput("subject_distance_mm", fmt::format("the subject ({:g} mm from the pupil) must lie beyond "
+                                                          "the focal length ({:g} mm)", d, f));
+  }
+  return f * d / (d - f);
+}
+
+double ImageRadiusMm(const LensSpec& lens, double c_mm, double theta_rad) {
+  return c_mm * camera::ProjectionRadius(lens.projection, theta_rad);
+}
+
+std::optional<double> FieldAngleRad(const LensSpec& lens, double c_mm, double r_mm) {
+  return camera::ProjectionAngle(lens.projection, r_mm / c_mm);
+}
+
+LensSpec MountOn(const LensSpec& lens, const CameraBody& body, bool allow_adapter) {
+  if (body.fixed_lens) {
+    if (lens.name != body.fixed_lens->name) {
+      throw InvalidInput("lens", fmt::format("the {} has a fixed lens ({}); it takes no other lens", body.name,
+                                             body.fixed_lens->name));
+    }
+    return *body.fixed_lens;
+  }
+  const Mount& on = MountByName(body.mount);
+  const Mount& own = MountByName(lens.mount);
+  // The pupil's distance from the sensor, FFD + D_EP2F, is what the optical design fixes.
+  auto moved = [&](double shift_mm, const std::string& note) {
+    LensSpec out = lens;
+    out.mount = body.mount;
+    out.other_mounts.clear();
+    for (PupilSample& p : out.pupil) p.d_ep2f_mm += shift_mm;
+    if (!note.empty()) out.description += (out.description.empty() ? "" : "; ") + note;
+    return out;
+  };
+  if (lens.mount == body.mount) return lens;
+  if (lens.mount == "fixed" || body.mount == "fixed") {
+    throw InvalidInput("lens", fmt::format("{} ({} mount) does not fit the {} ({} mount)", lens.name, lens.mount,
+                                           body.name, body.mount));
+  }
+  for (const std::string& m : lens.other_mounts) {
+    if (m == body.mount) return moved(own.flange_focal_distance_mm - on.flange_focal_distance_mm, "");
+  }
+  if (allow_adapter && own.flange_focal_distance_mm > on.flange_focal_distance_mm) {
+    const double t = own.flange_focal_distance_mm - on.flange_focal_distance_mm;
+    return moved(t, fmt::format("on a {} to {} adapter {:g} mm long", lens.mount, body.mount, t));
+  }
+  std::string why = fmt::format("{} is a {} lens, the {} has a {} mount", lens.name, lens.mount, body.name, body.mount);
+  if (own.flange_focal_distance_mm > on.flange_focal_distance_mm) {
+    why += fmt::format(" (an adapter {:g} mm long would fit it: allow_adapter, the CLI's --allow-adapter)",
+                       own.flange_focal_distance_mm - on.flange_focal_distance_mm);
+  } else {
+    why += " (its flange focal distance is shorter than the body's: no adapter can focus it to infinity)";
+  }
+  throw InvalidInput("lens", why);
+}
+
 void Validate(const LensSpec& l, const std::string& where) {
   RequirePositive(where + ".focal_length_mm", l.focal_length_mm);
   RequirePositive(where + ".f_number_min", l.f_number_min);
@@ -74,6 +136,7 @@ void Validate(const LensSpec& l, const std::string& where) {
   if (l.f_number_max < l.f_number_min) throw InvalidInput(where + ".f_number_max", "must be >= f_number_min");
   RequirePositive(where + ".min_focus_mm", l.min_focus_mm);
   MountByName(l.mount);
+  for (const std::string& m : l.other_mounts) MountByName(m);
   if (l.pupil.empty()) throw InvalidInput(where + ".pupil", "needs at least one sample {focus_mm, d_ep2f_mm}");
   for (std::size_t k = 0; k < l.pupil.size(); ++k) {
     const auto& s = l.pupil[k];
@@ -89,6 +152,10 @@ void Validate(const CameraBody& b, const std::string& where) {
   if (b.sensor.width_px <= 0 || b.sensor.height_px <= 0) throw InvalidInput(where + ".sensor", "pixel counts must be > 0");
   RequirePositive(where + ".pixel_pitch_mm", b.sensor.pixel_pitch_mm);
   MountByName(b.mount);
+  if ((b.mount == "fixed") != b.fixed_lens.has_value()) {
+    throw InvalidInput(where + ".mount", "a fixed-lens camera (mount \"fixed\") needs its [lens], and only it");
+  }
+  if (b.fixed_lens) Validate(*b.fixed_lens, where + ".lens");
 }
 
 }  // namespace porthole::lens

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
 
 #include "porthole/core/error.h"
@@ -55,7 +56,8 @@ TEST(Lens, FocusForSubjectInvertsEq2) {
 TEST(Lens, MountsAndValidation) {
   EXPECT_EQ(MountByName("mft").flange_focal_distance_mm, 19.25);
   EXPECT_EQ(MountByName("pentax-k").flange_focal_distance_mm, 45.46);
-  EXPECT_EQ(KnownMounts().size(), 9u);
+  EXPECT_EQ(MountByName("fixed").flange_focal_distance_mm, 0.0);
+  EXPECT_EQ(KnownMounts().size(), 10u);
   EXPECT_THROW(MountByName("leica-m"), InvalidInput);
   LensSpec bad = Nikkor35();
   bad.pupil = {{300, 25.4}, {kInf, 18.6}};  // unsorted
@@ -63,6 +65,46 @@ TEST(Lens, MountsAndValidation) {
   bad = Nikkor35();
   bad.f_number_max = 1;
   EXPECT_THROW(Validate(bad), InvalidInput);
+}
+
+// The pupil's distance from the sensor (FFD + D_EP2F) is what a lens's optical design fixes: on an
+// adapter, or on another of its mounts, Eq. 2 gives the same subject distance for the same FD.
+TEST(Lens, MountingKeepsThePupilsDistanceFromTheSensor) {
+  const LensSpec l = Nikkor35();
+  CameraBody sony;
+  sony.name = "a sony";
+  sony.mount = "sony-e";
+  sony.sensor = {6000, 4000, 0.006};
+  EXPECT_THROW(MountOn(l, sony), InvalidInput);  // no adapter allowed
+  const LensSpec a = MountOn(l, sony, /*allow_adapter=*/true);
+  EXPECT_EQ(a.mount, "sony-e");
+  for (double fd : {kInf, 1000.0, 300.0}) {
+    EXPECT_NEAR(a.PupilToFlangeMm(fd), l.PupilToFlangeMm(fd) + 46.5 - 18.0, 1e-12);
+    if (!std::isinf(fd)) {
+      EXPECT_NEAR(SubjectToPupilMm(a, MountByName("sony-e"), fd), SubjectToPupilMm(l, MountByName("nikon-f"), fd),
+                  1e-9);
+    }
+  }
+  LensSpec multi = l;
+  multi.other_mounts = {"sony-e"};
+  EXPECT_NEAR(MountOn(multi, sony).PupilToFlangeMm(kInf), l.PupilToFlangeMm(kInf) + 28.5, 1e-12);
+  // A short-flange lens cannot reach infinity on a long-flange body, adapter or not.
+  CameraBody nikon = sony;
+  nikon.mount = "nikon-f";
+  LensSpec e = l;
+  e.mount = "sony-e";
+  EXPECT_THROW(MountOn(e, nikon, true), InvalidInput);
+}
+
+TEST(Lens, ThinLensPrincipalDistanceAndProjection) {
+  EXPECT_NEAR(PrincipalDistanceMm(24, 1000), 24 * 1000 / 976.0, 1e-12);
+  EXPECT_EQ(PrincipalDistanceMm(24, kInf), 24);
+  EXPECT_THROW(PrincipalDistanceMm(24, 20), InvalidInput);
+  LensSpec l = Nikkor35();
+  l.projection = camera::Projection::kEquisolid;
+  // Equisolid r = 2 f sin(θ/2): 90° off axis at f·√2.
+  EXPECT_NEAR(ImageRadiusMm(l, 10, M_PI / 2), 10 * std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(*FieldAngleRad(l, 10, 10 * std::sqrt(2.0)), M_PI / 2, 1e-12);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "porthole/core/error.h"
+#include "porthole/camera/projection.h"
 #include "porthole/materials/materials.h"
 #include "porthole/planning/thin_lens.h"
 
@@ -26,13 +27,13 @@ double WaterIndexAt(const ports::Environment& env, double lambda_nm) {
 }
 
 // Image radius (mm) of an object at infinity in water direction `u` when the water index is n_w.
-double ImageRadiusMm(ports::PortSystem sys, double n_w, const Vec3& u, double c_mm) {
+double ImageRadiusMm(ports::PortSystem sys, double n_w, const Vec3& u, const lens::LensSpec& lens, double c_mm) {
   sys.n_water = n_w;
   optics::Ray out;
   const optics::Ray in{sys.ep_in_housing_mm + 1e6 * u, -u};
   if (optics::TraceSequence<double>(sys.Inward(), in, &out) != optics::RayStatus::kOk) return std::nan("");
-  const Vec3 d = -out.dir;
-  return c_mm * std::hypot(d.x(), d.y()) / d.z();
+  const Vec3 d = -out.dir.normalized();
+  return lens::ImageRadiusMm(lens, c_mm, std::atan2(std::hypot(d.x(), d.y()), d.z()));
 }
 
 }  // namespace
@@ -50,14 +51,13 @@ double TracedDistortionFactor(const ports::PortSystem& sys, double theta_air_rad
 }
 
 FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
-  lens::Validate(setup.lens, "--lens");
-  lens::Validate(setup.camera, "--camera");
-  if (setup.port.IsDome()) throw InvalidInput("--port", "'" + setup.port.name + "' is a dome; give a flat port");
-  if (std::isnan(o.wd_mm) || !(o.wd_mm > 0)) throw InvalidInput("--wd", "must be > 0 mm (or inf)");
-  RequirePositive("--step", o.step_deg);
-  RequirePositive("--lambda-blue", o.lambda_blue_nm);
-  RequirePositive("--lambda-red", o.lambda_red_nm);
-  const lens::Mount& mount = lens::MountByName(setup.lens.mount);
+  housing::Validate(setup);
+  if (setup.port.IsDome()) throw InvalidInput("port", "'" + setup.port.name + "' is a dome; give a flat port");
+  if (std::isnan(o.wd_mm) || !(o.wd_mm > 0)) throw InvalidInput("wd_mm", "must be > 0 mm (or inf)");
+  RequirePositive("step_deg", o.step_deg);
+  RequirePositive("lambda_blue_nm", o.lambda_blue_nm);
+  RequirePositive("lambda_red_nm", o.lambda_red_nm);
+  const lens::Mount& mount = housing::MountOf(setup);
   const double f = setup.lens.focal_length_mm, pitch = setup.camera.sensor.pixel_pitch_mm;
   const Solved sol = SolveFocus(setup, mount, [&](const ports::PortSystem& sys) {
     return ports::ParaxialVirtualImage(sys, o.wd_mm).d_s2ep_mm;
@@ -67,12 +67,12 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   a.system = sys;
   a.n_water = sys.n_water;
   a.n_glass = sys.n_glass;
-  a.principal_distance_mm = PrincipalDistanceMm(sol.d_s2ep_mm, f);
+  a.principal_distance_mm = lens::PrincipalDistanceMm(f, sol.d_s2ep_mm);
   const double c = a.principal_distance_mm;
   a.apparent_focal_length_mm = a.n_water * c;
   a.focal_length_increase_pct = (a.n_water - 1) * 100;
 
-  const FovPair traced = FieldOfView(sys, setup.camera, c);
+  const FovPair traced = FieldOfView(sys, setup.camera, setup.lens, c);
   a.air = traced.air;
   a.water_traced = traced.water;
   auto thin = [&](double full_air_deg) {
@@ -88,7 +88,7 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   const double half_w = 0.5 * setup.camera.SensorWidthMm();
   a.coverage_thin_mm = 2 * o.wd_mm * std::tan(0.5 * a.water_thin.horizontal_deg / kDeg);
   optics::Ray out;
-  const optics::Ray edge{sys.ep_in_housing_mm, Vec3(half_w, 0, c).normalized()};
+  const optics::Ray edge{sys.ep_in_housing_mm, housing::ChiefRay(setup.lens, c, half_w, 0).value_or(Vec3(1, 0, 0))};
   if (std::isinf(o.wd_mm)) {
     a.coverage_traced_mm = o.wd_mm;
   } else if (optics::TraceSequence<double>(sys.Outward(), edge, &out) == optics::RayStatus::kOk) {
@@ -106,12 +106,17 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   auto colour_px = [&](const Vec3& air_dir) {
     const auto u = WaterDirection(sys, air_dir);
     if (!u) return std::nan("");
-    return (ImageRadiusMm(sys, a.n_water_blue, *u, c) - ImageRadiusMm(sys, a.n_water_red, *u, c)) / pitch;
+    return (ImageRadiusMm(sys, a.n_water_blue, *u, setup.lens, c) -
+            ImageRadiusMm(sys, a.n_water_red, *u, setup.lens, c)) / pitch;
   };
   const double half_h = 0.5 * setup.camera.SensorHeightMm();
-  a.lateral_colour_corner_px = colour_px(Vec3(half_w, half_h, c));
+  const auto corner_ray = housing::ChiefRay(setup.lens, c, half_w, half_h);
+  a.lateral_colour_corner_px = corner_ray ? colour_px(*corner_ray) : std::nan("");
 
-  const double corner_deg = std::atan(std::hypot(half_w, half_h) / c) * kDeg;
+  // Rows to the frame corner, or to 90° off axis for a fisheye that sees further (no ray beyond
+  // meets a flat port).
+  const double corner_deg =
+      std::min(89.9, lens::FieldAngleRad(setup.lens, c, std::hypot(half_w, half_h)).value_or(M_PI / 2) * kDeg);
   for (double t = 0;; t = std::min(t + o.step_deg, corner_deg)) {
     FlatRow r;
     const double ta = t / kDeg;
@@ -119,8 +124,12 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
     r.distortion_factor = FlatDistortionFactor(ta, a.n_water);
     r.distortion_factor_traced = TracedDistortionFactor(sys, ta);
     r.theta_water_deg = std::asin(std::sin(ta) / a.n_water) * kDeg;
-    r.image_radius_mm = c * std::tan(ta);
-    r.distortion_px = (r.image_radius_mm - a.apparent_focal_length_mm * std::tan(r.theta_water_deg / kDeg)) / pitch;
+    // The image radius against the same projection with the apparent focal length n_w c in water
+    // (for a rectilinear lens: c tan θ_a against n_w c tan θ_w).
+    r.image_radius_mm = lens::ImageRadiusMm(setup.lens, c, ta);
+    r.distortion_px =
+        (r.image_radius_mm - lens::ImageRadiusMm(setup.lens, a.apparent_focal_length_mm, r.theta_water_deg / kDeg)) /
+        pitch;
     r.lateral_colour_px = colour_px(Vec3(std::sin(ta), 0, std::cos(ta)));
     a.rows.push_back(r);
     if (t >= corner_deg) break;
@@ -129,8 +138,9 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   // The aperture the corner rays need: where they leave the outer face, from the pupil's axis.
   a.corner_outer_radius_mm = 0;
   for (const auto& [sx, sy] : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
-    const optics::Ray corner{sys.ep_in_housing_mm, Vec3(sx * half_w, -sy * half_h, c).normalized()};
-    const double r = optics::TraceSequence<double>(sys.Outward(), corner, &out) == optics::RayStatus::kOk
+    const auto dir = housing::ChiefRay(setup.lens, c, sx * half_w, sy * half_h);
+    const double r = dir && optics::TraceSequence<double>(sys.Outward(), {sys.ep_in_housing_mm, *dir}, &out) ==
+                                optics::RayStatus::kOk
                          ? (out.origin - sys.ep_in_housing_mm).head<2>().norm()
                          : std::nan("");
     a.corner_outer_radius_mm = std::isnan(r) ? r : std::max(a.corner_outer_radius_mm, r);
@@ -138,6 +148,16 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   }
   a.clear_aperture_needed_mm = 2 * a.corner_outer_radius_mm;
 
+  // A fisheye sees beyond 90 deg: those rays never meet a flat port.
+  a.field_cut = FieldCutByPort(sys, setup.camera, setup.lens, c);
+  if (a.field_cut.blocked_fraction > 0) {
+    a.warnings.push_back(fmt::format(
+        "The flat port cuts off {} of the frame ({:.1f} % of its area): the {} sees beyond {:.1f} deg off axis, and no "
+        "ray at 90 deg or more meets a flat port; the rest of the field reaches only {:.1f} deg into the water, the "
+        "critical angle ({:.1f} deg) being the limit.",
+        a.field_cut.what, 100 * a.field_cut.blocked_fraction, setup.lens.name, a.field_cut.clear_angle_deg,
+        a.field_cut.clear_water_angle_deg, a.critical_angle_deg));
+  }
   // What limits the field: not total reflection of the camera's rays (light going from air into
   // water is never totally reflected) but, for light coming in from the water, the critical angle
   // at the glass-air face, and the port's aperture.
@@ -146,9 +166,10 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
         "The lens sees {:.1f} deg across the diagonal in air; through a flat port it sees {:.1f} deg of the water. "
         "No flat port shows more than {:.1f} deg: water light steeper than the critical angle ({:.1f} deg to the "
         "port's normal) is totally reflected on its way into the housing, so the frame's edges are compressed "
-        "(distortion factor {:.2f} at the corner against {:.3f} at the centre).",
+        "(distortion factor {:.2f} at the corner against {:.3f} at the centre).{}",
         a.air.diagonal_deg, a.water_traced.diagonal_deg, a.max_fov_deg, a.critical_angle_deg,
-        FlatDistortionFactor(0.5 * a.air.diagonal_deg / kDeg, a.n_water), a.n_water));
+        FlatDistortionFactor(std::min(0.5 * a.air.diagonal_deg, 89.9) / kDeg, a.n_water), a.n_water,
+        camera::IsFisheye(setup.lens.projection) ? " The fisheye's field is cut at the critical angle: a dome keeps it." : ""));
   }
   if (!std::isnan(a.clear_aperture_needed_mm)) {
     a.warnings.push_back(fmt::format("The corner rays leave the port {:.1f} mm from the axis: its clear aperture must "

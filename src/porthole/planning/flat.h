@@ -49,6 +49,7 @@ struct FlatAnalysis {
   double apparent_focal_length_mm = 0;   // paraxial n_w c
   double focal_length_increase_pct = 0;  // (n_w − 1) · 100
   Fov air, water_thin, water_traced;
+  FieldCut field_cut;  // what of the frame never reaches the water (a fisheye beyond 90° off axis)
   // Light from the water reaches the housing air only if it meets the port at less than the
   // critical angle asin(1/n_w) to its normal: steeper water rays are totally reflected at the
   // glass-air face on their way in. Light from the air into the water is never totally reflected,
@@ -69,7 +70,8 @@ struct FlatAnalysis {
   std::vector<std::string> warnings;
 };
 
-// Throws InvalidInput("--port") for a dome, and whatever the lens, camera and water checks throw.
+// Throws InvalidInput("port") for a dome, "wd_mm", "step_deg", "lambda_blue_nm", "lambda_red_nm"
+// for bad options, and whatever the housed camera's checks throw.
 FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& options);
 
 }  // namespace porthole::planning

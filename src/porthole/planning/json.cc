@@ -1,5 +1,6 @@
 #include "porthole/planning/json.h"
 
+#include "porthole/camera/projection.h"
 #include "porthole/core/json_length.h"
 
 #include <cmath>
@@ -16,6 +17,11 @@ Json FovJson(const Fov& f) {
           {"diagonal_deg", L(f.diagonal_deg)}};
 }
 
+Json FieldCutJson(const FieldCut& c) {
+  return {{"what", c.what}, {"blocked_fraction", c.blocked_fraction}, {"clear_radius_mm", L(c.clear_radius_mm)},
+          {"clear_angle_deg", L(c.clear_angle_deg)}, {"clear_water_angle_deg", L(c.clear_water_angle_deg)}};
+}
+
 }  // namespace
 
 Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
@@ -25,7 +31,9 @@ Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
                       {"height_px", cam.sensor.height_px}, {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
           {"lens", {{"name", ln.name}, {"focal_length_mm", ln.focal_length_mm}, {"f_number_min", ln.f_number_min},
                     {"f_number_max", ln.f_number_max}, {"min_focus_mm", ln.min_focus_mm},
-                    {"pupil_estimated", ln.pupil_estimated}}},
+                    {"pupil_estimated", ln.pupil_estimated},
+                    {"projection", camera::ProjectionName(ln.projection)},
+                    {"projection_estimated", ln.projection_estimated}}},
           {"port", {{"name", sys.spec.name}, {"type", sys.IsDome() ? "dome" : "flat"},
                     {"glass_index", sys.n_glass}, {"outer_vertex_z_mm", sys.OuterVertexZ()}}},
           {"water", {{"index", sys.n_water}, {"lambda_nm", s.env.conditions.lambda_nm}}},
@@ -69,6 +77,7 @@ Json PlanToJson(const Setup& s, const Plan& p) {
   } else {
     out["pupil_centring"] = nullptr;
   }
+  out["field_cut"] = FieldCutJson(p.field_cut);
   if (p.target) {
     const TargetPlan& t = *p.target;
     out["wd_mm"] = L(t.wd_mm);
@@ -115,6 +124,7 @@ Json FlatToJson(const Setup& s, const FlatAnalysis& a) {
   out["focal_length_increase_pct"] = a.focal_length_increase_pct;
   out["fov"] = {{"air", FovJson(a.air)}, {"water_thin", FovJson(a.water_thin)},
                 {"water_traced", FovJson(a.water_traced)}};
+  out["field_cut"] = FieldCutJson(a.field_cut);
   out["critical_angle_deg"] = a.critical_angle_deg;
   out["max_fov_deg"] = a.max_fov_deg;
   out["corner_outer_radius_mm"] = L(a.corner_outer_radius_mm);

@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "porthole/core/error.h"
+#include "porthole/camera/projection.h"
 #include "porthole/planning/thin_lens.h"
 
 namespace porthole::planning {
@@ -28,33 +29,67 @@ double RealFromVirtual(const ports::PortSystem& sys, double d_virtual, double* w
   return wd + PupilToOuterMm(sys);
 }
 
+// The full angle between two rays on either side of the axis, measured through the axis: the
+// angle between them, or its reflex when together they lie more than 180° from the axis (a
+// fisheye's opposite edges beyond 90°). NaN when a ray is missing.
 double AngleDeg(const std::optional<Vec3>& a, const std::optional<Vec3>& b) {
   if (!a || !b) return std::nan("");
-  return std::acos(std::clamp(a->dot(*b), -1.0, 1.0)) * kDeg;
+  const double between = std::acos(std::clamp(a->dot(*b), -1.0, 1.0)) * kDeg;
+  const double from_axis = (std::acos(std::clamp(a->z(), -1.0, 1.0)) + std::acos(std::clamp(b->z(), -1.0, 1.0))) * kDeg;
+  return from_axis > 180 ? 360 - between : between;
 }
 
-FieldCurvature TraceFieldCurvature(const ports::PortSystem& sys, const lens::CameraBody& cam, double f_mm,
-                                   double n, double coc_mm, double c_mm, double wd_mm, int samples) {
+// The chief ray to image point (x, y) in the water, nullopt when it does not pass the port.
+std::optional<Vec3> WaterRay(const ports::PortSystem& sys, const lens::LensSpec& lens, double c_mm, double x,
+                             double y) {
+  const auto air = housing::ChiefRay(lens, c_mm, x, y);
+  if (!air) return std::nullopt;
+  return WaterDirection(sys, *air);
+}
+
+FieldCurvature TraceFieldCurvature(const ports::PortSystem& sys, const lens::CameraBody& cam,
+                                   const lens::LensSpec& lens, double n, double coc_mm, double c_mm, double wd_mm,
+                                   int samples) {
+  const double f_mm = lens.focal_length_mm;
+  const bool fisheye = camera::IsFisheye(lens.projection);
   FieldCurvature fc;
   fc.aperture_height_mm = f_mm / (2 * n);
   const Vec3& ep = sys.ep_in_housing_mm;
   const double z_object = sys.OuterVertexZ() + wd_mm;
+  const double object_radius = z_object - ep.z();  // a fisheye's object sphere about the pupil
   const double pitch = cam.sensor.pixel_pitch_mm;
   const double half_w = 0.5 * cam.SensorWidthMm(), half_h = 0.5 * cam.SensorHeightMm();
   // The virtual image of the object point seen along the chief ray to image point (x, y) (image
   // mm, y up; camera Y is down); nullopt when a ray fails.
   auto image_of = [&](double x, double y, double* object_height) -> std::optional<ports::VirtualPoint> {
+    const auto chief = housing::ChiefRay(lens, c_mm, x, y);
+    if (!chief) return std::nullopt;
     optics::Ray out;
-    const optics::Ray in{ep, Vec3(x, -y, c_mm).normalized()};
+    const optics::Ray in{ep, *chief};
     if (optics::TraceSequence<double>(sys.Outward(), in, &out) != optics::RayStatus::kOk) return std::nullopt;
-    if (!(out.dir.z() > 0)) return std::nullopt;
-    const Vec3 p = out.origin + ((z_object - out.origin.z()) / out.dir.z()) * out.dir;
+    Vec3 p;
+    if (fisheye) {  // where the water ray meets the sphere |p − ep| = object_radius
+      const Vec3 o = out.origin - ep, d = out.dir.normalized();
+      const double b = o.dot(d), disc = b * b - (o.squaredNorm() - object_radius * object_radius);
+      if (!(disc >= 0)) return std::nullopt;
+      p = out.origin + (-b + std::sqrt(disc)) * d;
+    } else {
+      if (!(out.dir.z() > 0)) return std::nullopt;
+      p = out.origin + ((z_object - out.origin.z()) / out.dir.z()) * out.dir;
+    }
     if (object_height) *object_height = (p - Vec3(ep.x(), ep.y(), p.z())).norm();
-    return ports::RealRayVirtualPoint(sys, ports::ObjectPoint::At(p), fc.aperture_height_mm);
+    // The pupil faces the chief ray (a fisheye's pupil turns with the field); an ordinary lens's
+    // is the plane normal to the axis.
+    return ports::RealRayVirtualPoint(sys, ports::ObjectPoint::At(p), fc.aperture_height_mm,
+                                      fisheye ? *chief : Vec3(0, 0, 1));
+  };
+  // The distance of a virtual point from the pupil: axial, or along the chief ray for a fisheye.
+  auto distance = [&](const ports::VirtualPoint& v) {
+    return fisheye ? (v.position_mm - ep).norm() : v.position_mm.z() - ep.z();
   };
   const auto centre = image_of(0, 0, nullptr);
   if (!centre) return fc;
-  const double s = centre->position_mm.z() - ep.z();  // the lens is focused on the axial image
+  const double s = distance(*centre);  // the lens is focused on the axial image
   auto blur_px = [&](double d) { return BlurDiameterMm(s, d, f_mm, n) / pitch; };
   auto spread_px = [&](const ports::VirtualPoint& v, double d) { return 2 * v.rms_spread_mm * c_mm / d / pitch; };
   for (int k = 0; k < samples; ++k) {
@@ -62,10 +97,15 @@ FieldCurvature TraceFieldCurvature(const ports::PortSystem& sys, const lens::Cam
     FieldRow row;
     const double x = t * half_w, y = t * half_h;
     row.image_height_mm = std::hypot(x, y);
-    row.field_angle_deg = std::atan(row.image_height_mm / c_mm) * kDeg;
+    row.field_angle_deg = lens::FieldAngleRad(lens, c_mm, row.image_height_mm).value_or(std::nan("")) * kDeg;
     const auto v = image_of(x, y, &row.object_height_mm);
-    if (!v) return fc;
-    row.d_s2ep_mm = v->position_mm.z() - ep.z();
+    if (!v) {  // beyond the port's rim (a fisheye's corners): the row says so with NaN
+      if (k == 0) return fc;
+      row.object_height_mm = row.d_s2ep_mm = row.sag_mm = row.blur_px = row.spread_px = std::nan("");
+      fc.rows.push_back(row);
+      continue;
+    }
+    row.d_s2ep_mm = distance(*v);
     row.sag_mm = s - row.d_s2ep_mm;
     row.blur_px = blur_px(row.d_s2ep_mm);
     row.spread_px = spread_px(*v, row.d_s2ep_mm);
@@ -75,26 +115,84 @@ FieldCurvature TraceFieldCurvature(const ports::PortSystem& sys, const lens::Cam
   for (const auto& [sx, sy] : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
     const auto v = image_of(sx * half_w, sy * half_h, nullptr);
     if (!v) continue;
-    fc.corner_blur_px = std::max(fc.corner_blur_px, blur_px(v->position_mm.z() - ep.z()));
+    fc.corner_blur_px = std::max(fc.corner_blur_px, blur_px(distance(*v)));
   }
   // Defocus blur scales as 1/N (BlurDiameterMm).
+  // When the port's rim hides the corners, the sharpest need is set by the last field row it passes.
+  if (fc.corner_blur_px == 0) {
+    for (const FieldRow& r : fc.rows) {
+      if (!std::isnan(r.blur_px)) fc.corner_blur_px = std::max(fc.corner_blur_px, r.blur_px);
+    }
+  }
   fc.f_number_for_sharp_corners = n * fc.corner_blur_px * pitch / coc_mm;
   return fc;
 }
 
+// The sag of the outermost field row the port passes (NaN rows lie beyond its rim).
+double LastClearSag(const FieldCurvature& fc) {
+  for (auto it = fc.rows.rbegin(); it != fc.rows.rend(); ++it) {
+    if (!std::isnan(it->sag_mm)) return it->sag_mm;
+  }
+  return std::nan("");
+}
+
 }  // namespace
 
-FovPair FieldOfView(const ports::PortSystem& sys, const lens::CameraBody& cam, double c_mm) {
+FovPair FieldOfView(const ports::PortSystem& sys, const lens::CameraBody& cam, const lens::LensSpec& lens,
+                    double c_mm) {
   const double hw = 0.5 * cam.SensorWidthMm(), hh = 0.5 * cam.SensorHeightMm();
   auto pair = [&](double x, double y) {
-    const Vec3 a(x, y, c_mm), b(-x, -y, c_mm);
-    return std::pair{AngleDeg(a.normalized(), b.normalized()),
-                     AngleDeg(WaterDirection(sys, a), WaterDirection(sys, b))};
+    return std::pair{AngleDeg(housing::ChiefRay(lens, c_mm, x, y), housing::ChiefRay(lens, c_mm, -x, -y)),
+                     AngleDeg(WaterRay(sys, lens, c_mm, x, y), WaterRay(sys, lens, c_mm, -x, -y))};
   };
   const auto [ha, hw_] = pair(hw, 0);
   const auto [va, vw] = pair(0, hh);
   const auto [da, dw] = pair(hw, hh);
   return {{ha, va, da}, {hw_, vw, dw}};
+}
+
+FieldCut FieldCutByPort(const ports::PortSystem& sys, const lens::CameraBody& cam, const lens::LensSpec& lens,
+                        double c_mm) {
+  const double hw = 0.5 * cam.SensorWidthMm(), hh = 0.5 * cam.SensorHeightMm();
+  auto passes = [&](double x, double y) { return WaterRay(sys, lens, c_mm, x, y).has_value(); };
+  FieldCut cut;
+  constexpr int kCols = 64, kRows = 43;  // about the frame's 3:2
+  int blocked = 0;
+  for (int j = 0; j < kRows; ++j) {
+    for (int i = 0; i < kCols; ++i) {
+      // Cell centres, so that each stands for an equal area.
+      blocked += !passes(hw * ((2 * i + 1.0) / kCols - 1), hh * ((2 * j + 1.0) / kRows - 1));
+    }
+  }
+  cut.blocked_fraction = static_cast<double>(blocked) / (kCols * kRows);
+  // Along each half diagonal: the last passing radius (bisection; the blocked part is outside).
+  const double half_diag = std::hypot(hw, hh);
+  cut.clear_radius_mm = half_diag;
+  for (const auto& [sx, sy] : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
+    auto at = [&](double r) { return passes(sx * hw * r / half_diag, sy * hh * r / half_diag); };
+    if (at(half_diag)) continue;
+    double lo = 0, hi = half_diag;
+    for (int it = 0; it < 60; ++it) (at(0.5 * (lo + hi)) ? lo : hi) = 0.5 * (lo + hi);
+    cut.clear_radius_mm = std::min(cut.clear_radius_mm, lo);
+  }
+  cut.clear_angle_deg = lens::FieldAngleRad(lens, c_mm, cut.clear_radius_mm).value_or(std::nan("")) * kDeg;
+  double water = 0;
+  for (const auto& [sx, sy] : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
+    const double r = cut.clear_radius_mm / half_diag;
+    const auto w = WaterRay(sys, lens, c_mm, sx * hw * r, sy * hh * r);
+    if (w) water = std::max(water, std::acos(std::clamp(w->z(), -1.0, 1.0)) * kDeg);
+  }
+  cut.clear_water_angle_deg = water;
+  if (cut.clear_radius_mm >= half_diag) {
+    cut.what = "nothing";
+  } else if (cut.clear_radius_mm >= hw) {
+    cut.what = "the corners";
+  } else if (cut.clear_radius_mm >= hh) {
+    cut.what = "the corners and the left and right edges";
+  } else {
+    cut.what = "the whole frame edge";
+  }
+  return cut;
 }
 
 double WdForVirtualImage(const ports::PortSystem& sys, double d) {
@@ -111,26 +209,21 @@ double WdForVirtualImage(const ports::PortSystem& sys, double d) {
 }
 
 Plan MakePlan(const Setup& setup, const PlanOptions& o) {
-  lens::Validate(setup.lens, "--lens");
-  lens::Validate(setup.camera, "--camera");
-  const lens::Mount& mount = lens::MountByName(setup.lens.mount);
+  housing::Validate(setup);
+  const lens::Mount& mount = housing::MountOf(setup);
   const lens::LensSpec& ln = setup.lens;
   const double f = ln.focal_length_mm;
   const double pitch = setup.camera.sensor.pixel_pitch_mm;
-  if (o.wd_mm && o.subject_distance_mm) throw InvalidInput("--wd", "give --wd or --subject-distance, not both");
-  RequireFinite("--aperture", o.f_number);
+  if (o.wd_mm && o.subject_distance_mm) throw InvalidInput("wd_mm", "give wd_mm or subject_distance_mm, not both");
+  RequireFinite("f_number", o.f_number);
   if (o.f_number < ln.f_number_min * (1 - 1e-9) || o.f_number > ln.f_number_max * (1 + 1e-9)) {
-    throw InvalidInput("--aperture", fmt::format("f/{:g} is outside the {} range f/{:g} to f/{:g}", o.f_number,
+    throw InvalidInput("f_number", fmt::format("f/{:g} is outside the {} range f/{:g} to f/{:g}", o.f_number,
                                                  ln.name, ln.f_number_min, ln.f_number_max));
-  }
-  if (setup.camera.mount != ln.mount) {
-    throw InvalidInput("--lens", fmt::format("{} is a {} lens, the {} has a {} mount", ln.name, ln.mount,
-                                             setup.camera.name, setup.camera.mount));
   }
   Plan plan;
   plan.f_number = o.f_number;
   if (o.coc_mm) {
-    plan.coc_mm = RequirePositive("--coc", *o.coc_mm);
+    plan.coc_mm = RequirePositive("coc_mm", *o.coc_mm);
     plan.coc_source = "given";
   } else {
     plan.coc_mm = PlanOptions::kCocPixels * pitch;
@@ -174,14 +267,14 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   plan.principal_distance_mm = f;  // lens at infinity when there is no target
 
   if (o.wd_mm || o.subject_distance_mm) {
-    if (o.wd_mm && !(RequireFinite("--wd", *o.wd_mm) > 0)) {
-      throw InvalidInput("--wd", "must be > 0 mm: WD is measured from the port's outer surface, so this "
+    if (o.wd_mm && !(RequireFinite("wd_mm", *o.wd_mm) > 0)) {
+      throw InvalidInput("wd_mm", "must be > 0 mm: WD is measured from the port's outer surface, so this "
                                  "object would be inside the port");
     }
     if (o.subject_distance_mm) {
-      RequireFinite("--subject-distance", *o.subject_distance_mm);
+      RequireFinite("subject_distance_mm", *o.subject_distance_mm);
       if (!(*o.subject_distance_mm > PupilToOuterMm(at_inf) && *o.subject_distance_mm > PupilToOuterMm(at_min))) {
-        throw InvalidInput("--subject-distance",
+        throw InvalidInput("subject_distance_mm",
                            fmt::format("{:g} mm from the entrance pupil is inside the port (its outer surface "
                                        "is {:.1f} mm from the pupil)",
                                        *o.subject_distance_mm, PupilToOuterMm(at_inf)));
@@ -191,7 +284,7 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
       return o.wd_mm ? *o.wd_mm : *o.subject_distance_mm - PupilToOuterMm(sys);
     };
     plan_focus = [&, wd_of](const ports::PortSystem& sys) { return VirtualD(sys, wd_of(sys)); };
-    const Solved sol = SolveFocus(setup, mount, plan_focus);
+    const housing::Focused sol = housing::SolveFocus(setup, plan_focus);
     TargetPlan t;
     const ports::PortSystem& sys = sol.sys;
     t.wd_mm = wd_of(sys);
@@ -200,11 +293,9 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     const auto real = ports::RealRayVirtualImage(sys, t.wd_mm, f / (2 * n));
     t.d_s2ep_real_mm = real ? real->d_s2ep_mm : std::nan("");
     const double dv = t.virtual_image.d_s2ep_mm;
-    t.focus.d_s2ep_mm = dv;
-    t.focus.focus_distance_mm = sol.fd_mm;
-    t.focus.ep_to_flange_mm = ln.PupilToFlangeMm(sol.fd_mm.value_or(ln.min_focus_mm));
+    t.focus = sol.focus;
     t.focus.closeup_dioptre = CloseupDioptreNeeded(dv, plan.closest_d_s2ep_mm);
-    t.principal_distance_mm = PrincipalDistanceMm(dv, f);
+    t.principal_distance_mm = lens::PrincipalDistanceMm(f, dv);
 
     // In air: the same subject distance from the pupil.
     const DofLimits air = ThinLensDof(t.subject_distance_mm, f, n, coc);
@@ -225,15 +316,16 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
 
     // One pixel on the object: at the virtual image, divided by the port's lateral magnification.
     t.gsd_water_mm = pitch * dv / t.principal_distance_mm / t.virtual_image.magnification;
-    t.gsd_air_mm = pitch * t.subject_distance_mm / PrincipalDistanceMm(t.subject_distance_mm, f);
-    const FieldCurvature fc = TraceFieldCurvature(sys, setup.camera, f, n, coc, t.principal_distance_mm,
+    t.gsd_air_mm = pitch * t.subject_distance_mm / lens::PrincipalDistanceMm(f, t.subject_distance_mm);
+    const FieldCurvature fc = TraceFieldCurvature(sys, setup.camera, ln, n, coc, t.principal_distance_mm,
                                                   t.wd_mm, o.field_samples);
     if (!fc.rows.empty() && static_cast<int>(fc.rows.size()) == o.field_samples) t.field = fc;
     plan.system = sys;
     plan.principal_distance_mm = t.principal_distance_mm;
     plan.target = t;
   }
-  plan.fov = FieldOfView(plan.system, setup.camera, plan.principal_distance_mm);
+  plan.fov = FieldOfView(plan.system, setup.camera, ln, plan.principal_distance_mm);
+  plan.field_cut = FieldCutByPort(plan.system, setup.camera, ln, plan.principal_distance_mm);
   plan.centring = CentrePupil(setup, mount, plan_focus);
 
   // Plain-language warnings, the paper's advice (Sections 2.3, 3.1, 4 and 6).
@@ -243,6 +335,18 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     warn.push_back(fmt::format("The entrance pupil of the {} is estimated, not measured ({}): distances from "
                                "the pupil may be off by 10 mm or more. Measure it as in the paper's Section 3.1.",
                                ln.name, ln.description));
+  }
+  if (ln.projection_estimated) {
+    warn.push_back(fmt::format("The {} is taken as a {} fisheye, an estimate ({}): the field of view may differ.",
+                               ln.name, camera::ProjectionName(ln.projection), ln.description));
+  }
+  if (plan.field_cut.blocked_fraction > 0) {
+    warn.push_back(fmt::format("The {} cuts off {} of the frame ({:.1f} % of its area): chief rays beyond {:.1f} deg "
+                               "off axis ({:.2f} mm from the image centre along the diagonal) do not reach the water, "
+                               "so that part of the image is vignetted: it sees the {} whatever the distance.",
+                               dome ? "dome's rim" : "port's edge", plan.field_cut.what,
+                               100 * plan.field_cut.blocked_fraction, plan.field_cut.clear_angle_deg,
+                               plan.field_cut.clear_radius_mm, dome ? "rim and the housing" : "housing"));
   }
   if (dome) {
     const double near_at_inf = ThinLensDof(kInf, f, n, coc).near_mm;
@@ -262,11 +366,6 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
                                "pupil). No close-up lens is needed.",
                                ln.name, plan.d_s2ep_touching_mm, plan.d_s2ep_infinity_mm, plan.closest_d_s2ep_mm,
                                plan.pupil_to_outer_mm));
-  }
-  if (std::isnan(plan.fov.water.diagonal_deg) && !std::isnan(plan.fov.air.diagonal_deg)) {
-    warn.push_back(fmt::format("The frame's corners see past the {}: their rays miss the glass (its rim), so the "
-                               "corners are vignetted whatever the distance.",
-                               dome ? "dome's rim" : "port"));
   }
   if (plan.closest_d_s2ep_mm >= plan.d_s2ep_infinity_mm) {
     warn.push_back(fmt::format("The {} cannot focus on anything behind this port: its closest focus is {:.1f} "
@@ -292,7 +391,7 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
       const double nf = t.field->f_number_for_sharp_corners;
       warn.push_back(fmt::format("The corners are soft: the port's field curvature puts their image {:.1f} mm "
                                  "nearer, a {:.1f} px blur at f/{:g}; {}.",
-                                 t.field->rows.back().sag_mm, t.field->corner_blur_px, n,
+                                 LastClearSag(*t.field), t.field->corner_blur_px, n,
                                  nf <= ln.f_number_max ? fmt::format("f/{:.1f} brings them within the circle of "
                                                                      "confusion", nf)
                                                        : fmt::format("even f/{:g} does not fix it", ln.f_number_max)));

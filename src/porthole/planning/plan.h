@@ -39,24 +39,37 @@ struct Fov {
   double horizontal_deg = 0, vertical_deg = 0, diagonal_deg = 0;  // full angles; NaN: ray blocked
 };
 
-// The camera's edge and corner chief rays (principal distance c_mm, a centred sensor) in air, and
-// the same rays traced out through the port into the water (full angle between opposite edges).
+// The camera's edge and corner chief rays (principal distance c_mm, a centred sensor, the lens's
+// projection: a fisheye's reach beyond 90° off axis) in air, and the same rays traced out through
+// the port into the water: the full angle between opposite edges, through the axis (it may exceed
+// 180° for a fisheye behind a dome).
 struct FovPair {
   Fov air, water;
 };
-FovPair FieldOfView(const ports::PortSystem& sys, const lens::CameraBody& camera, double c_mm);
+FovPair FieldOfView(const ports::PortSystem& sys, const lens::CameraBody& camera, const lens::LensSpec& lens,
+                    double c_mm);
+
+// What part of the frame sees the port's rim (or the housing) instead of the water: its chief
+// rays do not get through the port.
+struct FieldCut {
+  double blocked_fraction = 0;  // of the frame's area (a 64 x 43 grid of chief rays)
+  // Along the frame diagonal (the worst of the four): the largest image radius (mm) and air field
+  // angle (deg, from the axis) whose chief ray passes; the half diagonal and its angle when
+  // nothing is cut.
+  double clear_radius_mm = 0, clear_angle_deg = 0;
+  double clear_water_angle_deg = 0;  // that last passing ray's angle from the axis in the water
+  // "nothing", "the corners", "the corners and the left and right edges", "the whole frame edge".
+  std::string what = "nothing";
+};
+FieldCut FieldCutByPort(const ports::PortSystem& sys, const lens::CameraBody& camera, const lens::LensSpec& lens,
+                        double c_mm);
 
 // The WD whose paraxial virtual image lies d_s2ep_mm from the entrance pupil (bisection on WD):
 // infinite when d_s2ep_mm is at or beyond the image of infinity, 0 when it is closer than the
 // image of an object touching the port.
 double WdForVirtualImage(const ports::PortSystem& sys, double d_s2ep_mm);
 
-struct FocusSetting {
-  double d_s2ep_mm = 0;  // where the lens must focus (the virtual image), from the pupil
-  std::optional<double> focus_distance_mm;  // FD to set (Eq. 2); nullopt: closer than the lens goes
-  double ep_to_flange_mm = 0;               // D_EP2F at that focus (at min focus if unreachable)
-  double closeup_dioptre = 0;    // weakest close-up lens that would reach it (0 when reachable)
-};
+using housing::FocusSetting;
 
 struct DofAir {
   double focus_mm = 0, near_mm = 0, far_mm = 0, total_mm = 0;  // from the entrance pupil
@@ -70,11 +83,16 @@ struct DofWater {
   double near_wd_mm = 0, far_wd_mm = 0;  // the same limits as working distances
 };
 
+// A rectilinear lens images a flat object plane at the target's WD; a fisheye images the sphere
+// at the target's distance from the pupil (it sees beyond 90° off axis), and its distances are
+// taken along the chief ray rather than the axis.
 struct FieldRow {
   double image_height_mm = 0;  // on the sensor, along the diagonal toward the corner
   double field_angle_deg = 0;  // chief-ray angle in air
-  double object_height_mm = 0; // where that ray meets the flat object plane
-  double d_s2ep_mm = 0;        // axial distance of the real-ray virtual image from the pupil
+  double object_height_mm = 0; // where that ray meets the object plane (fisheye: the object sphere),
+                               // from the axis
+  double d_s2ep_mm = 0;        // distance of the real-ray virtual image from the pupil (axial;
+                               // fisheye: along the chief ray)
   double sag_mm = 0;           // its shift toward the camera from the on-axis image
   double blur_px = 0;          // defocus blur diameter on the sensor at the set focus and f-number
   double spread_px = 0;        // the bundle's own spread (astigmatism, coma), imaged on the sensor
@@ -133,6 +151,7 @@ struct Plan {
   InfinityFocus infinity;
   double principal_distance_mm = 0;    // used for the field of view
   FovPair fov;
+  FieldCut field_cut;                  // what the port's rim cuts off the frame
   std::optional<TargetPlan> target;
   // Domes: the pupil against the dome's centre at the plan's focus (the target's, else the
   // infinity focus) and the extension ring that would centre it (centring.h). nullopt: flat port.
@@ -140,9 +159,10 @@ struct Plan {
   std::vector<std::string> warnings;   // plain language, the paper's advice
 };
 
-// Throws InvalidInput naming the CLI flag: --wd and --subject-distance together, a target inside
-// the port (--wd <= 0, or a subject closer than the outer vertex), --aperture outside the lens's
-// f-number range, --coc not > 0; and whatever the lens, camera, port and water checks throw.
+// Throws InvalidInput naming the option field: wd_mm and subject_distance_mm together, a target
+// inside the port (wd_mm <= 0, or a subject closer than the outer vertex), f_number outside the
+// lens's range, coc_mm not > 0; and whatever the housed camera's checks throw ("lens", "camera",
+// port and water fields).
 Plan MakePlan(const Setup& setup, const PlanOptions& options);
 
 }  // namespace porthole::planning

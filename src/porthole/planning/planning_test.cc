@@ -165,7 +165,7 @@ TEST(Plan, BadInputNamesTheFlag) {
     MakePlan(PaperSetup(), o);
     FAIL();
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--wd");
+    EXPECT_EQ(e.field(), "wd_mm");
   }
   o.wd_mm.reset();
   o.subject_distance_mm = 50;  // the dome's outer surface is 83.4 mm from the pupil
@@ -176,7 +176,7 @@ TEST(Plan, BadInputNamesTheFlag) {
     MakePlan(PaperSetup(), n);
     FAIL();
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--aperture");
+    EXPECT_EQ(e.field(), "f_number");
   }
 }
 

@@ -30,8 +30,6 @@ double BlurDiameterMm(double s, double d, double f, double n) {
   return f2 * std::abs(s - d) / (n * d * (s - f));
 }
 
-double PrincipalDistanceMm(double s, double f) { return std::isinf(s) ? f : f * s / (s - f); }
-
 double ApparentDistanceWithCloseupMm(double d, double p) {
   const double v = (std::isinf(d) ? 0.0 : 1.0 / d) - p / 1000.0;
   if (v < 0) return std::nan("");

@@ -63,21 +63,27 @@ namespace {
 // the 2D miss with a finite-difference Jacobian. Returns the air-side ray, or nullopt when a ray
 // fails or Newton does not converge.
 std::optional<optics::Ray> RayThroughPupilPoint(const std::vector<optics::Interface>& inward,
-                                                const ObjectPoint& object, const Vec3& pupil_point) {
-  const double z_pupil = pupil_point.z();
+                                                const ObjectPoint& object, const Vec3& pupil_point,
+                                                const Vec3& normal = Vec3(0, 0, 1)) {
+  // The pupil plane through pupil_point with unit `normal` (the axis: z = const), spanned by e1, e2.
+  const Vec3 n = normal.normalized();
+  const Vec3 pick = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 e1 = (pick - pick.dot(n) * n).normalized();  // x for the axis
+  const Vec3 e2 = n.cross(e1);                            // y for the axis
   constexpr double kFar = 1e6;  // launch distance of rays from infinity, mm
   auto miss = [&](const Eigen::Vector2d& aim, optics::Ray* air) -> std::optional<Eigen::Vector2d> {
-    const Vec3 a(aim.x(), aim.y(), z_pupil);
+    const Vec3 a = pupil_point + aim.x() * e1 + aim.y() * e2;
     const optics::Ray water = object.at_infinity ? optics::Ray{a + kFar * object.v, -object.v}
                                                  : optics::Ray{object.v, (a - object.v).normalized()};
     optics::Ray out;
     if (optics::TraceSequence<double>(inward, water, &out) != optics::RayStatus::kOk) return std::nullopt;
-    if (!(out.dir.z() < 0)) return std::nullopt;
-    const Vec3 hit = out.origin + ((z_pupil - out.origin.z()) / out.dir.z()) * out.dir;
+    const double towards = out.dir.dot(n);  // < 0: travelling back toward the pupil
+    if (!(towards < 0)) return std::nullopt;
+    const Vec3 hit = out.origin + ((pupil_point - out.origin).dot(n) / towards) * out.dir;
     if (air) *air = out;
-    return Eigen::Vector2d(hit.x() - pupil_point.x(), hit.y() - pupil_point.y());
+    return Eigen::Vector2d((hit - pupil_point).dot(e1), (hit - pupil_point).dot(e2));
   };
-  Eigen::Vector2d aim = pupil_point.head<2>();
+  Eigen::Vector2d aim = Eigen::Vector2d::Zero();
   optics::Ray air;
   for (int it = 0; it < 30; ++it) {
     const auto m = miss(aim, &air);
@@ -198,11 +204,19 @@ VirtualImage ParaxialVirtualImage(const PortSystem& port, double wd_mm) {
 }
 
 std::optional<VirtualPoint> RealRayVirtualPoint(const PortSystem& port, const ObjectPoint& object,
-                                                double aperture_height_mm) {
+                                                double aperture_height_mm, const Vec3& pupil_normal) {
   RequirePositive("aperture_height_mm", aperture_height_mm);
   PORTHOLE_CHECK(object.v.allFinite());
   const auto inward = port.Inward();
   const Vec3& ep = port.ep_in_housing_mm;
+  // The pupil's circle: in the plane normal to the axis (x, y), or turned to face pupil_normal.
+  const Vec3 nz = pupil_normal.normalized();
+  Vec3 u1 = Vec3::UnitX(), u2 = Vec3::UnitY();
+  if ((nz - Vec3::UnitZ()).norm() > 1e-15) {
+    u1 = (std::abs(nz.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY());
+    u1 = (u1 - u1.dot(nz) * nz).normalized();
+    u2 = nz.cross(u1);
+  }
   // Rays through 8 points of the pupil rim; their least-squares meeting point is the virtual image
   // (for an astigmatic bundle this is its centre of least spread).
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
@@ -211,8 +225,8 @@ std::optional<VirtualPoint> RealRayVirtualPoint(const PortSystem& port, const Ob
   std::vector<optics::Ray> rays;
   for (int k = 0; k < 8; ++k) {
     const double phi = k * M_PI / 4;
-    const Vec3 p = ep + aperture_height_mm * Vec3(std::cos(phi), std::sin(phi), 0);
-    auto air = RayThroughPupilPoint(inward, object, p);
+    const Vec3 p = ep + aperture_height_mm * (std::cos(phi) * u1 + std::sin(phi) * u2);
+    auto air = RayThroughPupilPoint(inward, object, p, pupil_normal);
     if (!air) return std::nullopt;
     air->dir.normalize();
     const Eigen::Matrix3d proj = Eigen::Matrix3d::Identity() - air->dir * air->dir.transpose();

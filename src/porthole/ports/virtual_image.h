@@ -61,8 +61,11 @@ struct VirtualPoint {
 // and field angle; for an astigmatic bundle, its centre of least spread). nullopt when a ray
 // cannot be traced (it leaves the glass, total internal reflection, or Newton does not converge).
 // Throws InvalidInput("aperture_height_mm") unless it is > 0.
+// `pupil_normal` turns the pupil's circle to face another direction (a fisheye's pupil faces the
+// chief ray, which may lie beyond 90° off axis); default: normal to the axis.
 std::optional<VirtualPoint> RealRayVirtualPoint(const PortSystem& port, const ObjectPoint& object,
-                                                double aperture_height_mm);
+                                                double aperture_height_mm,
+                                                const Vec3& pupil_normal = Vec3(0, 0, 1));
 
 struct FocalProperties {
   // Power Φ = 1/efl (mm⁻¹) of the port between water and air; negative for a dome (diverging),

@@ -55,10 +55,8 @@ VirtualRow VirtualAt(const planning::Setup& s, const lens::Mount& mount, double 
 
 simulate::SystemSpec SimSpec(const ReportInputs& in, const ports::PortSpec& port) {
   simulate::SystemSpec spec;
+  static_cast<housing::HousedCamera&>(spec) = in.setup;
   spec.port = port;
-  spec.env = in.setup.env;
-  spec.body = in.setup.camera;
-  spec.lens = in.setup.lens;
   spec.object_distance_mm = in.subject_distance_mm;
   if (in.air_calibration) {
     spec.air_calibration = camera::ToBrown(in.air_calibration->camera, "--air-calibration");
@@ -143,7 +141,8 @@ Results Gather(const ReportInputs& in, Steps& steps) {
   steps.Run("chief rays through both ports", [&] {
     const double c = r.plan.principal_distance_mm;
     const double half_diag = 0.5 * in.setup.camera.SensorDiagonalMm();
-    const double corner_deg = std::atan(half_diag / c) * kDeg;
+    // The lens's projection gives the corner's field angle (a fisheye's reaches 90 deg and more).
+    const double corner_deg = std::min(179.0, lens::FieldAngleRad(in.setup.lens, c, half_diag).value_or(M_PI / 2) * kDeg);
     for (int k = 0; k <= 40; ++k) {
       AngleRow row;
       row.theta_air_deg = corner_deg * k / 40;
@@ -155,7 +154,8 @@ Results Gather(const ReportInputs& in, Steps& steps) {
       r.angles.push_back(row);
     }
     // The fan of the cross-section: chief rays to the sensor's horizontal edges and between.
-    const double half_h = std::atan(0.5 * in.setup.camera.SensorWidthMm() / c) * kDeg;
+    const double half_h =
+        lens::FieldAngleRad(in.setup.lens, c, 0.5 * in.setup.camera.SensorWidthMm()).value_or(M_PI / 2) * kDeg;
     const auto seq = r.plan.system.Outward();
     for (int k = 0; k <= 8; ++k) {
       const double a = (-half_h + 2 * half_h * k / 8) / kDeg;

@@ -351,8 +351,8 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
                         "Brown model fitted to them as a self-calibration would (docs/simulate.md). Lens focused "
                         "under water on an object {:.0f} mm from its pupil (focus scale {:.1f} mm), c = {:.3f} mm.",
                         sim.options.grid_cols, sim.options.grid_rows,
-                        fmt::join(simulate::Distances(sim.options), ", "), sim.focus.object_distance_mm,
-                        sim.focus.fd_mm, sim.camera.lens.c_mm));
+                        fmt::join(simulate::Distances(sim.options), ", "), sim.object_distance_mm,
+                        sim.focus.focus_distance_mm.value_or(NAN), sim.camera.lens.c_mm));
   h += "</p>\n<div class=\"scroll\">" + BrownTable("Brown parameters (correction form, image mm)", cols, rms);
   rows.clear();
   const double corner = simulate::ProfileRadiiMm(sim.camera.sensor).back();

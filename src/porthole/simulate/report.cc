@@ -63,12 +63,25 @@ std::vector<double> ProfileRadiiMm(const camera::Sensor& s) {
   return r;
 }
 
+Json CameraFitJson(const CameraFit& f) {
+  Json j;
+  const camera::ModelInfo& info = f.camera.info();
+  for (int i = 0; i < info.num_params; ++i) j[std::string(info.params[i].json_key)] = f.camera.params[i];
+  j["rms_px"] = f.rms_px;
+  j["max_px"] = f.max_px;
+  j["num_points"] = f.num_points;
+  j["num_failed"] = f.num_failed;
+  j["converged"] = f.converged;
+  j["pose"] = {{"center_in_housing_mm", VecJson(f.center_in_housing_mm)}, {"rotation_deg", VecJson(f.rotation_deg)}};
+  return j;
+}
+
 Json PredictionJson(const Prediction& p) {
   Json j;
-  const FocusSetting& f = p.focus;
-  j["focus"] = {{"object_distance_mm", f.object_distance_mm}, {"wd_mm", f.wd_mm},
-                {"virtual_image_d_s2ep_mm", f.d_s2ep_mm}, {"focus_scale_fd_mm", f.fd_mm},
-                {"d_ep2f_mm", f.d_ep2f_mm}, {"ep_in_housing_mm", VecJson(f.ep_in_housing_mm)}};
+  const housing::FocusSetting& f = p.focus;
+  j["focus"] = {{"object_distance_mm", p.object_distance_mm}, {"wd_mm", p.wd_mm},
+                {"virtual_image_d_s2ep_mm", f.d_s2ep_mm}, {"focus_scale_fd_mm", f.focus_distance_mm.value_or(NAN)},
+                {"d_ep2f_mm", f.ep_to_flange_mm}, {"ep_in_housing_mm", VecJson(f.ep_in_housing_mm)}};
   j["camera"] = camera::BrownToJson(p.camera.lens);
   j["camera"]["width_px"] = p.camera.sensor.width_px;
   j["camera"]["height_px"] = p.camera.sensor.height_px;
@@ -76,6 +89,15 @@ Json PredictionJson(const Prediction& p) {
   j["distances_mm"] = Distances(p.options);
   j["grid"] = {{"cols", p.options.grid_cols}, {"rows", p.options.grid_rows}};
   j["free_rotation"] = p.options.free_rotation;
+  if (p.water_fisheye) {
+    j["model"] = camera::Info(p.water_fisheye->camera.model).name;
+    j["lens_projection"] = camera::ProjectionName(p.lens_projection);
+    j["water"] = CameraFitJson(*p.water_fisheye);
+    j["air"] = CameraFitJson(*p.air_fisheye);
+    j["fx_ratio_water_air"] = p.water_fisheye->camera.FocalLengthPx() / p.air_fisheye->camera.FocalLengthPx();
+    return j;
+  }
+  j["model"] = "brown";
   j["water"] = FitJson(p.water);
   j["air"] = FitJson(p.air);
   j["change"] = FittedParamsJson(p.change);

@@ -16,6 +16,9 @@ using Json = nlohmann::ordered_json;
 Json FittedParamsJson(const camera::BrownParams& p);
 // FittedParamsJson + rms_um, max_um, num_points, num_failed, converged, pose.
 Json FitJson(const BrownFit& fit);
+// A fitted model of the camera list: its parameters under their JSON keys (units in the keys),
+// rms_px, max_px, num_points, num_failed, converged, pose.
+Json CameraFitJson(const CameraFit& fit);
 // Units of every key FitJson and FittedParamsJson write.
 Json FitUnitsJson();
 

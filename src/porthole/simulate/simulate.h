@@ -19,7 +19,9 @@
 #include <vector>
 
 #include "porthole/camera/brown.h"
+#include "porthole/camera/camera.h"
 #include "porthole/camera/sensor.h"
+#include "porthole/housing/housed.h"
 #include "porthole/lens/lens.h"
 #include "porthole/ports/environment.h"
 #include "porthole/ports/port.h"
@@ -87,6 +89,26 @@ std::vector<Eigen::Vector2d> ImageGrid(const camera::Sensor& s, int cols, int ro
 BrownFit SimulateFit(const ports::PortSystem& sys, const CameraSetup& camera,
                      const FitOptions& options = {});
 
+// One model of the camera list (camera/camera.h) fitted to rays traced through a port: the
+// fisheye path (a Kannala–Brandt fit for a fisheye lens), in pixels.
+struct CameraFit {
+  camera::Camera camera;  // the fitted model and its parameters (units in camera::Info(model))
+  Vec3 center_in_housing_mm = Vec3::Zero();
+  Vec3 rotation_deg = Vec3::Zero();  // cam_from_housing, angle-axis in degrees
+  double rms_px = 0, max_px = 0;     // image residual: what the central model cannot absorb
+  int num_points = 0, num_failed = 0;
+  bool converged = false;
+  std::vector<double> residual_px;   // per grid point (row-major), RMS over the distances; NaN: failed
+};
+
+// The grid's chief rays (the lens's projection at principal distance c_mm, leaving the pupil of
+// `sys`) traced out through the port; object points on spheres about the pupil at
+// Distances(options) (a fisheye sees beyond 90°); `model` fitted with its pose by Ceres automatic
+// differentiation through the model's Project<T> (camera pose free as FitOptions says; the
+// model's parameters all free). Throws InvalidInput as SimulateFit.
+CameraFit SimulateCameraFit(const ports::PortSystem& sys, const lens::LensSpec& lens, const camera::Sensor& sensor,
+                            double c_mm, camera::CameraModelId model, const FitOptions& options = {});
+
 // The port with air (n = 1) outside instead of water: the in-air calibration of the camera in its
 // housing.
 ports::PortSystem WithAirOutside(const ports::PortSystem& sys);
@@ -107,48 +129,35 @@ std::vector<DistanceError> DistanceErrors(const ports::PortSystem& sys, const Ca
 // ---------------------------------------------------------------------------------------------
 // The whole system: port, water, camera body, lens and its focus.
 
-struct SystemSpec {
-  ports::PortSpec port;
-  ports::Environment env;
-  lens::CameraBody body;
-  lens::LensSpec lens;
+// The housed camera (housing/housed.h: port, water, body, lens, pupil offset) and what the
+// simulation adds to it.
+struct SystemSpec : housing::HousedCamera {
   // The lens is focused under water on an object this far in front of its entrance pupil (the
   // paper: autofocus at 1 m), i.e. on that object's virtual image (Eq. 2 gives the focus scale).
   double object_distance_mm = 1000;
-  // Added to the lens's pupil (0, 0, D_EP2F(FD)). A port written in the cam frame is centred on
-  // the lens's pupil before the offset, so the offset always moves the pupil relative to the port.
-  Vec3 ep_offset_mm = Vec3::Zero();
   std::optional<double> c_mm;  // principal distance; default: thin lens focused on the image
   // The in-air calibration of the camera in its housing (c, x0, y0, K, P): the lens model, and
   // the base of the prediction. Its c overrides c_mm.
   std::optional<camera::BrownParams> air_calibration;
 };
 
-// Where the lens is focused and where its pupil then is.
-struct FocusSetting {
-  double object_distance_mm = 0;  // object to entrance pupil, along the axis (input)
-  double wd_mm = 0;               // object to the port's outer vertex
-  double d_s2ep_mm = 0;           // its (paraxial) virtual image to the entrance pupil
-  double fd_mm = 0;               // focus-scale distance the lens is set to (Eq. 2 inverted)
-  double d_ep2f_mm = 0;           // entrance pupil ahead of the flange at that focus
-  Vec3 ep_in_housing_mm = Vec3::Zero();  // (0, 0, d_ep2f) + ep_offset
-};
-
-// Solves the fixed point: pupil position → virtual image of the object → focus scale → pupil.
-// Throws InvalidInput("--focus-distance") when the lens cannot focus on the virtual image.
-FocusSetting FocusUnderWater(const SystemSpec& spec);
-
-// The thin-lens principal distance of a lens of focal length f focused on a subject d in front of
-// its entrance pupil: c = f d / (d − f). An estimate: a real lens's principal planes are not at
-// its pupil (the paper's 24 mm lens calibrates at 25.8 mm where this gives 26.7 mm).
-double ThinLensPrincipalDistanceMm(double focal_length_mm, double d_s2ep_mm);
+// The focus under water on spec.object_distance_mm (housing::FocusOnSubject). Throws
+// InvalidInput("subject_distance_mm") when the object is inside the port or the lens cannot focus
+// on its virtual image.
+housing::FocusSetting FocusUnderWater(const SystemSpec& spec);
 
 struct Prediction {
-  FocusSetting focus;
+  double object_distance_mm = 0;  // the focused object, from the pupil along the axis
+  double wd_mm = 0;               // the same from the port's outer vertex
+  housing::FocusSetting focus;    // where the lens is focused and its pupil
   FitOptions options;  // as used: reference_distance_mm = the spec's object distance
   CameraSetup camera;  // the camera the simulation used (c, lens model, pupil)
   ports::PortSystem water_system, air_system;
-  BrownFit water, air;  // the fits with water and with air outside the port
+  BrownFit water, air;  // the fits with water and with air outside the port (rectilinear lenses)
+  // A fisheye lens (its projection is not rectilinear): the Kannala–Brandt model fitted in water
+  // and in air instead of Brown (water and air above are then left empty).
+  std::optional<CameraFit> water_fisheye, air_fisheye;
+  camera::Projection lens_projection = camera::Projection::kRectilinear;
   camera::BrownParams change;  // water − air, parameter by parameter
   // The in-air calibration + change: the underwater calibration to expect (only with
   // air_calibration).

@@ -21,7 +21,7 @@ namespace {
 SystemSpec PaperSystem(const std::string& port = "nimar-ni320") {
   SystemSpec s;
   s.port = io::LoadPort(port);
-  s.body = io::LoadCamera("nikon-d300");
+  s.camera = io::LoadCamera("nikon-d300");
   s.lens = io::LoadLens("nikkor-24mm-f2.8d");
   return s;
 }
@@ -164,16 +164,18 @@ TEST(Simulate, ThinFlatPortAtThePupilMultipliesCByTheWaterIndex) {
 
 TEST(Simulate, FocusIsTheFixedPointOfEq2AndTheVirtualImage) {
   const SystemSpec spec = PaperSystem();
-  const FocusSetting f = FocusUnderWater(spec);
+  const housing::FocusSetting f = FocusUnderWater(spec);
   const lens::Mount& mount = lens::MountByName(spec.lens.mount);
-  EXPECT_NEAR(lens::SubjectToPupilMm(spec.lens, mount, f.fd_mm), f.d_s2ep_mm, 1e-6);
-  EXPECT_NEAR(spec.lens.PupilToFlangeMm(f.fd_mm), f.ep_in_housing_mm.z(), 1e-9);
+  ASSERT_TRUE(f.focus_distance_mm);
+  const double fd_mm = *f.focus_distance_mm;
+  EXPECT_NEAR(lens::SubjectToPupilMm(spec.lens, mount, fd_mm), f.d_s2ep_mm, 1e-6);
+  EXPECT_NEAR(spec.lens.PupilToFlangeMm(fd_mm), f.ep_in_housing_mm.z(), 1e-9);
   // Paper Section 4: an object 1 m from a pupil concentric with the dome is imaged 238 mm from
   // the pupil; this pupil is ~5 mm ahead of the centre, so the image comes a little closer.
   EXPECT_GT(f.d_s2ep_mm, 220);
   EXPECT_LT(f.d_s2ep_mm, 238);
   // The lens must focus closer than its 300 mm minimum scale would allow on the real object.
-  EXPECT_GT(f.fd_mm, spec.lens.min_focus_mm);
+  EXPECT_GT(fd_mm, spec.lens.min_focus_mm);
 }
 
 // A flat port 20 mm ahead of the pupil makes a strongly non-central bundle: the Brown model that
@@ -254,6 +256,28 @@ TEST(Simulate, InvalidOptionsNameTheField) {
   SystemSpec spec = PaperSystem();
   spec.object_distance_mm = 50;  // inside the dome
   EXPECT_THROW(FocusUnderWater(spec), InvalidInput);
+}
+
+// A fisheye lens is fitted with the list's fisheye model (Kannala–Brandt). Behind a dome
+// concentric with the pupil every chief ray passes undeviated, so water and air give the lens's
+// own projection: for equisolid 2 sin(θ/2) = θ − θ³/24 + θ⁵/1920 − θ⁷/322560 + …, KB's k1..k4
+// are its Taylor coefficients (to the truncation the fit spreads over k3, k4), fx = c / pitch.
+TEST(Simulate, FisheyeBehindAConcentricDomeFitsTheProjectionsSeries) {
+  SystemSpec spec = PaperSystem("nimar-ni320-nominal");
+  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  const Prediction p = Predict(spec);
+  ASSERT_TRUE(p.water_fisheye && p.air_fisheye);
+  for (const CameraFit* f : {&*p.water_fisheye, &*p.air_fisheye}) {
+    EXPECT_EQ(f->camera.model, camera::CameraModelId::kKannalaBrandt);
+    EXPECT_TRUE(f->converged);
+    EXPECT_LT(f->rms_px, 1e-3);
+    const auto& k = f->camera.params;
+    EXPECT_NEAR(k[0] * spec.camera.sensor.pixel_pitch_mm, p.camera.lens.c_mm, 1e-6);
+    EXPECT_NEAR(k[4], -1.0 / 24, 1e-5);
+    EXPECT_NEAR(k[5], 1.0 / 1920, 2e-5);
+  }
+  spec.air_calibration = PaperAirLens();
+  EXPECT_THROW(Predict(spec), InvalidInput);  // a Brown calibration cannot describe a fisheye
 }
 
 TEST(CameraJson, RoundTripAndTyposAreRejected) {

@@ -25,84 +25,48 @@ camera::BrownParams Add(const camera::BrownParams& a, const camera::BrownParams&
   return camera::BrownParams::FromArray(d.data());
 }
 
-// The port in the housing frame. A port written in the cam frame (an ideal port centred on
-// whatever lens is used) is centred on the lens's own pupil, so that the offset moves the pupil
-// relative to the port rather than carrying the port along.
-ports::PortSpec PortInHousing(const ports::PortSpec& port, const Vec3& nominal_ep) {
-  if (port.frame == ports::PortFrame::kHousing) return port;
-  return ports::Place(port, nominal_ep, 1.5, 1.34).spec;  // indices unused: only the geometry
-}
-
 }  // namespace
 
-FocusSetting FocusUnderWater(const SystemSpec& spec) {
-  const double object = RequirePositive("--focus-distance", spec.object_distance_mm);
-  if (!spec.ep_offset_mm.allFinite()) throw InvalidInput("--ep-offset", "must be finite numbers");
-  lens::Validate(spec.lens);
-  const lens::Mount& mount = lens::MountByName(spec.lens.mount);
-  FocusSetting f;
-  f.object_distance_mm = object;
-  // Start with the pupil at infinity focus; each pass moves it to where the focus for the object's
-  // virtual image puts it. The pupil moves ~2 mm over the whole focus range, so this converges in
-  // a few passes.
-  f.d_ep2f_mm = spec.lens.PupilToFlangeMm(std::numeric_limits<double>::infinity());
-  for (int it = 0; it < 50; ++it) {
-    f.ep_in_housing_mm = Vec3(0, 0, f.d_ep2f_mm) + spec.ep_offset_mm;
-    const ports::PortSystem sys = ports::MakeSystem(
-        PortInHousing(spec.port, Vec3(0, 0, f.d_ep2f_mm)), spec.env, f.ep_in_housing_mm);
-    f.wd_mm = object - (sys.OuterVertexZ() - f.ep_in_housing_mm.z());
-    if (!(f.wd_mm > 0)) {
-      throw InvalidInput("--focus-distance", "the object lies inside the port (" +
-                                                 fmt::format("{:.1f}", object) + " mm)");
-    }
-    f.d_s2ep_mm = ports::ParaxialVirtualImage(sys, f.wd_mm).d_s2ep_mm;
-    const auto fd = lens::FocusForSubjectMm(spec.lens, mount, f.d_s2ep_mm);
-    if (!fd) {
-      throw InvalidInput("--focus-distance",
-                         fmt::format("the virtual image of an object {:.0f} mm away is {:.1f} mm "
-                                     "from the pupil; the {} focuses no closer than {:.1f} mm",
-                                     object, f.d_s2ep_mm, spec.lens.name,
-                                     lens::SubjectToPupilMm(spec.lens, mount, spec.lens.min_focus_mm)));
-    }
-    f.fd_mm = *fd;
-    const double d_ep2f = spec.lens.PupilToFlangeMm(f.fd_mm);
-    const bool done = std::abs(d_ep2f - f.d_ep2f_mm) < 1e-10;
-    f.d_ep2f_mm = d_ep2f;
-    if (done) break;
-  }
-  f.ep_in_housing_mm = Vec3(0, 0, f.d_ep2f_mm) + spec.ep_offset_mm;
-  return f;
-}
-
-double ThinLensPrincipalDistanceMm(double focal_length_mm, double d_s2ep_mm) {
-  RequirePositive("focal_length_mm", focal_length_mm);
-  if (std::isinf(d_s2ep_mm)) return focal_length_mm;
-  if (!(d_s2ep_mm > focal_length_mm)) {
-    throw InvalidInput("focus", "the subject must lie beyond the focal length");
-  }
-  return focal_length_mm * d_s2ep_mm / (d_s2ep_mm - focal_length_mm);
+housing::FocusSetting FocusUnderWater(const SystemSpec& spec) {
+  return housing::FocusOnSubject(spec, spec.object_distance_mm).focus;
 }
 
 Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
-  lens::Validate(spec.body);
+  const housing::Focused focused = housing::FocusOnSubject(spec, spec.object_distance_mm);
   Prediction p;
-  p.focus = FocusUnderWater(spec);
+  p.object_distance_mm = spec.object_distance_mm;
+  p.focus = focused.focus;
+  p.wd_mm = spec.object_distance_mm - housing::PupilToOuterMm(focused.sys);
   p.options = options;
   p.options.reference_distance_mm = spec.object_distance_mm;
   Validate(p.options);
-  p.camera.sensor = spec.body.sensor;
+  p.camera.sensor = spec.camera.sensor;
   p.camera.ep_in_housing_mm = p.focus.ep_in_housing_mm;
+  const bool fisheye = camera::IsFisheye(spec.lens.projection);
+  p.lens_projection = spec.lens.projection;
+  if (spec.air_calibration && fisheye) {
+    throw InvalidInput("air_calibration", "is a Brown calibration; the " + spec.lens.name + " is a " +
+                                              std::string(camera::ProjectionName(spec.lens.projection)) +
+                                              " fisheye, which Brown cannot describe");
+  }
   if (spec.air_calibration) {
     p.camera.lens = *spec.air_calibration;
   } else {
     p.camera.lens.c_mm =
-        spec.c_mm ? RequirePositive("--c", *spec.c_mm)
-                  : ThinLensPrincipalDistanceMm(spec.lens.focal_length_mm, p.focus.d_s2ep_mm);
+        spec.c_mm ? RequirePositive("c_mm", *spec.c_mm)
+                  : lens::PrincipalDistanceMm(spec.lens.focal_length_mm, p.focus.d_s2ep_mm);
   }
   camera::ValidateBrownParams(p.camera.lens);
-  p.water_system = ports::MakeSystem(PortInHousing(spec.port, Vec3(0, 0, p.focus.d_ep2f_mm)),
-                                     spec.env, p.camera.ep_in_housing_mm);
+  p.water_system = focused.sys;
   p.air_system = WithAirOutside(p.water_system);
+  if (fisheye) {
+    // The lens's own projection in air; the fisheye model of the list fitted in water and in air.
+    p.water_fisheye = SimulateCameraFit(p.water_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm,
+                                        camera::CameraModelId::kKannalaBrandt, p.options);
+    p.air_fisheye = SimulateCameraFit(p.air_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm,
+                                      camera::CameraModelId::kKannalaBrandt, p.options);
+    return p;
+  }
   p.water = SimulateFit(p.water_system, p.camera, p.options);
   p.air = SimulateFit(p.air_system, p.camera, p.options);
   p.change = Subtract(p.water.params, p.air.params);
