@@ -2,6 +2,7 @@
 // `index`; a header names the columns and their units) and the gnuplot commands that plot it.
 // The numbers are the gathered library results; nothing is computed here beyond picking points.
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -32,53 +33,174 @@ std::vector<double> Radii(const camera::Sensor& s, int n = 60) {
   return r;
 }
 
-// The unit of a map's colour box and a panel.
-std::string MapPanel(const std::string& title, int index, int column, const std::string& extra = "") {
-  return fmt::format("set title \"{}\"\nplot data index {} using 1:2:{} with image notitle{}\n", title, index,
-                     column, extra);
+// The 1σ of a calibration's distortion profiles at radius r_mm (µm), its covariance propagated to
+// the curve: σ² = J·Σ·Jᵀ with J the profile's derivative by the Brown parameters. The radial profile
+// δr = K1 r³ + K2 r⁵ + K3 r⁷ is linear (J = [r³, r⁵, r⁷] on K1…K3); the decentring profile
+// P = sqrt(P1² + P2²) r² is linearised at the estimate (at P1 = P2 = 0, where it has no derivative,
+// the larger of the two σ times r²). NaN without a covariance. (Kept in report/ while camera/ and
+// calib/ are being refactored; a candidate for camera/profile.h.)
+struct ProfileSigma {
+  double radial_um = NAN, decentring_um = NAN;
+};
+ProfileSigma ProfileSigmaUm(const calib::CalibrationRecord& rec, double r_mm) {
+  if (!rec.has_covariance) return {};
+  const auto& S = rec.covariance;
+  const double r2 = r_mm * r_mm;
+  Eigen::Vector3d jr(r_mm * r2, r_mm * r2 * r2, r_mm * r2 * r2 * r2);
+  const Eigen::Matrix3d srr = S.block<3, 3>(camera::kBrownK1, camera::kBrownK1);
+  ProfileSigma out;
+  out.radial_um = Um(std::sqrt(std::max(0.0, jr.dot(srr * jr))));
+  const Eigen::Matrix2d spp = S.block<2, 2>(camera::kBrownP1, camera::kBrownP1);
+  const double h = std::hypot(rec.camera.P1, rec.camera.P2);
+  if (h > 0) {
+    const Eigen::Vector2d jp = r2 * Eigen::Vector2d(rec.camera.P1, rec.camera.P2) / h;
+    out.decentring_um = Um(std::sqrt(std::max(0.0, jp.dot(spp * jp))));
+  } else {
+    out.decentring_um = Um(r2 * std::sqrt(std::max(spp(0, 0), spp(1, 1))));
+  }
+  return out;
+}
+
+// Distortion maps: three vector fields over one grid (µm, image axes, y up), drawn as the length
+// of each vector on one colour scale shared by the three panels, with arrows giving the direction.
+struct MapSample {
+  double x_mm = 0, y_mm = 0;
+  int row = 0, col = 0;
+  std::array<Eigen::Vector2d, 3> v;
+};
+
+// Block 0: the grid (x y |v1| |v2| |v3|, rows separated by blank lines); block 1: arrows on about
+// 11 columns of the grid, scaled so that the longest arrow of the figure is 0.9 grid steps.
+std::string MapData(const std::vector<MapSample>& m, const std::array<std::string, 3>& names, double* max_um,
+                    double* arrow_mm_per_um) {
+  std::string d = Block(0, "the grid (rows separated by a blank line), length of each correction vector",
+                        fmt::format("x_mm y_mm {}_um {}_um {}_um", names[0], names[1], names[2]));
+  int last_row = -1, cols = 1, rows = 1;
+  double vmax = 0, x_lo = INFINITY, x_hi = -INFINITY;
+  for (const auto& p : m) {
+    if (last_row >= 0 && p.row != last_row) d += "\n";
+    last_row = p.row;
+    cols = std::max(cols, p.col + 1);
+    rows = std::max(rows, p.row + 1);
+    x_lo = std::min(x_lo, p.x_mm);
+    x_hi = std::max(x_hi, p.x_mm);
+    d += fmt::format("{} {} {} {} {}\n", N(p.x_mm), N(p.y_mm), N(p.v[0].norm()), N(p.v[1].norm()), N(p.v[2].norm()));
+    for (const auto& v : p.v) {
+      if (std::isfinite(v.norm())) vmax = std::max(vmax, v.norm());
+    }
+  }
+  const int stride = std::max(1, (cols + 10) / 11);
+  const double step_mm = cols > 1 ? (x_hi - x_lo) / (cols - 1) * stride : 1;
+  const double scale = vmax > 0 ? 0.9 * step_mm / vmax : 0;
+  d += Block(1, fmt::format("arrows: every {} grid points, {:.4g} mm of image per µm of correction", stride, scale),
+             fmt::format("x_mm y_mm dx_{0} dy_{0} dx_{1} dy_{1} dx_{2} dy_{2} (mm on the chart)", names[0], names[1],
+                         names[2]));
+  const int r0 = (rows - 1) % stride / 2, c0 = (cols - 1) % stride / 2;  // centred on the grid
+  for (const auto& p : m) {
+    if ((p.row - r0) % stride != 0 || (p.col - c0) % stride != 0 || p.row < r0 || p.col < c0) continue;
+    std::string line = fmt::format("{} {}", N(p.x_mm), N(p.y_mm));
+    for (const auto& v : p.v) line += fmt::format(" {} {}", N(scale * v.x()), N(scale * v.y()));
+    d += line + "\n";
+  }
+  *max_um = vmax;
+  *arrow_mm_per_um = scale;
+  return d;
 }
 
 const char* kMapSetup =
     "set size ratio -1\nset xlabel \"x (mm, image)\"\nset ylabel \"y (mm, image, up)\"\n"
-    "set cblabel \"|Δ| (µm)\" offset 1.5,0\nset palette defined (0 \"#30123b\", 1 \"#4662d7\", 2 \"#36aaf9\", "
+    "set palette defined (0 \"#30123b\", 1 \"#4662d7\", 2 \"#36aaf9\", "
     "3 \"#1ae4b6\", 4 \"#72fe5e\", 5 \"#c8ef34\", 6 \"#faba39\", 7 \"#f66b19\", 8 \"#ca2a04\")\n"
-    "set autoscale fix\nunset grid\n";
+    "set autoscale fix\nunset grid\nunset key\n";
+
+// Three panels in a 2×2 layout on one colour scale (0 … max_um), its colour bar in the fourth cell.
+std::string MapPanels(const std::array<std::string, 3>& titles, double max_um) {
+  std::string b = std::string(kMapSetup) + fmt::format("set cbrange [0:{}]\nunset colorbox\n", N(max_um > 0 ? max_um : 1)) +
+                  "set multiplot layout 2,2\n";
+  for (int k = 0; k < 3; ++k) {
+    if (k == 2) {
+      b += "set colorbox user horizontal origin screen 0.57,0.25 size screen 0.36,0.04\n"
+           "set cblabel \"length of the correction vector |Δ| (µm), all three panels\"\n";
+    }
+    b += fmt::format(
+        "set title \"{}\"\n"
+        "plot data index 0 using 1:2:{} with image notitle, \\\n"
+        "     data index 1 using 1:2:{}:{} with vectors head filled size screen 0.008,20 lc rgb \"#ffffff\" lw 1.3 notitle\n",
+        titles[k], 3 + k, 3 + 2 * k, 4 + 2 * k);
+  }
+  return b;
+}
+
+// The section of a sphere by the housing's x–z plane (y = 0) where the dome has glass (z >= rim):
+// points (z, x) from one end of the arc to the other. Empty when the plane misses the glass.
+std::vector<std::pair<double, double>> DomeArc(const ports::SphereSpec& s, double rim_z_mm, int n = 181) {
+  const double r2 = s.radius_mm * s.radius_mm - s.center_mm.y() * s.center_mm.y();
+  if (r2 <= 0) return {};
+  const double rs = std::sqrt(r2);  // radius of the circle cut by y = 0
+  const double c = (rim_z_mm - s.center_mm.z()) / rs;
+  if (c >= 1) return {};
+  const double a_max = c <= -1 ? M_PI : std::acos(c);
+  std::vector<std::pair<double, double>> pts;
+  for (int k = 0; k < n; ++k) {
+    const double a = -a_max + 2 * a_max * k / (n - 1);
+    pts.emplace_back(s.center_mm.z() + rs * std::cos(a), s.center_mm.x() + rs * std::sin(a));
+  }
+  return pts;
+}
 
 Figure PortRays(const Results& r) {
   const ports::PortSystem& sys = r.plan.system;
   const ports::Vec3 ep = sys.ep_in_housing_mm;
-  Figure f{"port-rays", "port", "The port and its rays", "", 960, 620, "", ""};
+  Figure f{"port-rays", "port", "The port and its rays", "", 960, 700, "", ""};
   std::string& d = f.data;
-  double half = 100;
+  const double d_target = r.plan.target->virtual_image.d_s2ep_mm;
+  const double z_inf = r.infinity.focused.image_z_mm;  // a point fixed in the housing
+  double half = 100, zmin = 0, zmax = 0;
+  std::string glass_note;
   if (sys.IsDome()) {
     const auto& dome = sys.dome();
-    half = 1.15 * dome.outer.radius_mm;
-    const double rim_z = dome.outer.center_mm.z();  // a hemisphere: glass ahead of the centre plane
-    for (int index = 0; index < 2; ++index) {
-      const ports::SphereSpec* s = index == 0 ? &dome.outer : &dome.inner;
-      d += Block(index, index == 0 ? "outer sphere" : "inner sphere", "z_mm x_mm (housing frame)");
-      for (int k = -90; k <= 90; ++k) {
-        const double a = k / kDeg;
-        const double z = s->center_mm.z() + s->radius_mm * std::cos(a);
-        const double x = s->center_mm.x() + s->radius_mm * std::sin(a);
-        if (z >= rim_z - 1e-9) d += fmt::format("{} {}\n", N(z), N(x));
-      }
-    }
+    // The glass as the tracer sees it (ports::PortSystem::Outward): only where z >= the rim plane.
+    const double rim_z = dome.rim_z_mm.value_or(dome.outer.center_mm.z());
+    const auto outer = DomeArc(dome.outer, rim_z), inner = DomeArc(dome.inner, rim_z);
+    half = 1.12 * dome.outer.radius_mm;
+    d += Block(0, fmt::format("outer surface, glass where z >= rim z = {} mm", N(rim_z)), "z_mm x_mm (housing frame)");
+    for (const auto& [z, x] : outer) d += fmt::format("{} {}\n", N(z), N(x));
+    d += Block(1, "inner surface", "z_mm x_mm");
+    for (const auto& [z, x] : inner) d += fmt::format("{} {}\n", N(z), N(x));
+    d += Block(2, "the glass: outer arc, then the inner arc back (closed at the rim)", "z_mm x_mm");
+    for (const auto& [z, x] : outer) d += fmt::format("{} {}\n", N(z), N(x));
+    for (auto it = inner.rbegin(); it != inner.rend(); ++it) d += fmt::format("{} {}\n", N(it->first), N(it->second));
+    if (!outer.empty()) d += fmt::format("{} {}\n", N(outer.front().first), N(outer.front().second));
+    zmin = std::min({0.0, ep.z() - 20, rim_z - 10});
+    zmax = std::max({sys.OuterVertexZ(), ep.z() + d_target, std::isfinite(z_inf) ? z_inf : 0.0}) + 0.12 * half;
+    if (dome.rim_z_mm) glass_note = fmt::format(" The glass ends at the rim plane z = {:.1f} mm.", rim_z);
   } else {
     const double zi = sys.InnerVertexZ(), zo = sys.OuterVertexZ();
-    d += Block(0, "outer plane", "z_mm x_mm") + fmt::format("{} {}\n{} {}\n", N(zo), -half, N(zo), half);
-    d += Block(1, "inner plane", "z_mm x_mm") + fmt::format("{} {}\n{} {}\n", N(zi), -half, N(zi), half);
+    // A flat port drawn as deep as it is wide around the chief rays: the virtual image lies far
+    // beyond, its distance given by the arrow.
+    double xmax = 0;
+    for (const auto& path : r.fan) {
+      for (const auto& p : path.points) {
+        if (p.z() <= zo + 1e-9) xmax = std::max(xmax, std::abs(p.x() - ep.x()));
+      }
+    }
+    half = std::max(1.6 * xmax, 0.5 * (zo - ep.z()) + 20);
+    const double plate = 1.25 * xmax;
+    d += Block(0, "outer plane", "z_mm x_mm") + fmt::format("{} {}\n{} {}\n", N(zo), N(ep.x() - plate), N(zo), N(ep.x() + plate));
+    d += Block(1, "inner plane", "z_mm x_mm") + fmt::format("{} {}\n{} {}\n", N(zi), N(ep.x() - plate), N(zi), N(ep.x() + plate));
+    d += Block(2, "the glass", "z_mm x_mm") +
+         fmt::format("{0} {2}\n{1} {2}\n{1} {3}\n{0} {3}\n{0} {2}\n", N(zi), N(zo), N(ep.x() - plate), N(ep.x() + plate));
+    zmin = std::min(0.0, ep.z() - 20);
+    zmax = zo + 1.6 * half;
   }
-  d += Block(2, "chief rays from the entrance pupil to the edges of the frame (one sub-block per ray)",
-             "z_mm x_mm");
+  d += Block(3, "chief rays from the entrance pupil to the edges of the frame (one sub-block per ray)", "z_mm x_mm");
   for (const auto& path : r.fan) {
     for (const auto& p : path.points) d += fmt::format("{} {}\n", N(p.z()), N(p.x()));
     d += "\n";
   }
   // The camera sees each object point along its air ray, at the distance of its virtual image.
   const auto& field = r.plan.target->field;
-  d += Block(3, "virtual image of the flat object plane at the target WD (real rays; image diagonal)",
-             "z_mm x_mm");
+  d += Block(4, "virtual image of the flat object plane at the target WD (real rays; image diagonal)", "z_mm x_mm");
   if (field) {
     std::vector<std::pair<double, double>> pts;
     for (const auto& row : field->rows) {
@@ -88,59 +210,89 @@ Figure PortRays(const Results& r) {
     for (auto it = pts.rbegin(); it != pts.rend(); ++it) d += fmt::format("{} {}\n", N(it->first), N(2 * ep.x() - it->second));
     for (const auto& p : pts) d += fmt::format("{} {}\n", N(p.first), N(p.second));
   }
-  const double d_target = r.plan.target->virtual_image.d_s2ep_mm;
-  d += Block(4, "the air rays extended (dashed) to the virtual image's distance", "z_mm x_mm");
+  d += Block(5, "the air rays extended (dashed) to the virtual image's distance", "z_mm x_mm");
   for (double a : r.fan_angles_deg) {
-    d += fmt::format("{} {}\n{} {}\n\n", N(ep.z()), N(ep.x()), N(ep.z() + d_target),
-                     N(ep.x() + d_target * std::tan(a / kDeg)));
+    d += fmt::format("{} {}\n{} {}\n\n", N(ep.z()), N(ep.x()), N(ep.z() + d_target), N(ep.x() + d_target * std::tan(a / kDeg)));
   }
-  // Labels sit beside their points (label_z, label_x), staggered so that the pupil and the two
-  // centres, a few mm apart, stay legible.
-  d += Block(5, "marked points", "z_mm x_mm label label_z_mm label_x_mm");
+  // Marked points, each label placed clear of the others and joined to its point by a leader line.
+  d += Block(6, "marked points", "z_mm x_mm label label_z_mm label_x_mm");
   auto mark = [&d](double z, double x, const std::string& label, double lz, double lx) {
     d += fmt::format("{} {} \"{}\" {} {}\n", N(z), N(x), label, N(lz), N(lx));
   };
-  mark(ep.z(), ep.x(), "entrance pupil", ep.z() + 6, ep.x() - 0.1 * half);
+  const double step = 0.16 * half;
+  mark(ep.z(), ep.x(), "entrance pupil", ep.z() + 0.1 * half, ep.x() - step);
   if (sys.IsDome()) {
     const ports::Vec3 oc = sys.dome().outer.center_mm, ic = sys.dome().inner.center_mm;
-    mark(oc.z(), oc.x(), "outer centre", oc.z() - 3, oc.x() + 0.1 * half);
-    mark(ic.z(), ic.x(), "inner centre", ic.z() - 3, ic.x() + 0.2 * half);
+    mark(oc.z(), oc.x(), "outer centre", oc.z() + 0.1 * half, oc.x() + 1.0 * step);
+    mark(ic.z(), ic.x(), "inner centre", ic.z() + 0.1 * half, ic.x() + 2.0 * step);
   }
-  mark(ep.z() + d_target, ep.x(), fmt::format("virtual image (WD {:.0f} mm)", r.plan.target->wd_mm),
-       ep.z() + d_target + 3, ep.x() - 0.1 * half);
-  if (std::isfinite(r.plan.d_s2ep_infinity_mm)) {
-    mark(ep.z() + r.plan.d_s2ep_infinity_mm, ep.x(), "image of infinity", ep.z() + r.plan.d_s2ep_infinity_mm + 3,
-         ep.x() + 0.06 * half);
+  const bool target_on_chart = ep.z() + d_target < zmax;
+  if (target_on_chart) {
+    mark(ep.z() + d_target, ep.x(), fmt::format("virtual image (WD {:.0f} mm)", r.plan.target->wd_mm),
+         ep.z() + d_target + 0.05 * half, ep.x() - step);
   }
-  const double zmax = std::isfinite(r.plan.d_s2ep_infinity_mm)
-                          ? ep.z() + std::max(r.plan.d_s2ep_infinity_mm, d_target) + 40
-                          : ep.z() + 1.1 * d_target + 20;
-  const double zmin = std::min(0.0, ep.z() - 30);
+  if (std::isfinite(z_inf) && z_inf < zmax) {
+    mark(z_inf, ep.x(), "image of infinity", z_inf - 0.05 * half, ep.x() + 1.6 * step);
+  }
+  std::string off_chart;
+  if (!target_on_chart) {
+    off_chart = fmt::format(
+        "set arrow from graph 0.62, first {0} to graph 0.99, first {0} head filled lw 1.5 lc rgb \"#2a9d5c\"\n"
+        "set label \"virtual image of the target: {1:.0f} mm from the pupil\" at graph 0.62, first {2} left "
+        "textcolor rgb \"#2a9d5c\"\n",
+        N(ep.x() - 0.05 * half), d_target, N(ep.x() - 0.05 * half - 0.09 * half));
+  }
   f.caption = fmt::format(
-      "Cross-section (x–z plane of the housing frame, origin at the lens-mount flange) of {} with the "
-      "chief rays to the frame's left and right edges traced from the entrance pupil through the glass "
-      "into the water (like the paper's Figs. 5–6). The camera sees the object plane at WD {:.0f} mm "
-      "(off the chart to the right) as the green virtual image {:.1f} mm ahead of the pupil, curved "
-      "because of the port's field curvature.",
-      sys.spec.name, r.plan.target->wd_mm, d_target);
+      "Cross-section, to scale, of {} (x–z plane of the housing frame, origin at the lens-mount flange) "
+      "with the chief rays to the frame's left and right edges traced from the entrance pupil through the "
+      "glass into the water (like the paper's Figs. 5–6).{} The camera sees the object plane at WD {:.0f} mm "
+      "as the green virtual image {:.1f} mm ahead of the pupil{}.",
+      sys.spec.name, glass_note, r.plan.target->wd_mm, d_target,
+      sys.IsDome() ? ", curved because of the port's field curvature" : " (beyond the chart: the arrow)");
   f.body = fmt::format(
       "set size ratio -1\nset xlabel \"z (mm, housing frame: toward the scene)\"\nset ylabel \"x (mm)\"\n"
-      "set xrange [{}:{}]\nset yrange [{}:{}]\nset key bottom right box opaque\n"
-      "plot data index 0 using 1:2 with lines ls 6 lw 3 title \"outer surface\", \\\n"
-      "     data index 1 using 1:2 with lines ls 7 lw 3 title \"inner surface\", \\\n"
-      "     data index 2 using 1:2 with lines ls 1 lw 1.2 title \"chief rays\", \\\n"
-      "     data index 4 using 1:2 with lines ls 5 title \"as the camera sees them\", \\\n"
-      "     data index 3 using 1:2 with lines ls 3 lw 2.5 title \"virtual image of the object plane\", \\\n"
-      "     data index 5 using 1:2 with points pt 7 ps 1.2 lc rgb \"#222222\" notitle, \\\n"
-      "     data index 5 using 4:5:3 with labels left font \",9\" notitle\n",
-      N(zmin), N(zmax), N(-half), N(half));
+      "set xrange [{}:{}]\nset yrange [{}:{}]\nset key outside below center horizontal maxcols 3 samplen 2.5\n"
+      "set style fill transparent solid 0.35 noborder\n{}"
+      "plot data index 2 using 1:2 with filledcurves closed lc rgb \"#a9c6de\" title \"glass\", \\\n"
+      "     data index 0 using 1:2 with lines ls 6 title \"outer surface\", \\\n"
+      "     data index 1 using 1:2 with lines ls 7 title \"inner surface\", \\\n"
+      "     data index 3 using 1:2 with lines ls 1 lw 1.2 title \"chief rays\", \\\n"
+      "     data index 5 using 1:2 with lines ls 5 title \"as the camera sees them\", \\\n"
+      "     data index 4 using 1:2 with lines ls 3 lw 2.5 title \"virtual image of the object plane\", \\\n"
+      "     data index 6 using 4:5:($1-$4):($2-$5) with vectors nohead lc rgb \"#888888\" lw 0.8 notitle, \\\n"
+      "     data index 6 using 1:2 with points pt 7 ps 1 lc rgb \"#222222\" notitle, \\\n"
+      "     data index 6 using 4:5:3 with labels left offset 0.3,0 notitle\n",
+      N(zmin), N(zmax), N(ep.x() - half), N(ep.x() + half), off_chart);
   return f;
 }
 
+// Ticks a reader can use on a logarithmic axis in mm: 1-2-5 steps between lo and hi.
+std::string LogTics(const std::string& axis, double lo, double hi) {
+  std::string t;
+  for (double decade = 1; decade <= 1e7; decade *= 10) {
+    for (double m : {1.0, 2.0, 5.0}) {
+      const double v = m * decade;
+      if (v >= lo * (1 - 1e-9) && v <= hi * (1 + 1e-9)) t += (t.empty() ? "" : ", ") + fmt::format("\"{:g}\" {:g}", v, v);
+    }
+  }
+  return fmt::format("set {}tics ({})\nset m{}tics 10\n", axis, t, axis);
+}
+
+// The WD the lens cannot reach without a close-up lens, shaded on a plot whose x axis is WD.
+std::string UnreachableWd(const planning::Plan& p, double x0, bool log_axis) {
+  if (!(p.min_wd_mm > x0)) return "";
+  const double x1 = std::isfinite(p.min_wd_mm) ? p.min_wd_mm : 1e12;
+  return fmt::format(
+      "set object 1 rect from {0},graph 0 to {1},graph 1 fc rgb \"#e9e9e9\" fillstyle solid 1.0 noborder behind\n"
+      "set label 1 \"lens cannot focus\\n(closer than the minimum WD)\" at {2},graph 0.86 center textcolor rgb \"#777777\"\n",
+      N(x0), N(x1), N(log_axis ? std::sqrt(x0 * std::min(x1, 20 * x0)) : 0.5 * (x0 + std::min(x1, 3000.0))));
+}
+
 Figure VirtualImage(const Results& r) {
-  Figure f{"virtual-image", "focus", "Virtual image and focus scale against working distance", "", 960, 640, "", ""};
+  Figure f{"virtual-image", "focus", "Virtual image and focus scale against working distance", "", 960, 720, "", ""};
+  const VirtualRow& inf = r.infinity.focused;
   std::string& d = f.data;
-  d += Block(0, "dense curve (pupil at the lens's position for each focus)",
+  d += Block(0, "dense curve (pupil where the lens puts it when focused on each image)",
              "wd_mm d_s2ep_mm vwd_mm d_s2ep_real_mm focus_scale_fd_mm (NaN: closer than the lens focuses)");
   for (const auto& v : r.curve) {
     d += fmt::format("{} {} {} {} {}\n", N(v.wd_mm), N(v.d_s2ep_mm), N(v.vwd_mm), N(v.d_s2ep_real_mm),
@@ -152,113 +304,159 @@ Figure VirtualImage(const Results& r) {
       d += fmt::format("{} {} {} {}\n", N(v.wd_mm), N(v.d_s2ep_mm), N(v.vwd_mm), N(v.fd_mm.value_or(NAN)));
     }
   }
+  d += Block(2, "WD = infinity (the asymptotes; the table's last row)", "d_s2ep_mm vwd_mm focus_scale_fd_mm");
+  d += fmt::format("{} {} {}\n", N(inf.d_s2ep_mm), N(inf.vwd_mm), N(inf.fd_mm.value_or(NAN)));
   const bool dome = r.plan.system.IsDome();
   f.caption = fmt::format(
       "Top: where the port puts the virtual image of an object at working distance WD — from the "
-      "entrance pupil (D_S2EP) and from the port's outer surface (VWD), paraxial and by real rays at "
-      "f/{:g}; the points are the paper's Table 5 distances. Bottom: the focus-scale distance FD to set "
-      "on the lens (Eq. 2), with the pupil where that focus puts it; missing where the lens cannot focus "
-      "that close.{}",
+      "entrance pupil (D_S2EP, with the pupil where the lens puts it when focused on that image) and from "
+      "the port's outer surface (VWD), paraxial and by real rays at f/{:g}; the points are the paper's "
+      "Table 5 distances, the dashed lines WD = ∞. Bottom: the focus-scale distance FD to set on the lens "
+      "(Eq. 2); missing where the lens cannot focus that close (shaded).{}",
       r.in->f_number,
-      dome ? fmt::format(" Behind this dome the whole water, out to infinity, is imaged within {:.1f} mm of "
-                         "the pupil.", r.plan.d_s2ep_infinity_mm)
-           : "");
+      dome && std::isfinite(inf.d_s2ep_mm)
+          ? fmt::format(" Behind this dome the whole water, out to infinity, is imaged within {:.1f} mm of "
+                        "the pupil (VWD {:.1f} mm).", inf.d_s2ep_mm, inf.vwd_mm)
+          : "");
+  std::string asymptotes;
+  if (std::isfinite(inf.d_s2ep_mm)) {
+    asymptotes = fmt::format(
+        "set arrow 2 from graph 0, first {0} to graph 1, first {0} nohead ls 5 lc rgb \"#1f5fa8\"\n"
+        "set arrow 3 from graph 0, first {1} to graph 1, first {1} nohead ls 5 lc rgb \"#2a9d5c\"\n"
+        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.99, first {0} right offset 0,0.7 textcolor rgb \"#1f5fa8\"\n"
+        "set label 3 \"WD = ∞: {1:.1f} mm\" at graph 0.99, first {1} right offset 0,0.7 textcolor rgb \"#2a9d5c\"\n",
+        inf.d_s2ep_mm, inf.vwd_mm);
+  }
+  std::string fd_inf;
+  if (inf.fd_mm) {
+    fd_inf = fmt::format(
+        "set arrow 2 from graph 0, first {0} to graph 1, first {0} nohead ls 5 lc rgb \"#8e44ad\"\n"
+        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.99, first {0} right offset 0,-0.9 textcolor rgb \"#8e44ad\"\n",
+        *inf.fd_mm);
+  }
   f.body = fmt::format(
-      "set multiplot layout 2,1\nset logscale x\nset format x \"%g\"\nset xrange [50:100000]\n"
-      "set xlabel \"WD (mm, object to the port's outer surface)\"\nset key top left box opaque\n"
-      "{}set ylabel \"distance (mm)\"\n"
-      "plot data index 0 using 1:2 with lines ls 1 title \"D_{{S2EP}} (virtual image to pupil)\", \\\n"
+      "set multiplot layout 2,1\nset logscale x\n{0}set xrange [50:100000]\n"
+      "set xlabel \"WD (mm, object to the port's outer surface)\"\nset key outside right top vertical Left reverse\n"
+      "set lmargin 10\nset rmargin 30\n{1}{2}set ylabel \"distance (mm)\"\nset yrange [0:*]\n"
+      "plot data index 0 using 1:2 with lines ls 1 title \"D_{{S2EP}} (to the pupil)\", \\\n"
       "     data index 0 using 1:4 with lines ls 5 title \"D_{{S2EP}}, real rays\", \\\n"
-      "     data index 0 using 1:3 with lines ls 3 title \"VWD (virtual image to port)\", \\\n"
-      "     data index 1 using 1:2 with points pt 7 lc rgb \"#1f5fa8\" notitle, \\\n"
+      "     data index 0 using 1:3 with lines ls 3 title \"VWD (to the port)\", \\\n"
+      "     data index 1 using 1:2 with points pt 7 lc rgb \"#1f5fa8\" title \"Table 5 distances\", \\\n"
       "     data index 1 using 1:3 with points pt 7 lc rgb \"#2a9d5c\" notitle\n"
-      "unset logscale y\nset ylabel \"focus scale FD (mm)\"\nset key bottom right\n"
+      "unset arrow\nunset label 2\nunset label 3\nunset logscale y\nset yrange [*:*]\n{3}"
+      "set ylabel \"focus scale FD (mm)\"\n"
       "plot data index 0 using 1:5 with lines ls 4 title \"focus scale to set\", \\\n"
       "     data index 1 using 1:4 with points pt 7 lc rgb \"#8e44ad\" notitle\n",
-      dome ? "" : "set logscale y\n");
+      LogTics("x", 50, 100000), UnreachableWd(r.plan, 50, true), dome ? asymptotes : "set logscale y\n", fd_inf);
   return f;
 }
 
 Figure MinWd(const Results& r) {
   const planning::Plan& p = r.plan;
-  Figure f{"min-wd", "focus", "Minimum working distance of the lens (Fig. 12)", "", 960, 560, "", ""};
+  Figure f{"min-wd", "focus", "Minimum working distance of the lens (Fig. 12)", "", 960, 680, "", ""};
   const double xmax = std::isfinite(p.min_wd_mm) ? std::max(3000.0, 1.5 * p.min_wd_mm) : 3000;
   std::string& d = f.data;
-  d += Block(0, "virtual image against WD", "wd_mm d_s2ep_mm vwd_mm");
+  d += Block(0, "virtual image against WD (pupil where the lens puts it when focused on each image)",
+             "wd_mm d_s2ep_mm vwd_mm");
   for (const auto& v : r.curve) {
-    if (v.wd_mm <= xmax) d += fmt::format("{} {} {}\n", N(v.wd_mm), N(v.d_s2ep_mm), N(v.vwd_mm));
+    if (v.wd_mm <= xmax * 1.3) d += fmt::format("{} {} {}\n", N(v.wd_mm), N(v.d_s2ep_mm), N(v.vwd_mm));
   }
   d += Block(1, "close-up lenses: the WD range each brings within reach (one sub-block each)",
-             "wd_mm row dioptre");
-  const double ymax = std::isfinite(p.d_s2ep_infinity_mm) ? p.d_s2ep_infinity_mm * 1.15 : 2 * p.closest_d_s2ep_mm;
-  for (std::size_t k = 0; k < p.closeup.size(); ++k) {
-    const auto& c = p.closeup[k];
-    const double y = ymax * (0.06 + 0.06 * k);
-    d += fmt::format("{} {} {:g}\n{} {} {:g}\n\n", N(c.min_wd_mm), N(y), c.dioptre,
-                     N(std::min(c.max_wd_mm, xmax)), N(y), c.dioptre);
+             "wd_mm dioptre");
+  for (const auto& c : p.closeup) {
+    d += fmt::format("{} {:g}\n{} {:g}\n\n", N(c.min_wd_mm), c.dioptre, N(std::min(c.max_wd_mm, 1e9)), c.dioptre);
   }
+  const double d_inf = r.infinity.focused.d_s2ep_mm;
+  const double ymax = std::isfinite(d_inf) ? d_inf * 1.12 : 2 * p.closest_d_s2ep_mm;
   f.caption = fmt::format(
       "The lens focuses no closer than {:.1f} mm from its entrance pupil (Eq. 2 at its {:g} mm minimum "
       "focus): the grey line. Objects whose virtual image (blue) is closer cannot be sharp, so the "
-      "minimum working distance is {} mm (the paper's Fig. 12 and Section 4). The bars show the WD "
-      "ranges that +1…+4 dioptre close-up lenses bring within reach.",
+      "minimum working distance is {} mm (the paper's Fig. 12 and Section 4); closer is shaded. Below: "
+      "the WD ranges that close-up lenses bring within reach.",
       p.closest_d_s2ep_mm, r.in->setup.lens.min_focus_mm,
       std::isfinite(p.min_wd_mm) ? fmt::format("{:.0f}", p.min_wd_mm) : "infinite");
   std::string min_line;
   if (std::isfinite(p.min_wd_mm)) {
     min_line = fmt::format(
-        "set arrow from {0},0 to {0},{1} nohead ls 5 lc rgb \"#c8322d\"\n"
-        "set label \"minimum WD {0:.0f} mm\" at {0},{2} left offset 0.5,0 textcolor rgb \"#c8322d\"\n",
-        p.min_wd_mm, N(ymax), N(ymax * 0.92));
+        "set arrow 5 from {0},graph 0 to {0},graph 1 nohead ls 5 lc rgb \"#c8322d\"\n"
+        "set label 5 \"minimum WD {0:.0f} mm\" at {0},graph 0.93 left offset 0.5,0 textcolor rgb \"#c8322d\" front\n",
+        p.min_wd_mm);
   }
+  std::string dpt_tics;
+  for (const auto& c : p.closeup) dpt_tics += (dpt_tics.empty() ? "" : ", ") + fmt::format("\"+{0:g} dpt\" {0:g}", c.dioptre);
+  const double dmax = p.closeup.empty() ? 1 : p.closeup.back().dioptre;
   f.body = fmt::format(
+      "set multiplot\nset lmargin at screen 0.09\nset rmargin at screen 0.80\n"
+      "set size 1,0.68\nset origin 0,0.32\nset bmargin 3\n"
       "set xrange [0:{0}]\nset yrange [0:{1}]\nset xlabel \"WD (mm, object to the port's outer surface)\"\n"
-      "set ylabel \"distance (mm)\"\nset key center right box opaque\n{2}"
-      "set arrow from 0,{3} to {0},{3} nohead lw 2 lc rgb \"#777777\"\n"
-      "set label \"closest focus of the lens, {3:.1f} mm\" at {0},{3} right offset -1,0.7 textcolor rgb \"#555555\"\n"
+      "set ylabel \"distance (mm)\"\nset key outside right top vertical Left reverse\n{2}{4}"
+      "set arrow 6 from graph 0,first {3} to graph 1,first {3} nohead lw 2 lc rgb \"#777777\"\n"
+      "set label 6 \"closest focus of the lens, {3:.1f} mm\" at graph 0.99,first {3} right offset 0,-0.8 "
+      "textcolor rgb \"#555555\" front\n"
       "plot data index 0 using 1:2 with lines ls 1 title \"D_{{S2EP}}\", \\\n"
       "     data index 0 using 1:3 with lines ls 3 title \"VWD\", \\\n"
-      "     data index 1 using 1:2 with lines lw 6 lc rgb \"#8e44ad\" title \"close-up lens range\", \\\n"
-      "     data index 1 every 2 using 1:2:(sprintf(\"+%g dpt\", $3)) with labels right offset -0.5,0 "
-      "font \",9\" notitle\n",
-      N(xmax), N(ymax), min_line, p.closest_d_s2ep_mm);
+      "     NaN with lines lw 2 lc rgb \"#777777\" title \"closest focus\"\n"
+      "unset arrow\nunset label\nunset object\nset size 1,0.32\nset origin 0,0\nset tmargin 0.5\n"
+      "set xlabel \"WD (mm) that the close-up lens brings within reach\"\nset ylabel \"close-up\"\n"
+      "set yrange [{5}:{6}]\nset ytics ({7})\nunset key\nset grid xtics\n"
+      "plot data index 1 using 1:2 with lines lw 8 lc rgb \"#8e44ad\" notitle\n",
+      N(xmax), N(ymax), min_line, p.closest_d_s2ep_mm, UnreachableWd(p, 0, false), N(0.4), N(dmax + 0.6), dpt_tics);
   return f;
 }
 
 Figure DepthOfField(const Results& r) {
-  Figure f{"dof", "dof", "Depth of field under water and in air", "", 960, 560, "", ""};
+  Figure f{"dof", "dof", "Depth of field under water and in air", "", 960, 640, "", ""};
   std::string& d = f.data;
+  const double x0 = r.dof.front().subject_mm * 0.9, x1 = r.dof.back().subject_mm * 1.05;
+  const double y0 = x0 * 0.8, y1 = r.dof.back().subject_mm * 4;
   d += Block(0, "thin-lens limits against the subject's distance from the entrance pupil",
-             "subject_mm air_near_mm air_far_mm water_near_mm water_far_mm (NaN: infinite)");
+             "subject_mm air_near_mm air_far_mm water_near_mm water_far_mm (NaN: infinite) "
+             "air_far_clipped_mm water_far_clipped_mm (infinite drawn at the top of the chart)");
   for (const auto& row : r.dof) {
-    d += fmt::format("{} {} {} {} {}\n", N(row.subject_mm), N(row.air.near_mm), N(row.air.far_mm),
-                     N(row.water.near_mm), N(row.water.far_mm));
+    d += fmt::format("{} {} {} {} {} {} {}\n", N(row.subject_mm), N(row.air.near_mm), N(row.air.far_mm),
+                     N(row.water.near_mm), N(row.water.far_mm), N(std::min(row.air.far_mm, 10 * y1)),
+                     N(std::min(row.water.far_mm, 10 * y1)));
   }
   const auto& t = *r.plan.target;
+  const bool shade = r.min_subject_mm > x0;
   f.caption = fmt::format(
       "Near and far limits of sharpness at f/{:g} with a {:.1f} µm circle of confusion ({}), for a "
-      "subject at each distance from the entrance pupil: in air (red) and under water (blue: the thin-lens "
-      "limits applied to the virtual image and mapped back through the port). At {:.0f} mm the depth of "
-      "field is {:.0f} mm in air and {:.0f} mm under water, {:.2f} times more (Section 4).",
+      "subject at each distance from the entrance pupil: in air (red, hatched) and under water (blue: the "
+      "thin-lens limits applied to the virtual image and mapped back through the port). At {:.0f} mm the "
+      "depth of field is {:.0f} mm in air and {:.0f} mm under water, {:.2f} times more (Section 4).{}",
       r.plan.f_number, 1000 * r.plan.coc_mm, r.plan.coc_source, t.subject_distance_mm, t.air.total_mm,
-      t.water.total_mm, t.dof_ratio_water_to_air);
+      t.water.total_mm, t.dof_ratio_water_to_air,
+      shade ? fmt::format(" Shaded: under water the lens cannot focus on subjects closer than {:.0f} mm from the "
+                          "pupil (the minimum WD, {:.0f} mm).", r.min_subject_mm, r.plan.min_wd_mm)
+            : "");
+  std::string unreachable;
+  if (shade) {
+    unreachable = fmt::format(
+        "set object 1 rect from {0},{1} to {2},{3} fc rgb \"#e9e9e9\" fillstyle solid 1.0 noborder behind\n"
+        "set label 1 \"under water the lens\\ncannot focus this close\" at {4},{5} center textcolor rgb \"#666666\"\n",
+        N(x0), N(y0), N(std::min(r.min_subject_mm, x1)), N(y1), N(std::sqrt(x0 * std::min(r.min_subject_mm, x1))),
+        N(std::sqrt(y0 * y1) * 3));
+  }
   f.body = fmt::format(
-      "set logscale xy\nset format x \"%g\"\nset format y \"%g\"\nset xrange [{0}:{1}]\nset yrange [{0}:{2}]\n"
-      "set xlabel \"subject distance from the entrance pupil (mm)\"\nset ylabel \"sharp from / to (mm)\"\n"
-      "set key top left box opaque\nset style fill transparent solid 0.25 noborder\n"
-      "set arrow from {3},{0} to {3},{2} nohead ls 5\n"
-      "plot data index 0 using 1:2:3 with filledcurves lc rgb \"#c8322d\" title \"in air\", \\\n"
-      "     data index 0 using 1:4:5 with filledcurves lc rgb \"#1f5fa8\" title \"under water\", \\\n"
+      "set logscale xy\n{0}{1}set xrange [{2}:{3}]\nset yrange [{4}:{5}]\n"
+      "set xlabel \"subject distance from the entrance pupil (mm)\"\nset ylabel \"sharp from … to (mm)\"\n"
+      "set key outside below center horizontal\n{6}"
+      "set arrow 2 from {7},{4} to {7},{5} nohead ls 5\n"
+      "set label 2 \"target {8:.0f} mm\" at {7},{5} right offset -0.5,-1 textcolor rgb \"#555555\"\n"
+      "plot data index 0 using 1:4:7 with filledcurves fs transparent solid 0.3 noborder lc rgb \"#1f5fa8\" "
+      "title \"under water\", \\\n"
+      "     data index 0 using 1:2:6 with filledcurves fs transparent pattern 4 border lc rgb \"#c8322d\" "
+      "title \"in air\", \\\n"
       "     data index 0 using 1:2 with lines ls 2 notitle, data index 0 using 1:3 with lines ls 2 notitle, \\\n"
       "     data index 0 using 1:4 with lines ls 1 notitle, data index 0 using 1:5 with lines ls 1 notitle, \\\n"
-      "     x with lines ls 5 title \"in focus\"\n",
-      N(r.dof.front().subject_mm * 0.8), N(r.dof.back().subject_mm), N(r.dof.back().subject_mm * 4),
-      N(t.subject_distance_mm));
+      "     x with lines ls 5 title \"in focus (subject)\"\n",
+      LogTics("x", x0, x1), LogTics("y", y0, y1), N(x0), N(x1), N(y0), N(y1), unreachable,
+      N(t.subject_distance_mm), t.subject_distance_mm);
   return f;
 }
 
 Figure FieldCurvature(const Results& r) {
-  Figure f{"field-curvature", "dof", "Field curvature across the frame", "", 960, 520, "", ""};
+  Figure f{"field-curvature", "dof", "Field curvature across the frame", "", 960, 560, "", ""};
   const auto& t = *r.plan.target;
   std::string& d = f.data;
   d += Block(0, "along the sensor diagonal, centre to corner",
@@ -280,19 +478,20 @@ Figure FieldCurvature(const Results& r) {
                         : std::string("The real rays failed: no field curvature for this system.");
   f.body = fmt::format(
       "set xlabel \"image height along the diagonal (mm)\"\nset ylabel \"sag of the virtual image (mm)\"\n"
-      "set y2label \"defocus blur (px)\"\nset ytics nomirror\nset y2tics\nset key top left box opaque\n"
-      "set y2range [0:*]\nset arrow from graph 0, second {0} to graph 1, second {0} nohead ls 5\n"
+      "set y2label \"defocus blur (px)\"\nset ytics nomirror\nset y2tics\nset key outside below center horizontal\n"
+      "set yrange [0:*]\nset y2range [0:*]\nset arrow from graph 0, second {0} to graph 1, second {0} nohead ls 5\n"
+      "set label \"circle of confusion, {0:.1f} px\" at graph 0.02, second {0} left offset 0,0.7 textcolor rgb \"#555555\"\n"
       "plot data index 0 using 1:5 with linespoints ls 3 pt 7 title \"sag toward the camera\", \\\n"
       "     data index 0 using 1:6 axes x1y2 with linespoints ls 2 pt 5 title \"defocus blur\", \\\n"
       "     data index 0 using 1:7 axes x1y2 with linespoints ls 4 pt 9 title \"bundle spread\"\n",
-      N(coc_px));
+      coc_px);
   return f;
 }
 
 Figure DomeVsFlat(const Results& r) {
   const auto& main = r.plan.system;
   const auto& other = r.other_plan.system;
-  Figure f{"dome-vs-flat", "ports", "Dome against flat port for the same lens", "", 1100, 500, "", ""};
+  Figure f{"dome-vs-flat", "ports", "Dome against flat port for the same lens", "", 960, 520, "", ""};
   std::string& d = f.data;
   d += Block(0, "chief-ray angle in the water against the angle in air (x-z plane)",
              fmt::format("theta_air_deg theta_water_{}_deg theta_water_{}_deg", main.spec.name, other.spec.name));
@@ -317,13 +516,12 @@ Figure DomeVsFlat(const Results& r) {
       r.plan.fov.air.diagonal_deg, r.prediction.water.params.c_mm / r.prediction.air.params.c_mm,
       main.spec.name, r.other_prediction.water.params.c_mm / r.other_prediction.air.params.c_mm, other.spec.name);
   f.body = fmt::format(
-      "set multiplot layout 1,2\nset key top left box opaque\n"
+      "set multiplot layout 1,2\nset key outside below center vertical\n"
       "set xlabel \"chief-ray angle in air (deg)\"\nset ylabel \"angle in water (deg)\"\n"
       "plot x with lines ls 5 title \"no port (air)\", \\\n"
       "     data index 0 using 1:2 with lines ls 1 title \"{0}\", \\\n"
       "     data index 0 using 1:3 with lines ls 3 title \"{1}\"\n"
       "set xlabel \"radial distance r (mm, image)\"\nset ylabel \"δr change, water − air (µm)\"\n"
-      "set key bottom left\n"
       "plot data index 1 using 1:2 with lines ls 1 title \"{0}\", \\\n"
       "     data index 1 using 1:3 with lines ls 3 title \"{1}\"\n",
       main.spec.name, other.spec.name);
@@ -333,7 +531,7 @@ Figure DomeVsFlat(const Results& r) {
 Figure Predicted(const Results& r) {
   const simulate::Prediction& p = r.prediction;
   const bool calib = p.predicted_water.has_value();
-  Figure f{"predicted", "simulate", "Predicted underwater calibration: distortion curves", "", 1100, 480, "", ""};
+  Figure f{"predicted", "simulate", "Predicted underwater calibration: distortion curves", "", 960, 500, "", ""};
   std::string& d = f.data;
   d += Block(0, "radial profile dr(r) = K1 r^3 + K2 r^5 + K3 r^7 and decentring P(r) = sqrt(P1^2+P2^2) r^2",
              "r_mm dr_air_fit_um dr_water_fit_um dr_air_calibration_um dr_water_predicted_um "
@@ -363,11 +561,11 @@ Figure Predicted(const Results& r) {
               "     data index 0 using 1:9 with lines ls 1 dt 2 title \"water, predicted\"";
   }
   f.body = fmt::format(
-      "set multiplot layout 1,2\nset key bottom left box opaque\nset xlabel \"r (mm)\"\n"
+      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 2\nset xlabel \"r (mm)\"\n"
       "set title \"(a) radial distortion\"\nset ylabel \"δr (µm)\"\n"
       "plot data index 0 using 1:2 with lines ls 2 title \"air (fit)\", \\\n"
       "     data index 0 using 1:3 with lines ls 1 title \"water (fit)\"{}\n"
-      "set title \"(b) decentring distortion\"\nset ylabel \"P(r) (µm)\"\nset key top left\n"
+      "set title \"(b) decentring distortion\"\nset ylabel \"P(r) (µm)\"\n"
       "plot data index 0 using 1:6 with lines ls 2 title \"air (fit)\", \\\n"
       "     data index 0 using 1:7 with lines ls 1 title \"water (fit)\"{}\n",
       extra_a, extra_b);
@@ -375,7 +573,7 @@ Figure Predicted(const Results& r) {
 }
 
 Figure Tolerance(const Results& r) {
-  Figure f{"tolerance", "simulate", "Tolerance to the entrance pupil's position", "", 1200, 450, "", ""};
+  Figure f{"tolerance", "simulate", "Tolerance to the entrance pupil's position", "", 960, 760, "", ""};
   const camera::Sensor& s = r.prediction.camera.sensor;
   const double corner = Radii(s).back();
   auto dr = [](const simulate::SweepRow& row, double rad) {
@@ -405,12 +603,11 @@ Figure Tolerance(const Results& r) {
       "and the corner ({:.1f} mm) against the z offset; (c) the whole profile change for each z offset.",
       corner);
   f.body = fmt::format(
-      "set multiplot layout 1,3\nset key top left box opaque font \",9\"\nset xlabel \"pupil offset (mm)\"\n"
+      "set multiplot layout 2,2\nset key outside below center horizontal\nset xlabel \"pupil offset (mm)\"\n"
       "set title \"(a) principal distance\"\nset ylabel \"Δc (mm)\"\n"
       "plot data index 0 using 1:2 with linespoints ls 1 pt 7 title \"along z\", \\\n"
       "     data index 1 using 1:2 with linespoints ls 3 pt 5 title \"along x\"\n"
       "set title \"(b) radial profile change\"\nset ylabel \"δr water − air (µm)\"\nset xlabel \"pupil offset along z (mm)\"\n"
-      "set key bottom left\n"
       "plot data index 0 using 1:4 with linespoints ls 3 pt 7 title \"r = 5 mm\", \\\n"
       "     data index 0 using 1:5 with linespoints ls 1 pt 5 title \"r = 10 mm\", \\\n"
       "     data index 0 using 1:6 with linespoints ls 2 pt 9 title \"corner, {:.1f} mm\"\n"
@@ -421,75 +618,128 @@ Figure Tolerance(const Results& r) {
   return f;
 }
 
-Figure Maps(const Results& r) {
-  Figure f{"maps", "simulate", "Predicted distortion maps", "", 1100, 820, "", ""};
-  std::string& d = f.data;
-  d += Block(0, "on the simulation's fit grid (rows separated by a blank line)",
-             "x_mm y_mm water_um air_um difference_um residual_um (|correction vector|, µm)");
+// The simulation's grid, row and column indices from the positions (row-major from the top left).
+std::vector<MapSample> SimMapSamples(const std::vector<simulate::MapPoint>& map) {
+  std::vector<MapSample> out;
+  int row = -1, col = 0;
   double last_y = NAN;
+  for (const auto& m : map) {
+    if (m.y_mm != last_y) ++row, col = 0;
+    last_y = m.y_mm;
+    out.push_back({m.x_mm, m.y_mm, row, col++, {m.water_um, m.air_um, m.difference_um}});
+  }
+  return out;
+}
+
+Figure Maps(const Results& r) {
+  Figure f{"maps", "simulate", "Predicted distortion maps", "", 960, 700, "", ""};
+  double vmax = 0, scale = 0;
+  f.data = MapData(SimMapSamples(r.map), {"water", "air", "difference"}, &vmax, &scale);
+  f.caption = fmt::format(
+      "The Brown correction vector over the image (the paper's Fig. 15), from the simulated calibrations: "
+      "(a) under water, (b) in air, (c) their difference, water − air. Colour: its length, on one scale for "
+      "the three panels (0–{:.1f} µm); arrows: its direction, to one scale (the longest is {:.1f} µm).",
+      vmax, vmax);
+  f.body = MapPanels({"(a) under water", "(b) in air", "(c) difference, water − air"}, vmax);
+  return f;
+}
+
+Figure ResidualMap(const Results& r) {
+  Figure f{"residual-map", "simulate", "What no central model absorbs", "", 960, 560, "", ""};
+  std::string& d = f.data;
+  d += Block(0, "on the simulation's fit grid (rows separated by a blank line)", "x_mm y_mm residual_um");
+  double last_y = NAN, vmax = 0;
   for (const auto& m : r.map) {
     if (std::isfinite(last_y) && m.y_mm != last_y) d += "\n";
     last_y = m.y_mm;
-    d += fmt::format("{} {} {} {} {} {}\n", N(m.x_mm), N(m.y_mm), N(m.water_um.norm()), N(m.air_um.norm()),
-                     N(m.difference_um.norm()), N(m.residual_um));
+    d += fmt::format("{} {} {}\n", N(m.x_mm), N(m.y_mm), N(m.residual_um));
+    if (std::isfinite(m.residual_um)) vmax = std::max(vmax, m.residual_um);
   }
-  f.caption =
-      "The length of the Brown correction vector over the image (the paper's Fig. 15), from the simulated "
-      "calibrations: (a) under water, (b) in air, (c) their difference (water − air, vector), and (d) "
-      "what no central model absorbs — the water fit's residual.";
-  f.body = std::string(kMapSetup) + "set multiplot layout 2,2\n" +
-           MapPanel("(a) under water", 0, 3) + MapPanel("(b) in air", 0, 4) +
-           MapPanel("(c) difference water − air", 0, 5) + MapPanel("(d) residual of the water fit", 0, 6);
+  f.caption = fmt::format(
+      "The water fit's residual over the image (RMS over the object distances, µm; largest {:.2f} µm): what "
+      "the port does that no central Brown model absorbs. Its own colour scale: it is far smaller than the "
+      "distortion above.", vmax);
+  f.body = std::string(kMapSetup) + "set cblabel \"residual (µm)\"\nset rmargin 12\n"
+           "plot data index 0 using 1:2:3 with image notitle\n";
   return f;
 }
 
 Figure CompareCurves(const Results& r) {
   const calib::CompareResult& c = *r.compare;
-  Figure f{"compare-curves", "compare", "Your calibrations: distortion curves (Fig. 14)", "", 1100, 480, "", ""};
+  const calib::CalibrationRecord& air = *r.in->air_calibration;
+  const calib::CalibrationRecord& water = *r.in->water_calibration;
+  Figure f{"compare-curves", "compare", "Your calibrations: distortion curves (Fig. 14)", "", 960, 500, "", ""};
   const auto& pw = r.prediction.predicted_water;
   std::string& d = f.data;
-  d += Block(0, "radial and decentring profiles of the two calibrations and of the prediction",
-             "r_mm dr_air_um dr_water_um P_air_um P_water_um dr_water_predicted_um P_water_predicted_um");
+  d += Block(0, "radial and decentring profiles of the two calibrations and of the prediction, with the 1-sigma "
+             "of each calibration's profile from its covariance (J Sigma J^T; NaN: no covariance)",
+             "r_mm dr_air_um dr_water_um P_air_um P_water_um dr_water_predicted_um P_water_predicted_um "
+             "sigma_dr_air_um sigma_dr_water_um sigma_P_air_um sigma_P_water_um");
   for (const auto& p : c.curves) {
-    d += fmt::format("{} {} {} {} {} {} {}\n", N(p.r_mm), N(p.radial_a_um), N(p.radial_b_um), N(p.decentring_a_um),
-                     N(p.decentring_b_um), N(pw ? Um(camera::RadialProfileMm(*pw, p.r_mm)) : NAN),
-                     N(pw ? Um(camera::DecentringProfileMm(*pw, p.r_mm)) : NAN));
+    const ProfileSigma sa = ProfileSigmaUm(air, p.r_mm), sw = ProfileSigmaUm(water, p.r_mm);
+    d += fmt::format("{} {} {} {} {} {} {} {} {} {} {}\n", N(p.r_mm), N(p.radial_a_um), N(p.radial_b_um),
+                     N(p.decentring_a_um), N(p.decentring_b_um), N(pw ? Um(camera::RadialProfileMm(*pw, p.r_mm)) : NAN),
+                     N(pw ? Um(camera::DecentringProfileMm(*pw, p.r_mm)) : NAN), N(sa.radial_um), N(sw.radial_um),
+                     N(sa.decentring_um), N(sw.decentring_um));
   }
-  f.caption =
-      "Your in-air (red) and underwater (blue) calibrations as the paper's Fig. 14: (a) radial, "
-      "(b) decentring distortion, µm against the radial distance in the image; dashed: the underwater "
-      "calibration porthole predicted from the in-air one.";
-  f.body =
-      "set multiplot layout 1,2\nset key bottom left box opaque\nset xlabel \"r (mm)\"\n"
+  auto band_note = [](const calib::CalibrationRecord& rec, const std::string& what) {
+    if (!rec.has_covariance) return fmt::format("the {} calibration has no covariance, so it has no band", what);
+    if (!rec.covariance_note.empty()) {
+      return fmt::format("the {} band uses σ only ({}: correlations unknown)", what, rec.covariance_note);
+    }
+    return fmt::format("the {} band uses its full covariance", what);
+  };
+  f.caption = fmt::format(
+      "Your in-air (red) and underwater (blue) calibrations as the paper's Fig. 14: (a) radial, (b) decentring "
+      "distortion, µm against the radial distance in the image; dashed: the underwater calibration porthole "
+      "predicted from the in-air one. Bands: ±1σ of each profile, the calibration's covariance propagated "
+      "to the curve (J·Σ·Jᵀ); {}; {}.",
+      band_note(air, "in-air"), band_note(water, "underwater"));
+  auto bands = [&](int value_a, int sigma_a, int value_w, int sigma_w) {
+    std::string b;
+    if (air.has_covariance) {
+      b += fmt::format("data index 0 using 1:(${0}-${1}):(${0}+${1}) with filledcurves fs transparent solid 0.22 "
+                       "noborder lc rgb \"#c8322d\" title \"air ±1σ\", \\\n     ", value_a, sigma_a);
+    }
+    if (water.has_covariance) {
+      b += fmt::format("data index 0 using 1:(${0}-${1}):(${0}+${1}) with filledcurves fs transparent solid 0.22 "
+                       "noborder lc rgb \"#1f5fa8\" title \"water ±1σ\", \\\n     ", value_w, sigma_w);
+    }
+    return b;
+  };
+  f.body = fmt::format(
+      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 3\nset xlabel \"r (mm)\"\n"
       "set title \"(a) radial distortion\"\nset ylabel \"δr (µm)\"\n"
-      "plot data index 0 using 1:2 with lines ls 2 title \"air\", \\\n"
+      "plot {}data index 0 using 1:2 with lines ls 2 title \"air\", \\\n"
       "     data index 0 using 1:3 with lines ls 1 title \"water\", \\\n"
       "     data index 0 using 1:6 with lines ls 1 dt 2 title \"water, predicted\"\n"
-      "set title \"(b) decentring distortion\"\nset ylabel \"P(r) (µm)\"\nset key top left\n"
-      "plot data index 0 using 1:4 with lines ls 2 title \"air\", \\\n"
+      "set title \"(b) decentring distortion\"\nset ylabel \"P(r) (µm)\"\n"
+      "plot {}data index 0 using 1:4 with lines ls 2 title \"air\", \\\n"
       "     data index 0 using 1:5 with lines ls 1 title \"water\", \\\n"
-      "     data index 0 using 1:7 with lines ls 1 dt 2 title \"water, predicted\"\n";
+      "     data index 0 using 1:7 with lines ls 1 dt 2 title \"water, predicted\"\n",
+      bands(2, 8, 3, 9), bands(4, 10, 5, 11));
   return f;
 }
 
 Figure CompareMaps(const Results& r) {
   const calib::CompareResult& c = *r.compare;
-  Figure f{"compare-maps", "compare", "Your calibrations: distortion maps (Fig. 15)", "", 1200, 380, "", ""};
-  std::string& d = f.data;
-  d += Block(0, "over the frame (rows separated by a blank line)", "x_mm y_mm air_um water_um difference_um");
+  Figure f{"compare-maps", "compare", "Your calibrations: distortion maps (Fig. 15)", "", 960, 700, "", ""};
+  std::vector<MapSample> samples;
+  int row = -1, col = 0;
   double last_v = NAN;
   for (const auto& p : c.map) {
-    if (std::isfinite(last_v) && p.v_px != last_v) d += "\n";
+    if (p.v_px != last_v) ++row, col = 0;
     last_v = p.v_px;
-    d += fmt::format("{} {} {} {} {}\n", N(p.x_mm), N(p.y_mm), N(p.a_um.norm()), N(p.b_um.norm()),
-                     N(p.diff_um.norm()));
+    samples.push_back({p.x_mm, p.y_mm, row, col++, {p.a_um, p.b_um, -p.diff_um}});  // diff_um is air − water
   }
+  double vmax = 0, scale = 0;
+  f.data = MapData(samples, {"air", "water", "water_minus_air"}, &vmax, &scale);
   f.caption = fmt::format(
-      "The length of the correction vector over the image: (a) in air, (b) under water, (c) their "
-      "difference (air − water, vector), as the paper's Fig. 15. Largest: {:.1f}, {:.1f} and {:.1f} µm.",
+      "The correction vector over the image, as the paper's Fig. 15: (a) in air, (b) under water, (c) their "
+      "difference, water − air. Colour: its length on one scale for the three panels; arrows: its direction. "
+      "Largest: {:.1f}, {:.1f} and {:.1f} µm.",
       c.max_a_um, c.max_b_um, c.max_diff_um);
-  f.body = std::string(kMapSetup) + "set multiplot layout 1,3\n" + MapPanel("(a) in air", 0, 3) +
-           MapPanel("(b) under water", 0, 4) + MapPanel("(c) difference", 0, 5);
+  f.body = MapPanels({"(a) in air", "(b) under water", "(c) difference, water − air"}, vmax);
   return f;
 }
 
@@ -497,7 +747,7 @@ Figure CompareMaps(const Results& r) {
 
 std::vector<Figure> MakeFigures(const Results& r) {
   std::vector<Figure> out = {PortRays(r), VirtualImage(r), MinWd(r), DepthOfField(r), FieldCurvature(r),
-                             DomeVsFlat(r), Predicted(r), Tolerance(r), Maps(r)};
+                             DomeVsFlat(r), Predicted(r), Tolerance(r), Maps(r), ResidualMap(r)};
   if (r.compare) {
     out.push_back(CompareCurves(r));
     out.push_back(CompareMaps(r));
@@ -515,9 +765,9 @@ std::string FigureScript(const Figure& f) {
       "data = \"{id}.dat\"\n"
       "do for [fmt in \"png svg\"] {{\n"
       "if (fmt eq \"png\") {{\n"
-      "  set terminal pngcairo size {w},{h} enhanced font \"DejaVu Sans,10\" linewidth 1.2\n"
+      "  set terminal pngcairo size {w},{h} enhanced font \"DejaVu Sans,12\" linewidth 1.2\n"
       "}} else {{\n"
-      "  set terminal svg size {w},{h} dynamic enhanced font \"DejaVu Sans,10\" linewidth 1.2 background \"#ffffff\"\n"
+      "  set terminal svg size {w},{h} dynamic enhanced font \"DejaVu Sans,12\" linewidth 1.2 background \"#ffffff\"\n"
       "}}\n"
       "set output \"{id}.\".fmt\n"
       "reset\n"

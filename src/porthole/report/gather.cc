@@ -46,6 +46,8 @@ VirtualRow VirtualAt(const planning::Setup& s, const lens::Mount& mount, double 
     row.d_s2ep_real_mm = real->d_s2ep_mm;
   }
   row.fd_mm = solved.fd_mm;
+  row.ep_z_mm = solved.sys.ep_in_housing_mm.z();
+  row.image_z_mm = row.ep_z_mm + row.d_s2ep_mm;
   if (!row.fd_mm && std::isfinite(row.d_s2ep_mm)) {
     row.closeup_dioptre = planning::CloseupDioptreNeeded(
         row.d_s2ep_mm, lens::SubjectToPupilMm(s.lens, mount, s.lens.min_focus_mm));
@@ -124,6 +126,12 @@ Results Gather(const ReportInputs& in, Steps& steps) {
     const lens::Mount& mount = lens::MountByName(in.setup.camera.mount);
     const double h = in.setup.lens.focal_length_mm / (2 * in.f_number);
     for (double wd : kTable5Wd) r.table.push_back(VirtualAt(in.setup, mount, wd, h));
+    // The virtual image of infinity, once: the table's last row, and the plan's view of the same
+    // point from the pupil at infinity focus (a fixed pupil makes the two one number).
+    PORTHOLE_CHECK(std::isinf(r.table.back().wd_mm));
+    r.infinity.focused = r.table.back();
+    r.infinity.d_s2ep_at_infinity_focus_mm = r.plan.d_s2ep_infinity_mm;
+    r.infinity.ep_z_at_infinity_focus_mm = planning::SystemAtFocus(in.setup, kInf).ep_in_housing_mm.z();
     for (int k = 0; k <= 60; ++k) {  // 50 mm … 100 m, log-spaced
       r.curve.push_back(VirtualAt(in.setup, mount, 50 * std::pow(2000.0, k / 60.0), h));
     }
@@ -136,6 +144,7 @@ Results Gather(const ReportInputs& in, Steps& steps) {
       const planning::Plan p = planning::MakePlan(in.setup, PlanFor(in, s, 1));
       if (p.target) r.dof.push_back({s, p.target->air, p.target->water});
     }
+    r.min_subject_mm = r.plan.min_wd_mm + planning::PupilToOuterMm(planning::SystemAtFocus(in.setup, in.setup.lens.min_focus_mm));
   });
 
   steps.Run("chief rays through both ports", [&] {

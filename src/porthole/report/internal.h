@@ -19,14 +19,28 @@ namespace porthole::report {
 
 using Json = nlohmann::ordered_json;
 
-// One working distance: where its virtual image is and the focus that makes it sharp, with the
-// pupil where the lens puts it at that focus (planning::SolveFocus).
+// One working distance: where its virtual image is and the focus that makes it sharp. The report's
+// one convention for D_S2EP (docs/report.md): measured from the entrance pupil where the lens puts
+// it when focused on that image (planning::SolveFocus), as `porthole plan` does for its target and
+// its minimum WD. The image itself is a point fixed in the housing (image_z_mm); only its distance
+// from the pupil depends on the focus.
 struct VirtualRow {
   double wd_mm = 0;
   double d_s2ep_mm = 0, vwd_mm = 0, magnification = 0;  // paraxial
   double d_s2ep_real_mm = NAN;      // real rays through the pupil rim at f/(2N)
   std::optional<double> fd_mm;      // the focus scale to set; nullopt: closer than the lens goes
   double closeup_dioptre = 0;       // the weakest close-up that reaches it (0: reachable)
+  double ep_z_mm = 0;               // the pupil at that focus, housing frame (at min focus if unreachable)
+  double image_z_mm = 0;            // the virtual image, housing frame: ep_z_mm + d_s2ep_mm
+};
+
+// The virtual image of infinity, computed once and used by every table, figure and caption: the
+// Table 5 row WD = ∞ (lens focused on it), and the same point seen from the pupil where the lens
+// puts it with its focus scale at ∞ (what `porthole plan` prints as d_s2ep_infinity_mm).
+struct InfinityImage {
+  VirtualRow focused;                    // lens focused on the image of infinity
+  double d_s2ep_at_infinity_focus_mm = 0;  // = plan.d_s2ep_infinity_mm
+  double ep_z_at_infinity_focus_mm = 0;  // housing frame
 };
 
 // Depth of field for one subject distance from the pupil, in air and under water.
@@ -49,7 +63,9 @@ struct Results {
   std::optional<planning::FlatAnalysis> flat;  // of whichever of the two ports is flat
   std::vector<VirtualRow> table;          // the paper's Table 5 working distances
   std::vector<VirtualRow> curve;          // dense, for the figures
+  InfinityImage infinity;                 // table.back() and the plan's infinity-focus view of it
   std::vector<DofRow> dof;
+  double min_subject_mm = 0;              // the minimum WD as a distance from the pupil (at min focus)
   std::vector<AngleRow> angles;
   std::vector<optics::RayPath> fan;       // chief rays in the x-z plane, out into the water
   std::vector<double> fan_angles_deg;

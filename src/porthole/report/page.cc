@@ -20,7 +20,7 @@ Json VirtualRowJson(const VirtualRow& v) {
   return {{"wd_mm", L(v.wd_mm)}, {"d_s2ep_mm", L(v.d_s2ep_mm)}, {"vwd_mm", L(v.vwd_mm)},
           {"d_s2ep_real_mm", L(v.d_s2ep_real_mm)}, {"magnification", v.magnification},
           {"focus_scale_fd_mm", v.fd_mm ? L(*v.fd_mm) : Json(nullptr)},
-          {"closeup_dioptre_needed", v.closeup_dioptre}};
+          {"closeup_dioptre_needed", v.closeup_dioptre}, {"ep_z_in_housing_mm", v.ep_z_mm}};
 }
 
 // Numbers for the page: fixed decimals, "∞", or "–".
@@ -119,6 +119,21 @@ footer { color:var(--muted); font-size:.85rem; padding:0 1rem 2rem; }
 code { font-family:"DejaVu Sans Mono", monospace; font-size:.9em; background:#eef3f8; padding:0 .25rem; border-radius:3px; }
 header code { background:rgba(255,255,255,.18); color:#fff; }
 table.text td, table.text th { text-align:left; white-space:normal; }
+dl.inputs dd, .card .note { overflow-wrap:anywhere; }
+figcaption .files a { display:inline-block; }
+@media (max-width: 760px) {
+  body { font-size:15px; }
+  header { padding:1.2rem .8rem 1rem; }
+  header h1 { font-size:1.35rem; }
+  main { padding:.8rem .4rem 1.2rem; }
+  section { padding:.8rem .7rem 1rem; border-radius:6px; }
+  .cards { grid-template-columns:1fr 1fr; gap:.5rem; }
+  .card .value { font-size:1.15rem; }
+  dl.inputs { grid-template-columns:1fr; gap:0; }
+  dl.inputs dd { margin-bottom:.35rem; }
+  figure .plot { padding:0; }
+  table { font-size:.86rem; }
+}
 )";
 
 }  // namespace
@@ -150,6 +165,24 @@ Json ReportJson(const Results& r, const std::vector<Figure>& figures) {
   for (const auto& v : r.table) table.push_back(VirtualRowJson(v));
   for (const auto& v : r.curve) curve.push_back(VirtualRowJson(v));
   j["virtual_image"] = {{"rows", table}, {"curve", curve}};
+  // Quantities the report shows in several places, each defined once, with the focus it assumes.
+  const InfinityImage& inf = r.infinity;
+  j["virtual_image_of_infinity"] = {
+      {"assumes", "the lens focused on the image of infinity (the pupil where that focus puts it); the last row "
+                  "of virtual_image.rows"},
+      {"d_s2ep_mm", L(inf.focused.d_s2ep_mm)}, {"vwd_mm", L(inf.focused.vwd_mm)},
+      {"focus_scale_fd_mm", inf.focused.fd_mm ? L(*inf.focused.fd_mm) : Json(nullptr)},
+      {"ep_z_in_housing_mm", inf.focused.ep_z_mm}, {"image_z_in_housing_mm", L(inf.focused.image_z_mm)},
+      {"with_focus_scale_at_infinity",
+       {{"assumes", "the lens's focus scale at infinity, as `porthole plan` prints d_s2ep_infinity_mm"},
+        {"d_s2ep_mm", L(inf.d_s2ep_at_infinity_focus_mm)}, {"ep_z_in_housing_mm", inf.ep_z_at_infinity_focus_mm}}}};
+  j["field_of_view"] = {{"assumes", "the lens focused on the target's virtual image, as `porthole plan "
+                                    "--subject-distance` (without a target plan assumes infinity focus, c = f)"},
+                        {"principal_distance_mm", r.plan.principal_distance_mm},
+                        {"air", {{"horizontal_deg", L(r.plan.fov.air.horizontal_deg)}, {"vertical_deg", L(r.plan.fov.air.vertical_deg)},
+                                 {"diagonal_deg", L(r.plan.fov.air.diagonal_deg)}}},
+                        {"water", {{"horizontal_deg", L(r.plan.fov.water.horizontal_deg)}, {"vertical_deg", L(r.plan.fov.water.vertical_deg)},
+                                   {"diagonal_deg", L(r.plan.fov.water.diagonal_deg)}}}};
   Json dof = Json::array();
   for (const auto& d : r.dof) {
     dof.push_back({{"subject_mm", d.subject_mm},
@@ -234,11 +267,15 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
             fmt::format("virtual image {} mm from the pupil", F(t.virtual_image.d_s2ep_mm, 1)));
   h += Card("Minimum working distance", F(p.min_wd_mm, 0) + " mm",
             fmt::format("closest focus {} mm from the pupil", F(p.closest_d_s2ep_mm, 1)));
-  h += Card("Virtual image of infinity", F(p.d_s2ep_infinity_mm, 1) + " mm", "from the entrance pupil");
+  const VirtualRow& inf = r.infinity.focused;
+  h += Card("Virtual image of infinity", F(inf.d_s2ep_mm, 1) + " mm",
+            fmt::format("from the entrance pupil, the lens focused on it{}; VWD {} mm",
+                        inf.fd_mm ? " (focus scale " + F(*inf.fd_mm, 0) + " mm)" : "", F(inf.vwd_mm, 1)));
   h += Card("Depth of field under water", F(t.water.total_mm, 0) + " mm",
             fmt::format("{} mm in air: ×{}", F(t.air.total_mm, 0), F(t.dof_ratio_water_to_air, 2)));
   h += Card("Field of view in water", F(p.fov.water.horizontal_deg, 1) + "°",
-            fmt::format("horizontal; {}° in air", F(p.fov.air.horizontal_deg, 1)));
+            fmt::format("horizontal; {}° in air; focused on the target (c = {} mm)", F(p.fov.air.horizontal_deg, 1),
+                        F(p.principal_distance_mm, 2)));
   if (t.field) {
     h += Card("Corner blur", F(t.field->corner_blur_px, 1) + " px",
               fmt::format("at f/{:g}; sharp from f/{}", p.f_number, F(t.field->f_number_for_sharp_corners, 1)));
@@ -293,7 +330,8 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
                     v.fd_mm ? F(*v.fd_mm, 1) : fmt::format("closer than the lens (+{:.2f} dpt)", v.closeup_dioptre)});
   }
   h += "<section id=\"focus\"><h2>Where to focus, and how close</h2>\n<div class=\"scroll\">";
-  h += Table("Virtual image against working distance (the paper's Table 5 distances)",
+  h += Table("Virtual image against working distance (the paper's Table 5 distances); D<sub>S2EP</sub> from the "
+             "entrance pupil with the lens focused on that image",
              {"WD <span class=\"unit\">mm</span>", "D<sub>S2EP</sub> <span class=\"unit\">mm</span>",
               "VWD <span class=\"unit\">mm</span>", fmt::format("real rays f/{:g} <span class=\"unit\">mm</span>", p.f_number),
               "magnification", "focus scale FD <span class=\"unit\">mm</span>"},
@@ -321,7 +359,8 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
     return std::vector<std::string>{Html(name), F(f.horizontal_deg, 1), F(f.vertical_deg, 1), F(f.diagonal_deg, 1)};
   };
   h += "<section id=\"ports\"><h2>Dome against flat port</h2>\n<div class=\"scroll\">";
-  h += Table("Field of view, full angles",
+  h += Table(fmt::format("Field of view, full angles, the lens focused on the target (c = {} mm; at infinity "
+                         "focus c = f and the field is wider)", F(p.principal_distance_mm, 2)),
              {"", "horizontal <span class=\"unit\">°</span>", "vertical <span class=\"unit\">°</span>",
               "diagonal <span class=\"unit\">°</span>"},
              {fov_row("in air", p.fov.air), fov_row("under water, " + port, p.fov.water),
