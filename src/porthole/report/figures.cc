@@ -215,9 +215,9 @@ Figure PortRays(const Results& r) {
     d += fmt::format("{} {}\n{} {}\n\n", N(ep.z()), N(ep.x()), N(ep.z() + d_target), N(ep.x() + d_target * std::tan(a / kDeg)));
   }
   // Marked points, each label placed clear of the others and joined to its point by a leader line.
-  d += Block(6, "marked points", "z_mm x_mm label label_z_mm label_x_mm");
-  auto mark = [&d](double z, double x, const std::string& label, double lz, double lx) {
-    d += fmt::format("{} {} \"{}\" {} {}\n", N(z), N(x), label, N(lz), N(lx));
+  d += Block(6, "marked points", "z_mm x_mm label label_z_mm label_x_mm right_aligned");
+  auto mark = [&d](double z, double x, const std::string& label, double lz, double lx, bool right = false) {
+    d += fmt::format("{} {} \"{}\" {} {} {}\n", N(z), N(x), label, N(lz), N(lx), right ? 1 : 0);
   };
   const double step = 0.16 * half;
   mark(ep.z(), ep.x(), "entrance pupil", ep.z() + 0.1 * half, ep.x() - step);
@@ -229,18 +229,19 @@ Figure PortRays(const Results& r) {
   const bool target_on_chart = ep.z() + d_target < zmax;
   if (target_on_chart) {
     mark(ep.z() + d_target, ep.x(), fmt::format("virtual image (WD {:.0f} mm)", r.plan.target->wd_mm),
-         ep.z() + d_target + 0.05 * half, ep.x() - step);
+         ep.z() + d_target - 0.05 * half, ep.x() - step, true);
   }
   if (std::isfinite(z_inf) && z_inf < zmax) {
-    mark(z_inf, ep.x(), "image of infinity", z_inf - 0.05 * half, ep.x() + 1.6 * step);
+    mark(z_inf, ep.x(), "image of infinity", z_inf - 0.05 * half, ep.x() + step, true);
   }
   std::string off_chart;
   if (!target_on_chart) {
     off_chart = fmt::format(
-        "set arrow from graph 0.62, first {0} to graph 0.99, first {0} head filled lw 1.5 lc rgb \"#2a9d5c\"\n"
-        "set label \"virtual image of the target: {1:.0f} mm from the pupil\" at graph 0.62, first {2} left "
-        "textcolor rgb \"#2a9d5c\"\n",
-        N(ep.x() - 0.05 * half), d_target, N(ep.x() - 0.05 * half - 0.09 * half));
+        "set style textbox opaque noborder\n"
+        "set arrow from graph 0.55, first {0} to graph 0.99, first {0} head filled lw 1.5 lc rgb \"#2a9d5c\" front\n"
+        "set label \"virtual image of the target,\\n{1:.0f} mm from the pupil\" at graph 0.98, first {2} right "
+        "textcolor rgb \"#2a9d5c\" front boxed\n",
+        N(ep.x() - 0.05 * half), d_target, N(ep.x() - 0.05 * half - 0.16 * half));
   }
   f.caption = fmt::format(
       "Cross-section, to scale, of {} (x–z plane of the housing frame, origin at the lens-mount flange) "
@@ -261,7 +262,8 @@ Figure PortRays(const Results& r) {
       "     data index 4 using 1:2 with lines ls 3 lw 2.5 title \"virtual image of the object plane\", \\\n"
       "     data index 6 using 4:5:($1-$4):($2-$5) with vectors nohead lc rgb \"#888888\" lw 0.8 notitle, \\\n"
       "     data index 6 using 1:2 with points pt 7 ps 1 lc rgb \"#222222\" notitle, \\\n"
-      "     data index 6 using 4:5:3 with labels left offset 0.3,0 notitle\n",
+      "     data index 6 using 4:5:($6 == 0 ? stringcolumn(3) : \"\") with labels left offset 0.3,0 notitle, \\\n"
+      "     data index 6 using 4:5:($6 == 1 ? stringcolumn(3) : \"\") with labels right offset -0.3,0 notitle\n",
       N(zmin), N(zmax), N(ep.x() - half), N(ep.x() + half), off_chart);
   return f;
 }
@@ -269,8 +271,10 @@ Figure PortRays(const Results& r) {
 // Ticks a reader can use on a logarithmic axis in mm: 1-2-5 steps between lo and hi.
 std::string LogTics(const std::string& axis, double lo, double hi) {
   std::string t;
+  // 1-2-5 over up to two decades; wider ranges get one labelled tick per decade.
+  const std::vector<double> steps = hi / lo > 150 ? std::vector<double>{1.0} : hi / lo > 40 ? std::vector<double>{1.0, 2.0, 5.0} : std::vector<double>{1.0, 2.0, 3.0, 5.0};
   for (double decade = 1; decade <= 1e7; decade *= 10) {
-    for (double m : {1.0, 2.0, 5.0}) {
+    for (double m : steps) {
       const double v = m * decade;
       if (v >= lo * (1 - 1e-9) && v <= hi * (1 + 1e-9)) t += (t.empty() ? "" : ", ") + fmt::format("\"{:g}\" {:g}", v, v);
     }
@@ -284,7 +288,7 @@ std::string UnreachableWd(const planning::Plan& p, double x0, bool log_axis) {
   const double x1 = std::isfinite(p.min_wd_mm) ? p.min_wd_mm : 1e12;
   return fmt::format(
       "set object 1 rect from {0},graph 0 to {1},graph 1 fc rgb \"#e9e9e9\" fillstyle solid 1.0 noborder behind\n"
-      "set label 1 \"lens cannot focus\\n(closer than the minimum WD)\" at {2},graph 0.86 center textcolor rgb \"#777777\"\n",
+      "set label 1 \"lens cannot focus\" at {2},graph 0.94 center textcolor rgb \"#777777\"\n",
       N(x0), N(x1), N(log_axis ? std::sqrt(x0 * std::min(x1, 20 * x0)) : 0.5 * (x0 + std::min(x1, 3000.0))));
 }
 
@@ -328,16 +332,21 @@ Figure VirtualImage(const Results& r) {
         inf.d_s2ep_mm, inf.vwd_mm);
   }
   std::string fd_inf;
-  if (inf.fd_mm) {
+  double fd_min = INFINITY;
+  for (const auto& v : r.curve) {
+    if (v.fd_mm && std::isfinite(*v.fd_mm)) fd_min = std::min(fd_min, *v.fd_mm);
+  }
+  if (inf.fd_mm && std::isfinite(*inf.fd_mm)) {
     fd_inf = fmt::format(
         "set arrow 2 from graph 0, first {0} to graph 1, first {0} nohead ls 5 lc rgb \"#8e44ad\"\n"
-        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.99, first {0} right offset 0,-0.9 textcolor rgb \"#8e44ad\"\n",
-        *inf.fd_mm);
+        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.99, first {0} right offset 0,0.7 textcolor rgb \"#8e44ad\"\n"
+        "set yrange [*:{1}]\n",
+        *inf.fd_mm, N(*inf.fd_mm + 0.15 * (*inf.fd_mm - fd_min)));
   }
   f.body = fmt::format(
       "set multiplot layout 2,1\nset logscale x\n{0}set xrange [50:100000]\n"
       "set xlabel \"WD (mm, object to the port's outer surface)\"\nset key outside right top vertical Left reverse\n"
-      "set lmargin 10\nset rmargin 30\n{1}{2}set ylabel \"distance (mm)\"\nset yrange [0:*]\n"
+      "set lmargin 10\nset rmargin 27\n{1}{2}set ylabel \"distance (mm)\"\n"
       "plot data index 0 using 1:2 with lines ls 1 title \"D_{{S2EP}} (to the pupil)\", \\\n"
       "     data index 0 using 1:4 with lines ls 5 title \"D_{{S2EP}}, real rays\", \\\n"
       "     data index 0 using 1:3 with lines ls 3 title \"VWD (to the port)\", \\\n"
@@ -347,7 +356,7 @@ Figure VirtualImage(const Results& r) {
       "set ylabel \"focus scale FD (mm)\"\n"
       "plot data index 0 using 1:5 with lines ls 4 title \"focus scale to set\", \\\n"
       "     data index 1 using 1:4 with points pt 7 lc rgb \"#8e44ad\" notitle\n",
-      LogTics("x", 50, 100000), UnreachableWd(r.plan, 50, true), dome ? asymptotes : "set logscale y\n", fd_inf);
+      LogTics("x", 50, 100000), UnreachableWd(r.plan, 50, true), dome ? asymptotes + fmt::format("set yrange [0:{}]\n", N(1.14 * inf.d_s2ep_mm)) : "set logscale y\n" + LogTics("y", 10, 1e6), fd_inf);
   return f;
 }
 
@@ -361,10 +370,15 @@ Figure MinWd(const Results& r) {
   for (const auto& v : r.curve) {
     if (v.wd_mm <= xmax * 1.3) d += fmt::format("{} {} {}\n", N(v.wd_mm), N(v.d_s2ep_mm), N(v.vwd_mm));
   }
-  d += Block(1, "close-up lenses: the WD range each brings within reach (one sub-block each)",
+  d += Block(1, "close-up lenses: the WD range each brings within reach, cut at the chart's edge (one sub-block each)",
              "wd_mm dioptre");
   for (const auto& c : p.closeup) {
-    d += fmt::format("{} {:g}\n{} {:g}\n\n", N(c.min_wd_mm), c.dioptre, N(std::min(c.max_wd_mm, 1e9)), c.dioptre);
+    d += fmt::format("{} {:g}\n{} {:g}\n\n", N(c.min_wd_mm), c.dioptre, N(std::min(c.max_wd_mm, xmax)), c.dioptre);
+  }
+  d += Block(2, "the far end of each range", "wd_mm dioptre far_end_label");
+  for (const auto& c : p.closeup) {
+    d += fmt::format("{} {:g} \"{}\"\n", N(std::min(c.max_wd_mm, xmax)), c.dioptre,
+                     std::isfinite(c.max_wd_mm) ? fmt::format("{:.0f} mm", c.max_wd_mm) : "to ∞");
   }
   const double d_inf = r.infinity.focused.d_s2ep_mm;
   const double ymax = std::isfinite(d_inf) ? d_inf * 1.12 : 2 * p.closest_d_s2ep_mm;
@@ -399,7 +413,8 @@ Figure MinWd(const Results& r) {
       "unset arrow\nunset label\nunset object\nset size 1,0.32\nset origin 0,0\nset tmargin 0.5\n"
       "set xlabel \"WD (mm) that the close-up lens brings within reach\"\nset ylabel \"close-up\"\n"
       "set yrange [{5}:{6}]\nset ytics ({7})\nunset key\nset grid xtics\n"
-      "plot data index 1 using 1:2 with lines lw 8 lc rgb \"#8e44ad\" notitle\n",
+      "plot data index 1 using 1:2 with lines lw 8 lc rgb \"#8e44ad\" notitle, \\\n"
+      "     data index 2 using 1:2:3 with labels left offset 0.8,0 notitle\n",
       N(xmax), N(ymax), min_line, p.closest_d_s2ep_mm, UnreachableWd(p, 0, false), N(0.4), N(dmax + 0.6), dpt_tics);
   return f;
 }
@@ -440,12 +455,12 @@ Figure DepthOfField(const Results& r) {
   f.body = fmt::format(
       "set logscale xy\n{0}{1}set xrange [{2}:{3}]\nset yrange [{4}:{5}]\n"
       "set xlabel \"subject distance from the entrance pupil (mm)\"\nset ylabel \"sharp from … to (mm)\"\n"
-      "set key outside below center horizontal\n{6}"
+      "set key outside top center horizontal\n{6}"
       "set arrow 2 from {7},{4} to {7},{5} nohead ls 5\n"
       "set label 2 \"target {8:.0f} mm\" at {7},{5} right offset -0.5,-1 textcolor rgb \"#555555\"\n"
       "plot data index 0 using 1:4:7 with filledcurves fs transparent solid 0.3 noborder lc rgb \"#1f5fa8\" "
       "title \"under water\", \\\n"
-      "     data index 0 using 1:2:6 with filledcurves fs transparent pattern 4 border lc rgb \"#c8322d\" "
+      "     data index 0 using 1:2:6 with filledcurves fs transparent pattern 5 noborder fc rgb \"#c8322d\" "
       "title \"in air\", \\\n"
       "     data index 0 using 1:2 with lines ls 2 notitle, data index 0 using 1:3 with lines ls 2 notitle, \\\n"
       "     data index 0 using 1:4 with lines ls 1 notitle, data index 0 using 1:5 with lines ls 1 notitle, \\\n"
@@ -516,7 +531,7 @@ Figure DomeVsFlat(const Results& r) {
       r.plan.fov.air.diagonal_deg, r.prediction.water.params.c_mm / r.prediction.air.params.c_mm,
       main.spec.name, r.other_prediction.water.params.c_mm / r.other_prediction.air.params.c_mm, other.spec.name);
   f.body = fmt::format(
-      "set multiplot layout 1,2\nset key outside below center vertical\n"
+      "set multiplot layout 1,2\nset key outside below center vertical\nset bmargin 8\n"
       "set xlabel \"chief-ray angle in air (deg)\"\nset ylabel \"angle in water (deg)\"\n"
       "plot x with lines ls 5 title \"no port (air)\", \\\n"
       "     data index 0 using 1:2 with lines ls 1 title \"{0}\", \\\n"
@@ -561,7 +576,7 @@ Figure Predicted(const Results& r) {
               "     data index 0 using 1:9 with lines ls 1 dt 2 title \"water, predicted\"";
   }
   f.body = fmt::format(
-      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 2\nset xlabel \"r (mm)\"\n"
+      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 2\nset bmargin 7\nset xlabel \"r (mm)\"\n"
       "set title \"(a) radial distortion\"\nset ylabel \"δr (µm)\"\n"
       "plot data index 0 using 1:2 with lines ls 2 title \"air (fit)\", \\\n"
       "     data index 0 using 1:3 with lines ls 1 title \"water (fit)\"{}\n"
@@ -573,7 +588,7 @@ Figure Predicted(const Results& r) {
 }
 
 Figure Tolerance(const Results& r) {
-  Figure f{"tolerance", "simulate", "Tolerance to the entrance pupil's position", "", 960, 760, "", ""};
+  Figure f{"tolerance", "simulate", "Tolerance to the entrance pupil's position", "", 960, 980, "", ""};
   const camera::Sensor& s = r.prediction.camera.sensor;
   const double corner = Radii(s).back();
   auto dr = [](const simulate::SweepRow& row, double rad) {
@@ -603,7 +618,8 @@ Figure Tolerance(const Results& r) {
       "and the corner ({:.1f} mm) against the z offset; (c) the whole profile change for each z offset.",
       corner);
   f.body = fmt::format(
-      "set multiplot layout 2,2\nset key outside below center horizontal\nset xlabel \"pupil offset (mm)\"\n"
+      "set multiplot layout 3,1 margins 0.1,0.76,0.06,0.96 spacing 0,0.135\nset key outside right top vertical Left reverse\n"
+      "set xlabel \"pupil offset (mm)\"\n"
       "set title \"(a) principal distance\"\nset ylabel \"Δc (mm)\"\n"
       "plot data index 0 using 1:2 with linespoints ls 1 pt 7 title \"along z\", \\\n"
       "     data index 1 using 1:2 with linespoints ls 3 pt 5 title \"along x\"\n"
@@ -668,7 +684,7 @@ Figure CompareCurves(const Results& r) {
   const calib::CompareResult& c = *r.compare;
   const calib::CalibrationRecord& air = *r.in->air_calibration;
   const calib::CalibrationRecord& water = *r.in->water_calibration;
-  Figure f{"compare-curves", "compare", "Your calibrations: distortion curves (Fig. 14)", "", 960, 500, "", ""};
+  Figure f{"compare-curves", "compare", "Your calibrations: distortion curves (Fig. 14)", "", 960, 560, "", ""};
   const auto& pw = r.prediction.predicted_water;
   std::string& d = f.data;
   d += Block(0, "radial and decentring profiles of the two calibrations and of the prediction, with the 1-sigma "
@@ -708,7 +724,7 @@ Figure CompareCurves(const Results& r) {
     return b;
   };
   f.body = fmt::format(
-      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 3\nset xlabel \"r (mm)\"\n"
+      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 2\nset bmargin 8\nset xlabel \"r (mm)\"\n"
       "set title \"(a) radial distortion\"\nset ylabel \"δr (µm)\"\n"
       "plot {}data index 0 using 1:2 with lines ls 2 title \"air\", \\\n"
       "     data index 0 using 1:3 with lines ls 1 title \"water\", \\\n"
