@@ -219,25 +219,27 @@ Figure PortRays(const Results& r) {
   auto mark = [&d](double z, double x, const std::string& label, double lz, double lx, bool right = false) {
     d += fmt::format("{} {} \"{}\" {} {} {}\n", N(z), N(x), label, N(lz), N(lx), right ? 1 : 0);
   };
-  const double step = 0.16 * half;
-  mark(ep.z(), ep.x(), "entrance pupil", ep.z() + 0.1 * half, ep.x() - step);
+  // Near the pupil the labels go above and below the fan of chief rays (which leaves the pupil
+  // within ±atan(half sensor width / c) of the axis), a few mm ahead of it.
+  const double fan_tan = std::tan(std::abs(r.fan_angles_deg.empty() ? 30.0 : r.fan_angles_deg.front()) / kDeg);
+  const double lz = ep.z() + 0.05 * half, clear = fan_tan * 0.5 * half + 0.12 * half;
+  mark(ep.z(), ep.x(), "entrance pupil", lz, ep.x() - clear);
   if (sys.IsDome()) {
     const ports::Vec3 oc = sys.dome().outer.center_mm, ic = sys.dome().inner.center_mm;
-    mark(oc.z(), oc.x(), "outer centre", oc.z() + 0.1 * half, oc.x() + 1.0 * step);
-    mark(ic.z(), ic.x(), "inner centre", ic.z() + 0.1 * half, ic.x() + 2.0 * step);
+    mark(oc.z(), oc.x(), "outer centre", lz, ep.x() + clear);
+    mark(ic.z(), ic.x(), "inner centre", lz, ep.x() + clear + 0.14 * half);
   }
   const bool target_on_chart = ep.z() + d_target < zmax;
   if (target_on_chart) {
     mark(ep.z() + d_target, ep.x(), fmt::format("virtual image (WD {:.0f} mm)", r.plan.target->wd_mm),
-         ep.z() + d_target - 0.05 * half, ep.x() - step, true);
+         ep.z() + d_target - 0.05 * half, ep.x() - 0.1 * half, true);
   }
   if (std::isfinite(z_inf) && z_inf < zmax) {
-    mark(z_inf, ep.x(), "image of infinity", z_inf - 0.05 * half, ep.x() + step, true);
+    mark(z_inf, ep.x(), "image of infinity", z_inf - 0.05 * half, ep.x() + 0.1 * half, true);
   }
   std::string off_chart;
   if (!target_on_chart) {
     off_chart = fmt::format(
-        "set style textbox opaque noborder\n"
         "set arrow from graph 0.55, first {0} to graph 0.99, first {0} head filled lw 1.5 lc rgb \"#2a9d5c\" front\n"
         "set label \"virtual image of the target,\\n{1:.0f} mm from the pupil\" at graph 0.98, first {2} right "
         "textcolor rgb \"#2a9d5c\" front boxed\n",
@@ -252,8 +254,8 @@ Figure PortRays(const Results& r) {
       sys.IsDome() ? ", curved because of the port's field curvature" : " (beyond the chart: the arrow)");
   f.body = fmt::format(
       "set size ratio -1\nset xlabel \"z (mm, housing frame: toward the scene)\"\nset ylabel \"x (mm)\"\n"
-      "set xrange [{}:{}]\nset yrange [{}:{}]\nset key outside below center horizontal maxcols 3 samplen 2.5\n"
-      "set style fill transparent solid 0.35 noborder\n{}"
+      "set xrange [{}:{}]\nset yrange [{}:{}]\nset key outside below center horizontal maxcols 2 samplen 2.5\n"
+      "set style fill transparent solid 0.35 noborder\nset style textbox opaque noborder margins 1,1\n{}"
       "plot data index 2 using 1:2 with filledcurves closed lc rgb \"#a9c6de\" title \"glass\", \\\n"
       "     data index 0 using 1:2 with lines ls 6 title \"outer surface\", \\\n"
       "     data index 1 using 1:2 with lines ls 7 title \"inner surface\", \\\n"
@@ -781,9 +783,9 @@ std::string FigureScript(const Figure& f) {
       "data = \"{id}.dat\"\n"
       "do for [fmt in \"png svg\"] {{\n"
       "if (fmt eq \"png\") {{\n"
-      "  set terminal pngcairo size {w},{h} enhanced font \"DejaVu Sans,12\" linewidth 1.2\n"
+      "  set terminal pngcairo size {w},{h} enhanced font \"DejaVu Sans,16\" linewidth 1.2\n"
       "}} else {{\n"
-      "  set terminal svg size {w},{h} dynamic enhanced font \"DejaVu Sans,12\" linewidth 1.2 background \"#ffffff\"\n"
+      "  set terminal svg size {w},{h} dynamic enhanced font \"DejaVu Sans,16\" linewidth 1.2 background \"#ffffff\"\n"
       "}}\n"
       "set output \"{id}.\".fmt\n"
       "reset\n"

@@ -110,7 +110,7 @@ tbody tr:nth-child(even) { background:#f8fafc; }
 .scroll { overflow-x:auto; }
 figure { margin:1rem 0 1.4rem; }
 figure .plot { border:1px solid var(--line); border-radius:8px; background:#fff; padding:.3rem; }
-figure svg { display:block; width:100%; height:auto; }
+figure svg { display:block; width:100%; max-width:960px; height:auto; margin:0 auto; }
 figcaption { color:var(--muted); font-size:.92rem; margin-top:.45rem; }
 figcaption .files a { color:var(--accent); margin-right:.6rem; font-size:.85rem; }
 dl.inputs { display:grid; grid-template-columns:max-content 1fr; gap:.2rem 1.2rem; margin:.4rem 0; }
