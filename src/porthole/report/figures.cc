@@ -222,7 +222,8 @@ Figure PortRays(const Results& r) {
   // Near the pupil the labels go above and below the fan of chief rays (which leaves the pupil
   // within ±atan(half sensor width / c) of the axis), a few mm ahead of it.
   const double fan_tan = std::tan(std::abs(r.fan_angles_deg.empty() ? 30.0 : r.fan_angles_deg.front()) / kDeg);
-  const double lz = ep.z() + 0.05 * half, clear = fan_tan * 0.5 * half + 0.12 * half;
+  const double label_mm = 130 * (zmax - zmin) / 700;  // a 14-character label at 16 px on a ~700 px wide plot
+  const double lz = ep.z() + 0.05 * half, clear = fan_tan * (0.05 * half + label_mm) + 0.12 * half;
   mark(ep.z(), ep.x(), "entrance pupil", lz, ep.x() - clear);
   if (sys.IsDome()) {
     const ports::Vec3 oc = sys.dome().outer.center_mm, ic = sys.dome().inner.center_mm;
@@ -239,11 +240,8 @@ Figure PortRays(const Results& r) {
   }
   std::string off_chart;
   if (!target_on_chart) {
-    off_chart = fmt::format(
-        "set arrow from graph 0.55, first {0} to graph 0.99, first {0} head filled lw 1.5 lc rgb \"#2a9d5c\" front\n"
-        "set label \"virtual image of the target,\\n{1:.0f} mm from the pupil\" at graph 0.98, first {2} right "
-        "textcolor rgb \"#2a9d5c\" front boxed\n",
-        N(ep.x() - 0.05 * half), d_target, N(ep.x() - 0.05 * half - 0.16 * half));
+    off_chart = fmt::format("set title \"the virtual image of the target lies {:.0f} mm from the pupil, off the chart → \" "
+                            "textcolor rgb \"#2a9d5c\"\n", d_target);
   }
   f.caption = fmt::format(
       "Cross-section, to scale, of {} (x–z plane of the housing frame, origin at the lens-mount flange) "
@@ -251,17 +249,17 @@ Figure PortRays(const Results& r) {
       "glass into the water (like the paper's Figs. 5–6).{} The camera sees the object plane at WD {:.0f} mm "
       "as the green virtual image {:.1f} mm ahead of the pupil{}.",
       sys.spec.name, glass_note, r.plan.target->wd_mm, d_target,
-      sys.IsDome() ? ", curved because of the port's field curvature" : " (beyond the chart: the arrow)");
+      sys.IsDome() ? ", curved because of the port's field curvature" : " (beyond the chart)");
   f.body = fmt::format(
       "set size ratio -1\nset xlabel \"z (mm, housing frame: toward the scene)\"\nset ylabel \"x (mm)\"\n"
-      "set xrange [{}:{}]\nset yrange [{}:{}]\nset key outside below center horizontal maxcols 2 samplen 2.5\n"
+      "set xrange [{}:{}]\nset yrange [{}:{}]\nset key outside below center horizontal maxcols 2 samplen 2.5\nset bmargin 7\n"
       "set style fill transparent solid 0.35 noborder\nset style textbox opaque noborder margins 1,1\n{}"
       "plot data index 2 using 1:2 with filledcurves closed lc rgb \"#a9c6de\" title \"glass\", \\\n"
       "     data index 0 using 1:2 with lines ls 6 title \"outer surface\", \\\n"
       "     data index 1 using 1:2 with lines ls 7 title \"inner surface\", \\\n"
       "     data index 3 using 1:2 with lines ls 1 lw 1.2 title \"chief rays\", \\\n"
-      "     data index 5 using 1:2 with lines ls 5 title \"as the camera sees them\", \\\n"
-      "     data index 4 using 1:2 with lines ls 3 lw 2.5 title \"virtual image of the object plane\", \\\n"
+      "     data index 5 using 1:2 with lines ls 5 title \"air rays, extended\", \\\n"
+      "     data index 4 using 1:2 with lines ls 3 lw 2.5 title \"image of the object plane\", \\\n"
       "     data index 6 using 4:5:($1-$4):($2-$5) with vectors nohead lc rgb \"#888888\" lw 0.8 notitle, \\\n"
       "     data index 6 using 1:2 with points pt 7 ps 1 lc rgb \"#222222\" notitle, \\\n"
       "     data index 6 using 4:5:($6 == 0 ? stringcolumn(3) : \"\") with labels left offset 0.3,0 notitle, \\\n"
