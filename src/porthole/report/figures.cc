@@ -114,13 +114,27 @@ const char* kMapSetup =
     "set autoscale fix\nunset grid\nunset key\n";
 
 // Three panels in a 2×2 layout on one colour scale (0 … max_um), its colour bar in the fourth cell.
-std::string MapPanels(const std::array<std::string, 3>& titles, double max_um) {
-  std::string b = std::string(kMapSetup) + fmt::format("set cbrange [0:{}]\nunset colorbox\n", N(max_um > 0 ? max_um : 1)) +
+// A round step giving about n intervals over `extent` (1, 2 or 5 times a power of ten).
+double NiceStep(double extent, int n) {
+  if (!(extent > 0)) return 1;
+  const double raw = extent / n, p = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0}) {
+    if (m * p >= raw) return m * p;
+  }
+  return 10 * p;
+}
+
+std::string MapPanels(const std::array<std::string, 3>& titles, double max_um, double half_width_mm,
+                      double half_height_mm) {
+  const double top = max_um > 0 ? max_um : 1;
+  std::string b = std::string(kMapSetup) +
+                  fmt::format("set cbrange [0:{}]\nset cbtics {}\nset xtics {}\nset ytics {}\nunset colorbox\n", N(top),
+                              N(NiceStep(top, 4)), N(NiceStep(half_width_mm, 2)), N(NiceStep(half_height_mm, 2))) +
                   "set multiplot layout 2,2\n";
   for (int k = 0; k < 3; ++k) {
     if (k == 2) {
-      b += "set colorbox user horizontal origin screen 0.57,0.25 size screen 0.36,0.04\n"
-           "set cblabel \"length of the correction vector |Δ| (µm), all three panels\"\n";
+      b += "set colorbox user horizontal origin screen 0.6,0.25 size screen 0.32,0.04\n"
+           "set cblabel \"|Δ| (µm), one scale for (a)–(c)\"\n";
     }
     b += fmt::format(
         "set title \"{}\"\n"
@@ -484,6 +498,15 @@ Figure FieldCurvature(const Results& r) {
     }
   }
   const double coc_px = r.plan.coc_mm / r.in->setup.camera.sensor.pixel_pitch_mm;
+  // The two axes scaled apart so that sag and blur (nearly proportional) stay two curves.
+  double sag_max = 0, blur_max = 0;
+  if (t.field) {
+    for (const auto& row : t.field->rows) {
+      if (std::isfinite(row.sag_mm)) sag_max = std::max(sag_max, row.sag_mm);
+      if (std::isfinite(row.blur_px)) blur_max = std::max({blur_max, row.blur_px, row.spread_px});
+    }
+  }
+  if (!(sag_max > 0)) sag_max = 1;
   f.caption = t.field ? fmt::format(
       "A flat object plane at WD {:.0f} mm is imaged by the port onto a curved surface (Fig. 6): the "
       "virtual image of an off-axis point lies nearer the camera (sag, left axis). With the lens focused "
@@ -494,12 +517,12 @@ Figure FieldCurvature(const Results& r) {
   f.body = fmt::format(
       "set xlabel \"image height along the diagonal (mm)\"\nset ylabel \"sag of the virtual image (mm)\"\n"
       "set y2label \"defocus blur (px)\"\nset ytics nomirror\nset y2tics\nset key outside below center horizontal\n"
-      "set yrange [0:*]\nset y2range [0:*]\nset arrow from graph 0, second {0} to graph 1, second {0} nohead ls 5\n"
+      "set bmargin 6\nset yrange [0:{1}]\nset y2range [0:{2}]\nset arrow from graph 0, second {0} to graph 1, second {0} nohead ls 5\n"
       "set label \"circle of confusion, {0:.1f} px\" at graph 0.02, second {0} left offset 0,0.7 textcolor rgb \"#555555\"\n"
       "plot data index 0 using 1:5 with linespoints ls 3 pt 7 title \"sag toward the camera\", \\\n"
       "     data index 0 using 1:6 axes x1y2 with linespoints ls 2 pt 5 title \"defocus blur\", \\\n"
       "     data index 0 using 1:7 axes x1y2 with linespoints ls 4 pt 9 title \"bundle spread\"\n",
-      coc_px);
+      coc_px, N(1.08 * sag_max), N(1.45 * std::max(blur_max, coc_px)));
   return f;
 }
 
@@ -656,7 +679,9 @@ Figure Maps(const Results& r) {
       "(a) under water, (b) in air, (c) their difference, water − air. Colour: its length, on one scale for "
       "the three panels (0–{:.1f} µm); arrows: its direction, to one scale (the longest is {:.1f} µm).",
       vmax, vmax);
-  f.body = MapPanels({"(a) under water", "(b) in air", "(c) difference, water − air"}, vmax);
+  const camera::Sensor& sn = r.prediction.camera.sensor;
+  f.body = MapPanels({"(a) under water", "(b) in air", "(c) difference, water − air"}, vmax,
+                     0.5 * sn.width_px * sn.pixel_pitch_mm, 0.5 * sn.height_px * sn.pixel_pitch_mm);
   return f;
 }
 
@@ -675,7 +700,8 @@ Figure ResidualMap(const Results& r) {
       "The water fit's residual over the image (RMS over the object distances, µm; largest {:.2f} µm): what "
       "the port does that no central Brown model absorbs. Its own colour scale: it is far smaller than the "
       "distortion above.", vmax);
-  f.body = std::string(kMapSetup) + "set cblabel \"residual (µm)\"\nset rmargin 12\n"
+  f.body = std::string(kMapSetup) + "set cblabel \"residual (µm)\"\nset rmargin 12\n" +
+           fmt::format("set cbrange [0:*]\nset cbtics {}\n", N(NiceStep(vmax, 4))) +
            "plot data index 0 using 1:2:3 with image notitle\n";
   return f;
 }
@@ -684,7 +710,7 @@ Figure CompareCurves(const Results& r) {
   const calib::CompareResult& c = *r.compare;
   const calib::CalibrationRecord& air = *r.in->air_calibration;
   const calib::CalibrationRecord& water = *r.in->water_calibration;
-  Figure f{"compare-curves", "compare", "Your calibrations: distortion curves (Fig. 14)", "", 960, 560, "", ""};
+  Figure f{"compare-curves", "compare", "Your calibrations: distortion curves (Fig. 14)", "", 960, 820, "", ""};
   const auto& pw = r.prediction.predicted_water;
   std::string& d = f.data;
   d += Block(0, "radial and decentring profiles of the two calibrations and of the prediction, with the 1-sigma "
@@ -698,6 +724,14 @@ Figure CompareCurves(const Results& r) {
                      N(pw ? Um(camera::DecentringProfileMm(*pw, p.r_mm)) : NAN), N(sa.radial_um), N(sw.radial_um),
                      N(sa.decentring_um), N(sw.decentring_um));
   }
+  std::string corner_note;
+  if (!c.curves.empty() && (air.has_covariance || water.has_covariance)) {
+    const double rc = c.curves.back().r_mm;
+    const ProfileSigma sa = ProfileSigmaUm(air, rc), sw = ProfileSigmaUm(water, rc);
+    corner_note = fmt::format(" At the corner (r = {:.1f} mm) the radial σ is {} µm in air and {} µm under water.", rc,
+                              std::isfinite(sa.radial_um) ? fmt::format("{:.2f}", sa.radial_um) : "–",
+                              std::isfinite(sw.radial_um) ? fmt::format("{:.2f}", sw.radial_um) : "–");
+  }
   auto band_note = [](const calib::CalibrationRecord& rec, const std::string& what) {
     if (!rec.has_covariance) return fmt::format("the {} calibration has no covariance, so it has no band", what);
     if (!rec.covariance_note.empty()) {
@@ -709,8 +743,8 @@ Figure CompareCurves(const Results& r) {
       "Your in-air (red) and underwater (blue) calibrations as the paper's Fig. 14: (a) radial, (b) decentring "
       "distortion, µm against the radial distance in the image; dashed: the underwater calibration porthole "
       "predicted from the in-air one. Bands: ±1σ of each profile, the calibration's covariance propagated "
-      "to the curve (J·Σ·Jᵀ); {}; {}.",
-      band_note(air, "in-air"), band_note(water, "underwater"));
+      "to the curve (J·Σ·Jᵀ); {}; {}.{}",
+      band_note(air, "in-air"), band_note(water, "underwater"), corner_note);
   auto bands = [&](int value_a, int sigma_a, int value_w, int sigma_w) {
     std::string b;
     if (air.has_covariance) {
@@ -724,7 +758,9 @@ Figure CompareCurves(const Results& r) {
     return b;
   };
   f.body = fmt::format(
-      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 2\nset bmargin 8\nset xlabel \"r (mm)\"\n"
+      "set multiplot layout 2,1 margins 0.12,0.68,0.09,0.94 spacing 0,0.17\n"
+      "set key at screen 0.71, graph 1 left top vertical Left reverse samplen 2\n"
+      "set xlabel \"r (mm)\"\n"
       "set title \"(a) radial distortion\"\nset ylabel \"δr (µm)\"\n"
       "plot {}data index 0 using 1:2 with lines ls 2 title \"air\", \\\n"
       "     data index 0 using 1:3 with lines ls 1 title \"water\", \\\n"
@@ -755,7 +791,9 @@ Figure CompareMaps(const Results& r) {
       "difference, water − air. Colour: its length on one scale for the three panels; arrows: its direction. "
       "Largest: {:.1f}, {:.1f} and {:.1f} µm.",
       c.max_a_um, c.max_b_um, c.max_diff_um);
-  f.body = MapPanels({"(a) in air", "(b) under water", "(c) difference, water − air"}, vmax);
+  const camera::Sensor& sn = r.in->air_calibration->sensor;
+  f.body = MapPanels({"(a) in air", "(b) under water", "(c) difference, water − air"}, vmax,
+                     0.5 * sn.width_px * sn.pixel_pitch_mm, 0.5 * sn.height_px * sn.pixel_pitch_mm);
   return f;
 }
 
