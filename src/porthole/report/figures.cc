@@ -297,13 +297,15 @@ std::string LogTics(const std::string& axis, double lo, double hi) {
 }
 
 // The WD the lens cannot reach without a close-up lens, shaded on a plot whose x axis is WD.
-std::string UnreachableWd(const planning::Plan& p, double x0, bool log_axis) {
+std::string UnreachableWd(const planning::Plan& p, double x0, double label_y = 0.94) {
   if (!(p.min_wd_mm > x0)) return "";
   const double x1 = std::isfinite(p.min_wd_mm) ? p.min_wd_mm : 1e12;
   return fmt::format(
       "set object 1 rect from {0},graph 0 to {1},graph 1 fc rgb \"#e9e9e9\" fillstyle solid 1.0 noborder behind\n"
-      "set label 1 \"lens cannot focus\" at {2},graph 0.94 center textcolor rgb \"#777777\"\n",
-      N(x0), N(x1), N(log_axis ? std::sqrt(x0 * std::min(x1, 20 * x0)) : 0.5 * (x0 + std::min(x1, 3000.0))));
+      "{2}", N(x0), N(x1),
+      label_y > 0 ? fmt::format("set label 1 \"lens cannot focus\" at {},graph {} left offset 0.6,0 textcolor rgb "
+                                "\"#777777\"\n", N(x0), N(label_y))
+                  : "");
 }
 
 Figure VirtualImage(const Results& r) {
@@ -366,11 +368,14 @@ Figure VirtualImage(const Results& r) {
       "     data index 0 using 1:3 with lines ls 3 title \"VWD (to the port)\", \\\n"
       "     data index 1 using 1:2 with points pt 7 lc rgb \"#1f5fa8\" title \"Table 5 distances\", \\\n"
       "     data index 1 using 1:3 with points pt 7 lc rgb \"#2a9d5c\" notitle\n"
-      "unset arrow\nunset label 2\nunset label 3\nunset logscale y\nset yrange [*:*]\n{3}"
+      "unset arrow\nunset label 2\nunset label 3\nset yrange [*:*]\n{4}{5}{3}"
       "set ylabel \"focus scale FD (mm)\"\n"
       "plot data index 0 using 1:5 with lines ls 4 title \"focus scale to set\", \\\n"
       "     data index 1 using 1:4 with points pt 7 lc rgb \"#8e44ad\" notitle\n",
-      LogTics("x", 50, 100000), UnreachableWd(r.plan, 50, true), dome ? asymptotes + fmt::format("set yrange [0:{}]\n", N(1.14 * inf.d_s2ep_mm)) : "set logscale y\n" + LogTics("y", 10, 1e6), fd_inf);
+      LogTics("x", 50, 100000), UnreachableWd(r.plan, 50, 0), dome ? asymptotes + fmt::format("set yrange [0:{}]\n", N(1.14 * inf.d_s2ep_mm)) : "set logscale y\n" + LogTics("y", 10, 1e6), fd_inf,
+      // FD: linear behind a dome (it spans tens of mm), logarithmic behind a flat port.
+      dome ? "unset logscale y\nset ytics autofreq\nset mytics default\n" : LogTics("y", 100, 1e7),
+      UnreachableWd(r.plan, 50, 0.5));
   return f;
 }
 
@@ -429,7 +434,7 @@ Figure MinWd(const Results& r) {
       "set yrange [{5}:{6}]\nset ytics ({7})\nunset key\nset grid xtics\n"
       "plot data index 1 using 1:2 with lines lw 8 lc rgb \"#8e44ad\" notitle, \\\n"
       "     data index 2 using 1:2:3 with labels left offset 0.8,0 notitle\n",
-      N(xmax), N(ymax), min_line, p.closest_d_s2ep_mm, UnreachableWd(p, 0, false), N(0.4), N(dmax + 0.6), dpt_tics);
+      N(xmax), N(ymax), min_line, p.closest_d_s2ep_mm, UnreachableWd(p, 0), N(0.4), N(dmax + 0.6), dpt_tics);
   return f;
 }
 
