@@ -389,14 +389,10 @@ Figure MinWd(const Results& r) {
   for (const auto& v : r.curve) {
     if (v.wd_mm <= xmax * 1.3) d += fmt::format("{} {} {}\n", N(v.wd_mm), N(v.d_s2ep_mm), N(v.vwd_mm));
   }
-  d += Block(1, "close-up lenses: the WD range each brings within reach, cut at the chart's edge (one sub-block each)",
-             "wd_mm dioptre");
+  d += Block(1, "close-up lenses: the WD range each brings within reach, cut at the chart's edge",
+             "dioptre min_wd_mm max_wd_drawn_mm far_end_label");
   for (const auto& c : p.closeup) {
-    d += fmt::format("{} {:g}\n{} {:g}\n\n", N(c.min_wd_mm), c.dioptre, N(std::min(c.max_wd_mm, xmax)), c.dioptre);
-  }
-  d += Block(2, "the far end of each range", "wd_mm dioptre far_end_label");
-  for (const auto& c : p.closeup) {
-    d += fmt::format("{} {:g} \"{}\"\n", N(std::min(c.max_wd_mm, xmax)), c.dioptre,
+    d += fmt::format("{:g} {} {} \"{}\"\n", c.dioptre, N(c.min_wd_mm), N(std::min(c.max_wd_mm, xmax)),
                      std::isfinite(c.max_wd_mm) ? fmt::format("{:.0f} mm", c.max_wd_mm) : "to ∞");
   }
   const double d_inf = r.infinity.focused.d_s2ep_mm;
@@ -412,17 +408,17 @@ Figure MinWd(const Results& r) {
   if (std::isfinite(p.min_wd_mm)) {
     min_line = fmt::format(
         "set arrow 5 from {0},graph 0 to {0},graph 1 nohead ls 5 lc rgb \"#c8322d\"\n"
-        "set label 5 \"minimum WD {0:.0f} mm\" at {0},graph 0.93 left offset 0.5,0 textcolor rgb \"#c8322d\" front\n",
+        "set label 5 \"minimum WD {0:.0f} mm\" at {0},graph 0.85 left offset 0.5,0 textcolor rgb \"#c8322d\" front\n",
         p.min_wd_mm);
   }
   std::string dpt_tics;
   for (const auto& c : p.closeup) dpt_tics += (dpt_tics.empty() ? "" : ", ") + fmt::format("\"+{0:g} dpt\" {0:g}", c.dioptre);
   const double dmax = p.closeup.empty() ? 1 : p.closeup.back().dioptre;
   f.body = fmt::format(
-      "set multiplot\nset lmargin at screen 0.09\nset rmargin at screen 0.80\n"
+      "set multiplot\nset lmargin at screen 0.13\nset rmargin at screen 0.74\n"
       "set size 1,0.68\nset origin 0,0.32\nset bmargin 3\n"
       "set xrange [0:{0}]\nset yrange [0:{1}]\nset xlabel \"WD (mm, object to the port's outer surface)\"\n"
-      "set ylabel \"distance (mm)\"\nset key outside right top vertical Left reverse\n{2}{4}"
+      "set ylabel \"distance (mm)\"\nset key at screen 0.76, graph 1 left top vertical Left reverse samplen 2\n{2}{4}"
       "set arrow 6 from graph 0,first {3} to graph 1,first {3} nohead lw 2 lc rgb \"#777777\"\n"
       "set label 6 \"closest focus of the lens, {3:.1f} mm\" at graph 0.99,first {3} right offset 0,-0.8 "
       "textcolor rgb \"#555555\" front\n"
@@ -430,10 +426,11 @@ Figure MinWd(const Results& r) {
       "     data index 0 using 1:3 with lines ls 3 title \"VWD\", \\\n"
       "     NaN with lines lw 2 lc rgb \"#777777\" title \"closest focus\"\n"
       "unset arrow\nunset label\nunset object\nset size 1,0.32\nset origin 0,0\nset tmargin 0.5\n"
-      "set xlabel \"WD (mm) that the close-up lens brings within reach\"\nset ylabel \"close-up\"\n"
+      "set xlabel \"WD (mm) that the close-up lens brings within reach\"\nunset ylabel\n"
       "set yrange [{5}:{6}]\nset ytics ({7})\nunset key\nset grid xtics\n"
-      "plot data index 1 using 1:2 with lines lw 8 lc rgb \"#8e44ad\" notitle, \\\n"
-      "     data index 2 using 1:2:3 with labels left offset 0.8,0 notitle\n",
+      "plot data index 1 using (($2+$3)/2):1:(($3-$2)/2):(0.18) with boxxyerror fs solid 1.0 noborder "
+      "lc rgb \"#8e44ad\" notitle, \\\n"
+      "     data index 1 using 3:1:4 with labels left offset 0.8,0 notitle\n",
       N(xmax), N(ymax), min_line, p.closest_d_s2ep_mm, UnreachableWd(p, 0), N(0.4), N(dmax + 0.6), dpt_tics);
   return f;
 }
@@ -574,7 +571,7 @@ Figure DomeVsFlat(const Results& r) {
 Figure Predicted(const Results& r) {
   const simulate::Prediction& p = r.prediction;
   const bool calib = p.predicted_water.has_value();
-  Figure f{"predicted", "simulate", "Predicted underwater calibration: distortion curves", "", 960, 500, "", ""};
+  Figure f{"predicted", "simulate", "Predicted underwater calibration: distortion curves", "", 960, 820, "", ""};
   std::string& d = f.data;
   d += Block(0, "radial profile dr(r) = K1 r^3 + K2 r^5 + K3 r^7 and decentring P(r) = sqrt(P1^2+P2^2) r^2",
              "r_mm dr_air_fit_um dr_water_fit_um dr_air_calibration_um dr_water_predicted_um "
@@ -604,7 +601,8 @@ Figure Predicted(const Results& r) {
               "     data index 0 using 1:9 with lines ls 1 dt 2 title \"water, predicted\"";
   }
   f.body = fmt::format(
-      "set multiplot layout 1,2\nset key outside below center horizontal maxcols 2\nset bmargin 7\nset xlabel \"r (mm)\"\n"
+      "set multiplot layout 2,1 margins 0.12,0.68,0.09,0.94 spacing 0,0.17\n"
+      "set key at screen 0.71, graph 1 left top vertical Left reverse samplen 2\nset xlabel \"r (mm)\"\n"
       "set title \"(a) radial distortion\"\nset ylabel \"δr (µm)\"\n"
       "plot data index 0 using 1:2 with lines ls 2 title \"air (fit)\", \\\n"
       "     data index 0 using 1:3 with lines ls 1 title \"water (fit)\"{}\n"
