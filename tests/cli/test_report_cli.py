@@ -251,17 +251,22 @@ def test_one_quantity_one_number(default_report):
     for key in ("d_s2ep_mm", "vwd_mm", "focus_scale_fd_mm"):
         assert inf[key] == row[key], key  # the same number, not a recomputation
     d = inf["d_s2ep_mm"]
-    # plan's own focus solver for a target practically at infinity (WD 10^12 mm) agrees.
-    far = run("plan", "--wd", "1e12", "--json").json()
-    assert far["virtual_image"]["d_s2ep_mm"] == pytest.approx(d, abs=1e-5)
-    assert far["virtual_image"]["vwd_mm"] == pytest.approx(inf["vwd_mm"], abs=1e-5)
-    assert far["focus"]["focus_distance_mm"] == pytest.approx(inf["focus_scale_fd_mm"], abs=1e-4)
+    # plan's own focus solver for a target practically at infinity (WD 10^9 mm) agrees: the image
+    # moves by ~d²/(n·WD) ≈ 6e-5 mm from infinity; farther, the paraxial image about the chief ray
+    # (ports, a limit of real rays) loses digits (WD 10^12 mm: 2e-3 mm).
+    far = run("plan", "--wd", "1e9", "--json").json()
+    assert far["virtual_image"]["d_s2ep_mm"] == pytest.approx(d, abs=2e-4)
+    assert far["virtual_image"]["vwd_mm"] == pytest.approx(inf["vwd_mm"], abs=2e-4)
+    assert far["focus"]["focus_distance_mm"] == pytest.approx(inf["focus_scale_fd_mm"], abs=5e-4)
     # plan's d_s2ep_infinity_mm is the same point seen from the pupil at infinity focus: equal to
     # the report's view of it, and the two differ exactly by the pupil's move (one point in the housing).
     plan = run("plan", "--subject-distance", "1000", "--json").json()
     at_inf = inf["with_focus_scale_at_infinity"]
     assert at_inf["d_s2ep_mm"] == plan["d_s2ep_infinity_mm"]
-    assert at_inf["ep_z_in_housing_mm"] + at_inf["d_s2ep_mm"] == pytest.approx(inf["image_z_in_housing_mm"], abs=1e-6)
+    # (To 0.01 mm, against a 1.9 mm move of the pupil: the NI320's centres sit 0.4 mm off the axis,
+    # so the chief ray about which the paraxial image is taken, and the image, shift by ~0.002 mm.)
+    assert inf["ep_z_in_housing_mm"] - at_inf["ep_z_in_housing_mm"] > 1.5
+    assert at_inf["ep_z_in_housing_mm"] + at_inf["d_s2ep_mm"] == pytest.approx(inf["image_z_in_housing_mm"], abs=0.01)
     assert inf["ep_z_in_housing_mm"] + d == pytest.approx(inf["image_z_in_housing_mm"], abs=1e-9)
     # On the page: the summary card, the Table 5 row and the figure caption show that one number.
     shown = f"{d:.1f}"

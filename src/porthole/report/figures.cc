@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "porthole/camera/camera.h"
 #include "porthole/camera/profile.h"
 #include "porthole/report/internal.h"
 
@@ -43,17 +44,22 @@ struct ProfileSigma {
   double radial_um = NAN, decentring_um = NAN;
 };
 ProfileSigma ProfileSigmaUm(const calib::CalibrationRecord& rec, double r_mm) {
-  if (!rec.has_covariance) return {};
-  const auto& S = rec.covariance;
+  // The covariance is in the model's parameter order: for Brown, camera::BrownIndex.
+  if (!rec.has_covariance || rec.camera.model != camera::CameraModelId::kBrown ||
+      rec.covariance.rows() != camera::kBrownNumParams || rec.covariance.cols() != camera::kBrownNumParams) {
+    return {};
+  }
+  const Eigen::MatrixXd& S = rec.covariance;
+  const camera::BrownParams brown = camera::ToBrown(rec.camera);
   const double r2 = r_mm * r_mm;
   Eigen::Vector3d jr(r_mm * r2, r_mm * r2 * r2, r_mm * r2 * r2 * r2);
-  const Eigen::Matrix3d srr = S.block<3, 3>(camera::kBrownK1, camera::kBrownK1);
+  const Eigen::Matrix3d srr = S.block(camera::kBrownK1, camera::kBrownK1, 3, 3);
   ProfileSigma out;
   out.radial_um = Um(std::sqrt(std::max(0.0, jr.dot(srr * jr))));
-  const Eigen::Matrix2d spp = S.block<2, 2>(camera::kBrownP1, camera::kBrownP1);
-  const double h = std::hypot(rec.camera.P1, rec.camera.P2);
+  const Eigen::Matrix2d spp = S.block(camera::kBrownP1, camera::kBrownP1, 2, 2);
+  const double h = std::hypot(brown.P1, brown.P2);
   if (h > 0) {
-    const Eigen::Vector2d jp = r2 * Eigen::Vector2d(rec.camera.P1, rec.camera.P2) / h;
+    const Eigen::Vector2d jp = r2 * Eigen::Vector2d(brown.P1, brown.P2) / h;
     out.decentring_um = Um(std::sqrt(std::max(0.0, jp.dot(spp * jp))));
   } else {
     out.decentring_um = Um(r2 * std::sqrt(std::max(spp(0, 0), spp(1, 1))));
@@ -737,6 +743,9 @@ Figure CompareCurves(const Results& r) {
   }
   auto band_note = [](const calib::CalibrationRecord& rec, const std::string& what) {
     if (!rec.has_covariance) return fmt::format("the {} calibration has no covariance, so it has no band", what);
+    if (rec.camera.model != camera::CameraModelId::kBrown) {
+      return fmt::format("the {} calibration is not of the Brown model, so it has no band", what);
+    }
     if (!rec.covariance_note.empty()) {
       return fmt::format("the {} band uses σ only ({}: correlations unknown)", what, rec.covariance_note);
     }
@@ -794,7 +803,7 @@ Figure CompareMaps(const Results& r) {
       "difference, water − air. Colour: its length on one scale for the three panels; arrows: its direction. "
       "Largest: {:.1f}, {:.1f} and {:.1f} µm.",
       c.max_a_um, c.max_b_um, c.max_diff_um);
-  const camera::Sensor& sn = r.in->air_calibration->sensor;
+  const camera::Sensor& sn = r.in->air_calibration->camera.sensor;
   f.body = MapPanels({"(a) in air", "(b) under water", "(c) difference, water − air"}, vmax,
                      0.5 * sn.width_px * sn.pixel_pitch_mm, 0.5 * sn.height_px * sn.pixel_pitch_mm);
   return f;
