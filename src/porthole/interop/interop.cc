@@ -1,0 +1,690 @@
+#include "porthole/interop/interop.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "porthole/calib/result_json.h"
+#include "porthole/core/error.h"
+#include "porthole/interop/pyliteral.h"
+
+namespace porthole::interop {
+namespace {
+
+using camera::Camera;
+using camera::CameraModelId;
+using OpenCV = camera::OpenCVModel;
+using KB = camera::KannalaBrandtModel;
+
+constexpr std::array<std::pair<Format, std::string_view>, 5> kFormatNames = {{
+    {Format::kJson, "json"},
+    {Format::kOpenCVYaml, "opencv-yaml"},
+    {Format::kColmapText, "colmap"},
+    {Format::kColmapBinary, "colmap-bin"},
+    {Format::kMrcal, "mrcal"},
+}};
+
+// COLMAP's models as it numbers and names them (colmap/src/base/camera_models.h), with their
+// parameter counts.
+struct ColmapModelInfo {
+  int id;
+  std::string_view name;
+  int num_params;
+};
+constexpr std::array<ColmapModelInfo, 7> kColmapModels = {{
+    {0, "SIMPLE_PINHOLE", 3},
+    {1, "PINHOLE", 4},
+    {2, "SIMPLE_RADIAL", 4},
+    {3, "RADIAL", 5},
+    {4, "OPENCV", 8},
+    {5, "OPENCV_FISHEYE", 8},
+    {6, "FULL_OPENCV", 12},
+}};
+
+const ColmapModelInfo* ColmapModelByName(std::string_view name) {
+  for (const auto& m : kColmapModels) {
+    if (m.name == name) return &m;
+  }
+  return nullptr;
+}
+const ColmapModelInfo* ColmapModelById(int id) {
+  for (const auto& m : kColmapModels) {
+    if (m.id == id) return &m;
+  }
+  return nullptr;
+}
+std::string ColmapModelNames() {
+  std::string s;
+  for (const auto& m : kColmapModels) s += (s.empty() ? "" : ", ") + std::string(m.name);
+  return s;
+}
+
+// mrcal's OpenCV lens models: the number of distortion coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]).
+constexpr std::array<std::pair<std::string_view, int>, 4> kMrcalModels = {{
+    {"LENSMODEL_PINHOLE", 0},
+    {"LENSMODEL_OPENCV4", 4},
+    {"LENSMODEL_OPENCV5", 5},
+    {"LENSMODEL_OPENCV8", 8},
+}};
+
+std::string ReadAll(const std::string& path, const std::string& field) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidInput(field, "cannot read '" + path + "'");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string Ext(const std::string& path) {
+  return Lower(std::filesystem::path(path).extension().string());
+}
+
+camera::Sensor PixelSensor(int w, int h, double pitch_mm) { return {w, h, pitch_mm}; }
+
+// A camera of the opencv model with these parameters (missing trailing ones 0).
+Camera OpenCVCamera(const camera::Sensor& s, std::initializer_list<double> p) {
+  Camera c{CameraModelId::kOpenCV, s, std::vector<double>(OpenCV::kNumParams, 0.0)};
+  std::copy(p.begin(), p.end(), c.params.begin());
+  return c;
+}
+
+// A camera in the model family the pixel formats share: Brown refit to opencv (over the image);
+// equidistant as kannala-brandt (exact); opencv and kannala-brandt unchanged.
+struct PixelCamera {
+  Camera cam;
+  bool exact = true;
+  camera::ConversionFit fit;
+};
+PixelCamera ToPixelFamily(const Camera& cam) {
+  PixelCamera out{cam, true, {}};
+  if (cam.model == CameraModelId::kBrown) {
+    const auto conv = camera::BrownToOpenCV(camera::ToBrown(cam), cam.sensor);
+    const auto& o = conv.opencv;
+    out.cam = OpenCVCamera(cam.sensor, {o.fx, o.fy, o.cx, o.cy, o.k1, o.k2, o.p1, o.p2, o.k3});
+    out.exact = false;
+    out.fit = conv.fit;
+  } else if (cam.model == CameraModelId::kEquidistant) {
+    using E = camera::EquidistantModel;
+    const auto& p = cam.params;
+    out.cam = Camera{CameraModelId::kKannalaBrandt, cam.sensor,
+                     {p[E::kF], p[E::kF], p[E::kCx], p[E::kCy], p[E::kK1], p[E::kK2], 0, 0}};
+  }
+  return out;
+}
+
+[[noreturn]] void NoRepresentation(const Camera& cam, std::string_view format,
+                                   const std::string& field, std::string_view hint) {
+  throw InvalidInput(field, fmt::format("the {} model has no {} equivalent ({})", cam.model_name(),
+                                        format, hint));
+}
+
+std::string Num(double v) { return fmt::format("{:.17g}", v); }
+
+// ---- OpenCV FileStorage YAML ----
+
+// The text after "<key>:" at the start of a line, up to the next top-level key; nullopt if absent.
+std::optional<std::string> YamlEntry(const std::string& y, std::string_view key) {
+  std::size_t pos = 0;
+  while (pos < y.size()) {
+    const std::size_t eol = std::min(y.find('\n', pos), y.size());
+    const std::string_view line(y.data() + pos, eol - pos);
+    if (line.substr(0, key.size()) == key && line.size() > key.size() && line[key.size()] == ':') {
+      std::size_t end = eol;
+      while (end < y.size()) {
+        const std::size_t next = std::min(y.find('\n', end + 1), y.size());
+        const char first = end + 1 < y.size() ? y[end + 1] : '\n';
+        if (first != ' ' && first != '\t' && first != '\n' && first != '#') break;
+        end = next;
+      }
+      return y.substr(pos + key.size() + 1, end - pos - key.size() - 1);
+    }
+    pos = eol + 1;
+  }
+  return std::nullopt;
+}
+
+std::vector<double> NumberList(const std::string& text, const std::string& field) {
+  std::vector<double> out;
+  std::string item;
+  std::stringstream ss(text);
+  while (std::getline(ss, item, ',')) {
+    const auto a = item.find_first_not_of(" \t\r\n");
+    if (a == std::string::npos) continue;
+    const auto b = item.find_last_not_of(" \t\r\n");
+    const std::string s = item.substr(a, b - a + 1);
+    char* end = nullptr;
+    const double v = std::strtod(s.c_str(), &end);
+    if (end != s.c_str() + s.size() || !std::isfinite(v)) {
+      throw InvalidInput(field, "'" + s + "' is not a finite number");
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
+// The first of `keys` present: its flow sequence [a, b, …] (an !!opencv-matrix's data, or a
+// cv::Size); nullopt when none is present.
+std::optional<std::vector<double>> YamlNumbers(const std::string& y,
+                                               std::initializer_list<std::string_view> keys,
+                                               const std::string& field) {
+  for (const auto key : keys) {
+    const auto entry = YamlEntry(y, key);
+    if (!entry) continue;
+    const std::string f = field + ": " + std::string(key);
+    const auto open = entry->find('[');
+    const auto close = entry->find(']', open == std::string::npos ? 0 : open);
+    if (open == std::string::npos || close == std::string::npos) {
+      throw InvalidInput(f, "expected a matrix with data: [ … ]");
+    }
+    return NumberList(entry->substr(open + 1, close - open - 1), f);
+  }
+  return std::nullopt;
+}
+
+ReadResult ReadOpenCVYaml(const std::string& y, double pitch_mm, const std::string& field) {
+  const auto k = YamlNumbers(y, {"camera_matrix", "cameraMatrix", "K"}, field);
+  if (!k) throw InvalidInput(field + ": camera_matrix", "missing (also looked for cameraMatrix, K)");
+  if (k->size() != 9 || (*k)[1] != 0 || (*k)[3] != 0 || (*k)[6] != 0 || (*k)[7] != 0 || (*k)[8] != 1) {
+    throw InvalidInput(field + ": camera_matrix", "must be 3x3 [fx 0 cx; 0 fy cy; 0 0 1] (no skew)");
+  }
+  const auto d = YamlNumbers(y, {"distortion_coefficients", "distCoeffs", "dist_coeffs", "D"}, field);
+  if (!d) throw InvalidInput(field + ": distortion_coefficients", "missing (also looked for distCoeffs, D)");
+  const std::size_t n = d->size();
+  if (n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
+    throw InvalidInput(field + ": distortion_coefficients",
+                       fmt::format("has {} entries; OpenCV has 4, 5, 8, 12 or 14", n));
+  }
+  for (std::size_t i = 8; i < n; ++i) {
+    if ((*d)[i] != 0) {
+      throw InvalidInput(field + ": distortion_coefficients",
+                         "thin-prism s1-s4 and tilt tau_x, tau_y must be 0 (porthole's opencv model has k1-k6, p1, p2)");
+    }
+  }
+  int w = 0, h = 0;
+  if (const auto size = YamlNumbers(y, {"image_size", "imageSize"}, field)) {
+    if (size->size() != 2) throw InvalidInput(field + ": image_size", "must be [ width, height ]");
+    w = static_cast<int>((*size)[0]);
+    h = static_cast<int>((*size)[1]);
+  } else {
+    for (auto [key, out] : {std::pair<std::string_view, int*>{"image_width", &w}, {"image_height", &h}}) {
+      const auto e = YamlEntry(y, key);
+      if (!e) throw InvalidInput(field + ": " + std::string(key), "missing (or image_size: [ w, h ])");
+      const auto v = NumberList(*e, field + ": " + std::string(key));
+      if (v.size() != 1 || v[0] != std::floor(v[0])) {
+        throw InvalidInput(field + ": " + std::string(key), "must be a whole number of pixels");
+      }
+      *out = static_cast<int>(v[0]);
+    }
+  }
+  const auto& dd = *d;
+  auto at = [&](std::size_t i) { return i < n ? dd[i] : 0.0; };
+  ReadResult r{OpenCVCamera(PixelSensor(w, h, pitch_mm),
+                            {(*k)[0], (*k)[4], (*k)[2], (*k)[5], at(0), at(1), at(2), at(3), at(4),
+                             at(5), at(6), at(7)}),
+               Format::kOpenCVYaml, fmt::format("{} coefficients", n)};
+  return r;
+}
+
+// ---- COLMAP ----
+
+std::vector<ColmapCamera> ParseColmapText(const std::string& text, const std::string& field) {
+  std::vector<ColmapCamera> out;
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const std::string where = fmt::format("{}: line {}", field, line_no);
+    std::istringstream ls(line);
+    ColmapCamera c;
+    long long id = 0, w = 0, h = 0;
+    if (!(ls >> id >> c.model >> w >> h)) {
+      throw InvalidInput(where, "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]");
+    }
+    const ColmapModelInfo* m = ColmapModelByName(c.model);
+    if (m == nullptr) {
+      throw InvalidInput(where + ": MODEL", "'" + c.model + "' is not supported (porthole reads " +
+                                                ColmapModelNames() + ")");
+    }
+    if (w < 1 || h < 1 || w > 1000000 || h > 1000000) {
+      throw InvalidInput(where + ": WIDTH/HEIGHT", "must be positive whole pixels");
+    }
+    std::string tok;
+    while (ls >> tok) {
+      char* end = nullptr;
+      const double v = std::strtod(tok.c_str(), &end);
+      if (end != tok.c_str() + tok.size() || !std::isfinite(v)) {
+        throw InvalidInput(where + ": PARAMS", "'" + tok + "' is not a finite number");
+      }
+      c.params.push_back(v);
+    }
+    if (static_cast<int>(c.params.size()) != m->num_params) {
+      throw InvalidInput(where + ": PARAMS", fmt::format("{} has {} parameters, the line has {}",
+                                                         c.model, m->num_params, c.params.size()));
+    }
+    c.camera_id = static_cast<int>(id);
+    c.width_px = static_cast<int>(w);
+    c.height_px = static_cast<int>(h);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+std::string ColmapText(const ColmapCamera& c) {
+  std::string params;
+  for (double v : c.params) params += " " + Num(v);
+  return fmt::format(
+      "# Camera list with one line of data per camera:\n"
+      "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+      "# Number of cameras: 1\n"
+      "# written by porthole convert (COLMAP pixel convention: top-left pixel centre at 0.5, 0.5)\n"
+      "{} {} {} {}{}\n",
+      c.camera_id, c.model, c.width_px, c.height_px, params);
+}
+
+// cameras.bin, little-endian (colmap/src/base/reconstruction.cc, WriteCamerasBinary): uint64 count,
+// then per camera uint32 camera_id, int32 model_id, uint64 width, uint64 height, double params[].
+template <typename T>
+void PutLE(std::string* out, T v) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));  // x86-64 and aarch64 are little-endian
+  out->append(reinterpret_cast<const char*>(b), sizeof(T));
+}
+static_assert(std::endian::native == std::endian::little, "cameras.bin I/O assumes little-endian");
+
+std::string ColmapBinary(const ColmapCamera& c) {
+  std::string out;
+  PutLE<std::uint64_t>(&out, 1);
+  PutLE<std::uint32_t>(&out, static_cast<std::uint32_t>(c.camera_id));
+  PutLE<std::int32_t>(&out, ColmapModelByName(c.model)->id);
+  PutLE<std::uint64_t>(&out, static_cast<std::uint64_t>(c.width_px));
+  PutLE<std::uint64_t>(&out, static_cast<std::uint64_t>(c.height_px));
+  for (double v : c.params) PutLE<double>(&out, v);
+  return out;
+}
+
+std::vector<ColmapCamera> ParseColmapBinary(const std::string& bin, const std::string& field) {
+  std::size_t pos = 0;
+  auto get = [&]<typename T>(T* v, const char* what) {
+    if (pos + sizeof(T) > bin.size()) throw InvalidInput(field + ": " + what, "file ends early");
+    std::memcpy(v, bin.data() + pos, sizeof(T));
+    pos += sizeof(T);
+  };
+  std::uint64_t count = 0;
+  get(&count, "number of cameras");
+  if (count > bin.size() / 28) throw InvalidInput(field + ": number of cameras", "larger than the file holds");
+  std::vector<ColmapCamera> out;
+  for (std::uint64_t i = 0; i < count; ++i) {
+    std::uint32_t id = 0;
+    std::int32_t model = 0;
+    std::uint64_t w = 0, h = 0;
+    get(&id, "camera_id");
+    get(&model, "model_id");
+    get(&w, "width");
+    get(&h, "height");
+    const ColmapModelInfo* m = ColmapModelById(model);
+    if (m == nullptr) {
+      throw InvalidInput(field + ": model_id", fmt::format("{} is not supported (porthole reads {})",
+                                                           model, ColmapModelNames()));
+    }
+    if (w < 1 || h < 1 || w > 1000000 || h > 1000000) {
+      throw InvalidInput(field + ": width/height", "must be positive whole pixels");
+    }
+    ColmapCamera c{static_cast<int>(id), std::string(m->name), static_cast<int>(w), static_cast<int>(h), {}};
+    c.params.resize(m->num_params);
+    for (auto& v : c.params) {
+      get(&v, "params");
+      if (!std::isfinite(v)) throw InvalidInput(field + ": params", "not finite");
+    }
+    out.push_back(std::move(c));
+  }
+  if (pos != bin.size()) throw InvalidInput(field, "trailing bytes after the cameras");
+  return out;
+}
+
+ReadResult FromColmapList(const std::vector<ColmapCamera>& list, Format format, double pitch_mm,
+                          const std::string& field) {
+  if (list.size() != 1) {
+    throw InvalidInput(field, fmt::format("holds {} cameras; porthole convert reads a file with one",
+                                          list.size()));
+  }
+  return {FromColmap(list[0], pitch_mm, field), format, list[0].model};
+}
+
+// ---- mrcal ----
+
+ReadResult ReadMrcal(const std::string& text, double pitch_mm, const std::string& field) {
+  const nlohmann::json j = ParsePythonLiteral(text, field);
+  if (!j.is_object()) throw InvalidInput(field, "not a mrcal camera model: expected a dict { … }");
+  MrcalModel m;
+  if (!j.contains("lensmodel") || !j["lensmodel"].is_string()) {
+    throw InvalidInput(field + ": lensmodel", "missing or not a string");
+  }
+  m.lensmodel = j["lensmodel"].get<std::string>();
+  if (!j.contains("intrinsics") || !j["intrinsics"].is_array()) {
+    throw InvalidInput(field + ": intrinsics", "missing or not a list");
+  }
+  for (const auto& v : j["intrinsics"]) {
+    if (!v.is_number()) throw InvalidInput(field + ": intrinsics", "must hold numbers");
+    m.intrinsics.push_back(v.get<double>());
+  }
+  if (!j.contains("imagersize") || !j["imagersize"].is_array() || j["imagersize"].size() != 2 ||
+      !j["imagersize"][0].is_number_integer() || !j["imagersize"][1].is_number_integer()) {
+    throw InvalidInput(field + ": imagersize", "must be [ width, height ] in whole pixels");
+  }
+  m.width_px = j["imagersize"][0].get<int>();
+  m.height_px = j["imagersize"][1].get<int>();
+  return {FromMrcal(m, pitch_mm, field), Format::kMrcal, m.lensmodel};
+}
+
+std::string MrcalText(const MrcalModel& m, std::string_view source) {
+  std::string intr;
+  for (double v : m.intrinsics) intr += " " + Num(v) + ",";
+  return fmt::format(
+      "# mrcal camera model written by porthole convert ({})\n"
+      "{{\n"
+      "    'lensmodel': '{}',\n"
+      "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,....\n"
+      "    'intrinsics': [{} ],\n"
+      "    # extrinsics are rt_fromref (porthole writes the identity: the camera is the reference)\n"
+      "    'extrinsics': [ 0, 0, 0, 0, 0, 0 ],\n"
+      "    'imagersize': [ {}, {} ],\n"
+      "}}\n",
+      source, m.lensmodel, intr, m.width_px, m.height_px);
+}
+
+// ---- porthole JSON ----
+
+std::string PortholeJson(const Camera& cam, bool exact, const camera::ConversionFit& fit) {
+  nlohmann::ordered_json params = nlohmann::ordered_json::object();
+  const auto& info = cam.info();
+  for (int i = 0; i < info.num_params; ++i) params[std::string(info.params[i].json_key)] = cam.params[i];
+  nlohmann::ordered_json j = {
+      {"model", std::string(info.name)},
+      {"camera", params},
+      {"units", calib::CameraUnitsJson(cam.model)},
+      {"sensor",
+       {{"width_px", cam.sensor.width_px},
+        {"height_px", cam.sensor.height_px},
+        {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
+      {"note", exact ? "written by porthole convert" : fmt::format("written by porthole convert, refit RMS {:.6f} px", fit.rms_px)},
+  };
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+std::string_view FormatName(Format f) {
+  for (const auto& [fm, name] : kFormatNames) {
+    if (fm == f) return name;
+  }
+  throw InternalError("format not in kFormatNames");
+}
+
+std::string FormatNames() {
+  std::string s;
+  for (const auto& [fm, name] : kFormatNames) s += (s.empty() ? "" : ", ") + std::string(name);
+  return s;
+}
+
+Format FormatFromName(std::string_view name, const std::string& field) {
+  const std::string n = Lower(std::string(name));
+  for (const auto& [fm, fname] : kFormatNames) {
+    if (fname == n) return fm;
+  }
+  throw InvalidInput(field, "unknown format '" + std::string(name) + "' (known: " + FormatNames() + ")");
+}
+
+Format DetectInputFormat(const std::string& path, const std::string& content, const std::string& field) {
+  const std::string ext = Ext(path);
+  if (ext == ".json") return Format::kJson;
+  if (ext == ".yml" || ext == ".yaml") return Format::kOpenCVYaml;
+  if (ext == ".cameramodel") return Format::kMrcal;
+  if (ext == ".bin") return Format::kColmapBinary;
+  if (ext == ".txt") return Format::kColmapText;
+  const auto first = content.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos) {
+    if (content[first] == '{' && content.find("'lensmodel'") != std::string::npos) return Format::kMrcal;
+    if (content[first] == '{') return Format::kJson;
+    if (content.compare(first, 5, "%YAML") == 0) return Format::kOpenCVYaml;
+    if (content.find("'lensmodel'") != std::string::npos) return Format::kMrcal;
+    try {
+      if (!ParseColmapText(content, field).empty()) return Format::kColmapText;
+    } catch (const InvalidInput&) {
+    }
+  }
+  throw InvalidInput(field, "'" + path + "': cannot tell its format from the extension or the content "
+                            "(known: " + FormatNames() + ")");
+}
+
+Format OutputFormat(const std::string& path, const std::optional<std::string>& to, const std::string& field) {
+  if (to) return FormatFromName(*to, "--to");
+  const std::string ext = Ext(path);
+  if (ext == ".json") return Format::kJson;
+  if (ext == ".yml" || ext == ".yaml") return Format::kOpenCVYaml;
+  if (ext == ".cameramodel") return Format::kMrcal;
+  if (ext == ".bin") return Format::kColmapBinary;
+  if (ext == ".txt") return Format::kColmapText;
+  throw InvalidInput(field, "'" + path + "': cannot tell the format from the extension (.json, .yml, "
+                            ".cameramodel, cameras.txt, cameras.bin): give --to");
+}
+
+ColmapCamera ToColmap(const Camera& cam, const std::string& field) {
+  ColmapCamera c;
+  c.width_px = cam.sensor.width_px;
+  c.height_px = cam.sensor.height_px;
+  const auto& p = cam.params;
+  if (cam.model == CameraModelId::kKannalaBrandt) {
+    c.model = "OPENCV_FISHEYE";
+    c.params = {p[KB::kFx], p[KB::kFy], p[KB::kCx] + 0.5, p[KB::kCy] + 0.5,
+                p[KB::kK1], p[KB::kK2], p[KB::kK3], p[KB::kK4]};
+    return c;
+  }
+  if (cam.model != CameraModelId::kOpenCV) {
+    NoRepresentation(cam, "COLMAP", field, "write opencv or kannala-brandt");
+  }
+  const double fx = p[OpenCV::kFx], fy = p[OpenCV::kFy];
+  const double cx = p[OpenCV::kCx] + 0.5, cy = p[OpenCV::kCy] + 0.5;
+  const double k1 = p[OpenCV::kK1], k2 = p[OpenCV::kK2], p1 = p[OpenCV::kP1], p2 = p[OpenCV::kP2];
+  const bool rational = p[OpenCV::kK3] != 0 || p[OpenCV::kK4] != 0 || p[OpenCV::kK5] != 0 ||
+                        p[OpenCV::kK6] != 0;
+  const bool tangential = p1 != 0 || p2 != 0;
+  if (rational) {
+    c.model = "FULL_OPENCV";
+    c.params = {fx, fy, cx, cy, k1, k2, p1, p2, p[OpenCV::kK3], p[OpenCV::kK4], p[OpenCV::kK5],
+                p[OpenCV::kK6]};
+  } else if (tangential || (fx != fy && (k1 != 0 || k2 != 0))) {
+    c.model = "OPENCV";
+    c.params = {fx, fy, cx, cy, k1, k2, p1, p2};
+  } else if (fx != fy) {
+    c.model = "PINHOLE";
+    c.params = {fx, fy, cx, cy};
+  } else if (k2 != 0) {
+    c.model = "RADIAL";
+    c.params = {fx, cx, cy, k1, k2};
+  } else if (k1 != 0) {
+    c.model = "SIMPLE_RADIAL";
+    c.params = {fx, cx, cy, k1};
+  } else {
+    c.model = "SIMPLE_PINHOLE";
+    c.params = {fx, cx, cy};
+  }
+  return c;
+}
+
+Camera FromColmap(const ColmapCamera& c, double pitch_mm, const std::string& field) {
+  const ColmapModelInfo* m = ColmapModelByName(c.model);
+  if (m == nullptr) throw InvalidInput(field + ": MODEL", "'" + c.model + "' is not supported");
+  if (static_cast<int>(c.params.size()) != m->num_params) {
+    throw InvalidInput(field + ": PARAMS", fmt::format("{} has {} parameters", c.model, m->num_params));
+  }
+  const auto s = PixelSensor(c.width_px, c.height_px, pitch_mm);
+  const auto& q = c.params;
+  Camera cam;
+  switch (m->id) {
+    case 0: cam = OpenCVCamera(s, {q[0], q[0], q[1] - 0.5, q[2] - 0.5}); break;
+    case 1: cam = OpenCVCamera(s, {q[0], q[1], q[2] - 0.5, q[3] - 0.5}); break;
+    case 2: cam = OpenCVCamera(s, {q[0], q[0], q[1] - 0.5, q[2] - 0.5, q[3]}); break;
+    case 3: cam = OpenCVCamera(s, {q[0], q[0], q[1] - 0.5, q[2] - 0.5, q[3], q[4]}); break;
+    case 4: cam = OpenCVCamera(s, {q[0], q[1], q[2] - 0.5, q[3] - 0.5, q[4], q[5], q[6], q[7]}); break;
+    case 5:
+      cam = Camera{CameraModelId::kKannalaBrandt, s,
+                   {q[0], q[1], q[2] - 0.5, q[3] - 0.5, q[4], q[5], q[6], q[7]}};
+      break;
+    case 6:
+      cam = OpenCVCamera(s, {q[0], q[1], q[2] - 0.5, q[3] - 0.5, q[4], q[5], q[6], q[7], q[8], q[9],
+                             q[10], q[11]});
+      break;
+    default: throw InternalError("COLMAP model id not handled");
+  }
+  camera::ValidateCamera(cam, field);
+  return cam;
+}
+
+MrcalModel ToMrcal(const Camera& cam, const std::string& field) {
+  if (cam.model != CameraModelId::kOpenCV) {
+    NoRepresentation(cam, "mrcal", field, "mrcal's OpenCV models hold porthole's opencv model");
+  }
+  const auto& p = cam.params;
+  int n = 8;
+  if (p[OpenCV::kK4] == 0 && p[OpenCV::kK5] == 0 && p[OpenCV::kK6] == 0) {
+    n = p[OpenCV::kK3] != 0 ? 5
+        : (p[OpenCV::kK1] != 0 || p[OpenCV::kK2] != 0 || p[OpenCV::kP1] != 0 || p[OpenCV::kP2] != 0)
+            ? 4
+            : 0;
+  }
+  MrcalModel m;
+  for (const auto& [name, count] : kMrcalModels) {
+    if (count == n) m.lensmodel = name;
+  }
+  m.intrinsics.assign(p.begin(), p.begin() + 4 + n);
+  m.width_px = cam.sensor.width_px;
+  m.height_px = cam.sensor.height_px;
+  return m;
+}
+
+Camera FromMrcal(const MrcalModel& m, double pitch_mm, const std::string& field) {
+  int n = -1;
+  std::string known;
+  for (const auto& [name, count] : kMrcalModels) {
+    if (name == m.lensmodel) n = count;
+    known += (known.empty() ? "" : ", ") + std::string(name);
+  }
+  if (n < 0) {
+    throw InvalidInput(field + ": lensmodel", "'" + m.lensmodel + "' is not supported (porthole reads " + known + ")");
+  }
+  if (static_cast<int>(m.intrinsics.size()) != 4 + n) {
+    throw InvalidInput(field + ": intrinsics", fmt::format("{} has {} intrinsics, the file has {}",
+                                                           m.lensmodel, 4 + n, m.intrinsics.size()));
+  }
+  Camera cam = OpenCVCamera(PixelSensor(m.width_px, m.height_px, pitch_mm), {});
+  std::copy(m.intrinsics.begin(), m.intrinsics.end(), cam.params.begin());
+  camera::ValidateCamera(cam, field);
+  return cam;
+}
+
+ReadResult ReadCamera(const std::string& content, Format format, double pixel_pitch_mm,
+                      const std::string& field) {
+  RequirePositive("--pixel-pitch-mm", pixel_pitch_mm);
+  ReadResult r;
+  switch (format) {
+    case Format::kJson: {
+      nlohmann::json j;
+      try {
+        j = nlohmann::json::parse(content);
+      } catch (const nlohmann::json::exception& e) {
+        throw InvalidInput(field, std::string("not JSON (") + e.what() + ")");
+      }
+      const auto rec = calib::CalibrationFromJson(j, field);
+      r = {rec.camera, format, std::string(rec.camera.model_name()), true};
+      return r;
+    }
+    case Format::kOpenCVYaml: r = ReadOpenCVYaml(content, pixel_pitch_mm, field); break;
+    case Format::kColmapText:
+      r = FromColmapList(ParseColmapText(content, field), format, pixel_pitch_mm, field);
+      break;
+    case Format::kColmapBinary:
+      r = FromColmapList(ParseColmapBinary(content, field), format, pixel_pitch_mm, field);
+      break;
+    case Format::kMrcal: r = ReadMrcal(content, pixel_pitch_mm, field); break;
+  }
+  camera::ValidateCamera(r.camera, field);
+  return r;
+}
+
+ReadResult ReadCameraFile(const std::string& path, double pixel_pitch_mm, const std::string& field) {
+  std::string file = path;
+  if (std::filesystem::is_directory(path)) {
+    const auto txt = std::filesystem::path(path) / "cameras.txt";
+    const auto bin = std::filesystem::path(path) / "cameras.bin";
+    if (std::filesystem::exists(txt)) {
+      file = txt.string();
+    } else if (std::filesystem::exists(bin)) {
+      file = bin.string();
+    } else {
+      throw InvalidInput(field, "'" + path + "' is a directory without cameras.txt or cameras.bin");
+    }
+  }
+  const std::string content = ReadAll(file, field);
+  const std::string where = field + " '" + file + "'";
+  return ReadCamera(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where);
+}
+
+WriteResult WriteCamera(const Camera& cam, Format format, const std::string& field) {
+  camera::ValidateCamera(cam, field);
+  WriteResult w;
+  if (format == Format::kJson) {
+    w.content = PortholeJson(cam, true, {});
+    w.format_model = std::string(cam.model_name());
+    return w;
+  }
+  if (format == Format::kOpenCVYaml) {
+    // calib's exporter: exact for the opencv model, a dense refit for Brown.
+    calib::CalibrationRecord rec;
+    rec.camera = cam;
+    if (cam.model != CameraModelId::kOpenCV && cam.model != CameraModelId::kBrown) {
+      NoRepresentation(cam, "OpenCV YAML", field, "write brown or opencv; kannala-brandt goes to COLMAP OPENCV_FISHEYE");
+    }
+    w.content = calib::ExportOpenCVYaml(rec, &w.fit);
+    w.exact = cam.model == CameraModelId::kOpenCV;
+    w.format_model = w.exact ? "8 coefficients" : "5 coefficients";
+    return w;
+  }
+  const PixelCamera pc = ToPixelFamily(cam);
+  w.exact = pc.exact;
+  w.fit = pc.fit;
+  switch (format) {
+    case Format::kColmapText:
+    case Format::kColmapBinary: {
+      const ColmapCamera c = ToColmap(pc.cam, field);
+      w.content = format == Format::kColmapText ? ColmapText(c) : ColmapBinary(c);
+      w.format_model = c.model;
+      break;
+    }
+    case Format::kMrcal: {
+      const MrcalModel m = ToMrcal(pc.cam, field);
+      w.content = MrcalText(m, pc.exact ? "exact" : fmt::format("refit from {}, RMS {:.6f} px",
+                                                                cam.model_name(), pc.fit.rms_px));
+      w.format_model = m.lensmodel;
+      break;
+    }
+    default: throw InternalError("format not handled");
+  }
+  return w;
+}
+
+}  // namespace porthole::interop

@@ -1,0 +1,101 @@
+// Calibration files of the tools users already have, read into and written from a camera of the
+// closed model list (camera/camera.h). docs/interop.md gives every mapping with its source.
+//
+//   format        file                         models (porthole ← → format)
+//   json          porthole calibration JSON    every model (calib/result_json.h)
+//   opencv-yaml   OpenCV FileStorage YAML      opencv ↔ camera_matrix + distortion_coefficients
+//                                              (4, 5, 8 entries; 12/14 if the thin-prism and tilt
+//                                              terms are 0)
+//   colmap        COLMAP cameras.txt / .bin    opencv ↔ SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL,
+//                                              RADIAL, OPENCV, FULL_OPENCV;
+//                                              kannala-brandt ↔ OPENCV_FISHEYE
+//   mrcal         mrcal .cameramodel           opencv ↔ LENSMODEL_PINHOLE, OPENCV4, OPENCV5, OPENCV8
+//
+// Exact pairs convert parameter for parameter (COLMAP's principal point is shifted by 0.5 px: its
+// top-left pixel centre is (0.5, 0.5), porthole's (0, 0)); a Brown camera written to a pixel format
+// is first refit to the opencv model over the image (camera::BrownToOpenCV), and the refit's RMS is
+// returned. The equidistant model is written as kannala-brandt (exact: θ(1 + k1θ² + k2θ⁴)).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "porthole/camera/camera.h"
+#include "porthole/camera/opencv_model.h"
+
+namespace porthole::interop {
+
+enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal };
+
+// "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal" (what --to takes).
+std::string_view FormatName(Format f);
+// Throws InvalidInput(field, "unknown format … (known: …)").
+Format FormatFromName(std::string_view name, const std::string& field);
+// All names, comma-separated, for help texts.
+std::string FormatNames();
+
+// The format of a file to read, from its extension and content: .json / '{' → json; .yml, .yaml,
+// '%YAML' → opencv-yaml; .cameramodel or a Python dict with 'lensmodel' → mrcal; .bin → colmap-bin;
+// .txt or lines "ID MODEL W H params…" → colmap. A directory is read as its cameras.txt (or
+// cameras.bin). Throws InvalidInput(field, …) naming the file when nothing matches.
+Format DetectInputFormat(const std::string& path, const std::string& content,
+                         const std::string& field);
+// The format to write `path` in: `to` when given, else from the extension (as above; a file named
+// cameras.bin is colmap-bin, anything else .txt colmap).
+Format OutputFormat(const std::string& path, const std::optional<std::string>& to,
+                    const std::string& field);
+
+// A camera read from a file, with what the reader knows of it.
+struct ReadResult {
+  camera::Camera camera;
+  Format format;
+  std::string format_model;  // the model's name in the file (e.g. "OPENCV", "LENSMODEL_OPENCV8")
+  bool pitch_known = false;  // the file gave the pixel pitch (only porthole JSON does)
+};
+
+// What was written, and how faithfully.
+struct WriteResult {
+  std::string content;       // the file's bytes
+  std::string format_model;  // the model's name in the file
+  bool exact = true;         // false: a refit (fit holds its quality)
+  camera::ConversionFit fit;  // the refit's RMS and max over the image, px (exact: zeros)
+};
+
+// Reads a camera from `content` in `format`. Pixel formats carry no pitch: the sensor gets
+// `pixel_pitch_mm` (> 0; callers without one pass 1 and say "pixels are mm"). `field` names the
+// file in errors: InvalidInput("<field>: <format key>", rule).
+ReadResult ReadCamera(const std::string& content, Format format, double pixel_pitch_mm,
+                      const std::string& field);
+// Reads a file (or a COLMAP sparse-model directory), detecting its format.
+ReadResult ReadCameraFile(const std::string& path, double pixel_pitch_mm, const std::string& field);
+
+// Writes `cam` in `format`. Throws InvalidInput(field, …) when the model has no representation in
+// the format (e.g. kannala-brandt in mrcal, which has no such model).
+WriteResult WriteCamera(const camera::Camera& cam, Format format, const std::string& field);
+
+// ---- The individual formats (also used by the tests) ----
+
+// COLMAP's model names and ids (colmap/src/base/camera_models.h: SIMPLE_PINHOLE 0, PINHOLE 1,
+// SIMPLE_RADIAL 2, RADIAL 3, OPENCV 4, OPENCV_FISHEYE 5, FULL_OPENCV 6).
+struct ColmapCamera {
+  int camera_id = 1;
+  std::string model;
+  int width_px = 0, height_px = 0;
+  std::vector<double> params;  // COLMAP's order and pixel convention (centre of the first pixel 0.5)
+};
+// The smallest COLMAP model that holds the camera exactly (opencv or kannala-brandt model only).
+ColmapCamera ToColmap(const camera::Camera& cam, const std::string& field);
+camera::Camera FromColmap(const ColmapCamera& c, double pixel_pitch_mm, const std::string& field);
+
+// mrcal: the lens model name and intrinsics [fx fy cx cy distortion…] (opencv model only).
+struct MrcalModel {
+  std::string lensmodel;
+  std::vector<double> intrinsics;
+  int width_px = 0, height_px = 0;
+};
+MrcalModel ToMrcal(const camera::Camera& cam, const std::string& field);
+camera::Camera FromMrcal(const MrcalModel& m, double pixel_pitch_mm, const std::string& field);
+
+}  // namespace porthole::interop
