@@ -20,6 +20,7 @@ void RegisterAssemble(CLI::App& app);
 void RegisterDetect(CLI::App& app);
 void RegisterCalibrate(CLI::App& app);
 void RegisterCompare(CLI::App& app);
+void RegisterConvert(CLI::App& app);
 void RegisterReport(CLI::App& app);
 
 }  // namespace porthole::cli

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterDetect(app);
   porthole::cli::RegisterCalibrate(app);
   porthole::cli::RegisterCompare(app);
+  porthole::cli::RegisterConvert(app);
   porthole::cli::RegisterReport(app);
 
   try {

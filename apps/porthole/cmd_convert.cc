@@ -1,0 +1,93 @@
+// `porthole convert IN OUT [--to FORMAT]`: a calibration from one tool's file format to another's
+// (porthole JSON, OpenCV YAML, COLMAP cameras.txt/.bin, mrcal .cameramodel; docs/interop.md).
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <optional>
+
+#include "commands.h"
+#include "common.h"
+#include "porthole/core/atomic_file.h"
+#include "porthole/core/error.h"
+#include "porthole/interop/interop.h"
+
+namespace porthole::cli {
+
+void RegisterConvert(CLI::App& app) {
+  struct Options {
+    std::string in, out, to;
+    std::optional<double> pitch_mm;
+    bool json = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "convert",
+      "Convert a calibration between porthole JSON, OpenCV YAML, COLMAP and mrcal files");
+  cmd->footer(
+      "Formats (read: detected from the extension, else the content; write: from OUT's extension or "
+      "--to):\n"
+      "  json         porthole calibration JSON (.json), every camera model\n"
+      "  opencv-yaml  OpenCV FileStorage (.yml/.yaml): camera_matrix, distortion_coefficients\n"
+      "  colmap       COLMAP cameras.txt (or a sparse-model directory holding it): SIMPLE_PINHOLE,\n"
+      "               PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE\n"
+      "  colmap-bin   COLMAP cameras.bin, the same models\n"
+      "  mrcal        mrcal .cameramodel: LENSMODEL_PINHOLE, OPENCV4, OPENCV5, OPENCV8\n"
+      "Same-family conversions are exact (COLMAP's principal point is shifted by 0.5 px: its\n"
+      "top-left pixel centre is (0.5, 0.5)). A Brown calibration written to a pixel format is refit\n"
+      "to OpenCV's model over the image and the refit's RMS is printed. See docs/interop.md.\n"
+      "Example: porthole convert calib.json sparse/0/cameras.txt");
+  cmd->add_option("IN", o->in, "Calibration to read (file, or a COLMAP sparse-model directory)")
+      ->required();
+  cmd->add_option("OUT", o->out,
+                  "File to write (an existing directory: its cameras.txt / cameras.bin)")
+      ->required();
+  cmd->add_option("--to", o->to, "Output format: " + interop::FormatNames() +
+                                     " (default: from OUT's extension)");
+  cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
+                  "Pixel pitch for inputs that have none (all but porthole JSON), mm; without it "
+                  "pitch 1 (pixels are mm)");
+  cmd->add_flag("--json", o->json, "JSON summary for scripts");
+  cmd->callback([o] {
+    if (o->pitch_mm) {
+      RequirePositive("--pixel-pitch-mm", *o->pitch_mm);
+      WarnIfImplausible("--pixel-pitch-mm", *o->pitch_mm, kPixelPitchRange);
+    }
+    const auto in = interop::ReadCameraFile(o->in, o->pitch_mm.value_or(1.0), "IN");
+    std::filesystem::path out = o->out;
+    const std::optional<std::string> to = o->to.empty() ? std::nullopt : std::optional(o->to);
+    if (std::filesystem::is_directory(out)) {
+      const auto dir_format = to ? interop::FormatFromName(*to, "--to") : interop::Format::kColmapText;
+      if (dir_format != interop::Format::kColmapText && dir_format != interop::Format::kColmapBinary) {
+        throw InvalidInput("OUT", "'" + o->out + "' is a directory: only COLMAP writes into one");
+      }
+      out /= dir_format == interop::Format::kColmapText ? "cameras.txt" : "cameras.bin";
+    }
+    const auto format = interop::OutputFormat(out.string(), to, "OUT");
+    const auto w = interop::WriteCamera(in.camera, format, "OUT '" + out.string() + "'");
+    WriteFileAtomically(out, w.content, "OUT");
+
+    const std::string how = w.exact ? "exact"
+                                    : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px "
+                                                  "({} points)", w.fit.rms_px, w.fit.max_px,
+                                                  w.fit.num_points);
+    if (o->json) {
+      Json j = {{"in", o->in},
+                {"in_format", std::string(interop::FormatName(in.format))},
+                {"in_model", in.format_model},
+                {"camera_model", std::string(in.camera.model_name())},
+                {"out", out.string()},
+                {"out_format", std::string(interop::FormatName(format))},
+                {"out_model", w.format_model},
+                {"exact", w.exact},
+                {"refit_rms_px", w.exact ? Json(0.0) : Json(w.fit.rms_px)},
+                {"refit_max_px", w.exact ? Json(0.0) : Json(w.fit.max_px)},
+                {"width_px", in.camera.sensor.width_px},
+                {"height_px", in.camera.sensor.height_px}};
+      return fmt::print("{}\n", j.dump(2));
+    }
+    fmt::print("{} ({} {}) -> {} ({} {}): {}\n", o->in, interop::FormatName(in.format),
+               in.format_model, out.string(), interop::FormatName(format), w.format_model, how);
+  });
+}
+
+}  // namespace porthole::cli
