@@ -1,0 +1,158 @@
+"""`porthole convert` against the real clients of each format (docs/interop.md):
+- COLMAP 3.8 (`colmap model_converter`) reads the cameras.txt porthole writes and writes it back, as TXT
+  with the parameters unchanged and as cameras.bin, which porthole reads back to the same camera;
+- mrcal (python3-mrcal) loads the .cameramodel and mrcal.project agrees with porthole's projection to
+  <= 1e-6 px on a grid of rays over the image;
+- OpenCV (cv2.FileStorage + cv2.projectPoints) reads the YAML and agrees to <= 1e-6 px;
+- a Brown calibration (the paper's Table 6, in air) written to COLMAP is a refit with RMS < 0.01 px;
+- malformed files: exit 2, one line naming the file and the field, no output file."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import run, run_bad
+
+if os.environ.get("PORTHOLE_PY_DIR"):
+    sys.path.insert(0, os.environ["PORTHOLE_PY_DIR"])
+
+SENSOR = dict(width_px=4288, height_px=2848, pixel_pitch_mm=0.0055)
+OPENCV = {"fx_px": 4690.25, "fy_px": 4692.5, "cx_px": 2150.3, "cy_px": 1420.7, "k1": -0.1, "k2": 0.05,
+          "p1": 1e-4, "p2": -2e-4, "k3": -0.01, "k4": 0.02, "k5": 0.005, "k6": 0.001}
+KB = {"fx_px": 1909, "fy_px": 1911, "cx_px": 2150, "cy_px": 1418, "k1": -0.0405, "k2": 0.0006, "k3": -0.0001,
+      "k4": 0.00002}
+TABLE6_AIR = {"c_mm": 25.801, "x0_mm": -0.026, "y0_mm": -0.144, "K1": 1.842e-4, "K2": -3.030e-7}
+
+
+def write_calib(path, model, params):
+    path.write_text(json.dumps({"model": model, "camera": params, "sensor": SENSOR}))
+    return path
+
+
+def rays_over_image(cam):
+    """Rays through a 21 x 15 grid of pixels spanning the whole frame, by porthole's unproject."""
+    import porthole
+    u, v = np.meshgrid(np.linspace(0, SENSOR["width_px"] - 1, 21), np.linspace(0, SENSOR["height_px"] - 1, 15))
+    uv = np.stack([u.ravel(), v.ravel()], 1)
+    return porthole.unproject(cam, uv, **SENSOR) * 1000.0
+
+
+def colmap_params(path):
+    lines = [l.split() for l in path.read_text().splitlines() if l.strip() and not l.startswith("#")]
+    assert len(lines) == 1
+    return lines[0][1], [int(lines[0][2]), int(lines[0][3])], [float(x) for x in lines[0][4:]]
+
+
+@pytest.mark.skipif(shutil.which("colmap") is None, reason="colmap not installed (scripts/install-deps)")
+@pytest.mark.parametrize("model,params,colmap_model", [("opencv", OPENCV, "FULL_OPENCV"),
+                                                       ("kannala-brandt", KB, "OPENCV_FISHEYE")])
+def test_colmap_model_converter_reads_and_writes_back_unchanged(tmp_path, model, params, colmap_model):
+    src = write_calib(tmp_path / "calib.json", model, params)
+    sparse = tmp_path / "sparse"
+    sparse.mkdir()
+    run("convert", src, sparse)  # a directory: its cameras.txt
+    (sparse / "images.txt").write_text("")
+    (sparse / "points3D.txt").write_text("")
+    name, size, ours = colmap_params(sparse / "cameras.txt")
+    assert name == colmap_model and size == [SENSOR["width_px"], SENSOR["height_px"]]
+    # COLMAP's principal point is porthole's + 0.5 px; the rest is parameter for parameter.
+    expected = list(params.values())
+    expected[2] += 0.5
+    expected[3] += 0.5
+    assert ours == pytest.approx(expected, rel=1e-15, abs=1e-15)
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen")
+    for out_type in ("TXT", "BIN"):
+        out = tmp_path / out_type
+        out.mkdir()
+        subprocess.run(["colmap", "model_converter", "--input_path", sparse, "--output_path", out,
+                        "--output_type", out_type], check=True, capture_output=True, env=env, timeout=120)
+    name2, size2, theirs = colmap_params(tmp_path / "TXT" / "cameras.txt")
+    assert (name2, size2) == (name, size) and theirs == ours  # unchanged to the last digit
+    # COLMAP's cameras.bin, read by porthole, is the same camera.
+    back = run("convert", tmp_path / "BIN" / "cameras.bin", tmp_path / "back.json", "--json").json()
+    assert back["in_model"] == colmap_model and back["exact"]
+    got = json.loads((tmp_path / "back.json").read_text())
+    assert got["model"] == model
+    assert list(got["camera"].values()) == pytest.approx(list(params.values()), rel=1e-14, abs=1e-12)
+
+
+@pytest.mark.parametrize("extra", [{}, {"k4": 0.0, "k5": 0.0, "k6": 0.0}, {"k3": 0.0, "k4": 0.0, "k5": 0.0, "k6": 0.0}])
+def test_mrcal_loads_the_cameramodel_and_projects_as_porthole(tmp_path, extra):
+    mrcal = pytest.importorskip("mrcal")
+    porthole = pytest.importorskip("porthole")
+    params = dict(OPENCV, **extra)
+    src = write_calib(tmp_path / "calib.json", "opencv", params)
+    res = run("convert", src, tmp_path / "cam.cameramodel", "--json").json()
+    assert res["exact"]
+    model = mrcal.cameramodel(str(tmp_path / "cam.cameramodel"))
+    lensmodel, intrinsics = model.intrinsics()
+    assert lensmodel == res["out_model"]
+    assert list(model.imagersize()) == [SENSOR["width_px"], SENSOR["height_px"]]
+    cam = dict(params, model="opencv")
+    pts = rays_over_image(cam)
+    theirs = mrcal.project(pts, lensmodel, intrinsics)
+    ours = porthole.project(cam, pts, **SENSOR)
+    assert np.max(np.abs(theirs - ours)) <= 1e-6
+
+
+def test_mrcal_and_opencv_agree_with_a_refit_brown_calibration(tmp_path):
+    """Brown -> mrcal and OpenCV YAML is a refit: the clients project the refit camera as porthole reads it back."""
+    mrcal = pytest.importorskip("mrcal")
+    cv2 = pytest.importorskip("cv2")
+    porthole = pytest.importorskip("porthole")
+    src = write_calib(tmp_path / "brown.json", "brown", TABLE6_AIR)
+    for out in ("cam.cameramodel", "cam.yml", "cameras.txt"):
+        res = run("convert", src, tmp_path / out, "--json").json()
+        assert not res["exact"] and 0 < res["refit_rms_px"] < 0.01
+    run("convert", tmp_path / "cam.cameramodel", tmp_path / "back.json")
+    back = json.loads((tmp_path / "back.json").read_text())
+    cam = dict(back["camera"], model="opencv")
+    pts = rays_over_image(cam)
+    ours = porthole.project(cam, pts, **SENSOR)
+    model = mrcal.cameramodel(str(tmp_path / "cam.cameramodel"))
+    assert np.max(np.abs(mrcal.project(pts, *model.intrinsics()) - ours)) <= 1e-6
+    fs = cv2.FileStorage(str(tmp_path / "cam.yml"), cv2.FILE_STORAGE_READ)
+    k, d = fs.getNode("camera_matrix").mat(), fs.getNode("distortion_coefficients").mat()
+    theirs, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+    assert np.max(np.abs(theirs.reshape(-1, 2) - ours)) <= 1e-6
+
+
+def test_opencv_reads_the_yaml_and_projects_as_porthole(tmp_path):
+    cv2 = pytest.importorskip("cv2")
+    porthole = pytest.importorskip("porthole")
+    src = write_calib(tmp_path / "calib.json", "opencv", OPENCV)
+    assert run("convert", src, tmp_path / "cam.yml", "--json").json()["exact"]
+    fs = cv2.FileStorage(str(tmp_path / "cam.yml"), cv2.FILE_STORAGE_READ)
+    k, d = fs.getNode("camera_matrix").mat(), fs.getNode("distortion_coefficients").mat()
+    assert [int(fs.getNode("image_width").real()), int(fs.getNode("image_height").real())] == [4288, 2848]
+    cam = dict(OPENCV, model="opencv")
+    pts = rays_over_image(cam)
+    theirs, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+    assert np.max(np.abs(theirs.reshape(-1, 2) - porthole.project(cam, pts, **SENSOR))) <= 1e-6
+    # And porthole reads the YAML back exactly.
+    run("convert", tmp_path / "cam.yml", tmp_path / "back.json")
+    got = json.loads((tmp_path / "back.json").read_text())["camera"]
+    assert got == pytest.approx(OPENCV, rel=1e-15)
+
+
+def test_malformed_files_one_line_naming_file_and_field(tmp_path):
+    bad = tmp_path / "cameras.txt"
+    bad.write_text("1 OPENCV 640 480 500 500 320\n")
+    line = run_bad("convert", bad, tmp_path / "out.json")
+    assert "cameras.txt" in line and "PARAMS" in line
+    assert not (tmp_path / "out.json").exists()
+    model = tmp_path / "m.cameramodel"
+    model.write_text("{'lensmodel': 'LENSMODEL_OPENCV4', 'intrinsics': __import__('os'), 'imagersize': [1, 1]}")
+    line = run_bad("convert", model, tmp_path / "out.json")
+    assert "m.cameramodel" in line and "not a Python literal" in line
+    yml = tmp_path / "c.yml"
+    yml.write_text("%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\n")
+    assert "camera_matrix" in run_bad("convert", yml, tmp_path / "out.json")
+    src = write_calib(tmp_path / "kb.json", "kannala-brandt", KB)
+    assert "mrcal" in run_bad("convert", src, tmp_path / "out.cameramodel")
+    assert "--to" in run_bad("convert", src, tmp_path / "out.xyz")
+    assert not (tmp_path / "out.cameramodel").exists() and not (tmp_path / "out.xyz").exists()
