@@ -409,7 +409,7 @@ std::string MrcalText(const MrcalModel& m, std::string_view source) {
 
 // ---- porthole JSON ----
 
-std::string PortholeJson(const Camera& cam, bool exact, const camera::ConversionFit& fit) {
+std::string PortholeJson(const Camera& cam) {
   nlohmann::ordered_json params = nlohmann::ordered_json::object();
   const auto& info = cam.info();
   for (int i = 0; i < info.num_params; ++i) params[std::string(info.params[i].json_key)] = cam.params[i];
@@ -421,7 +421,7 @@ std::string PortholeJson(const Camera& cam, bool exact, const camera::Conversion
        {{"width_px", cam.sensor.width_px},
         {"height_px", cam.sensor.height_px},
         {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
-      {"note", exact ? "written by porthole convert" : fmt::format("written by porthole convert, refit RMS {:.6f} px", fit.rms_px)},
+      {"note", "written by porthole convert"},
   };
   return j.dump(2) + "\n";
 }
@@ -648,7 +648,7 @@ WriteResult WriteCamera(const Camera& cam, Format format, const std::string& fie
   camera::ValidateCamera(cam, field);
   WriteResult w;
   if (format == Format::kJson) {
-    w.content = PortholeJson(cam, true, {});
+    w.content = PortholeJson(cam);
     w.format_model = std::string(cam.model_name());
     return w;
   }
