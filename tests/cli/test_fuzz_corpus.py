@@ -36,7 +36,8 @@ def command(kind, path, out):
     raise AssertionError(kind)
 
 
-CASES = sorted((kind, name) for kind in os.listdir(FUZZ) if os.path.isdir(os.path.join(FUZZ, kind))
+KINDS = ("port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "detections", "images")
+CASES = sorted((kind, name) for kind in KINDS
                for name in os.listdir(os.path.join(FUZZ, kind)))
 
 

@@ -104,3 +104,89 @@ def test_hostile_names_elsewhere_stay_data(tmp_path):
         res = run(*args, check=False)
         assert res.code in (0, 2), (args, res.err)
     assert not canary.exists()
+
+
+def test_devices_and_directories_are_not_read_to_the_end(tmp_path):
+    (tmp_path / "zero.ply").symlink_to("/dev/zero")
+    (tmp_path / "zero.toml").symlink_to("/dev/zero")
+    for args in (["plan", "--port", "/dev/zero"], ["plan", "--port", tmp_path / "zero.toml"],
+                 ["fit", "sphere", tmp_path / "zero.ply"],
+                 ["compare", "/dev/zero", "/dev/zero"], ["fit", "sphere", "/dev/zero"],
+                 ["plan", "--port", tmp_path]):
+        line = run_bad(*args)
+        assert "limit" in line or "not a regular file" in line or "directory" in line or "format" in line, line
+
+
+def png_bytes(width, height, rows):
+    """An 8-bit grey PNG; rows: `height` byte strings of `width` pixels (or fewer, for a truncated one)."""
+    import struct
+    import zlib
+
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"".join(b"\0" + r for r in rows))) + chunk(b"IEND", b""))
+
+
+def write_board_png(path, cols=5, rows=4, square=24):
+    """A chessboard of cols x rows inner corners, squares of `square` px, a white margin around."""
+    h, w = (rows + 3) * square, (cols + 3) * square
+    lines = []
+    for y in range(h):
+        j = y // square - 1
+        lines.append(bytes(30 if 0 <= j <= rows and 0 <= x // square - 1 <= cols and (x // square - 1 + j) % 2 == 0
+                           else 225 for x in range(w)))
+    path.write_bytes(png_bytes(w, h, lines))
+
+
+def test_detect_skips_oversize_and_survives_latin1_names(tmp_path):
+    images = tmp_path / "images"
+    images.mkdir()
+    write_board_png(images / "board.png")
+    # A Latin-1 "é" (not UTF-8) in a file name, as old cameras and card readers write them.
+    latin1 = os.fsdecode(b"caf\xe9.png")
+    write_board_png(images / latin1)
+    # 20000 x 20000 px declared in 100 bytes: skipped from its header, never decoded.
+    (images / "huge.png").write_bytes(png_bytes(20000, 20000, [bytes(100)]))
+    out = tmp_path / "out"
+    out.mkdir()
+    import subprocess
+    from conftest import BIN
+    # The table names files as they are (bytes): read it without decoding as UTF-8.
+    proc = subprocess.run([BIN, "detect", "--images", images, "--target", "chessboard:5x4:20", "--out-dir", out],
+                          capture_output=True, timeout=300)
+    text, err = proc.stdout.decode("latin-1"), proc.stderr.decode("latin-1")
+    assert proc.returncode == 0, err
+    assert "huge.png" in text and "too large: 20000 x 20000" in text, text
+    assert sorted(os.listdir(out)) == sorted(["board.json", os.fsdecode(b"caf\xe9.json")])
+    assert "2 of 3 images" in text
+    progress = err.splitlines()
+    assert len(progress) == 3 and all(line.startswith("detect: [") for line in progress), err
+
+
+def test_killed_report_leaves_old_output_or_none_and_no_temporaries(tmp_path):
+    import signal
+    import subprocess
+    import time
+    from conftest import BIN
+    out = tmp_path / "report"
+    run("report", "--out", out)
+    for delay in (0.2, 0.6, 1.2, 2.0):
+        proc = subprocess.Popen([BIN, "report", "--out", str(out), "--force", "--subject-distance", "1500"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        # The old report whole, or the new one whole.
+        assert (out / "index.html").exists() and (out / "report.json").exists()
+        assert "porthole_report" in json.loads((out / "report.json").read_text())
+        time.sleep(0.3)  # gnuplot, if it was running, died with porthole
+        for pid in filter(str.isdigit, os.listdir("/proc")):
+            try:
+                cwd = os.readlink(f"/proc/{pid}/cwd")
+            except OSError:
+                continue
+            assert not cwd.startswith(str(tmp_path)), f"process {pid} left running in {cwd}"
+    # The next run removes what the killed ones left.
+    run("report", "--out", out, "--force")
+    assert [p for p in os.listdir(tmp_path) if ".tmp" in p] == []
