@@ -42,7 +42,9 @@ void WriteFileAtomically(const std::filesystem::path& path, std::string_view con
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InvalidInput(field, "directory does not exist: " + dir.string());
   const DirLock lock(dir);
-  const std::string prefix = "." + path.filename().string() + ".tmp";
+  std::string prefix = path.filename().string();  // ".<name>.tmp", built so as not to trip GCC 12's -Wrestrict
+  prefix.insert(0, 1, '.');
+  prefix += ".tmp";
   RemoveStaleTemporaries(dir, prefix);
   std::random_device rd;
   const fs::path tmp = dir / (prefix + std::to_string(rd()));

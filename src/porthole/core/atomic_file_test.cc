@@ -70,6 +70,7 @@ TEST(Error, MessagesStayOnOneBoundedLine) {
   EXPECT_NE(m.find("\\x1b[31m\\xe9"), std::string::npos) << m;  // escape and Latin-1 byte shown, not sent
   EXPECT_LT(m.size(), 1100u);
   EXPECT_EQ(OneLineMessage("d\xc3\xb4me \xe2\x80\x94 ok"), "d\xc3\xb4me \xe2\x80\x94 ok");  // UTF-8 kept
+  EXPECT_STREQ(InvalidInput("f", "not JSON: [json.exception.parse_error.101] parse error").what(), "f: not JSON: parse error");
 }
 
 }  // namespace

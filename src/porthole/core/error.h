@@ -41,14 +41,25 @@ inline std::string OneLineMessage(const std::string& s, std::size_t max_chars = 
   return out;
 }
 
+// `s` without nlohmann::json's "[json.exception.<kind>.<id>] " tags.
+inline std::string WithoutJsonTag(std::string s) {
+  for (std::size_t p = s.find("[json.exception."); p != std::string::npos; p = s.find("[json.exception.", p)) {
+    const std::size_t end = s.find("] ", p);
+    if (end == std::string::npos) break;
+    s.erase(p, end + 2 - p);
+  }
+  return s;
+}
+
 class InvalidInput : public std::invalid_argument {
  public:
   // field: the name the user knows the value by (a CLI flag, a TOML key); rule: what was expected.
   // The message is kept to one line of bounded length whatever the input holds: control characters
   // are shown escaped (\n, \x1b) and each part is cut at 500 characters (a 100 kB key, a file name
   // with a newline).
+  // A library's message passed on as the rule loses its internal tag ("[json.exception.parse_error.101] ").
   InvalidInput(const std::string& field, const std::string& rule)
-      : std::invalid_argument(OneLineMessage(field) + ": " + OneLineMessage(rule)), field_(field) {}
+      : std::invalid_argument(OneLineMessage(field) + ": " + OneLineMessage(WithoutJsonTag(rule))), field_(field) {}
   const std::string& field() const { return field_; }
 
  private:
