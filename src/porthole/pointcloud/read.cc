@@ -75,8 +75,8 @@ class LineReader {
  public:
   LineReader(std::istream& in, const std::filesystem::path& path) : in_(in), path_(path) {}
   bool Next(std::string& line) {
-    line.resize(static_cast<size_t>(kMaxLineChars) + 1);
-    in_.getline(line.data(), kMaxLineChars + 1);
+    buffer_.resize(static_cast<size_t>(kMaxLineChars) + 1);  // once: later calls keep its size
+    in_.getline(buffer_.data(), kMaxLineChars + 1);
     const std::streamsize got = in_.gcount();
     if (in_.fail() && !in_.eof() && got >= kMaxLineChars) {
       FailLine(path_, line_no_ + 1, fmt::format("line longer than {} characters", kMaxLineChars));
@@ -85,7 +85,7 @@ class LineReader {
     if (in_.fail() && !in_.eof()) return false;  // read error
     in_.clear(in_.rdstate() & std::ios::eofbit);
     // gcount counts the '\n' that getline consumed but did not store.
-    line.resize(static_cast<size_t>(got) - (in_.eof() ? 0 : 1));
+    line.assign(buffer_.data(), static_cast<size_t>(got) - (in_.eof() ? 0 : 1));
     ++line_no_;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
@@ -95,6 +95,7 @@ class LineReader {
  private:
   std::istream& in_;
   const std::filesystem::path& path_;
+  std::vector<char> buffer_;
   int64_t line_no_ = 0;
 };
 
