@@ -6,7 +6,15 @@ JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 PY := /usr/bin/python3
 PORTHOLE := $(BUILD)/apps/porthole/porthole
 
-.PHONY: all deps configure build demo test bench clean format
+SANITIZE_BUILD ?= build-sanitize
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 600
+# Any sanitizer report fails the test that triggered it (exit code 86; docs/robustness.md).
+SANITIZER_ENV := ASAN_OPTIONS=exitcode=86:detect_leaks=1:strict_string_checks=1 \
+                 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:exitcode=86 \
+                 LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp:print_suppressions=0
+
+.PHONY: all deps configure build demo test test-sanitize fuzz bench clean format
 
 all: build
 
@@ -25,6 +33,22 @@ demo: build
 test: build
 	@ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
+# The whole suite built with AddressSanitizer + UndefinedBehaviorSanitizer in its own directory
+# (no Python module: it would need the sanitizer runtime preloaded into python3).
+test-sanitize: deps
+	@cmake -S . -B $(SANITIZE_BUILD) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" -DPORTHOLE_SANITIZE=ON \
+	  -DPORTHOLE_PYTHON=OFF -DPORTHOLE_BENCH=OFF -DPython3_EXECUTABLE=$(PY) --log-level=WARNING
+	@cmake --build $(SANITIZE_BUILD) -j $(JOBS)
+	@$(SANITIZER_ENV) ctest --test-dir $(SANITIZE_BUILD) --output-on-failure -j $(JOBS)
+
+# libFuzzer harnesses (clang), each run for FUZZ_SECONDS (default 600) in turn: make fuzz FUZZ_SECONDS=60
+fuzz:
+	@bash scripts/install-deps --fuzz
+	@CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPORTHOLE_FUZZ=ON -DPORTHOLE_APP=OFF \
+	  -DPORTHOLE_PYTHON=OFF -DPORTHOLE_BENCH=OFF -DPORTHOLE_UNIT_TESTS=OFF --log-level=WARNING
+	@cmake --build $(FUZZ_BUILD) -j $(JOBS)
+	@$(SANITIZER_ENV) bash tests/fuzz/run_fuzzers.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)
+
 bench: build
 	@bash scripts/install-deps --bench && cmake -S . -B $(BUILD) --log-level=WARNING && cmake --build $(BUILD) -j $(JOBS) --target porthole_bench
 	@$(BUILD)/bench/porthole_bench --benchmark_counters_tabular=true
@@ -33,4 +57,4 @@ format:
 	@git ls-files '*.h' '*.cc' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD)
+	rm -rf $(BUILD) $(SANITIZE_BUILD) $(FUZZ_BUILD)

@@ -137,8 +137,9 @@ void RegisterCalibrate(CLI::App& app) {
     o->calib.loss = o->loss == "huber"    ? calib::LossKind::kHuber
                     : o->loss == "cauchy" ? calib::LossKind::kCauchy
                                           : calib::LossKind::kNone;
-    const auto say = [o](const std::string& m) {
-      if (!o->quiet) fmt::print(stderr, "calibrate: {}\n", m);
+    // Captures the flag, not `o`: o->calib.progress holding `o` was a reference cycle (a leak).
+    const auto say = [quiet = o->quiet](const std::string& m) {
+      if (!quiet) fmt::print(stderr, "calibrate: {}\n", m);
     };
     o->calib.progress = say;
     std::vector<calib::ImageDetections> dets;

@@ -37,15 +37,19 @@ void RegisterDetect(CLI::App& app) {
     const auto run = calib::DetectAll(paths, target, [&](const std::string& m) {
       if (!o->quiet) fmt::print(stderr, "detect: {}\n", m);
     });
+    // File names need not be UTF-8 (a Latin-1 "é" from an old camera or card reader): JSON text
+    // replaces invalid bytes with U+FFFD. Everything is serialised before the first file is written.
+    constexpr auto kReplace = nlohmann::json::error_handler_t::replace;
     if (!o->out_dir.empty()) {
+      std::vector<std::pair<std::filesystem::path, std::string>> files;
       for (const auto& d : run.detections) {
-        const auto file = std::filesystem::path(o->out_dir) /
-                          (std::filesystem::path(d.image).stem().string() + ".json");
-        WriteFileAtomically(file, calib::DetectionsToJson(d, target).dump(1) + "\n", "--out-dir");
+        files.emplace_back(std::filesystem::path(o->out_dir) / (std::filesystem::path(d.image).stem().string() + ".json"),
+                           calib::DetectionsToJson(d, target).dump(1, ' ', false, kReplace) + "\n");
       }
+      for (const auto& [file, text] : files) WriteFileAtomically(file, text, "--out-dir");
     }
     if (o->json) {
-      return fmt::print("{}\n", calib::DetectionSetToJson(run.detections, run.skipped, target).dump(1));
+      return fmt::print("{}\n", calib::DetectionSetToJson(run.detections, run.skipped, target).dump(1, ' ', false, kReplace));
     }
     std::string text = fmt::format("target {} ({} points)\n{:<28} {:>7}  {}\n", target.ToString(),
                                    target.NumPoints(), "image", "points", "status");

@@ -5,9 +5,12 @@
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <new>
+#include <nlohmann/json.hpp>
 
 #include "commands.h"
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"porthole: optics and geometry of underwater camera housings (flat and dome ports).\n"
@@ -38,16 +41,23 @@ int main(int argc, char** argv) {
     return app.exit(e);  // --help, --version (CallForHelp and CallForVersion derive from Success)
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);
-    fmt::print(stderr, "porthole: error: {}\n", e.what());
+    fmt::print(stderr, "porthole: error: {}\n", porthole::OneLineMessage(e.what()));
     return 2;
   } catch (const porthole::InvalidInput& e) {
-    fmt::print(stderr, "porthole: error: {}\n", e.what());
+    fmt::print(stderr, "porthole: error: {}\n", e.what());  // already one line
     return 2;
   } catch (const porthole::InternalError& e) {
-    fmt::print(stderr, "porthole: internal error (please report): {}\n", e.what());
+    fmt::print(stderr, "porthole: internal error (please report): {}\n", porthole::OneLineMessage(e.what()));
     return 3;
+  } catch (const nlohmann::json::exception& e) {
+    // A JSON value of the wrong type or a missing key that a reader did not check itself.
+    fmt::print(stderr, "porthole: error: input JSON: {}\n", porthole::OneLineMessage(porthole::JsonMessage(e)));
+    return 2;
+  } catch (const std::bad_alloc&) {
+    fmt::print(stderr, "porthole: error: out of memory: an input asks for more than this machine has\n");
+    return 2;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "porthole: error: {}\n", e.what());
+    fmt::print(stderr, "porthole: error: {}\n", porthole::OneLineMessage(e.what()));
     return 2;
   }
   return 0;

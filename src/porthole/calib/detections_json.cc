@@ -1,11 +1,13 @@
 #include "porthole/calib/detections_json.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 namespace porthole::calib {
 namespace fs = std::filesystem;
@@ -21,15 +23,22 @@ ImageDetections DetectionsFromJson(const nlohmann::json& j, const std::string& w
   ImageDetections d;
   try {
     d.image = j.at("image").get<std::string>();
-    d.width_px = j.at("width_px").get<int>();
-    d.height_px = j.at("height_px").get<int>();
+    // Whole numbers in [1, 1e6]: get<int>() would wrap 4294967936 to 640.
+    for (auto [key, out] : {std::pair{"width_px", &d.width_px}, std::pair{"height_px", &d.height_px}}) {
+      const double v = j.at(key).is_number() ? j.at(key).get<double>() : NAN;
+      if (!(v >= 1 && v <= 1e6 && v == std::floor(v))) {
+        throw InvalidInput(where, std::string(key) + ": must be a whole number from 1 to 1000000");
+      }
+      *out = static_cast<int>(v);
+    }
     d.ids = j.at("ids").get<std::vector<int>>();
     for (const auto& p : j.at("points_px")) {
       if (!p.is_array() || p.size() != 2) throw InvalidInput(where, "points_px: [u, v] pairs");
       d.points_px.emplace_back(p[0].get<double>(), p[1].get<double>());
+      if (!d.points_px.back().allFinite()) throw InvalidInput(where, "points_px: finite numbers");
     }
   } catch (const nlohmann::json::exception& e) {
-    throw InvalidInput(where, std::string("not a detections object: ") + e.what());
+    throw InvalidInput(where, "not a detections object: " + JsonMessage(e));
   }
   if (d.ids.size() != d.points_px.size()) {
     throw InvalidInput(where, "ids and points_px differ in length");
@@ -63,13 +72,7 @@ void MergeTarget(const nlohmann::json& j, const std::string& where, const std::s
 }
 
 nlohmann::json ReadJsonFile(const fs::path& p, const std::string& field) {
-  std::ifstream in(p);
-  if (!in) throw InvalidInput(field, "cannot read " + p.string());
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw InvalidInput(field, p.string() + ": not JSON (" + e.what() + ")");
-  }
+  return ParseJsonText(ReadInputFile(p, field, kMaxJsonFileBytes), field, p.string());
 }
 
 }  // namespace
@@ -91,6 +94,7 @@ std::vector<ImageDetections> LoadDetections(const std::string& path, const std::
   std::vector<ImageDetections> out;
   for (const auto& f : files) {
     const auto j = ReadJsonFile(f, field);
+    try {
     if (j.contains("images")) {  // a set file
       MergeTarget(j, f.string(), field, target);
       for (std::size_t i = 0; i < j.at("images").size(); ++i) {
@@ -100,6 +104,9 @@ std::vector<ImageDetections> LoadDetections(const std::string& path, const std::
     } else {
       MergeTarget(j, f.string(), field, target);
       out.push_back(DetectionsFromJson(j, f.string()));
+    }
+    } catch (const nlohmann::json::exception& e) {  // "images" or "target" of the wrong type
+      throw InvalidInput(field, f.string() + ": " + JsonMessage(e));
     }
   }
   return out;

@@ -4,11 +4,12 @@
 
 #include <filesystem>
 #include <fstream>
-#include <regex>
+#include <charconv>
 #include <sstream>
 
 #include "porthole/camera/json.h"
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 namespace porthole::calib {
 namespace {
@@ -122,7 +123,18 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
   return j;
 }
 
-CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string& field) {
+namespace {
+
+// A pixel count from JSON: a whole number in [1, 1e6] (get<int>() wrapped 4294967936 to 640).
+int PixelCount(const nlohmann::json& v, const std::string& field, const std::string& key) {
+  const double d = v.is_number() ? v.get<double>() : NAN;
+  if (!(d >= 1 && d <= 1e6 && d == std::floor(d))) {
+    throw InvalidInput(field, "sensor." + key + ": must be a whole number from 1 to 1000000");
+  }
+  return static_cast<int>(d);
+}
+
+CalibrationRecord CalibrationFromJsonUnchecked(const nlohmann::json& j, const std::string& field) {
   CalibrationRecord rec;
   if (!j.is_object() || !j.contains("camera") || !j["camera"].is_object()) {
     throw InvalidInput(field, "not a calibration: no \"camera\" object");
@@ -160,7 +172,7 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
   }
   try {
     const auto& s = j.at("sensor");
-    rec.camera.sensor = {s.at("width_px").get<int>(), s.at("height_px").get<int>(),
+    rec.camera.sensor = {PixelCount(s.at("width_px"), field, "width_px"), PixelCount(s.at("height_px"), field, "height_px"),
                          s.at("pixel_pitch_mm").get<double>()};
   } catch (const nlohmann::json::exception&) {
     throw InvalidInput(field, "sensor: needs width_px, height_px, pixel_pitch_mm");
@@ -205,6 +217,16 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
   return rec;
 }
 
+}  // namespace
+
+CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string& field) {
+  try {
+    return CalibrationFromJsonUnchecked(j, field);
+  } catch (const nlohmann::json::exception& e) {  // a value of the wrong type: one line, naming the file
+    throw InvalidInput(field, JsonMessage(e));
+  }
+}
+
 std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit* fit) {
   const camera::Sensor& sensor = rec.camera.sensor;
   if (rec.camera.model == camera::CameraModelId::kOpenCV) {
@@ -239,27 +261,48 @@ std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit
 
 namespace {
 
+// OpenCV YAML is read by a linear scan for the few keys porthole needs (no regex: std::regex
+// recursed per character and overflowed the stack on a 100 kB file; no YAML library: its parsers
+// recurse on nesting). A key counts only at the start of a line.
+std::size_t YamlKey(const std::string& y, const std::string& key, const std::string& field) {
+  const std::string needle = key + ":";
+  for (std::size_t pos = y.find(needle); pos != std::string::npos; pos = y.find(needle, pos + 1)) {
+    if (pos == 0 || y[pos - 1] == '\n') return pos + needle.size();
+  }
+  throw InvalidInput(field, "OpenCV YAML: no " + key);
+}
+
 int YamlInt(const std::string& y, const std::string& key, const std::string& field) {
-  const std::regex re("(^|\\n)" + key + ":\\s*([0-9]+)");
-  std::smatch m;
-  if (!std::regex_search(y, m, re)) throw InvalidInput(field, "OpenCV YAML: no " + key);
-  return std::stoi(m[2]);
+  std::size_t p = YamlKey(y, key, field);
+  while (p < y.size() && (y[p] == ' ' || y[p] == '\t')) ++p;
+  long v = 0;
+  const auto [end, ec] = std::from_chars(y.data() + p, y.data() + y.size(), v);
+  if (ec != std::errc() || end == y.data() + p || v < 1 || v > 1000000) {
+    throw InvalidInput(field, "OpenCV YAML: " + key + " must be a whole number from 1 to 1000000");
+  }
+  return static_cast<int>(v);
 }
 
 std::vector<double> YamlMatrix(const std::string& y, const std::string& key,
                                const std::string& field) {
-  const std::regex re("(^|\\n)" + key + ":[^\\[]*\\[([^\\]]*)\\]");
-  std::smatch m;
-  if (!std::regex_search(y, m, re)) throw InvalidInput(field, "OpenCV YAML: no " + key + " data");
+  const std::size_t start = YamlKey(y, key, field);
+  const std::size_t open = y.find('[', start), close = open == std::string::npos ? open : y.find(']', open);
+  if (close == std::string::npos) throw InvalidInput(field, "OpenCV YAML: no " + key + " data [ ... ]");
   std::vector<double> out;
-  std::stringstream ss(m[2].str());
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    try {
-      out.push_back(std::stod(item));
-    } catch (const std::exception&) {
-      throw InvalidInput(field, "OpenCV YAML: " + key + ": '" + item + "' is not a number");
+  std::size_t p = open + 1;
+  while (p < close) {
+    const std::size_t comma = std::min(y.find(',', p), close);
+    std::string item = y.substr(p, comma - p);
+    item.erase(0, item.find_first_not_of(" \t\r\n"));
+    item.erase(item.find_last_not_of(" \t\r\n") + 1);
+    double v = 0;
+    const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
+    if (item.empty() || ec != std::errc() || end != item.data() + item.size() || !std::isfinite(v)) {
+      throw InvalidInput(field, "OpenCV YAML: " + key + ": '" + item.substr(0, 40) + "' is not a finite number");
     }
+    out.push_back(v);
+    if (out.size() > 20) throw InvalidInput(field, "OpenCV YAML: " + key + " has more than 20 entries");
+    p = comma + 1;
   }
   return out;
 }
@@ -291,22 +334,13 @@ CalibrationRecord ImportOpenCVYaml(const std::string& yaml, double pixel_pitch_m
 
 CalibrationRecord LoadCalibration(const std::string& path, double pixel_pitch_mm,
                                   const std::string& field, camera::ConversionFit* fit) {
-  std::ifstream in(path);
-  if (!in) throw InvalidInput(field, "cannot read " + path);
-  std::stringstream ss;
-  ss << in.rdbuf();
+  const std::string text = ReadInputFile(path, field, kMaxJsonFileBytes);
   const std::string ext = std::filesystem::path(path).extension().string();
   CalibrationRecord rec;
   if (ext == ".yml" || ext == ".yaml") {
-    rec = ImportOpenCVYaml(ss.str(), pixel_pitch_mm, field, fit);
+    rec = ImportOpenCVYaml(text, pixel_pitch_mm, field, fit);
   } else {
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(ss.str());
-    } catch (const nlohmann::json::exception& e) {
-      throw InvalidInput(field, path + ": not JSON (" + e.what() + ")");
-    }
-    rec = CalibrationFromJson(j, field);
+    rec = CalibrationFromJson(ParseJsonText(text, field, path), field);
   }
   rec.label = std::filesystem::path(path).stem().string();
   return rec;

@@ -12,11 +12,54 @@
 
 namespace porthole {
 
+// `s` on one line: control characters and bytes that are not UTF-8 shown escaped (\x..), cut to
+// `max_chars` (with "..." appended).
+inline std::string OneLineMessage(const std::string& s, std::size_t max_chars = 500) {
+  static const char* kHex = "0123456789abcdef";
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (out.size() >= max_chars) {
+      out += "...";
+      break;
+    }
+    const char c = s[i];
+    const auto u = static_cast<unsigned char>(c);
+    // Length of a valid UTF-8 sequence starting here (0: not one; no overlong or surrogate check).
+    std::size_t n = u < 0x80 ? 1 : (u >> 5) == 6 ? 2 : (u >> 4) == 14 ? 3 : (u >> 3) == 30 ? 4 : 0;
+    for (std::size_t k = 1; k < n; ++k) {
+      if (i + k >= s.size() || (static_cast<unsigned char>(s[i + k]) >> 6) != 2) n = 0;
+    }
+    if (c == '\n') out += "\\n";
+    else if (c == '\r') out += "\\r";
+    else if (c == '\t') out += ' ';
+    else if (u < 0x20 || u == 0x7f || n == 0) out += std::string("\\x") + kHex[u >> 4] + kHex[u & 15];
+    else {
+      out.append(s, i, n);
+      i += n - 1;
+    }
+  }
+  return out;
+}
+
+// `s` without nlohmann::json's "[json.exception.<kind>.<id>] " tags.
+inline std::string WithoutJsonTag(std::string s) {
+  for (std::size_t p = s.find("[json.exception."); p != std::string::npos; p = s.find("[json.exception.", p)) {
+    const std::size_t end = s.find("] ", p);
+    if (end == std::string::npos) break;
+    s.erase(p, end + 2 - p);
+  }
+  return s;
+}
+
 class InvalidInput : public std::invalid_argument {
  public:
   // field: the name the user knows the value by (a CLI flag, a TOML key); rule: what was expected.
+  // The message is kept to one line of bounded length whatever the input holds: control characters
+  // are shown escaped (\n, \x1b) and each part is cut at 500 characters (a 100 kB key, a file name
+  // with a newline).
+  // A library's message passed on as the rule loses its internal tag ("[json.exception.parse_error.101] ").
   InvalidInput(const std::string& field, const std::string& rule)
-      : std::invalid_argument(field + ": " + rule), field_(field) {}
+      : std::invalid_argument(OneLineMessage(field) + ": " + OneLineMessage(WithoutJsonTag(rule))), field_(field) {}
   const std::string& field() const { return field_; }
 
  private:

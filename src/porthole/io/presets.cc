@@ -10,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 namespace porthole::io {
 
@@ -108,7 +109,78 @@ class Reader {
   std::set<std::string> seen_;
 };
 
+// Limits checked before toml++ sees the text (docs/robustness.md): toml++ builds nested tables
+// recursively, so a 100 kB `[a.a.a...]` header overflowed the stack.
+constexpr int kMaxTomlKeyParts = 16;   // a.b.c: 3 parts, over a header or a dotted key
+constexpr int kMaxTomlNesting = 16;    // arrays and inline tables inside each other
+constexpr std::size_t kMaxTomlLine = 64 * 1024;
+
+// One pass over the text as TOML's lexer sees it (strings, comments, brackets), without recursion:
+// throws InvalidInput(origin:line) when a key has too many dotted parts, values nest too deeply or a
+// line is too long.
+void CheckTomlLimits(std::string_view text, const std::string& origin) {
+  std::size_t line = 1, line_start = 0;
+  std::vector<char> open;  // '[' (array or header) and '{' (inline table) currently open
+  int key_parts = 1;
+  bool in_key = true;      // reading a key: at the start of a line, after '{' or ',' in an inline table
+  bool header = false;
+  auto fail = [&](const std::string& rule) { throw InvalidInput(fmt::format("{}:{}", origin, line), rule); };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      line_start = i + 1;
+      if (open.empty()) {
+        in_key = true;
+        key_parts = 1;
+        header = false;
+      }
+      continue;
+    }
+    if (i - line_start > kMaxTomlLine) fail(fmt::format("line longer than {} characters", kMaxTomlLine));
+    if (c == '#') {
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+    } else if (c == '"' || c == '\'') {
+      const bool triple = text.substr(i, 3) == std::string(3, c);
+      const std::string_view close = triple ? text.substr(i, 3) : text.substr(i, 1);
+      i += close.size();
+      while (i < text.size() && text.substr(i, close.size()) != close) {
+        if (text[i] == '\n') {
+          if (!triple) fail("string not closed on its line");
+          ++line;
+          line_start = i + 1;
+        }
+        if (c == '"' && text[i] == '\\') ++i;
+        ++i;
+      }
+      if (i >= text.size()) fail("string not closed");
+      i += close.size() - 1;
+    } else if (in_key || header) {
+      if (c == '.' && ++key_parts > kMaxTomlKeyParts) fail(fmt::format("a key has more than {} dotted parts", kMaxTomlKeyParts));
+      if (c == '=') {
+        in_key = false;
+        key_parts = 1;
+      } else if (c == '[' && open.empty() && !header) {
+        header = true;  // [table] or [[array of tables]]
+      } else if (c == ']' && header) {
+        header = false;
+        in_key = false;
+      }
+    } else if (c == '[' || c == '{') {
+      open.push_back(c);
+      if (open.size() > static_cast<std::size_t>(kMaxTomlNesting)) fail(fmt::format("values nested deeper than {} levels", kMaxTomlNesting));
+      if (c == '{') in_key = true, key_parts = 1;
+    } else if (c == ']' || c == '}') {
+      if (!open.empty()) open.pop_back();
+    } else if (c == ',' && !open.empty() && open.back() == '{') {
+      in_key = true;
+      key_parts = 1;
+    }
+  }
+}
+
 toml::table ParseToml(std::string_view text, const std::string& origin) {
+  CheckTomlLimits(text, origin);
   try {
     return toml::parse(text, origin);
   } catch (const toml::parse_error& e) {
@@ -198,11 +270,7 @@ std::pair<std::string, std::string> PresetOrFileText(const std::string& kind, co
     throw InvalidInput(flag, "unknown preset '" + name_or_path + "' (built-in: " + names +
                                  "; or give a path to a .toml file)");
   }
-  std::ifstream in(name_or_path, std::ios::binary);
-  if (!in) throw InvalidInput(flag, "cannot read file '" + name_or_path + "'");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return {ss.str(), name_or_path};
+  return {ReadInputFile(name_or_path, flag, kMaxTextFileBytes), name_or_path};
 }
 
 

@@ -67,12 +67,25 @@ void SplitWhitespace(std::string_view s, std::vector<std::string_view>& out) {
   }
 }
 
+// The longest text line read (docs/robustness.md): a file of one 2 GB "line" fails at 64 KiB.
+constexpr std::streamsize kMaxLineChars = 64 * 1024;
+
 // Text lines with 1-based numbering and '\r' stripped; a 1 MiB stream buffer.
 class LineReader {
  public:
-  explicit LineReader(std::istream& in) : in_(in) {}
+  LineReader(std::istream& in, const std::filesystem::path& path) : in_(in), path_(path) {}
   bool Next(std::string& line) {
-    if (!std::getline(in_, line)) return false;
+    buffer_.resize(static_cast<size_t>(kMaxLineChars) + 1);  // once: later calls keep its size
+    in_.getline(buffer_.data(), kMaxLineChars + 1);
+    const std::streamsize got = in_.gcount();
+    if (in_.fail() && !in_.eof() && got >= kMaxLineChars) {
+      FailLine(path_, line_no_ + 1, fmt::format("line longer than {} characters", kMaxLineChars));
+    }
+    if (got == 0 && in_.eof()) return false;
+    if (in_.fail() && !in_.eof()) return false;  // read error
+    in_.clear(in_.rdstate() & std::ios::eofbit);
+    // gcount counts the '\n' that getline consumed but did not store.
+    line.assign(buffer_.data(), static_cast<size_t>(got) - (in_.eof() ? 0 : 1));
     ++line_no_;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
@@ -81,6 +94,8 @@ class LineReader {
 
  private:
   std::istream& in_;
+  const std::filesystem::path& path_;
+  std::vector<char> buffer_;
   int64_t line_no_ = 0;
 };
 
@@ -140,7 +155,7 @@ void AddPointFromFields(const std::vector<std::string_view>& fields, const char*
 PointCloud ReadXyz(const std::filesystem::path& path) {
   std::vector<char> buf;
   std::ifstream in = OpenOrThrow(path, buf);
-  LineReader lines(in);
+  LineReader lines(in, path);
   PointSink sink;
   std::string line;
   std::vector<std::string_view> fields;
@@ -178,7 +193,7 @@ PointCloud ReadXyz(const std::filesystem::path& path) {
 PointCloud ReadObj(const std::filesystem::path& path) {
   std::vector<char> buf;
   std::ifstream in = OpenOrThrow(path, buf);
-  LineReader lines(in);
+  LineReader lines(in, path);
   PointSink sink;
   std::string line;
   std::vector<std::string_view> fields;
@@ -365,6 +380,10 @@ PlyHeader ReadPlyHeader(const std::filesystem::path& path, LineReader& lines) {
     }
   }
   if (!have_format) FailLine(path, lines.line_no(), "header has no 'format' line");
+  for (const PlyElement& el : h.elements) {
+    if (el.count > 0 && el.properties.empty())
+      FailLine(path, lines.line_no(), "element '" + el.name + "' has items but no properties");
+  }
   for (size_t e = 0; e < h.elements.size(); ++e) {
     if (h.elements[e].name != "vertex") continue;
     h.vertex_element = static_cast<int>(e);
@@ -492,11 +511,33 @@ void ReadPlyBinary(const std::filesystem::path& path, const PlyHeader& h, Binary
     FailByte(path, in.offset(), "data after the last element (header counts too small?)");
 }
 
+// Binary element counts come from the header: before reading, skipping or reserving anything they
+// must fit in the bytes after the header, or a 126-byte file could ask for 10^12 items (bad_alloc
+// from the reservation, or hours of skipping). An item takes at least its scalars and list counts.
+// (ASCII needs no check: each item takes a line, and reading stops at the end of the file.)
+void CheckPlyCounts(const std::filesystem::path& path, const PlyHeader& h, int64_t data_start, int64_t file_size) {
+  if (h.encoding == PlyEncoding::kAscii) return;
+  long double need = 0;
+  for (const PlyElement& el : h.elements) {
+    int64_t item = 0;
+    for (const auto& p : el.properties) item += PlyTypeSize(p.is_list ? p.count_type : p.type);
+    need += static_cast<long double>(el.count) * static_cast<long double>(item);
+    if (need > static_cast<long double>(file_size - data_start)) {
+      FailByte(path, file_size,
+               fmt::format("file ends inside the '{}' items: the header declares {}, more than the {} bytes "
+                           "after the header can hold", el.name, el.count, file_size - data_start));
+    }
+  }
+}
+
 PointCloud ReadPly(const std::filesystem::path& path) {
   std::vector<char> buf;
   std::ifstream in = OpenOrThrow(path, buf);
-  LineReader lines(in);
+  LineReader lines(in, path);
   const PlyHeader h = ReadPlyHeader(path, lines);
+  if (h.encoding != PlyEncoding::kAscii) {
+    CheckPlyCounts(path, h, static_cast<int64_t>(in.tellg()), static_cast<int64_t>(std::filesystem::file_size(path)));
+  }
   PointSink sink;
   if (h.encoding == PlyEncoding::kAscii) {
     ReadPlyAscii(path, h, lines, sink);
@@ -539,7 +580,7 @@ class StlSink {
 };
 
 PointCloud ReadStlAscii(const std::filesystem::path& path, std::ifstream& in, bool dedupe) {
-  LineReader lines(in);
+  LineReader lines(in, path);
   PointSink sink;
   StlSink stl(dedupe);
   std::string line;

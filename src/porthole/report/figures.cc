@@ -21,7 +21,7 @@ std::string N(double v) { return std::isfinite(v) ? fmt::format("{:.7g}", v) : "
 
 // Header of one block: its index and column names with units.
 std::string Block(int index, const std::string& what, const std::string& columns) {
-  return fmt::format("{}# index {}: {}\n# {}\n", index == 0 ? "" : "\n\n", index, what, columns);
+  return fmt::format("{}# index {}: {}\n# {}\n", index == 0 ? "" : "\n\n", index, OneLine(what), OneLine(columns));
 }
 
 double Um(double mm) { return 1000 * mm; }
@@ -565,12 +565,12 @@ Figure DomeVsFlat(const Results& r) {
       "set multiplot layout 1,2\nset key outside below center vertical\nset bmargin 8\n"
       "set xlabel \"chief-ray angle in air (deg)\"\nset ylabel \"angle in water (deg)\"\n"
       "plot x with lines ls 5 title \"no port (air)\", \\\n"
-      "     data index 0 using 1:2 with lines ls 1 title \"{0}\", \\\n"
-      "     data index 0 using 1:3 with lines ls 3 title \"{1}\"\n"
+      "     data index 0 using 1:2 with lines ls 1 title {0}, \\\n"
+      "     data index 0 using 1:3 with lines ls 3 title {1}\n"
       "set xlabel \"radial distance r (mm, image)\"\nset ylabel \"δr change, water − air (µm)\"\n"
-      "plot data index 1 using 1:2 with lines ls 1 title \"{0}\", \\\n"
-      "     data index 1 using 1:3 with lines ls 3 title \"{1}\"\n",
-      main.spec.name, other.spec.name);
+      "plot data index 1 using 1:2 with lines ls 1 title {0}, \\\n"
+      "     data index 1 using 1:3 with lines ls 3 title {1}\n",
+      GpText(main.spec.name), GpText(other.spec.name));  // names from port files: escaped
   return f;
 }
 
@@ -822,9 +822,7 @@ std::vector<Figure> MakeFigures(const Results& r) {
 }
 
 std::string FigureScript(const Figure& f) {
-  std::string caption = f.caption;
-  std::replace(caption.begin(), caption.end(), '\n', ' ');
-  return fmt::format(
+  const std::string script = fmt::format(
       "# {title}\n# {caption}\n"
       "# Data: {id}.dat (blocks and columns described in its header). Run `gnuplot {id}.gp` in this\n"
       "# directory to remake {id}.png and {id}.svg; edit the style lines or the commands to restyle.\n"
@@ -852,8 +850,10 @@ std::string FigureScript(const Figure& f) {
       "unset multiplot\n"
       "set output\n"
       "}}\n",
-      fmt::arg("title", f.title), fmt::arg("caption", caption), fmt::arg("id", f.id), fmt::arg("w", f.width_px),
-      fmt::arg("h", f.height_px), fmt::arg("body", f.body));
+      fmt::arg("title", OneLine(f.title)), fmt::arg("caption", OneLine(f.caption)), fmt::arg("id", f.id),
+      fmt::arg("w", f.width_px), fmt::arg("h", f.height_px), fmt::arg("body", f.body));
+  CheckGnuplotScript(script, f.id);
+  return script;
 }
 
 std::string InlineSvg(const std::string& svg, const std::string& id) {

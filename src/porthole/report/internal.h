@@ -130,4 +130,15 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
 // Escapes &, <, >, " for HTML text and attributes.
 std::string Html(const std::string& s);
 
+// Escaping for gnuplot (escape.cc; docs/robustness.md). Every text from an input file (names,
+// descriptions, sources) goes through one of these before it reaches a script or a data file.
+// OneLine: control characters become spaces, no trailing backslash (for `#` comment lines).
+std::string OneLine(const std::string& s);
+// GpText: a single-quoted gnuplot string literal (no substitution inside) whose enhanced-text
+// markup is escaped, so that it prints as typed: `title GpText(name)`.
+std::string GpText(const std::string& s);
+// Throws InternalError if the script could run a shell command (a backquote outside a
+// single-quoted string) or has a string running past its line. Run on every script written.
+void CheckGnuplotScript(const std::string& script, const std::string& id);
+
 }  // namespace porthole::report

@@ -2,7 +2,9 @@
 // every figure; it is then renamed into place (exchanged atomically with an existing report under
 // --force, renameat2 RENAME_EXCHANGE, so the old report stays whole until the new one is there).
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
+#include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -65,9 +67,13 @@ bool IsReportDir(const fs::path& dir) {
 // Runs `gnuplot all.gp` in `dir` (no shell); its messages go to dir/gnuplot.log.
 void RunGnuplot(const std::string& gnuplot, const fs::path& dir) {
   const std::string log = (dir / "gnuplot.log").string();
+  const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) throw InternalError(fmt::format("fork: {}", std::strerror(errno)));
   if (pid == 0) {
+    // Dies with porthole: a killed report must not leave gnuplot running on its temporary folder.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(126);
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd >= 0) {
       dup2(fd, STDOUT_FILENO);
@@ -133,6 +139,10 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
       throw InvalidInput("--out", fmt::format("{} is not empty and holds no porthole report: not replaced", out.string()));
     }
   }
+  // Held until the report is in place: whoever holds it knows that any .<name>.tmp-* beside --out
+  // is the leftover of a killed run, and removes it (docs/robustness.md).
+  const DirLock lock(out.parent_path());
+  RemoveStaleTemporaries(out.parent_path(), "." + out.filename().string() + ".tmp-");
   TempDir tmp(out);
   const fs::path figdir = tmp.path() / "figures";
   fs::create_directory(figdir);

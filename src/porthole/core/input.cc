@@ -1,0 +1,114 @@
+#include "porthole/core/input.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "porthole/core/error.h"
+
+namespace porthole {
+
+std::string ReadInputFile(const std::filesystem::path& path, const std::string& field, std::uintmax_t max_bytes) {
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) throw InvalidInput(field, fmt::format("cannot read '{}': {}", path.string(), std::strerror(errno)));
+  struct Closer {
+    int fd;
+    ~Closer() { close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (fstat(fd, &st) != 0 || S_ISDIR(st.st_mode)) {
+    throw InvalidInput(field, fmt::format("'{}' is a directory, not a file", path.string()));
+  }
+  if (S_ISREG(st.st_mode) && static_cast<std::uintmax_t>(st.st_size) > max_bytes) {
+    throw InvalidInput(field, fmt::format("'{}' is larger than the {} MiB limit for this kind of file",
+                                          path.string(), max_bytes >> 20));
+  }
+  fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);  // opened non-blocking only so a FIFO cannot hang open()
+  std::string out;
+  if (S_ISREG(st.st_mode)) out.reserve(static_cast<std::size_t>(st.st_size));
+  char buf[1 << 16];
+  for (;;) {
+    const ssize_t n = read(fd, buf, sizeof buf);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw InvalidInput(field, fmt::format("cannot read '{}': {}", path.string(), std::strerror(errno)));
+    }
+    if (n == 0) break;
+    if (out.size() + static_cast<std::size_t>(n) > max_bytes) {
+      throw InvalidInput(field, fmt::format("'{}' is larger than the {} MiB limit for this kind of file",
+                                            path.string(), max_bytes >> 20));
+    }
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  return out;
+}
+
+std::string JsonMessage(const std::exception& e) {
+  std::string m = e.what();
+  if (m.rfind("[json.exception.", 0) == 0) {
+    const auto close = m.find("] ");
+    if (close != std::string::npos) m.erase(0, close + 2);
+  }
+  return m;
+}
+
+namespace {
+
+// Line of byte offset `pos` (1-based) and nesting check without recursion.
+std::size_t LineOf(std::string_view text, std::size_t pos) {
+  std::size_t line = 1;
+  for (std::size_t i = 0; i < pos && i < text.size(); ++i) line += text[i] == '\n';
+  return line;
+}
+
+void CheckDepth(std::string_view text, const std::string& field, const std::string& origin) {
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) {
+        throw InvalidInput(fmt::format("{}:{}", origin, LineOf(text, i)),
+                           fmt::format("JSON nested deeper than {} levels", kMaxJsonDepth));
+      }
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  (void)field;
+}
+
+template <typename J>
+J Parse(std::string_view text, const std::string& field, const std::string& origin) {
+  CheckDepth(text, field, origin);
+  try {
+    return J::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InvalidInput(fmt::format("{}: {}:{}", field, origin, LineOf(text, e.byte == 0 ? 0 : e.byte - 1)),
+                       "not valid JSON: " + JsonMessage(e));
+  } catch (const nlohmann::json::exception& e) {  // out_of_range: a number such as 1e999
+    throw InvalidInput(fmt::format("{}: {}", field, origin), "not valid JSON: " + JsonMessage(e));
+  }
+}
+
+}  // namespace
+
+nlohmann::json ParseJsonText(std::string_view text, const std::string& field, const std::string& origin) {
+  return Parse<nlohmann::json>(text, field, origin);
+}
+nlohmann::ordered_json ParseOrderedJsonText(std::string_view text, const std::string& field,
+                                            const std::string& origin) {
+  return Parse<nlohmann::ordered_json>(text, field, origin);
+}
+
+}  // namespace porthole

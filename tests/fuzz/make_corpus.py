@@ -1,0 +1,190 @@
+#!/usr/bin/python3
+"""Writes the fuzz-regression corpus (tests/fuzz/<kind>/...): valid seeds, the reproducers of issue 10,
+hand-made hostile files and deterministic mutants of the seeds. Run once to regenerate; the files are
+checked in, and findings of `make fuzz` are added by hand beside them (docs/robustness.md)."""
+import json
+import os
+import random
+import struct
+import zlib
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+RNG = random.Random(20261123)
+
+
+def put(kind, name, data):
+    d = os.path.join(HERE, kind)
+    os.makedirs(d, exist_ok=True)
+    with open(os.path.join(d, name), "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+
+
+def mutants(kind, stem, ext, seed, n):
+    """n deterministic mutants: byte flips, truncations, duplicated and deleted ranges, inserted digits."""
+    for k in range(n):
+        b = bytearray(seed)
+        op = k % 5
+        if op == 0:
+            for _ in range(1 + RNG.randrange(4)):
+                b[RNG.randrange(len(b))] = RNG.randrange(256)
+        elif op == 1:
+            b = b[: RNG.randrange(len(b))]
+        elif op == 2:
+            i = RNG.randrange(len(b))
+            j = min(len(b), i + 1 + RNG.randrange(64))
+            b = b[:j] + b[i:j] * (1 + RNG.randrange(8)) + b[j:]
+        elif op == 3:
+            i = RNG.randrange(len(b))
+            del b[i : i + 1 + RNG.randrange(32)]
+        else:
+            i = RNG.randrange(len(b))
+            b[i:i] = RNG.choice([b"9999999999999", b"-1", b"1e308", b"nan", b"inf", b"\x00", b"\n", b'"', b"["])
+        put(kind, f"mut-{stem}-{k:02d}{ext}", bytes(b))
+
+
+def read(path):
+    with open(os.path.join(HERE, "..", "..", path), "rb") as f:
+        return f.read()
+
+
+# --- TOML: port, camera, lens -----------------------------------------------------------------
+port = read("presets/ports/nimar-ni320.toml")
+flat = read("presets/ports/flat-acrylic-10mm.toml")
+camera = read("presets/cameras/nikon-d300.toml")
+lens = read("presets/lenses/nikkor-24mm-f2.8d.toml")
+put("port", "valid-dome.toml", port)
+put("port", "valid-flat.toml", flat)
+put("port", "repro-deep-dotted-key.toml", "[" + "a." * 50000 + "a]\nx = 1\n")
+put("port", "deep-dotted-assignment.toml", "a" + ".a" * 50000 + " = 1\n")
+put("port", "deep-inline-tables.toml", "x = " + "{a = " * 20000 + "1" + "}" * 20000 + "\n")
+put("port", "deep-arrays.toml", "x = " + "[" * 50000 + "]" * 50000 + "\n")
+put("port", "repro-injection.toml", port.replace(b'name = "nimar-ni320"', b'name = "a\\" ; system \\"touch FILE\\" ; print \\""'))
+put("port", "newline-key.toml", port + b'\n"a\\nporthole: error: forged second line" = 1\n')
+put("port", "long-key.toml", port + b"\n" + b"k" * 200000 + b" = 1\n")
+put("port", "latin1-name.toml", port.replace(b'name = "nimar-ni320"', b'name = "d\xf4me"'))
+put("port", "nul-bytes.toml", port.replace(b"type", b"ty\x00pe"))
+put("port", "unterminated-string.toml", b'name = "abc\ntype = "dome"\n')
+put("port", "huge-numbers.toml", port.replace(b"83.4", b"1e308").replace(b"75.7", b"-1e308"))
+put("port", "empty.toml", b"")
+mutants("port", "dome", ".toml", port, 30)
+put("camera", "valid.toml", camera)
+put("camera", "repro-width-overflow.toml", camera.replace(b"width_px = 4288", b"width_px = 4294967936"))
+put("camera", "width-fraction.toml", camera.replace(b"width_px = 4288", b"width_px = 4288.7"))
+put("camera", "width-string.toml", camera.replace(b"width_px = 4288", b'width_px = "4288"'))
+put("camera", "pitch-zero.toml", camera.replace(b"0.0055", b"0"))
+mutants("camera", "d300", ".toml", camera, 15)
+put("lens", "valid.toml", lens)
+put("lens", "pupil-not-array.toml", lens.replace(b"pupil = [", b"pupil = 3\nxx = [", 1))
+put("lens", "deep-pupil.toml", lens + b"\nq = " + b"[" * 3000 + b"]" * 3000 + b"\n")
+mutants("lens", "24mm", ".toml", lens, 15)
+
+# --- point clouds --------------------------------------------------------------------------------
+pts = [(83.4 * x, 83.4 * y, 83.4 * z) for x, y, z in
+       [(0, 0, 1), (1, 0, 0), (0, 1, 0), (-1, 0, 0), (0, -1, 0), (0.6, 0, 0.8), (0, 0.6, 0.8), (-0.6, 0, 0.8),
+        (0, -0.6, 0.8), (0.48, 0.64, 0.6), (-0.48, 0.64, 0.6), (0.48, -0.64, 0.6)]]
+ply_ascii = ("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+             "end_header\n" % len(pts) + "".join("%g %g %g\n" % p for p in pts)).encode()
+ply_bin = (b"ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+           b"property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" % len(pts)
+           + b"".join(struct.pack("<3f", *p) for p in pts) + struct.pack("<B3i", 3, 0, 1, 2))
+put("ply", "valid-ascii.ply", ply_ascii)
+put("ply", "valid-binary.ply", ply_bin)
+put("ply", "repro-extra-element-1e12.ply",
+    ply_bin.replace(b"element face 1\n", b"element face 1000000000000\n"))
+put("ply", "repro-bad-alloc-126-bytes.ply",
+    b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty double x\n"
+    b"property double y\nproperty double z\nend_header\n")
+put("ply", "element-without-properties.ply",
+    ply_bin.replace(b"element face 1\n", b"element nothing 1000000000000\nelement face 1\n"))
+put("ply", "ascii-huge-count.ply", ply_ascii.replace(b"element vertex 12", b"element vertex 999999999999"))
+put("ply", "list-count-huge.ply", ply_bin[:-13] + struct.pack("<B", 255) + b"\x00" * 8)
+put("ply", "long-line.ply", b"ply\nformat ascii 1.0\ncomment " + b"x" * 200000 + b"\nend_header\n")
+put("ply", "big-endian-truncated.ply", ply_bin.replace(b"binary_little_endian", b"binary_big_endian")[:-20])
+mutants("ply", "ascii", ".ply", ply_ascii, 20)
+mutants("ply", "binary", ".ply", ply_bin, 20)
+
+stl_ascii = ("solid s\n" + "".join(
+    "facet normal 0 0 1\nouter loop\n" + "".join("vertex %g %g %g\n" % pts[(i + k) % len(pts)] for k in range(3))
+    + "endloop\nendfacet\n" for i in range(0, 12, 3)) + "endsolid s\n").encode()
+stl_bin = b"binary stl".ljust(80, b" ") + struct.pack("<I", 4) + b"".join(
+    struct.pack("<3f", 0, 0, 1) + b"".join(struct.pack("<3f", *pts[(i + k) % 12]) for k in range(3)) + b"\0\0"
+    for i in range(0, 12, 3))
+put("stl", "valid-ascii.stl", stl_ascii)
+put("stl", "valid-binary.stl", stl_bin)
+put("stl", "binary-count-4e9.stl", stl_bin[:80] + struct.pack("<I", 0xFFFFFFFF) + stl_bin[84:])
+put("stl", "solid-but-binary.stl", b"solid" + stl_bin[5:])
+mutants("stl", "ascii", ".stl", stl_ascii, 15)
+mutants("stl", "binary", ".stl", stl_bin, 15)
+
+obj = ("# sphere points\n" + "".join("v %g %g %g\n" % p for p in pts) + "f 1 2 3\n").encode()
+put("obj", "valid.obj", obj)
+put("obj", "v-short.obj", obj + b"v 1 2\n")
+mutants("obj", "sphere", ".obj", obj, 15)
+xyz = "".join("%g %g %g\n" % p for p in pts).encode()
+csv = ("x,y,z\n" + "".join("%g,%g,%g\n" % p for p in pts)).encode()
+put("xyz", "valid.xyz", xyz)
+put("xyz", "valid.csv", csv)
+put("xyz", "one-long-line.xyz", b"1 " * 100000)
+put("xyz", "nan.xyz", xyz + b"nan 1 2\n")
+mutants("xyz", "sphere", ".xyz", xyz, 10)
+mutants("xyz", "sphere", ".csv", csv, 10)
+
+# --- calibrations: porthole JSON and OpenCV YAML ----------------------------------------------------
+cal = {"camera": {"c_mm": 24.5, "x0_mm": 0.01, "y0_mm": -0.02, "K1": 1.8e-4, "K2": -3e-7},
+       "sigma": {"c_mm": 0.01, "x0_mm": 0.005, "y0_mm": 0.005, "K1": 1e-6, "K2": 1e-9},
+       "sensor": {"width_px": 4288, "height_px": 2848, "pixel_pitch_mm": 0.0055}}
+calj = json.dumps(cal, indent=1).encode()
+put("calib_json", "valid.json", calj)
+put("calib_json", "repro-width-overflow.json", calj.replace(b'"width_px": 4288', b'"width_px": 4294967936'))
+put("calib_json", "deep-nesting.json", b"[" * 100000 + b"]" * 100000)
+put("calib_json", "camera-string.json", calj.replace(b"24.5", b'"24.5"'))
+put("calib_json", "covariance-ragged.json", calj[:-2] + b',"covariance": {"parameters": ["c_mm", "K1"], "matrix": [1, [2, 3]]}}')
+put("calib_json", "fixed-not-strings.json", calj[:-2] + b',"fixed": [1, 2]}')
+put("calib_json", "not-json.json", b"\xff\xfe{garbage")
+mutants("calib_json", "cal", ".json", calj, 25)
+yaml = (b"%YAML:1.0\n---\nimage_width: 4288\nimage_height: 2848\ncamera_matrix: !!opencv-matrix\n   rows: 3\n"
+        b"   cols: 3\n   dt: d\n   data: [ 4454.5, 0., 2143.5, 0., 4454.5, 1423.5, 0., 0., 1. ]\n"
+        b"distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n"
+        b"   data: [ -0.1, 0.05, 0.0001, -0.0002, 0. ]\n")
+put("yaml", "valid.yml", yaml)
+put("yaml", "repro-regex-recursion.yml", b"camera_matrix:" + b" " * 100000 + b"\n")
+put("yaml", "long-data.yml", yaml.replace(b"data: [ -0.1", b"data: [ " + b"0.1, " * 20000 + b"-0.1"))
+put("yaml", "width-overflow.yml", yaml.replace(b"4288", b"99999999999999999999"))
+put("yaml", "no-close-bracket.yml", yaml.replace(b"0., 0., 1. ]", b"0., 0., 1. " + b"7" * 100000))
+mutants("yaml", "cv", ".yml", yaml, 20)
+
+# --- detections ------------------------------------------------------------------------------------
+det = {"image": "a.jpg", "target": "chessboard:4x3:25", "width_px": 640, "height_px": 480,
+       "ids": list(range(12)), "points_px": [[100 + 50 * (i % 4), 100 + 50 * (i // 4)] for i in range(12)]}
+detj = json.dumps({"target": "chessboard:4x3:25", "images": [det] * 3, "skipped": []}).encode()
+put("detections", "valid-set.json", detj)
+put("detections", "width-overflow.json", detj.replace(b'"width_px": 640', b'"width_px": 4294967936'))
+put("detections", "images-string.json", b'{"target": "chessboard:4x3:25", "images": "abc"}')
+put("detections", "target-number.json", b'{"target": 5, "images": []}')
+put("detections", "target-huge.json", b'{"target": "chessboard:99999999999x3:25", "images": []}')
+put("detections", "points-nan.json", detj.replace(b"[100, 100]", b"[1e999, 100]"))
+mutants("detections", "set", ".json", detj, 20)
+
+
+# --- images ----------------------------------------------------------------------------------------
+def png(w, h, rows=None, bit_depth=8):
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+    raw = rows if rows is not None else b"".join(b"\0" + bytes(w) for _ in range(min(h, 4)))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, bit_depth, 0, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+board = b"".join(b"\0" + bytes(255 if ((x // 20) + (y // 20)) % 2 else 0 for x in range(120)) for y in range(100))
+put("images", "valid-board.png", png(120, 100, board))
+put("images", "repro-huge-dims.png", png(20000, 20000))
+put("images", "huge-width.png", png(2000000000, 1))
+put("images", "zero-dims.png", png(0, 0))
+put("images", "truncated.png", png(120, 100, board)[:200])
+put("images", "jpeg-huge-sof.jpg", b"\xff\xd8\xff\xc0\x00\x11\x08\xff\xff\xff\xff\x01\x01\x11\x00" + b"\0" * 40)
+put("images", "jpeg-garbage.jpg", b"\xff\xd8" + bytes(RNG.randrange(256) for _ in range(2000)))
+put("images", "pgm-huge.pgm", b"P5\n# c\n99999 99999\n255\n" + b"\0" * 100)
+put("images", "bmp-huge.bmp", b"BM" + b"\0" * 16 + struct.pack("<ii", 60000, -60000) + b"\0" * 100)
+put("images", "tiff-huge.tif", b"II*\0" + struct.pack("<I", 8) + struct.pack("<H", 2)
+    + struct.pack("<HHII", 256, 4, 1, 100000) + struct.pack("<HHII", 257, 4, 1, 100000) + b"\0" * 8)
+mutants("images", "board", ".png", png(120, 100, board), 10)
