@@ -42,16 +42,6 @@ template <typename M>
 class CameraModelTest : public ::testing::Test {};
 TYPED_TEST_SUITE(CameraModelTest, ToTypes<CameraModelList>::type);
 
-// Pixel centres on a grid spanning the whole frame, edges and corners included.
-std::vector<Eigen::Vector2d> FramePixels(const Sensor& s, int cols, int rows) {
-  std::vector<Eigen::Vector2d> px;
-  for (int j = 0; j < rows; ++j) {
-    for (int i = 0; i < cols; ++i) {
-      px.emplace_back(i * (s.width_px - 1.0) / (cols - 1), j * (s.height_px - 1.0) / (rows - 1));
-    }
-  }
-  return px;
-}
 
 TYPED_TEST(CameraModelTest, MetadataIsCompleteAndMatchesTheList) {
   using M = TypeParam;

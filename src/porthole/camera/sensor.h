@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "porthole/camera/brown.h"  // Vec2
 #include "porthole/core/error.h"
@@ -41,6 +42,18 @@ Vec2<T> ImageMmToPixel(const Sensor& s, const T& x, const T& y) {
   const double u_mid = 0.5 * (s.width_px - 1);
   const double v_mid = 0.5 * (s.height_px - 1);
   return Vec2<T>(x / T(s.pixel_pitch_mm) + T(u_mid), T(v_mid) - y / T(s.pixel_pitch_mm));
+}
+
+// Pixel centres on a cols × rows grid spanning the whole frame, edges and corners included
+// (u from 0 to W−1, v from 0 to H−1), row by row from the top-left; cols, rows ≥ 2.
+inline std::vector<Eigen::Vector2d> FramePixels(const Sensor& s, int cols, int rows) {
+  std::vector<Eigen::Vector2d> px;
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < cols; ++i) {
+      px.emplace_back(i * (s.width_px - 1.0) / (cols - 1), j * (s.height_px - 1.0) / (rows - 1));
+    }
+  }
+  return px;
 }
 
 // COLMAP pixel (top-left pixel centre at (0.5, 0.5)) → porthole pixel (centre at (0, 0)).
