@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "porthole/io/lookup.h"
 #include "porthole/ports/environment.h"
 
 namespace porthole::python {
@@ -25,6 +26,19 @@ inline ports::Environment MakeEnvironment(const std::string& water, std::optiona
   env.conditions.pressure_dbar = pressure_dbar;
   env.conditions.extrapolate = extrapolate;
   return env;
+}
+
+// The camera body and lens from the keyword arguments every planning binding accepts (presets,
+// files, then lensfun names; one place, as MakeEnvironment).
+inline io::CameraAndLens FindCameraAndLens(const std::string& camera, const std::string& lens,
+                                           std::optional<double> pixel_pitch_mm,
+                                           std::optional<double> focal_mm) {
+  io::CameraLensQuery q;
+  q.camera = camera;
+  q.lens = lens;
+  q.pixel_pitch_mm = pixel_pitch_mm;
+  q.focal_length_mm = focal_mm;
+  return io::FindCameraAndLens(q);
 }
 
 void RegisterMaterials(pybind11::module_& m);

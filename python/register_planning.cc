@@ -20,12 +20,7 @@ planning::Setup MakeSetup(const std::string& camera, const std::string& lens, co
                           const std::string& water, std::optional<double> water_index, double lambda_nm,
                           double temperature_c, double salinity_psu, double pressure_dbar,
                           std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm) {
-  io::CameraLensQuery q;
-  q.camera = camera;
-  q.lens = lens;
-  q.pixel_pitch_mm = pixel_pitch_mm;
-  q.focal_length_mm = focal_mm;
-  const io::CameraAndLens cl = io::FindCameraAndLens(q);
+  const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm);
   planning::Setup s;
   s.camera = cl.camera;
   s.lens = cl.lens;

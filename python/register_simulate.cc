@@ -33,12 +33,7 @@ void RegisterSimulate(py::module_& m) {
          const std::vector<double>& offsets_mm, bool with_map, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm) {
         return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}}, [&] {
-        io::CameraLensQuery q;
-        q.camera = camera;
-        q.lens = lens;
-        q.pixel_pitch_mm = pixel_pitch_mm;
-        q.focal_length_mm = focal_mm;
-        const io::CameraAndLens cl = io::FindCameraAndLens(q);
+        const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm);
         simulate::SystemSpec spec;
         spec.port = io::LoadPort(port);
         spec.camera = cl.camera;
