@@ -52,18 +52,7 @@ struct SimulateCliOptions {
 };
 
 // A fisheye lens: the Kannala–Brandt fits in water and in air (pixels).
-void PrintFisheye(const simulate::SystemSpec& spec, const simulate::Prediction& p, bool json) {
-  if (json) {
-    Json out = DescribeSystem(p.water_system, spec.env);
-    out["medium"] = out["water"];
-    out.erase("water");
-    out["camera_body"] = spec.camera.name;
-    out["lens"] = spec.lens.name;
-    const Json prediction = simulate::PredictionJson(p);
-    for (const auto& [k, v] : prediction.items()) out[k] = v;
-    fmt::print("{}\n", out.dump(2));
-    return;
-  }
+std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Prediction& p) {
   std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
   t += fmt::format("{} + {} ({} fisheye) focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
                    "focus scale {:.1f} mm; c = {:.3f} mm\n\nKannala-Brandt (OpenCV fisheye) fitted, pixels:\n",
@@ -79,9 +68,42 @@ void PrintFisheye(const simulate::SystemSpec& spec, const simulate::Prediction& 
     for (double v : fit->camera.params) t += fmt::format(" {:>11.5g}", v);
     t += fmt::format(" {:>9.4f}\n", fit->rms_px);
   }
-  t += fmt::format("\nfocal length water/air = {:.5f}\n",
-                   p.water_fisheye->camera.FocalLengthPx() / p.air_fisheye->camera.FocalLengthPx());
-  fmt::print("{}", t);
+  const simulate::FitView water = p.water_view(), air = p.air_view();
+  t += fmt::format("\nfocal length water/air = {:.5f}; radial change against the {} projection (water - air):",
+                   water.c_mm() / air.c_mm(), camera::ProjectionName(p.lens_projection));
+  for (double r : {5.0, 10.0, simulate::ProfileRadiiMm(p.camera.sensor).back()}) {
+    t += fmt::format(" {:.1f} um at r = {:.1f} mm;", 1000 * (water.RadialProfileMm(r) - air.RadialProfileMm(r)), r);
+  }
+  return t + "\n";
+}
+
+// A rectilinear lens: the Brown fits, the change, the profile and the error at other distances.
+std::string BrownText(const simulate::SystemSpec& spec, const simulate::Prediction& p,
+                    const std::vector<simulate::DistanceError>& errors, const std::vector<double>& radii) {
+  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
+  t += fmt::format("{} + {} focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
+                   "focus scale {:.1f} mm, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
+                   spec.camera.name, spec.lens.name, p.object_distance_mm, p.focus.d_s2ep_mm,
+                   p.focus.focus_distance_mm.value_or(NAN), p.focus.ep_to_flange_mm, p.camera.lens.c_mm);
+  t += fmt::format("{:<16} {:>9} {:>8} {:>8} {:>11} {:>11} {:>11} {:>11} {:>11} {:>8}\n", "", "c mm",
+                   "x0 mm", "y0 mm", "K1 mm^-2", "K2 mm^-4", "K3 mm^-6", "P1 mm^-1", "P2 mm^-1", "rms um");
+  t += ParamRow("air (fitted)", p.air.params, Fixed(p.air.rms_um, 3));
+  t += ParamRow("water (fitted)", p.water.params, Fixed(p.water.rms_um, 3));
+  t += ParamRow("change", p.change, "");
+  if (p.predicted_water) {
+    t += ParamRow("in-air calib.", *spec.air_calibration, "");
+    t += ParamRow("water predicted", *p.predicted_water, "");
+  }
+  t += fmt::format("\nc water/air = {:.5f}; radial profile change (water - air):", p.water.params.c_mm / p.air.params.c_mm);
+  for (double r : radii) {
+    t += fmt::format(" {:.1f} um at r = {:.1f} mm;",
+                     1000 * (camera::RadialProfileMm(p.water.params, r) - camera::RadialProfileMm(p.air.params, r)), r);
+  }
+  t += "\n\nfitted water model at other distances from the pupil:\n";
+  for (const auto& e : errors) {
+    t += fmt::format("  {:>9.0f} mm  rms {:>8.3f} um  max {:>8.3f} um\n", e.distance_mm, e.rms_um, e.max_um);
+  }
+  return t;
 }
 
 }  // namespace
@@ -180,16 +202,11 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
       throw InvalidInput("--offsets", "--offsets and --sweep-out need --sweep x|y|z");
     }
 
-    if (camera::IsFisheye(spec.lens.projection) && (axis >= 0 || !o->map_out.empty())) {
-      throw InvalidInput(axis >= 0 ? "--sweep" : "--map",
-                         "sweeps and maps are for the Brown fit; the " + spec.lens.name + " is a fisheye");
-    }
     const simulate::Prediction p = simulate::Predict(spec, fo);
-    if (p.water_fisheye) {
-      PrintFisheye(spec, p, o->json);
-      return;
-    }
-    const auto errors = simulate::DistanceErrors(p.water_system, p.camera, p.water, check, p.options);
+    const bool fisheye = p.water_fisheye.has_value();
+    // The reprojection error at other distances is the Brown fit's (a fisheye prints its fit only).
+    std::vector<simulate::DistanceError> errors;
+    if (!fisheye) errors = simulate::DistanceErrors(p.water_system, p.camera, p.water, check, p.options);
     std::vector<simulate::SweepRow> sweep;
     if (axis >= 0) sweep = simulate::SweepPupilOffset(p, axis, offsets);
     const std::vector<double> radii = {5.0, 10.0, simulate::ProfileRadiiMm(p.camera.sensor).back()};
@@ -214,42 +231,19 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
       out["lens"] = spec.lens.name;
       const Json prediction = simulate::PredictionJson(p);  // outlives the loop over its items
       for (const auto& [k, v] : prediction.items()) out[k] = v;
-      out["distance_errors"] = simulate::DistanceErrorsJson(errors);
+      if (!fisheye) out["distance_errors"] = simulate::DistanceErrorsJson(errors);
       if (axis >= 0) out["sweep"] = simulate::SweepJson(sweep, axis, radii);
       fmt::print("{}\n", out.dump(2));
       return;
     }
-    std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
-    t += fmt::format("{} + {} focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
-                     "focus scale {:.1f} mm, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
-                     spec.camera.name, spec.lens.name, p.object_distance_mm, p.focus.d_s2ep_mm,
-                     p.focus.focus_distance_mm.value_or(NAN), p.focus.ep_to_flange_mm, p.camera.lens.c_mm);
-    t += fmt::format("{:<16} {:>9} {:>8} {:>8} {:>11} {:>11} {:>11} {:>11} {:>11} {:>8}\n", "", "c mm",
-                     "x0 mm", "y0 mm", "K1 mm^-2", "K2 mm^-4", "K3 mm^-6", "P1 mm^-1", "P2 mm^-1", "rms um");
-    t += ParamRow("air (fitted)", p.air.params, Fixed(p.air.rms_um, 3));
-    t += ParamRow("water (fitted)", p.water.params, Fixed(p.water.rms_um, 3));
-    t += ParamRow("change", p.change, "");
-    if (p.predicted_water) {
-      t += ParamRow("in-air calib.", *spec.air_calibration, "");
-      t += ParamRow("water predicted", *p.predicted_water, "");
-    }
-    t += fmt::format("\nc water/air = {:.5f}; radial profile change (water - air):", p.water.params.c_mm / p.air.params.c_mm);
-    for (double r : radii) {
-      t += fmt::format(" {:.1f} um at r = {:.1f} mm;",
-                       1000 * (camera::RadialProfileMm(p.water.params, r) - camera::RadialProfileMm(p.air.params, r)), r);
-    }
-    t += "\n\nfitted water model at other distances from the pupil:\n";
-    for (const auto& e : errors) {
-      t += fmt::format("  {:>9.0f} mm  rms {:>8.3f} um  max {:>8.3f} um\n", e.distance_mm, e.rms_um, e.max_um);
-    }
+    std::string t = fisheye ? FisheyeText(spec, p) : BrownText(spec, p, errors, radii);
     if (axis >= 0) {
-      t += fmt::format("\npupil offset along {} (mm) vs water - air change:\n{:>9} {:>10} {:>10} {:>12} {:>12} {:>12} {:>9}\n",
-                       o->sweep, "offset", "dc mm", "c ratio", "dr@10mm um", "P1 water", "P2 water", "rms um");
+      t += fmt::format("\npupil offset along {} (mm) vs water - air change ({}):\n{:>9} {:>10} {:>10} {:>12} {:>9}\n",
+                       o->sweep, p.water_view().model_name(), "offset", "dc mm", "c ratio", "dr@10mm um", "rms um");
       for (const auto& r : sweep) {
-        t += fmt::format("{:>9.2f} {:>10.4f} {:>10.5f} {:>12.2f} {:>12.3e} {:>12.3e} {:>9.3f}\n", r.offset_mm,
-                         r.water.params.c_mm - r.air.params.c_mm, r.water.params.c_mm / r.air.params.c_mm,
-                         1000 * (camera::RadialProfileMm(r.water.params, 10) - camera::RadialProfileMm(r.air.params, 10)),
-                         r.water.params.P1, r.water.params.P2, r.water.rms_um);
+        const simulate::FitView w = r.water_view(), a = r.air_view();
+        t += fmt::format("{:>9.2f} {:>10.4f} {:>10.5f} {:>12.2f} {:>9.3f}\n", r.offset_mm, w.c_mm() - a.c_mm(),
+                         w.c_mm() / a.c_mm(), 1000 * (w.RadialProfileMm(10) - a.RadialProfileMm(10)), w.rms_um());
       }
     }
     fmt::print("{}", t);

@@ -402,3 +402,25 @@ def test_fig14_sigma_bands_are_monte_carlo(tmp_path):
                    if f["id"] == "compare-curves")
     assert "in-air calibration has no covariance, so it has no band" in caption
     assert "air ±1σ" not in (out / "figures" / "compare-curves.gp").read_text()
+
+
+def test_fisheye_report_reads_the_fisheye_fit(tmp_path):
+    """A fisheye lens: the simulation, its sweeps and maps are the Kannala-Brandt fit's, the same
+    numbers `porthole simulate` prints, finite everywhere (a Brown view of it would be all zero)."""
+    out = tmp_path / "fisheye"
+    lens = "nikkor-10.5mm-f2.8g-fisheye"
+    run("report", "--lens", lens, "--port", "nimar-ni320-nominal", "--out", out)
+    rep = json.loads((out / "report.json").read_text())
+    sim = run("simulate", "--lens", lens, "--port", "nimar-ni320-nominal", "--json").json()
+    assert rep["simulation"]["model"] == "kannala-brandt"
+    assert rep["simulation"]["c_ratio_water_air"] == pytest.approx(sim["c_ratio_water_air"], rel=1e-9)
+    # About the centre of the concentric dome the z sweep changes the focal ratio, oddly in the offset.
+    rows = {r["offset_mm"]: r for r in rep["sweeps"]["z"]}
+    assert rows[0]["c_ratio_water_air"] == pytest.approx(1, abs=1e-6)
+    assert (rows[4]["c_ratio_water_air"] - 1) * (rows[-4]["c_ratio_water_air"] - 1) < 0
+    assert all(math.isfinite(r["dr_change_um_at_10mm"]) for r in rep["sweeps"]["z"])
+    assert max(p["difference"]["length_um"] for p in rep["distortion_map"]) < 0.05
+    page = (out / "index.html").read_text()
+    assert "kannala-brandt parameters fitted" in page and "equisolid" in page
+    for name in ("predicted", "maps", "tolerance", "residual-map"):
+        assert (out / "figures" / f"{name}.png").stat().st_size > 1000

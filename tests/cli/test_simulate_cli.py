@@ -99,7 +99,26 @@ def test_fisheye_is_fitted_with_kannala_brandt():
         assert out[medium]["k1"] == pytest.approx(-1 / 24, abs=1e-5)
         assert out[medium]["rms_px"] < 1e-3
     assert "Kannala-Brandt" in run("simulate", "--lens", "nikkor-10.5mm-f2.8g-fisheye").out
-    assert "--sweep" in run_bad("simulate", "--lens", "nikkor-10.5mm-f2.8g-fisheye", "--sweep", "z")
+    # Concentric: the lens keeps its projection in water, so the radial profile (against it) is 0.
+    assert out["c_ratio_water_air"] == pytest.approx(1, abs=1e-6)
+    assert max(abs(row["change_um"]) for row in out["radial_profile"]) < 0.05
+
+
+def test_fisheye_sweep_and_map(tmp_path):
+    # Sweeps and maps read the Kannala-Brandt fit. About the centre of a concentric dome the change
+    # is odd in the pupil offset, and at offset 0 it vanishes (the lens keeps its projection).
+    mapf = tmp_path / "map.csv"
+    out = run("simulate", "--lens", "nikkor-10.5mm-f2.8g-fisheye", "--port", "nimar-ni320-nominal", "--json",
+              "--sweep", "z", "--offsets", "-1,0,1", "--map", mapf, "--grid-cols", "9", "--grid-rows", "7").json()
+    minus, zero, plus = out["sweep"]
+    assert abs(zero["c_ratio_water_air"] - 1) < 1e-6
+    assert (plus["c_ratio_water_air"] - 1) == pytest.approx(-(minus["c_ratio_water_air"] - 1), rel=0.1)
+    assert abs(plus["c_ratio_water_air"] - 1) > 1e-4
+    assert "k4" in plus["water"] and "K1" not in plus["water"]  # the fisheye fit, not Brown's
+    with open(mapf) as f:
+        rows = [line for line in f if line[0].isdigit() or line[0] == "-"]
+    assert len(rows) == 63
+    assert max(abs(float(r.split(",")[12])) for r in rows) < 0.05  # difference water - air, um
 
 
 def test_same_camera_and_lens_names_as_plan():

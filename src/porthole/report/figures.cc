@@ -534,6 +534,9 @@ Figure FieldCurvature(const Results& r) {
   return f;
 }
 
+// The principal distance under water over the one in air, whichever model was fitted.
+double CRatio(const simulate::Prediction& p) { return p.water_view().c_mm() / p.air_view().c_mm(); }
+
 Figure DomeVsFlat(const Results& r) {
   const auto& main = r.plan.system;
   const auto& other = r.other_plan.system;
@@ -548,7 +551,7 @@ Figure DomeVsFlat(const Results& r) {
              fmt::format("r_mm change_{}_um change_{}_um", main.spec.name, other.spec.name));
   for (double rad : Radii(r.prediction.camera.sensor)) {
     auto change = [rad](const simulate::Prediction& p) {
-      return Um(camera::RadialProfileMm(p.water.params, rad) - camera::RadialProfileMm(p.air.params, rad));
+      return Um(p.water_view().RadialProfileMm(rad) - p.air_view().RadialProfileMm(rad));
     };
     d += fmt::format("{} {} {}\n", N(rad), N(change(r.prediction)), N(change(r.other_prediction)));
   }
@@ -559,8 +562,7 @@ Figure DomeVsFlat(const Results& r) {
       "(δr of the simulated underwater calibration minus the one in air; negative = pincushion); "
       "principal distance ×{:.4f} behind {} and ×{:.4f} behind {}.",
       main.spec.name, r.plan.fov.water.diagonal_deg, other.spec.name, r.other_plan.fov.water.diagonal_deg,
-      r.plan.fov.air.diagonal_deg, r.prediction.water.params.c_mm / r.prediction.air.params.c_mm,
-      main.spec.name, r.other_prediction.water.params.c_mm / r.other_prediction.air.params.c_mm, other.spec.name);
+      r.plan.fov.air.diagonal_deg, CRatio(r.prediction), main.spec.name, CRatio(r.other_prediction), other.spec.name);
   f.body = fmt::format(
       "set multiplot layout 1,2\nset key outside below center vertical\nset bmargin 8\n"
       "set xlabel \"chief-ray angle in air (deg)\"\nset ylabel \"angle in water (deg)\"\n"
@@ -574,8 +576,38 @@ Figure DomeVsFlat(const Results& r) {
   return f;
 }
 
+// A fisheye lens: the fitted model (Kannala–Brandt) has no decentring terms; its radial profile is
+// measured against the lens's own projection at the fitted focal length (simulate::FitView).
+Figure PredictedFisheye(const Results& r) {
+  const simulate::Prediction& p = r.prediction;
+  const simulate::FitView water = p.water_view(), air = p.air_view();
+  Figure f{"predicted", "simulate", "Predicted underwater calibration: distortion curves", "", 960, 480, "", ""};
+  const std::string_view projection = camera::ProjectionName(p.lens_projection);
+  f.data = Block(0, fmt::format("radial profile of the fitted {} model against the {} projection at its focal "
+                                "length: dr(r) = ideal - fitted radius",
+                                water.model_name(), projection),
+                 "r_mm dr_air_fit_um dr_water_fit_um");
+  for (double rad : Radii(p.camera.sensor)) {
+    f.data += fmt::format("{} {} {}\n", N(rad), N(Um(air.RadialProfileMm(rad))), N(Um(water.RadialProfileMm(rad))));
+  }
+  f.caption = fmt::format(
+      "The {0} fisheye model fitted to rays traced through the port, as a self-calibration would find it, with "
+      "air (red) and water (blue) outside the port (docs/simulate.md). The lens is an ideal {1} fisheye, so the "
+      "curves are the port's own distortion: the radial distance a point's image must move to lie where the {1} "
+      "projection at the fitted focal length puts it (µm; {0} has no decentring terms). Focal length ×{2:.4f} "
+      "in water.",
+      water.model_name(), projection, water.c_mm() / air.c_mm());
+  f.body =
+      "set key outside right top vertical Left reverse samplen 2\nset xlabel \"r (mm)\"\n"
+      "set title \"radial distortion against the lens's projection\"\nset ylabel \"δr (µm)\"\n"
+      "plot data index 0 using 1:2 with lines ls 2 title \"air (fit)\", \\\n"
+      "     data index 0 using 1:3 with lines ls 1 title \"water (fit)\"\n";
+  return f;
+}
+
 Figure Predicted(const Results& r) {
   const simulate::Prediction& p = r.prediction;
+  if (p.water_fisheye) return PredictedFisheye(r);
   const bool calib = p.predicted_water.has_value();
   Figure f{"predicted", "simulate", "Predicted underwater calibration: distortion curves", "", 960, 820, "", ""};
   std::string& d = f.data;
@@ -620,11 +652,11 @@ Figure Predicted(const Results& r) {
 }
 
 Figure Tolerance(const Results& r) {
-  Figure f{"tolerance", "simulate", "Tolerance to the entrance pupil's position", "", 960, 980, "", ""};
+  Figure f{"tolerance", "simulate", "Tolerance to the entrance pupil's position", "", 960, 1060, "", ""};
   const camera::Sensor& s = r.prediction.camera.sensor;
   const double corner = Radii(s).back();
   auto dr = [](const simulate::SweepRow& row, double rad) {
-    return Um(camera::RadialProfileMm(row.water.params, rad) - camera::RadialProfileMm(row.air.params, rad));
+    return Um(row.water_view().RadialProfileMm(rad) - row.air_view().RadialProfileMm(rad));
   };
   std::string& d = f.data;
   for (int k = 0; k < 2; ++k) {
@@ -632,8 +664,8 @@ Figure Tolerance(const Results& r) {
     d += Block(k, k == 0 ? "pupil moved along z (toward the glass)" : "pupil moved along x",
                "offset_mm dc_mm c_ratio_water_air dr_change_5mm_um dr_change_10mm_um dr_change_corner_um");
     for (const auto& row : rows) {
-      d += fmt::format("{} {} {} {} {} {}\n", N(row.offset_mm), N(row.water.params.c_mm - row.air.params.c_mm),
-                       N(row.water.params.c_mm / row.air.params.c_mm), N(dr(row, 5)), N(dr(row, 10)),
+      const double cw = row.water_view().c_mm(), ca = row.air_view().c_mm();
+      d += fmt::format("{} {} {} {} {} {}\n", N(row.offset_mm), N(cw - ca), N(cw / ca), N(dr(row, 5)), N(dr(row, 10)),
                        N(dr(row, corner)));
     }
   }
@@ -650,7 +682,8 @@ Figure Tolerance(const Results& r) {
       "and the corner ({:.1f} mm) against the z offset; (c) the whole profile change for each z offset.",
       corner);
   f.body = fmt::format(
-      "set multiplot layout 3,1 margins 0.1,0.76,0.06,0.96 spacing 0,0.135\nset key outside right top vertical Left reverse\n"
+      "set multiplot layout 3,1 margins 0.13,0.70,0.07,0.95 spacing 0,0.135\n"
+      "set key at screen 0.72, graph 1 left top vertical Left reverse samplen 2\n"
       "set xlabel \"pupil offset (mm)\"\n"
       "set title \"(a) principal distance\"\nset ylabel \"Δc (mm)\"\n"
       "plot data index 0 using 1:2 with linespoints ls 1 pt 7 title \"along z\", \\\n"
@@ -684,9 +717,14 @@ Figure Maps(const Results& r) {
   double vmax = 0, scale = 0;
   f.data = MapData(SimMapSamples(r.map), {"water", "air", "difference"}, &vmax, &scale);
   f.caption = fmt::format(
-      "The Brown correction vector over the image (the paper's Fig. 15), from the simulated calibrations: "
+      "The {} correction vector over the image (the paper's Fig. 15{}), from the simulated calibrations: "
       "(a) under water, (b) in air, (c) their difference, water − air. Colour: its length, on one scale for "
       "the three panels (0–{:.1f} µm); arrows: its direction, to one scale (the longest is {:.1f} µm).",
+      r.prediction.water_view().model_name(),
+      r.prediction.water_fisheye
+          ? fmt::format("; against the lens's {} projection at the fitted focal length",
+                        camera::ProjectionName(r.prediction.lens_projection))
+          : "",
       vmax, vmax);
   const camera::Sensor& sn = r.prediction.camera.sensor;
   f.body = MapPanels({"(a) under water", "(b) in air", "(c) difference, water − air"}, vmax,
@@ -707,8 +745,8 @@ Figure ResidualMap(const Results& r) {
   }
   f.caption = fmt::format(
       "The water fit's residual over the image (RMS over the object distances, µm; largest {:.2f} µm): what "
-      "the port does that no central Brown model absorbs. Its own colour scale: it is far smaller than the "
-      "distortion above.", vmax);
+      "the port does that no central {} model absorbs. Its own colour scale: it is far smaller than the "
+      "distortion above.", vmax, r.prediction.water_view().model_name());
   f.body = std::string(kMapSetup) + "set cblabel \"residual (µm)\"\nset rmargin 12\n" +
            fmt::format("set cbrange [0:*]\nset cbtics {}\n", N(NiceStep(vmax, 4))) +
            "plot data index 0 using 1:2:3 with image notitle\n";

@@ -280,8 +280,10 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
     h += Card("Corner blur", F(t.field->corner_blur_px, 1) + " px",
               fmt::format("at f/{:g}; sharp from f/{}", p.f_number, F(t.field->f_number_for_sharp_corners, 1)));
   }
-  h += Card("Principal distance under water", "×" + F(sim.water.params.c_mm / sim.air.params.c_mm, 4),
-            fmt::format("{} → {} mm (simulated)", F(sim.air.params.c_mm, 3), F(sim.water.params.c_mm, 3)));
+  const simulate::FitView sim_water = sim.water_view(), sim_air = sim.air_view();
+  h += Card(sim.water_fisheye ? "Focal length under water" : "Principal distance under water",
+            "×" + F(sim_water.c_mm() / sim_air.c_mm(), 4),
+            fmt::format("{} → {} mm (simulated)", F(sim_air.c_mm(), 3), F(sim_water.c_mm(), 3)));
   if (r.compare) {
     h += Card("Your calibrations", r.compare->significant ? "differ" : "agree",
               fmt::format("χ² = {} with {} dof, p = {}", F(r.compare->chi2, 1), r.compare->dof, G(r.compare->p_value)));
@@ -386,21 +388,37 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
     rms.push_back({"", NAN});
   }
   h += "<section id=\"simulate\"><h2>The underwater calibration to expect</h2>\n<p class=\"lead\">";
-  h += Html(fmt::format("Rays from a {} × {} image grid traced through the port onto planes at {} mm; the central "
-                        "Brown model fitted to them as a self-calibration would (docs/simulate.md). Lens focused "
+  h += Html(fmt::format("Rays from a {} × {} image grid traced through the port onto {} at {} mm; the central "
+                        "{} model fitted to them as a self-calibration would (docs/simulate.md). Lens focused "
                         "under water on an object {:.0f} mm from its pupil (focus scale {:.1f} mm), c = {:.3f} mm.",
-                        sim.options.grid_cols, sim.options.grid_rows,
-                        fmt::join(simulate::Distances(sim.options), ", "), sim.object_distance_mm,
-                        sim.focus.focus_distance_mm.value_or(NAN), sim.camera.lens.c_mm));
-  h += "</p>\n<div class=\"scroll\">" + BrownTable("Brown parameters (correction form, image mm)", cols, rms);
+                        sim.options.grid_cols, sim.options.grid_rows, sim.water_fisheye ? "spheres" : "planes",
+                        fmt::join(simulate::Distances(sim.options), ", "), sim_water.model_name(),
+                        sim.object_distance_mm, sim.focus.focus_distance_mm.value_or(NAN), sim.camera.lens.c_mm));
+  h += "</p>\n<div class=\"scroll\">";
+  if (sim.water_fisheye) {
+    // The fitted fisheye model, parameter by parameter (pixels; the model's own units).
+    const camera::ModelInfo& info = sim.water_fisheye->camera.info();
+    rows.clear();
+    for (int i = 0; i < info.num_params; ++i) {
+      const double a = sim.air_fisheye->camera.params[i], w = sim.water_fisheye->camera.params[i];
+      rows.push_back({fmt::format("{} <span class=\"unit\">{}</span>", Html(std::string(info.params[i].name)), Html(std::string(info.params[i].unit))),
+                      G(a), G(w), G(w - a)});
+    }
+    rows.push_back({"RMS residual <span class=\"unit\">px</span>", F(sim.air_fisheye->rms_px, 4),
+                    F(sim.water_fisheye->rms_px, 4), ""});
+    h += Table(fmt::format("{} parameters fitted (the lens is an ideal {} fisheye)", Html(std::string(info.name)),
+                           camera::ProjectionName(sim.lens_projection)),
+               {"parameter", "air (fit)", "water (fit)", "change"}, rows);
+  } else {
+    h += BrownTable("Brown parameters (correction form, image mm)", cols, rms);
+  }
   rows.clear();
   const double corner = simulate::ProfileRadiiMm(sim.camera.sensor).back();
   for (const auto& row : r.sweep_z) {
-    rows.push_back({F(row.offset_mm, 1), F(row.water.params.c_mm - row.air.params.c_mm, 4),
-                    F(row.water.params.c_mm / row.air.params.c_mm, 5),
-                    F(1000 * (camera::RadialProfileMm(row.water.params, 10) - camera::RadialProfileMm(row.air.params, 10)), 2),
-                    F(1000 * (camera::RadialProfileMm(row.water.params, corner) - camera::RadialProfileMm(row.air.params, corner)), 2),
-                    F(row.water.rms_um, 3)});
+    const simulate::FitView w = row.water_view(), a = row.air_view();
+    rows.push_back({F(row.offset_mm, 1), F(w.c_mm() - a.c_mm(), 4), F(w.c_mm() / a.c_mm(), 5),
+                    F(1000 * (w.RadialProfileMm(10) - a.RadialProfileMm(10)), 2),
+                    F(1000 * (w.RadialProfileMm(corner) - a.RadialProfileMm(corner)), 2), F(w.rms_um(), 3)});
   }
   h += Table("Pupil moved along z (toward the glass): the change water − air",
              {"offset <span class=\"unit\">mm</span>", "Δc <span class=\"unit\">mm</span>", "c water/air",

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "porthole/camera/profile.h"
 #include "porthole/core/error.h"
 #include "porthole/housing/housed.h"
 #include "porthole/simulate/simulate.h"
@@ -137,6 +138,59 @@ CameraFit SimulateCameraFit(const ports::PortSystem& sys, const lens::LensSpec& 
   fit.center_in_housing_mm = Vec3(centre[0], centre[1], centre[2]);
   fit.rotation_deg = Vec3(rotation[0], rotation[1], rotation[2]) * kRadToDeg;
   return fit;
+}
+
+std::string_view FitView::model_name() const {
+  return brown_ ? camera::Info(camera::CameraModelId::kBrown).name : model_->camera.model_name();
+}
+
+double FitView::c_mm() const {
+  return brown_ ? brown_->params.c_mm : model_->camera.FocalLengthPx() * model_->camera.sensor.pixel_pitch_mm;
+}
+
+double FitView::rms_um() const {
+  return brown_ ? brown_->rms_um : 1000 * model_->rms_px * model_->camera.sensor.pixel_pitch_mm;
+}
+
+double FitView::max_um() const {
+  return brown_ ? brown_->max_um : 1000 * model_->max_px * model_->camera.sensor.pixel_pitch_mm;
+}
+
+Eigen::Vector2d FitView::CorrectionMm(double x_mm, double y_mm) const {
+  if (brown_) return camera::Correction(brown_->params, x_mm, y_mm);
+  const camera::Camera& cam = model_->camera;
+  const camera::ModelInfo& info = cam.info();
+  const double fx = cam.params[0], fy = cam.params[info.num_focal - 1];
+  const double cx = cam.params[info.num_focal], cy = cam.params[info.num_focal + 1];
+  const Eigen::Vector2d uv = camera::ImageMmToPixel(cam.sensor, x_mm, y_mm);
+  const auto ray = cam.Unproject(uv);
+  if (!ray) return Eigen::Vector2d::Constant(std::nan(""));
+  // The ideal pixel: the lens's projection g(θ) at the fitted focal lengths, along the ray's azimuth.
+  const double rho = std::hypot(ray->x(), ray->y());
+  const double theta = std::atan2(rho, ray->z());
+  const double g = camera::ProjectionRadius(projection_, theta);
+  const Eigen::Vector2d ideal_uv =
+      rho > 0 ? Eigen::Vector2d(cx + fx * g * ray->x() / rho, cy + fy * g * ray->y() / rho) : Eigen::Vector2d(cx, cy);
+  return camera::PixelToImageMm(cam.sensor, ideal_uv(0), ideal_uv(1)) - Eigen::Vector2d(x_mm, y_mm);
+}
+
+double FitView::RadialProfileMm(double r_mm) const {
+  if (brown_) return camera::RadialProfileMm(brown_->params, r_mm);
+  const camera::Camera& cam = model_->camera;
+  const int k = cam.info().num_focal;
+  const Eigen::Vector2d pp = camera::PixelToImageMm(cam.sensor, cam.params[k], cam.params[k + 1]);
+  return CorrectionMm(pp.x() + r_mm, pp.y()).x();
+}
+
+std::optional<double> FitView::DecentringProfileMm(double r_mm) const {
+  if (brown_) return camera::DecentringProfileMm(brown_->params, r_mm);
+  return std::nullopt;
+}
+
+double FitView::ResidualUm(std::size_t i) const {
+  if (brown_) return i < brown_->residual_um.size() ? brown_->residual_um[i] : std::nan("");
+  return i < model_->residual_px.size() ? 1000 * model_->residual_px[i] * model_->camera.sensor.pixel_pitch_mm
+                                        : std::nan("");
 }
 
 }  // namespace porthole::simulate

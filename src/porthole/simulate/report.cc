@@ -89,27 +89,28 @@ Json PredictionJson(const Prediction& p) {
   j["distances_mm"] = Distances(p.options);
   j["grid"] = {{"cols", p.options.grid_cols}, {"rows", p.options.grid_rows}};
   j["free_rotation"] = p.options.free_rotation;
+  const FitView water = p.water_view(), air = p.air_view();
+  j["model"] = water.model_name();
+  j["c_ratio_water_air"] = water.c_mm() / air.c_mm();
+  Json profile = Json::array();
+  for (double r : ProfileRadiiMm(p.camera.sensor)) {
+    const double w = 1000 * water.RadialProfileMm(r), a = 1000 * air.RadialProfileMm(r);
+    Json row = {{"r_mm", r}, {"water_um", Number(w)}, {"air_um", Number(a)}, {"change_um", Number(w - a)}};
+    if (const auto dec = water.DecentringProfileMm(r)) row["decentring_water_um"] = 1000 * *dec;
+    profile.push_back(row);
+  }
+  j["radial_profile"] = profile;
   if (p.water_fisheye) {
-    j["model"] = camera::Info(p.water_fisheye->camera.model).name;
+    // The fitted model's parameters in pixels; the profiles above are against the lens's own
+    // projection at the fitted focal length (FitView).
     j["lens_projection"] = camera::ProjectionName(p.lens_projection);
     j["water"] = CameraFitJson(*p.water_fisheye);
     j["air"] = CameraFitJson(*p.air_fisheye);
-    j["fx_ratio_water_air"] = p.water_fisheye->camera.FocalLengthPx() / p.air_fisheye->camera.FocalLengthPx();
     return j;
   }
-  j["model"] = "brown";
   j["water"] = FitJson(p.water);
   j["air"] = FitJson(p.air);
   j["change"] = FittedParamsJson(p.change);
-  j["c_ratio_water_air"] = p.water.params.c_mm / p.air.params.c_mm;
-  Json profile = Json::array();
-  for (double r : ProfileRadiiMm(p.camera.sensor)) {
-    const double w = 1000 * camera::RadialProfileMm(p.water.params, r);
-    const double a = 1000 * camera::RadialProfileMm(p.air.params, r);
-    profile.push_back({{"r_mm", r}, {"water_um", w}, {"air_um", a}, {"change_um", w - a},
-                       {"decentring_water_um", 1000 * camera::DecentringProfileMm(p.water.params, r)}});
-  }
-  j["radial_profile"] = profile;
   if (p.predicted_water) j["predicted_water"] = FittedParamsJson(*p.predicted_water);
   Json units = FitUnitsJson();
   units["rms_um"] = "um";
@@ -121,16 +122,17 @@ Json PredictionJson(const Prediction& p) {
 Json SweepJson(const std::vector<SweepRow>& rows, int axis, const std::vector<double>& radii) {
   Json out = Json::array();
   for (const SweepRow& r : rows) {
+    const FitView water = r.water_view(), air = r.air_view();
     Json row = {{"axis", AxisName(axis)},
                 {"offset_mm", r.offset_mm},
-                {"dc_mm", r.water.params.c_mm - r.air.params.c_mm},
-                {"c_ratio_water_air", r.water.params.c_mm / r.air.params.c_mm}};
+                {"dc_mm", water.c_mm() - air.c_mm()},
+                {"c_ratio_water_air", water.c_mm() / air.c_mm()}};
     for (double rad : radii) {
-      row[RadiusKey(rad)] = 1000 * (camera::RadialProfileMm(r.water.params, rad) -
-                                    camera::RadialProfileMm(r.air.params, rad));
+      row[RadiusKey(rad)] = Number(1000 * (water.RadialProfileMm(rad) - air.RadialProfileMm(rad)));
     }
-    row["water"] = FitJson(r.water);
-    row["air"] = FitJson(r.air);
+    row["rms_water_um"] = water.rms_um();
+    row["water"] = r.water_fisheye ? CameraFitJson(*r.water_fisheye) : FitJson(r.water);
+    row["air"] = r.air_fisheye ? CameraFitJson(*r.air_fisheye) : FitJson(r.air);
     out.push_back(row);
   }
   return out;
@@ -138,22 +140,28 @@ Json SweepJson(const std::vector<SweepRow>& rows, int axis, const std::vector<do
 
 std::string SweepCsv(const std::vector<SweepRow>& rows, int axis,
                      const std::vector<double>& radii) {
+  const bool brown = rows.empty() || !rows.front().water_fisheye;
   std::string s = fmt::format(
       "# porthole simulate: entrance-pupil offset along {} (mm) vs the fitted water and air "
-      "calibrations; dr_change = water - air radial profile\n",
-      AxisName(axis));
+      "calibrations ({}); dr_change = water - air radial profile\n",
+      AxisName(axis), rows.empty() ? "brown" : rows.front().water_view().model_name());
   s += "offset_mm,dc_mm,c_ratio_water_air";
   for (double r : radii) s += "," + RadiusKey(r);
-  s += ",c_water_mm,x0_water_mm,y0_water_mm,K1_water,K2_water,K3_water,P1_water,P2_water,"
-       "rms_water_um,c_air_mm,K1_air,K2_air,K3_air,rms_air_um\n";
+  s += brown ? ",c_water_mm,x0_water_mm,y0_water_mm,K1_water,K2_water,K3_water,P1_water,P2_water,"
+               "rms_water_um,c_air_mm,K1_air,K2_air,K3_air,rms_air_um\n"
+             : ",c_water_mm,rms_water_um,c_air_mm,rms_air_um\n";
   for (const SweepRow& r : rows) {
+    const FitView water = r.water_view(), air = r.air_view();
+    s += fmt::format("{:.6g},{:.9g},{:.9g}", r.offset_mm, water.c_mm() - air.c_mm(), water.c_mm() / air.c_mm());
+    for (double rad : radii) {
+      s += fmt::format(",{:.6g}", 1000 * (water.RadialProfileMm(rad) - air.RadialProfileMm(rad)));
+    }
+    if (!brown) {
+      s += fmt::format(",{:.9g},{:.6g},{:.9g},{:.6g}\n", water.c_mm(), water.rms_um(), air.c_mm(), air.rms_um());
+      continue;
+    }
     const auto& w = r.water.params;
     const auto& a = r.air.params;
-    s += fmt::format("{:.6g},{:.9g},{:.9g}", r.offset_mm, w.c_mm - a.c_mm, w.c_mm / a.c_mm);
-    for (double rad : radii) {
-      s += fmt::format(",{:.6g}", 1000 * (camera::RadialProfileMm(w, rad) -
-                                          camera::RadialProfileMm(a, rad)));
-    }
     s += fmt::format(",{:.9g},{:.6g},{:.6g},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{:.6g}", w.c_mm,
                      w.x0_mm, w.y0_mm, w.K1, w.K2, w.K3, w.P1, w.P2, r.water.rms_um);
     s += fmt::format(",{:.9g},{:.6e},{:.6e},{:.6e},{:.6g}\n", a.c_mm, a.K1, a.K2, a.K3,
@@ -196,8 +204,8 @@ Json MapJson(const std::vector<MapPoint>& map) {
 
 std::string MapCsv(const std::vector<MapPoint>& map) {
   std::string s =
-      "# porthole simulate: Brown correction vectors (um, image x right / y up) of the water and "
-      "air fits, their difference (water - air) and the water fit's residual, on the fit grid\n"
+      "# porthole simulate: correction vectors (um, image x right / y up; ideal - measured) of the "
+      "water and air fits, their difference (water - air) and the water fit's residual, on the fit grid\n"
       "x_mm,y_mm,u_px,v_px,water_dx_um,water_dy_um,water_um,air_dx_um,air_dy_um,air_um,"
       "diff_dx_um,diff_dy_um,diff_um,residual_um\n";
   for (const MapPoint& m : map) {

@@ -16,10 +16,12 @@
 #include <Eigen/Core>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "porthole/camera/brown.h"
 #include "porthole/camera/camera.h"
+#include "porthole/camera/projection.h"
 #include "porthole/camera/sensor.h"
 #include "porthole/housing/housed.h"
 #include "porthole/lens/lens.h"
@@ -109,6 +111,41 @@ struct CameraFit {
 CameraFit SimulateCameraFit(const ports::PortSystem& sys, const lens::LensSpec& lens, const camera::Sensor& sensor,
                             double c_mm, camera::CameraModelId model, const FitOptions& options = {});
 
+// One fit as the sweeps, the maps and the report read it, whatever its model: the Brown fit of a
+// rectilinear lens or the fitted model (Kannala–Brandt) of a fisheye. The correction is image mm
+// (x right, y up), ideal − measured as Brown's (camera/brown.h): for a model other than Brown the
+// ideal point is the lens's own projection (camera/projection.h) at the fitted focal lengths about
+// the fitted principal point, so a fisheye that keeps its projection has zero correction. A view
+// refers to its fit: it must not outlive it.
+class FitView {
+ public:
+  explicit FitView(const BrownFit& fit) : brown_(&fit) {}
+  FitView(const CameraFit& fit, camera::Projection lens_projection) : model_(&fit), projection_(lens_projection) {}
+
+  bool is_brown() const { return brown_ != nullptr; }
+  const BrownFit* brown() const { return brown_; }
+  const CameraFit* model_fit() const { return model_; }
+  std::string_view model_name() const;
+  // The principal distance, mm (another model: its mean focal length in px × the pixel pitch).
+  double c_mm() const;
+  double rms_um() const;
+  double max_um() const;
+  // The correction at a measured point (image mm from the sensor centre, y up); NaN where the
+  // model cannot unproject it.
+  Eigen::Vector2d CorrectionMm(double x_mm, double y_mm) const;
+  // The radial correction r mm from the principal point along +x (Brown: K1 r³ + K2 r⁵ + K3 r⁷).
+  double RadialProfileMm(double r_mm) const;
+  // Brown's decentring profile √(P1² + P2²)·r²; nullopt for a model without decentring terms.
+  std::optional<double> DecentringProfileMm(double r_mm) const;
+  // The fit's residual at a grid point (row-major), µm; NaN where its ray failed.
+  double ResidualUm(std::size_t grid_index) const;
+
+ private:
+  const BrownFit* brown_ = nullptr;
+  const CameraFit* model_ = nullptr;
+  camera::Projection projection_ = camera::Projection::kRectilinear;
+};
+
 // The port with air (n = 1) outside instead of water: the in-air calibration of the camera in its
 // housing.
 ports::PortSystem WithAirOutside(const ports::PortSystem& sys);
@@ -158,10 +195,15 @@ struct Prediction {
   // and in air instead of Brown (water and air above are then left empty).
   std::optional<CameraFit> water_fisheye, air_fisheye;
   camera::Projection lens_projection = camera::Projection::kRectilinear;
+  lens::LensSpec lens;  // the lens behind the port (sweeps refit a fisheye through its projection)
   camera::BrownParams change;  // water − air, parameter by parameter
   // The in-air calibration + change: the underwater calibration to expect (only with
   // air_calibration).
   std::optional<camera::BrownParams> predicted_water;
+
+  // The water and air fits, whichever model they are (they refer to this prediction).
+  FitView water_view() const { return water_fisheye ? FitView(*water_fisheye, lens_projection) : FitView(water); }
+  FitView air_view() const { return air_fisheye ? FitView(*air_fisheye, lens_projection) : FitView(air); }
 };
 
 // Resolves the system (focus, pupil, c, indices), fits water and air. Throws InvalidInput.
@@ -172,16 +214,23 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options = {});
 
 struct SweepRow {
   double offset_mm = 0;  // added to the pupil along the sweep's axis
-  BrownFit water, air;
+  BrownFit water, air;   // rectilinear lenses
+  std::optional<CameraFit> water_fisheye, air_fisheye;  // a fisheye (as in Prediction)
+  camera::Projection lens_projection = camera::Projection::kRectilinear;
+
+  FitView water_view() const { return water_fisheye ? FitView(*water_fisheye, lens_projection) : FitView(water); }
+  FitView air_view() const { return air_fisheye ? FitView(*air_fisheye, lens_projection) : FitView(air); }
 };
 // Moves the pupil by each offset along housing axis `axis` (0 X, 1 Y, 2 Z; +Z toward the glass)
-// from its place in `prediction`, keeping c and the focus, and refits in water and in air.
+// from its place in `prediction`, keeping c and the focus, and refits in water and in air (the
+// prediction's model: Brown, or Kannala–Brandt for a fisheye).
 // Fit options as in the prediction. Throws InvalidInput("axis") or when a pupil leaves the port.
 std::vector<SweepRow> SweepPupilOffset(const Prediction& prediction, int axis,
                                        const std::vector<double>& offsets_mm);
 
 // The distortion fields over the fit grid: correction vectors Δ of the water and air fits at each
-// measured point, their difference (water − air), and the water fit's residual.
+// measured point (FitView::CorrectionMm), their difference (water − air), and the water fit's
+// residual.
 struct MapPoint {
   double x_mm = 0, y_mm = 0;  // image mm (y up)
   double u_px = 0, v_px = 0;  // pixel (v down)

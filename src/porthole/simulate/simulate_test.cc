@@ -276,8 +276,70 @@ TEST(Simulate, FisheyeBehindAConcentricDomeFitsTheProjectionsSeries) {
     EXPECT_NEAR(k[4], -1.0 / 24, 1e-5);
     EXPECT_NEAR(k[5], 1.0 / 1920, 2e-5);
   }
+  // The views: the lens keeps its projection, so no correction anywhere and focal ratio 1.
+  EXPECT_NEAR(p.water_view().c_mm() / p.air_view().c_mm(), 1.0, 1e-6);
+  for (const MapPoint& m : DistortionMap(p)) {
+    EXPECT_LT(m.water_um.norm(), 0.05) << m.x_mm << ", " << m.y_mm;
+    EXPECT_LT(m.difference_um.norm(), 0.05);
+  }
   spec.air_calibration = PaperAirLens();
   EXPECT_THROW(Predict(spec), InvalidInput);  // a Brown calibration cannot describe a fisheye
+}
+
+// A fisheye behind a thin flat port at its pupil: every chief ray is bent by Snell's law alone,
+// sin θa = n sin θw, and the bundle stays central. Paraxially the focal length grows by n; an image
+// point at radius r (θa = g⁻¹(r/c) through the equisolid lens) must move to n·c·g(θw) to obey the
+// lens's projection in water: the correction the view reports, in closed form.
+TEST(Simulate, FisheyeBehindAThinFlatPortFollowsSnellsLaw) {
+  SystemSpec spec = PaperSystem();
+  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  ports::FlatPort flat;
+  flat.inner_point_mm = Vec3(0, 0, 1e-4);
+  flat.thickness_mm = 1e-3;
+  spec.port.name = "thin-flat";
+  spec.port.frame = ports::PortFrame::kCam;
+  spec.port.shape = flat;
+  // c = 20 mm keeps the field within 42° in air (29.5° in water), where Kannala–Brandt's series
+  // follows the Snell mapping; at the lens's 10.5 mm the field reaches 85° in air, near grazing
+  // in the glass, and no polynomial in θw follows it (the fit's RMS is then 4 px).
+  spec.c_mm = 20;
+  const Prediction p = Predict(spec);
+  ASSERT_TRUE(p.water_fisheye);
+  const double n = p.water_system.n_water, c = 20;
+  const FitView water = p.water_view(), air = p.air_view();
+  EXPECT_NEAR(water.c_mm() / (n * air.c_mm()), 1.0, 2e-3);
+  const double corner = ProfileRadiiMm(p.camera.sensor).back();
+  const auto g = [](double t) { return 2 * std::sin(t / 2); };
+  const auto expected_um = [&](double r) {
+    const double theta_air = 2 * std::asin(r / (2 * c));
+    const double theta_water = std::asin(std::sin(theta_air) / n);
+    return 1000 * (n * c * g(theta_water) - r);
+  };
+  const double scale = std::abs(expected_um(corner));
+  EXPECT_LT(p.water_fisheye->rms_px, 0.01);
+  EXPECT_GT(scale, 300);  // strong: a flat port squeezes a fisheye's field
+  for (double r : {4.0, 8.0, 12.0, corner}) {
+    EXPECT_NEAR(1000 * water.RadialProfileMm(r), expected_um(r), 0.01 * scale) << "r = " << r;
+    EXPECT_LT(std::abs(1000 * air.RadialProfileMm(r)), 0.5);  // in air the lens keeps its projection
+  }
+}
+
+// Moving the pupil off the centre of a concentric dome: the change of focal length and of the
+// radial profile is odd in the offset to first order, and the sweep's offset 0 is the prediction.
+TEST(Simulate, FisheyeSweepIsOddAboutTheDomeCentre) {
+  SystemSpec spec = PaperSystem("nimar-ni320-nominal");
+  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  const Prediction p = Predict(spec);
+  const std::vector<SweepRow> rows = SweepPupilOffset(p, 2, {-1.0, 0.0, 1.0});
+  ASSERT_EQ(rows.size(), 3u);
+  ASSERT_TRUE(rows[1].water_fisheye);
+  EXPECT_NEAR(rows[1].water_view().c_mm(), p.water_view().c_mm(), 1e-9);
+  const auto dc = [](const SweepRow& r) { return r.water_view().c_mm() / r.air_view().c_mm() - 1; };
+  const auto dr = [](const SweepRow& r) { return r.water_view().RadialProfileMm(12) - r.air_view().RadialProfileMm(12); };
+  EXPECT_GT(std::abs(dc(rows[2])), 1e-4);
+  EXPECT_GT(std::abs(dr(rows[2])), 1e-3);  // > 1 µm at r = 12 mm
+  EXPECT_NEAR(dc(rows[0]) / dc(rows[2]), -1.0, 0.1);
+  EXPECT_NEAR(dr(rows[0]) / dr(rows[2]), -1.0, 0.1);
 }
 
 TEST(CameraJson, RoundTripAndTyposAreRejected) {

@@ -44,6 +44,7 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
   p.camera.ep_in_housing_mm = p.focus.ep_in_housing_mm;
   const bool fisheye = camera::IsFisheye(spec.lens.projection);
   p.lens_projection = spec.lens.projection;
+  p.lens = spec.lens;
   if (spec.air_calibration && fisheye) {
     throw InvalidInput("air_calibration", "is a Brown calibration; the " + spec.lens.name + " is a " +
                                               std::string(camera::ProjectionName(spec.lens.projection)) +
@@ -86,8 +87,17 @@ std::vector<SweepRow> SweepPupilOffset(const Prediction& prediction, int axis,
     const ports::PortSystem water = ports::Place(w.spec, cam.ep_in_housing_mm, w.n_glass, w.n_water);
     SweepRow row;
     row.offset_mm = offset;
-    row.water = SimulateFit(water, cam, prediction.options);
-    row.air = SimulateFit(WithAirOutside(water), cam, prediction.options);
+    row.lens_projection = prediction.lens_projection;
+    if (prediction.water_fisheye) {
+      const camera::CameraModelId model = prediction.water_fisheye->camera.model;
+      const double c = prediction.camera.lens.c_mm;
+      row.water_fisheye = SimulateCameraFit(water, prediction.lens, cam.sensor, c, model, prediction.options);
+      row.air_fisheye =
+          SimulateCameraFit(WithAirOutside(water), prediction.lens, cam.sensor, c, model, prediction.options);
+    } else {
+      row.water = SimulateFit(water, cam, prediction.options);
+      row.air = SimulateFit(WithAirOutside(water), cam, prediction.options);
+    }
     rows.push_back(std::move(row));
   }
   return rows;
@@ -97,6 +107,7 @@ std::vector<MapPoint> DistortionMap(const Prediction& prediction) {
   const FitOptions& o = prediction.options;
   const camera::Sensor& s = prediction.camera.sensor;
   const auto grid = ImageGrid(s, o.grid_cols, o.grid_rows);
+  const FitView water = prediction.water_view(), air = prediction.air_view();
   std::vector<MapPoint> out;
   out.reserve(grid.size());
   for (std::size_t i = 0; i < grid.size(); ++i) {
@@ -106,11 +117,10 @@ std::vector<MapPoint> DistortionMap(const Prediction& prediction) {
     const Eigen::Vector2d uv = camera::ImageMmToPixel(s, m.x_mm, m.y_mm);
     m.u_px = uv(0);
     m.v_px = uv(1);
-    m.water_um = 1000 * camera::Correction(prediction.water.params, m.x_mm, m.y_mm);
-    m.air_um = 1000 * camera::Correction(prediction.air.params, m.x_mm, m.y_mm);
+    m.water_um = 1000 * water.CorrectionMm(m.x_mm, m.y_mm);
+    m.air_um = 1000 * air.CorrectionMm(m.x_mm, m.y_mm);
     m.difference_um = m.water_um - m.air_um;
-    m.residual_um = i < prediction.water.residual_um.size() ? prediction.water.residual_um[i]
-                                                            : std::nan("");
+    m.residual_um = water.ResidualUm(i);
     out.push_back(m);
   }
   return out;
