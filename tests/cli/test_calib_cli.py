@@ -204,3 +204,27 @@ def test_calibration_out_is_read_by_simulate(detections, tmp_path):
     run("calibrate", "--detections", detections, "--pixel-pitch-mm", "0.0055", "--out", out, "--quiet")
     j = run("simulate", "--air-calibration", out, "--json").json()
     assert j is not None
+
+
+def test_killed_calibrate_leaves_old_output_or_none_and_no_temporaries(samples, detections, tmp_path):
+    """SIGKILL at any moment of `calibrate --out` (detection, adjustment, writing) leaves the old
+    calibration whole or the new one whole, and the next run removes the dead run's temporary."""
+    import signal
+    import subprocess
+    import time
+    from conftest import BIN
+    out = tmp_path / "cal.json"
+    run("calibrate", "--detections", detections, "--out", out, "--quiet")
+    old = json.loads(out.read_text())
+    for delay in (0.05, 0.2, 0.5, 1.0, 1.5):
+        proc = subprocess.Popen([BIN, "calibrate", "--images", str(samples), "--target", TARGET,
+                                 "--model", "kannala-brandt", "--out", str(out), "--quiet"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        cal = json.loads(out.read_text())  # whole: it parses
+        assert cal["model"] in (old["model"], "kannala-brandt"), delay
+    run("calibrate", "--detections", detections, "--out", out, "--quiet")
+    assert json.loads(out.read_text())["model"] == old["model"]
+    assert [p for p in os.listdir(tmp_path) if ".tmp" in p] == []
