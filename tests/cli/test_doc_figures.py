@@ -191,6 +191,10 @@ def test_planning_fisheye_figures():
     # "(with 10.31 mm the diagonal field would be 173.4 deg)": the equisolid closed form
     half_diag = 0.5 * math.hypot(4288 * 0.0055, 2848 * 0.0055)
     assert round(4 * math.degrees(math.asin(half_diag / (2 * 10.31))), 1) == 173.4
+    # docs/simulate.md: "a thin flat port at the pupil (c = 20 mm: the frame corner 41 deg off axis in
+    # air)"; "At the 10.5 mm fisheye's own focal length ... the field reaches 85 deg in air" (equisolid)
+    assert round(2 * math.degrees(math.asin(half_diag / (2 * 20)))) == 41
+    assert round(2 * math.degrees(math.asin(half_diag / (2 * 10.5)))) == 85
     # "a 10.5 mm fisheye's 169.5 deg become 95.9 deg of water, at most 96.4 deg" (flat port)
     flat = run("flat", "--lens", "nikkor-10.5mm-f2.8g-fisheye", "--json").json()
     assert round(flat["fov"]["water_traced"]["diagonal_deg"], 1) == 95.9 and round(flat["max_fov_deg"], 1) == 96.4

@@ -84,11 +84,13 @@ TEST(Tanaka2001, ReproducesThePublishedDensityTable) {
   EXPECT_NEAR(WaterDensityTanaka2001(25.0), 997.047435, 5e-4);
 }
 
-TEST(QuanFryVsIapws, FreshWaterAgreesWithin2e4InTheCommonRange) {
+// docs/materials.md: "Quan–Fry and IAPWS agree within 4e-5 over 0–30 °C and 400–700 nm" (the two
+// fits of independent data sets; 3.5e-5 at worst).
+TEST(QuanFryVsIapws, FreshWaterAgreesWithin4e5InTheCommonRange) {
   for (double t = 0.0; t <= 30.0; t += 5.0) {
     for (double lambda = 400.0; lambda <= 700.0; lambda += 25.0) {
       const Conditions c = At(lambda, t, 0.0);
-      EXPECT_NEAR(Index("freshwater", c), Index("water-iapws", c), 2e-4)
+      EXPECT_NEAR(Index("freshwater", c), Index("water-iapws", c), 4e-5)
           << "T " << t << " lambda " << lambda;
     }
   }
@@ -340,6 +342,18 @@ TEST(Depth, ThousandMetresAt45DegreesIsAbout1010Dbar) {
   EXPECT_EQ(DepthToPressureDbar(0.0), 0.0);
   // UNESCO 1983 table (p. 30): 500 dbar at 45° is 495.34 m.
   EXPECT_NEAR(DepthToPressureDbar(495.34, 45.0), 500.0, 0.01);
+}
+
+// docs/materials.md: "the error of ignoring latitude is under 0.3 %": gravity grows by 0.53 % from
+// the equator to the pole, so the pressure at a depth is within ±0.27 % of its 45° value.
+TEST(Depth, IgnoringLatitudeErrsByLessThan0p3Percent) {
+  for (double depth_m : {10.0, 1000.0, 10000.0}) {
+    const double at45 = DepthToPressureDbar(depth_m);
+    for (double lat : {0.0, 30.0, 60.0, 90.0}) {
+      EXPECT_LT(std::abs(DepthToPressureDbar(depth_m, lat) / at45 - 1), 0.003) << depth_m << " m at " << lat;
+    }
+    EXPECT_GT(std::abs(DepthToPressureDbar(depth_m, 0.0) / at45 - 1), 0.002) << depth_m;  // not trivially 0
+  }
 }
 
 TEST(Depth, BadInputIsRefused) {
