@@ -48,8 +48,8 @@ def detections(samples, tmp_path_factory):
     return out
 
 
-def test_calibrate_images_json_shape(samples):
-    j = run("calibrate", "--images", samples, "--target", TARGET, "--json").json()
+def test_calibrate_images_json_shape(samples, tmp_path):
+    j = run("calibrate", "--images", samples, "--target", TARGET, "--json", "--opencv-yaml", tmp_path / "c.yml").json()
     for block in ("camera", "sigma"):
         assert list(j[block].keys()) == KEYS
         for k in ("K3", "B1", "B2"):  # not adjusted by default
@@ -67,6 +67,12 @@ def test_calibrate_images_json_shape(samples):
     assert j["camera"]["K1"] > 0
     assert 0 < j["sigma0_px"] < 0.5 and 0 < j["rms_px"] < 0.5
     assert j["n_images"] == 13 and len(j["images"]) == 13
+    # docs/calibration.md: "The default CLI run (5σ0 rejection) rejects none of the 702 corners: σ0
+    # 0.128 px, RMS 0.176 px. The OpenCV YAML export refits with 0.035 px RMS (0.23 px max)".
+    assert (j["n_points"], j["n_rejected"]) == (702, 0)
+    assert (round(j["sigma0_px"], 3), round(j["rms_px"], 3)) == (0.128, 0.176)
+    refit = j["opencv_yaml"]
+    assert (round(refit["refit_rms_px"], 3), round(refit["refit_max_px"], 2)) == (0.035, 0.23)
 
 
 def test_pitch_scales_millimetres(detections):

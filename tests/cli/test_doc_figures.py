@@ -4,6 +4,7 @@ docs/materials.md, docs/planning.md, docs/report.md ("One quantity, one number")
 (the datum paragraph), docs/fit.md and docs/robustness.md ("Large scans"). Each check names the
 doc's words it measures. The expected values are the doc's, checked against the CLI; where the doc
 states a physical or closed-form relation the test computes it independently."""
+import json
 import math
 import resource
 import subprocess
@@ -205,6 +206,21 @@ def test_planning_flat_port_figures():
     # "paraxially n_w c, +34 % in seawater"; "16 px at the corner for the D300 and 24 mm"
     assert round(out["focal_length_increase_pct"]) == 34
     assert round(out["lateral_colour"]["corner_px"]) == 16
+
+
+# ---- docs/camera-model.md ----
+
+def test_camera_model_corner_distortion_of_the_papers_lens(tmp_path):
+    # "a lens with about 64 px of distortion at the corners (dr = K1 r^3 + K2 r^5 at the 14.16 mm half
+    # diagonal)": the paper's in-air calibration (Table 6) on the D300, from porthole compare's profile.
+    cal = {"camera": {"c_mm": 25.801, "x0_mm": -0.026, "y0_mm": -0.144, "K1": 1.842e-4, "K2": -3.030e-7},
+           "sensor": {"width_px": 4288, "height_px": 2848, "pixel_pitch_mm": 0.0055}}
+    path = tmp_path / "air.json"
+    path.write_text(json.dumps(cal))
+    curves = run("compare", path, path, "--json").json()["curves"]
+    corner = curves[-1]
+    assert round(corner["r_mm"], 2) == 14.16
+    assert round(corner["radial_a_um"] / 5.5) == 64
 
 
 # ---- docs/report.md: "One quantity, one number" ----
