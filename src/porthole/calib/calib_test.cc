@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/synthetic.h"
@@ -67,10 +68,13 @@ TEST(CalibTest, RecoversKnownCameraWithin3Sigma) {
   const auto r = Calibrate(set.detections, opts.target, PaperOptions());
   ASSERT_TRUE(r.covariance_ok) << r.message;
   EXPECT_NEAR(r.sigma0_px, opts.noise_px, 0.05 * opts.noise_px);
+  std::printf("[brown] sigma0 %.3f px\n", r.sigma0_px);  // the figures docs/calibration.md quotes
   const auto& truth = opts.camera.params;
   const auto& got = r.camera.params;
   for (int i = 0; i < kBrownNumParams; ++i) {
     if (!r.free[i]) continue;
+    std::printf("[brown] %s: sigma %.2g, |error| / sigma %.2f\n", std::string(kBrownParamInfo[i].name).c_str(),
+                r.sigma[i], std::abs(got[i] - truth[i]) / r.sigma[i]);
     EXPECT_LT(std::abs(got[i] - truth[i]), 3 * r.sigma[i])
         << kBrownParamInfo[i].name << " " << got[i] << " vs " << truth[i] << " σ " << r.sigma[i];
     EXPECT_GT(r.sigma[i], 0);
@@ -104,6 +108,8 @@ TEST(CalibTest, SigmaMatchesMonteCarloSpread) {
     const double ratio = mean_sigma[i] / spread;
     EXPECT_GT(ratio, 1 / 1.5) << kBrownParamInfo[i].name;
     EXPECT_LT(ratio, 1.5) << kBrownParamInfo[i].name;
+    std::printf("[brown] %s: mean sigma %.3g, Monte-Carlo spread %.3g, ratio %.2f\n",
+                std::string(kBrownParamInfo[i].name).c_str(), mean_sigma[i], spread, ratio);
   }
 }
 
@@ -120,6 +126,9 @@ TEST(CalibTest, StepwiseDropsNonSignificantParameters) {
   // at least two of the three must go, and K1, K2 must stay.
   EXPECT_GE(r.dropped.size(), 2u);
   EXPECT_TRUE(r.free[camera::kBrownK1] && r.free[camera::kBrownK2]);
+  for (const auto& d : r.dropped) {  // the order docs/calibration.md quotes
+    std::printf("[brown] dropped %s (t %.2f)\n", std::string(kBrownParamInfo[d.index].name).c_str(), d.t);
+  }
   for (const auto& s : r.significance) EXPECT_TRUE(s.significant);
 }
 
