@@ -4,6 +4,7 @@ docs/materials.md, docs/planning.md, docs/report.md ("One quantity, one number")
 (the datum paragraph), docs/fit.md and docs/robustness.md ("Large scans"). Each check names the
 doc's words it measures. The expected values are the doc's, checked against the CLI; where the doc
 states a physical or closed-form relation the test computes it independently."""
+import csv
 import json
 import math
 import resource
@@ -250,8 +251,8 @@ def test_report_one_quantity_figures():
 
 # ---- docs/simulate.md: the datum paragraph ----
 
-def test_simulate_datum_coefficients_and_profiles():
-    free = run("simulate", "--json").json()
+def test_simulate_datum_coefficients_and_profiles(tmp_path):
+    free = run("simulate", "--json", "--map", tmp_path / "map.csv").json()
     fixed = run("simulate", "--fixed-rotation", "--json").json()
     # "K2/K3, which trade with the datum, by 40-70 %"
     rel = [abs(fixed[m][k] / free[m][k] - 1) for m in ("water", "air") for k in ("K2", "K3")]
@@ -265,6 +266,13 @@ def test_simulate_datum_coefficients_and_profiles():
         for p, q in zip(free["radial_profile"], fixed["radial_profile"]):
             if abs(p[key]) > 1e-9 and abs(q[key] / p[key] - 1) > 0.05:
                 assert abs(q[key] - p[key]) < 0.1, (key, p["r_mm"])
+    # docs/report.md, residual-map: the water fit's residual "is a hundred times smaller than the maps
+    # above" (largest vector against the largest of the water, air and difference maps)
+    with open(tmp_path / "map.csv") as f:
+        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
+    largest = lambda key: max(float(r[key]) for r in rows)
+    ratio = max(largest(k) for k in ("water_um", "air_um", "diff_um")) / largest("residual_um")
+    assert round(math.log10(ratio)) == 2, ratio
 
 
 def test_simulate_table6_datum_doubles_the_principal_point_and_quintuples_p():
