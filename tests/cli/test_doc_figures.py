@@ -1,4 +1,4 @@
-"""Measures the figures the docs state that no other test measured at the precision the doc gives
+"""Measures the figures README.md and the docs state that no other test measured at the precision the doc gives
 them (every figure a doc states is one a test or a benchmark measures): docs/port-optics.md,
 docs/materials.md, docs/planning.md, docs/report.md ("One quantity, one number"), docs/simulate.md
 (the datum paragraph), docs/fit.md and docs/robustness.md ("Large scans"). Each check names the
@@ -197,7 +197,8 @@ def test_planning_fisheye_figures():
     # air)"; "At the 10.5 mm fisheye's own focal length ... the field reaches 85 deg in air" (equisolid)
     assert round(2 * math.degrees(math.asin(half_diag / (2 * 20)))) == 41
     assert round(2 * math.degrees(math.asin(half_diag / (2 * 10.5)))) == 85
-    # "a 10.5 mm fisheye's 169.5 deg become 95.9 deg of water, at most 96.4 deg" (flat port)
+    # "a 10.5 mm fisheye's 169.5 deg become 95.9 deg of water, at most 96.4 deg" (flat port; README.md:
+    # "97.2 deg for a water index of 1.333 [flat_test, port_test], 96.4 deg in seawater")
     flat = run("flat", "--lens", "nikkor-10.5mm-f2.8g-fisheye", "--json").json()
     assert round(flat["fov"]["water_traced"]["diagonal_deg"], 1) == 95.9 and round(flat["max_fov_deg"], 1) == 96.4
 
