@@ -71,6 +71,9 @@ def test_calibrate_images_json_shape(samples, tmp_path):
     # 0.128 px, RMS 0.176 px. The OpenCV YAML export refits with 0.035 px RMS (0.23 px max)".
     assert (j["n_points"], j["n_rejected"]) == (702, 0)
     assert (round(j["sigma0_px"], 3), round(j["rms_px"], 3)) == (0.128, 0.176)
+    # "K1/K2 near -0.9 is usual (-0.91 on the OpenCV samples)"
+    names = j["correlation"]["parameters"]
+    assert round(m[names.index("K1")][names.index("K2")], 2) == -0.91
     refit = j["opencv_yaml"]
     assert (round(refit["refit_rms_px"], 3), round(refit["refit_max_px"], 2)) == (0.035, 0.23)
 
