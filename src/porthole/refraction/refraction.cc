@@ -1,0 +1,293 @@
+#include "porthole/refraction/refraction.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+
+#include "porthole/core/error.h"
+
+namespace porthole::refraction {
+namespace {
+
+using J1 = ceres::Jet<double, 1>;
+using J2 = ceres::Jet<double, 2>;
+
+// A unit vector perpendicular to unit v, and the third completing a right-handed frame.
+void Perpendiculars(const Vec3& v, Vec3* a, Vec3* b) {
+  const Vec3 helper = std::abs(v.x()) < 0.6 ? Vec3::UnitX() : Vec3::UnitY();
+  *a = v.cross(helper).normalized();
+  *b = v.cross(*a);
+}
+
+template <typename S>
+Geometry<S> CastGeometry(const Geometry<double>& g) {
+  Geometry<S> c;
+  c.kind = g.kind;
+  c.outer_center = g.outer_center.cast<S>();
+  c.inner_center = g.inner_center.cast<S>();
+  c.outer_radius = S(g.outer_radius);
+  c.inner_radius = S(g.inner_radius);
+  c.rim_z = g.rim_z;
+  c.normal = g.normal.cast<S>();
+  c.distance = S(g.distance);
+  c.thickness = S(g.thickness);
+  c.n_glass = S(g.n_glass);
+  c.n_water = S(g.n_water);
+  return c;
+}
+
+// The axis of an axial system (unit, z ≥ 0), or nullopt when the system is not axial. *identity is
+// set when the pupil sits at the common centre of a concentric dome (no ray is bent).
+std::optional<Vec3> Axis(const Geometry<double>& g, bool* identity) {
+  *identity = false;
+  if (g.kind == PortKind::kFlat) return g.normal;
+  const Vec3& co = g.outer_center;
+  const Vec3& ci = g.inner_center;
+  const double tol = 1e-12 * g.outer_radius;
+  const double no = co.norm(), ni = ci.norm();
+  if (no <= tol && ni <= tol) {
+    *identity = true;
+    return Vec3::UnitZ();
+  }
+  const Vec3 a = (no >= ni ? co / no : ci / ni);
+  // Both centres on the line through the pupil along a.
+  if ((co - co.dot(a) * a).norm() > tol || (ci - ci.dot(a) * a).norm() > tol) return std::nullopt;
+  return a.z() < 0 ? Vec3(-a) : a;
+}
+
+// The approximate axis of a non-axial dome: from the pupil through the outer centre (or the
+// inner one when the pupil sits at the outer centre), z ≥ 0.
+Vec3 ApproximateAxis(const Geometry<double>& g) {
+  const Vec3& co = g.outer_center;
+  const Vec3 a = co.norm() > 1e-9 * g.outer_radius ? co.normalized() : g.inner_center.normalized();
+  return a.z() < 0 ? Vec3(-a) : a;
+}
+
+// 1-D safeguarded Newton (Numerical Recipes' rtsafe idea): the angle θ ∈ (0, π) of the direction
+// cos θ·a + sin θ·e in the plane through the axis a and the point, e the unit in-plane
+// perpendicular toward the point. Residual F(θ) = ((u × v)·m), m = a × e: the sine of the angle
+// from u (exit point → point) to v (ray in the water), increasing in θ, negative at θ = 0 (the ray
+// along the axis leaves the point on its e side). Derivative by a Jet<1> through the trace.
+// Returns θ, or nullopt without convergence; `tol` is the final Newton step (rad).
+std::optional<double> SolveInPlane(const Geometry<J1>& g, const Vec3& x, const Vec3& a,
+                                   const Vec3& e, double theta0, double tol, int* iterations) {
+  const Vec3 m = a.cross(e);
+  const Vec3T<J1> xj = x.cast<J1>();
+  double lo = 0, hi = M_PI;  // F(lo) < 0; F(hi) > 0 or the trace fails there
+  double th = std::clamp(theta0, 1e-9, M_PI - 1e-9);
+  for (int it = 0; it < 100; ++it) {
+    ++*iterations;
+    const J1 t(th, 0);
+    using std::cos;
+    using std::sin;
+    const Vec3T<J1> dir = a.cast<J1>() * cos(t) + e.cast<J1>() * sin(t);
+    Vec3T<J1> o, v;
+    double next;
+    bool newton = false;
+    if (TraceOut<J1>(g, dir, &o, &v) != optics::RayStatus::kOk) {
+      hi = th;
+      next = 0.5 * (lo + hi);
+    } else {
+      const Vec3T<J1> w = xj - o;
+      const Vec3T<J1> u = w / w.norm();
+      const J1 f = u.cross(v).dot(m.cast<J1>());
+      if (f.a == 0) return th;
+      (f.a < 0 ? lo : hi) = th;
+      next = th - f.a / f.v(0);
+      newton = f.v(0) > 0 && next > lo && next < hi;
+      if (!newton) next = 0.5 * (lo + hi);
+    }
+    const double step = std::abs(next - th);
+    th = next;
+    if (newton && step <= tol) return th;
+    if (hi - lo <= 1e-15) return th;
+  }
+  return std::nullopt;
+}
+
+// One Newton iteration's system at direction s->dir: residual and Jacobian by a Jet<2> trace.
+bool NewtonSystem(const Geometry<J2>& g, const Vec3& x, Solution* s, Eigen::Vector2d* r) {
+  Perpendiculars(s->dir, &s->e1, &s->e2);
+  const Vec3T<J2> dir =
+      s->dir.cast<J2>() + s->e1.cast<J2>() * J2(0, 0) + s->e2.cast<J2>() * J2(0, 1);
+  // The residual frame follows the ray in the water: trace once for its value.
+  Vec3T<J2> o, v;
+  if (TraceOut<J2>(g, dir, &o, &v) != optics::RayStatus::kOk) return false;
+  const Vec3 vv(v(0).a, v(1).a, v(2).a);
+  Perpendiculars(vv, &s->f1, &s->f2);
+  const Vec3T<J2> w = x.cast<J2>() - o;
+  const Vec3T<J2> diff = w / w.norm() - v;
+  const J2 r0 = diff.dot(s->f1.cast<J2>()), r1 = diff.dot(s->f2.cast<J2>());
+  *r = Eigen::Vector2d(r0.a, r1.a);
+  s->jac << r0.v(0), r0.v(1), r1.v(0), r1.v(1);
+  s->has_jacobian = true;
+  return true;
+}
+
+}  // namespace
+
+const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind) {
+  static constexpr std::array<PortParamInfo, kPortNumParams> kDome = {{
+      {"ep_x", "ep_in_dome_x_mm", "mm"},
+      {"ep_y", "ep_in_dome_y_mm", "mm"},
+      {"ep_z", "ep_in_dome_z_mm", "mm"},
+  }};
+  static constexpr std::array<PortParamInfo, kPortNumParams> kFlat = {{
+      {"n_x", "normal_x", "1"},
+      {"n_y", "normal_y", "1"},
+      {"distance", "distance_mm", "mm"},
+  }};
+  return kind == PortKind::kDome ? kDome : kFlat;
+}
+
+bool InWater(const Geometry<double>& g, const Vec3& x) {
+  if (g.kind == PortKind::kDome) {
+    return (x - g.outer_center).norm() > g.outer_radius && x.z() > g.rim_z;
+  }
+  return x.dot(g.normal) > g.distance + g.thickness;
+}
+
+bool FillJacobian(const Geometry<double>& g, const Vec3& x, Solution* s) {
+  Eigen::Vector2d r;
+  return NewtonSystem(CastGeometry<J2>(g), x, s, &r);
+}
+
+std::optional<Solution> SolveDirection(const Geometry<double>& g, const Vec3& x) {
+  if (!x.allFinite() || !InWater(g, x)) return std::nullopt;
+  Solution s;
+  bool identity = false;
+  const std::optional<Vec3> axis = Axis(g, &identity);
+  s.axial = axis.has_value();
+  if (identity) {
+    s.dir = x.normalized();
+    return s;
+  }
+  const Vec3 a = axis ? *axis : ApproximateAxis(g);
+  Vec3 e = x - x.dot(a) * a;
+  const double rho = e.norm();
+  if (rho <= 1e-14 * x.norm()) {
+    // On the axis: an axial system sends the axial ray straight through it.
+    s.dir = x.dot(a) >= 0 ? a : Vec3(-a);
+    if (axis) return s;
+  } else {
+    e /= rho;
+    // Start: the direction to the point, steepened by the water index for a flat port (its far
+    // field: sin θ_air = n_w sin θ_water).
+    double th0 = std::atan2(rho, x.dot(a));
+    if (g.kind == PortKind::kFlat) th0 = std::asin(std::min(0.999, g.n_water * std::sin(th0)));
+    const auto th = SolveInPlane(CastGeometry<J1>(g), x, a, e, th0, axis ? 1e-11 : 1e-6,
+                                 &s.iterations);
+    if (!th) return std::nullopt;
+    s.dir = std::cos(*th) * a + std::sin(*th) * e;
+    if (axis) return s;
+  }
+  // 2-D Newton from the in-plane solution, backtracking where a step leaves the port.
+  const Geometry<J2> gj = CastGeometry<J2>(g);
+  Eigen::Vector2d r;
+  if (!NewtonSystem(gj, x, &s, &r)) return std::nullopt;
+  for (int it = 0; it < 50; ++it) {
+    ++s.iterations;
+    const Eigen::Vector2d step = -s.jac.partialPivLu().solve(r);
+    if (!step.allFinite()) return std::nullopt;
+    Solution next = s;
+    double scale = 1;
+    bool ok = false;
+    for (int k = 0; k < 30; ++k) {
+      next.dir = (s.dir + scale * (step(0) * s.e1 + step(1) * s.e2)).normalized();
+      ok = NewtonSystem(gj, x, &next, &r);
+      if (ok) break;
+      scale *= 0.5;
+    }
+    if (!ok) return std::nullopt;
+    s = next;
+    if (scale == 1 && step.norm() <= 1e-11) return s;
+  }
+  return std::nullopt;
+}
+
+Shell ShellOf(const ports::PortSystem& sys) {
+  Shell s;
+  s.n_glass = sys.n_glass;
+  s.n_water = sys.n_water;
+  if (sys.IsDome()) {
+    const ports::DomePort& d = sys.dome();
+    s.kind = PortKind::kDome;
+    s.outer_radius_mm = d.outer.radius_mm;
+    s.inner_radius_mm = d.inner.radius_mm;
+    s.inner_from_outer_mm = d.inner.center_mm - d.outer.center_mm;
+    s.rim_from_outer_z_mm = d.rim_z_mm ? *d.rim_z_mm - d.outer.center_mm.z() : 0.0;
+  } else {
+    s.kind = PortKind::kFlat;
+    s.thickness_mm = sys.flat().thickness_mm;
+  }
+  return s;
+}
+
+std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys) {
+  if (sys.IsDome()) {
+    const Vec3 p = sys.ep_in_housing_mm - sys.dome().outer.center_mm;
+    return {p.x(), p.y(), p.z()};
+  }
+  const ports::FlatPort& f = sys.flat();
+  return {f.normal.x(), f.normal.y(), (f.inner_point_mm - sys.ep_in_housing_mm).dot(f.normal)};
+}
+
+ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
+                               const std::array<double, kPortNumParams>& p) {
+  ports::PortSpec spec = sys.spec;
+  spec.frame = ports::PortFrame::kHousing;
+  spec.default_ep_in_housing_mm = sys.ep_in_housing_mm;
+  const Shell shell = ShellOf(sys);
+  const Geometry<double> g = MakeGeometry<double>(shell, p.data());
+  const Vec3& ep = sys.ep_in_housing_mm;
+  if (auto* d = std::get_if<ports::DomePort>(&spec.shape)) {
+    d->outer.center_mm = ep + g.outer_center;
+    d->inner.center_mm = ep + g.inner_center;
+    if (d->rim_z_mm) *d->rim_z_mm = ep.z() + g.rim_z;
+  } else {
+    auto& f = std::get<ports::FlatPort>(spec.shape);
+    f.normal = g.normal;
+    f.inner_point_mm = ep + g.distance * g.normal;
+  }
+  ports::Validate(spec);
+  return spec;
+}
+
+std::vector<optics::Interface> Interfaces(const Shell& shell, const double* port) {
+  using optics::Interface;
+  using optics::Surface;
+  const Geometry<double> g = MakeGeometry<double>(shell, port);
+  if (g.kind == PortKind::kDome) {
+    Surface inner = Surface::MakeSphere(g.inner_center, g.inner_radius);
+    Surface outer = Surface::MakeSphere(g.outer_center, g.outer_radius);
+    for (Surface* s : {&inner, &outer}) {
+      s->aperture_point = Vec3(0, 0, g.rim_z);
+      s->aperture_normal = Vec3(0, 0, 1);
+    }
+    return {Interface{inner, 1.0, g.n_glass}, Interface{outer, g.n_glass, g.n_water}};
+  }
+  return {Interface{Surface::MakePlane(g.distance * g.normal, g.normal), 1.0, g.n_glass},
+          Interface{Surface::MakePlane((g.distance + g.thickness) * g.normal, g.normal), g.n_glass,
+                    g.n_water}};
+}
+
+void ValidateParams(const Shell& shell, const double* p, const std::string& field) {
+  for (int i = 0; i < kPortNumParams; ++i) {
+    if (!std::isfinite(p[i])) throw InvalidInput(field, "port parameters must be finite numbers");
+  }
+  if (shell.kind == PortKind::kDome) {
+    const Geometry<double> g = MakeGeometry<double>(shell, p);
+    if (g.inner_center.norm() >= g.inner_radius) {
+      throw InvalidInput(field, fmt::format("the entrance pupil ({:.2f}, {:.2f}, {:.2f}) mm from "
+                                            "the dome centre is not inside the inner sphere",
+                                            p[0], p[1], p[2]));
+    }
+  } else {
+    if (!(p[0] * p[0] + p[1] * p[1] < 1)) {
+      throw InvalidInput(field, "the flat port's normal must point toward the scene (n_x² + n_y² < 1)");
+    }
+    if (!(p[2] > 0)) throw InvalidInput(field, "the flat port must lie ahead of the pupil (distance > 0)");
+  }
+}
+
+}  // namespace porthole::refraction

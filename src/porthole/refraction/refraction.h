@@ -1,0 +1,269 @@
+// Forward and backward projection through a port: the explicit refractive camera (a lens model of
+// camera/models.h behind a dome or flat port), templated on the scalar so that the port's
+// parameters, the point and the lens parameters can all be ceres::Jets in a bundle adjustment.
+//
+// Frames and units (docs/conventions.md, "Ports as parameters of a refractive camera"): everything
+// here is in the cam frame (origin at the entrance pupil, axes of the housing frame: X right,
+// Y down, Z toward the scene), mm. A port is split into
+//  - its Shell: what a port file (scan, datasheet) fixes and the images do not estimate — a dome's
+//    radii, the inner sphere's centre relative to the outer one, its rim; a flat port's glass
+//    thickness; and the glass and water indices (relative to air);
+//  - three PARAMETERS, what a calibration estimates (kPortNumParams, PortParamInfo):
+//      dome: ep_in_dome_mm (x, y, z), the entrance pupil minus the outer sphere's centre;
+//      flat: the inner face's unit normal n (toward the scene) as (n_x, n_y), n_z = sqrt(1 − n_x² −
+//            n_y²) > 0, and distance_mm, the pupil-to-inner-face distance along n.
+//
+// Forward projection (ForwardDirection): the direction from the pupil, in air, of the ray that
+// the port bends through a given point in the water. The ray's path is traced exactly (vector
+// Snell, optics/trace.h primitives); the direction is found
+//  - for an AXIAL system (a flat port; a dome whose pupil lies on the line through both centres),
+//    by a safeguarded Newton iteration on one angle in the plane of refraction (the plane through
+//    the axis and the point), the residual being the sine of the angle between the refracted ray
+//    and the direction from its exit point to the point;
+//  - otherwise (a non-concentric dome with the pupil off the line of centres: the paper's as-built
+//    NI320), by a 2-D Newton iteration on the direction started from that in-plane solution, the
+//    residual being the two components of (unit direction to the point − refracted ray direction)
+//    across the ray.
+// Jacobians of the iterations come from Jets through the trace (never finite differences). The
+// iteration runs on values in double; when T is a Jet, one final Newton step in T carries the
+// derivatives with respect to the port parameters and the point (implicit-function theorem), as
+// camera::Distort does for the lens.
+//
+// Backward projection is the plain trace: a pixel's ray (the lens model's Unproject) traced out
+// through the port (optics::TraceSequence on Interfaces(), or TraceOut here).
+//
+// Expected outcomes are std::nullopt, never exceptions: the point is not in the water beyond the
+// port, the ray leaves the glass (beyond a dome's rim), or the iteration does not converge.
+#pragma once
+
+#include <ceres/jet.h>
+
+#include <Eigen/Core>
+#include <Eigen/LU>
+#include <array>
+#include <cmath>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+#include "porthole/camera/scalar.h"
+#include "porthole/camera/sensor.h"
+#include "porthole/optics/trace.h"
+#include "porthole/ports/port.h"
+
+namespace porthole::refraction {
+
+using optics::Vec3;
+template <typename T>
+using Vec3T = Eigen::Matrix<T, 3, 1>;
+template <typename T>
+using Vec2T = Eigen::Matrix<T, 2, 1>;
+
+enum class PortKind { kDome, kFlat };
+
+// The fixed part of a port (see the file comment), cam-frame axes, mm.
+struct Shell {
+  PortKind kind = PortKind::kDome;
+  // Dome.
+  double outer_radius_mm = 0, inner_radius_mm = 0;
+  Vec3 inner_from_outer_mm = Vec3::Zero();  // inner centre − outer centre
+  double rim_from_outer_z_mm = 0;           // glass where z ≥ outer centre z + this (rim plane)
+  // Flat.
+  double thickness_mm = 0;
+  // Indices relative to air (inside the housing n = 1).
+  double n_glass = 1.5168, n_water = 1.341;
+};
+
+inline constexpr int kPortNumParams = 3;
+
+struct PortParamInfo {
+  std::string_view name;      // as --free-port and the tables say it
+  std::string_view json_key;  // with its unit
+  std::string_view unit;
+};
+// The three parameters' names of a port kind, in order.
+const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind);
+
+// A port's surfaces in the cam frame for parameters p (see the file comment), in scalar T.
+template <typename T>
+struct Geometry {
+  PortKind kind = PortKind::kDome;
+  Vec3T<T> outer_center, inner_center;  // dome
+  T outer_radius, inner_radius;         // dome
+  double rim_z = 0;                     // dome: glass where z ≥ rim_z (value only)
+  Vec3T<T> normal;                      // flat: unit, toward the scene
+  T distance, thickness;                // flat: pupil to inner face along normal; glass
+  T n_glass, n_water;
+};
+
+template <typename T>
+Geometry<T> MakeGeometry(const Shell& s, const T* p) {
+  Geometry<T> g;
+  g.kind = s.kind;
+  g.n_glass = T(s.n_glass);
+  g.n_water = T(s.n_water);
+  if (s.kind == PortKind::kDome) {
+    g.outer_center = Vec3T<T>(-p[0], -p[1], -p[2]);
+    g.inner_center = g.outer_center + s.inner_from_outer_mm.cast<T>();
+    g.outer_radius = T(s.outer_radius_mm);
+    g.inner_radius = T(s.inner_radius_mm);
+    g.rim_z = -camera::ScalarValue(p[2]) + s.rim_from_outer_z_mm;
+  } else {
+    using std::sqrt;
+    g.normal = Vec3T<T>(p[0], p[1], sqrt(T(1) - p[0] * p[0] - p[1] * p[1]));
+    g.distance = p[2];
+    g.thickness = T(s.thickness_mm);
+  }
+  return g;
+}
+
+// Traces the ray leaving the pupil (the cam-frame origin) along `dir` (any length) out through
+// the port: on kOk, *origin is its exit point on the outer surface and *out_dir its unit
+// direction in the water. The same vector Snell and intersections as the optics tracer.
+template <typename T>
+optics::RayStatus TraceOut(const Geometry<T>& g, const Vec3T<T>& dir, Vec3T<T>* origin,
+                           Vec3T<T>* out_dir) {
+  using optics::P3;
+  using optics::RayStatus;
+  P3<T> o{T(0), T(0), T(0)};
+  P3<T> d = P3<T>::From(Vec3T<T>(dir.normalized()));
+  const T n_in[2] = {T(1), g.n_glass};
+  const T n_out[2] = {g.n_glass, g.n_water};
+  for (int i = 0; i < 2; ++i) {
+    bool hit = false;
+    P3<T> normal;
+    T t;
+    if (g.kind == PortKind::kDome) {
+      const P3<T> c = P3<T>::From(i == 0 ? g.inner_center : g.outer_center);
+      const T r = i == 0 ? g.inner_radius : g.outer_radius;
+      t = optics::IntersectSphere<T>(o, d, c, r, &hit);
+      if (!hit) return RayStatus::kMissed;
+      const P3<T> p = o + t * d;
+      if (camera::ScalarValue(p.z) < g.rim_z) return RayStatus::kOutsideAperture;
+      normal = (p - c) * (T(1) / r);
+    } else {
+      const P3<T> n = P3<T>::From(g.normal);
+      const T dist = i == 0 ? g.distance : g.distance + g.thickness;
+      t = optics::IntersectPlane<T>(o, d, n * dist, n, &hit);
+      if (!hit) return RayStatus::kMissed;
+      normal = n;
+    }
+    o = o + t * d;
+    P3<T> refracted;
+    if (!optics::Refract<T>(d, normal, n_in[i], n_out[i], &refracted)) {
+      return RayStatus::kTotalInternalReflection;
+    }
+    d = refracted;
+  }
+  *origin = o.ToEigen();
+  *out_dir = d.ToEigen();
+  return RayStatus::kOk;
+}
+
+// True where `point_in_cam` lies in the water beyond the port's outer surface (values only).
+bool InWater(const Geometry<double>& g, const Vec3& point_in_cam);
+
+// How ForwardDirection solves: what the double-valued iteration found.
+struct Solution {
+  Vec3 dir = Vec3::UnitZ();  // unit direction from the pupil, cam frame
+  // The Newton system at dir: the residual r(a, b) = (f1·(u − v), f2·(u − v)) for the direction
+  // normalize(dir + a·e1 + b·e2), u the unit vector from the exit point to the point, v the ray in
+  // the water; jac = ∂r/∂(a, b). has_jacobian is false when the 1-D iteration alone solved it.
+  Vec3 e1 = Vec3::UnitX(), e2 = Vec3::UnitY(), f1 = Vec3::UnitX(), f2 = Vec3::UnitY();
+  Eigen::Matrix2d jac = Eigen::Matrix2d::Identity();
+  bool has_jacobian = false;
+  bool axial = false;
+  int iterations = 0;
+};
+
+// Solves for the direction in double (see the file comment); nullopt when the point is not in the
+// water or the iteration fails. Exposed for the tests and the benchmark.
+std::optional<Solution> SolveDirection(const Geometry<double>& g, const Vec3& point_in_cam);
+
+// The residual r of Solution at dir + a·e1 + b·e2 (a = b = 0 when the caller wants it at dir), in
+// scalar S; false when the ray does not get through the port.
+template <typename S>
+bool DirectionResidual(const Geometry<S>& g, const Vec3T<S>& point, const Vec3T<S>& dir,
+                       const Vec3& f1, const Vec3& f2, Vec2T<S>* r, Vec3* v_value = nullptr) {
+  Vec3T<S> o, v;
+  if (TraceOut<S>(g, dir, &o, &v) != optics::RayStatus::kOk) return false;
+  const Vec3T<S> w = point - o;
+  const Vec3T<S> u = w / w.norm();
+  const Vec3T<S> diff = u - v;
+  (*r)(0) = diff.dot(f1.cast<S>());
+  (*r)(1) = diff.dot(f2.cast<S>());
+  if (v_value) *v_value = Vec3(camera::ScalarValue(v(0)), camera::ScalarValue(v(1)), camera::ScalarValue(v(2)));
+  return true;
+}
+
+// The Newton system of Solution at s->dir (fills e1, e2, f1, f2, jac): one trace in Jet<2>.
+bool FillJacobian(const Geometry<double>& g, const Vec3& point_in_cam, Solution* s);
+
+// The unit direction (cam frame) from the pupil whose ray the port bends through `point_in_cam`
+// (mm), for the port `shell` with parameters `port` (kPortNumParams values). With T a Jet the
+// derivatives with respect to the port parameters and the point are exact (the implicit-function
+// step above). nullopt: see the file comment.
+template <typename T>
+std::optional<Vec3T<T>> ForwardDirection(const Shell& shell, const T* port,
+                                         const Vec3T<T>& point_in_cam) {
+  using camera::ScalarValue;
+  double pd[kPortNumParams];
+  for (int i = 0; i < kPortNumParams; ++i) pd[i] = ScalarValue(port[i]);
+  const Geometry<double> gd = MakeGeometry<double>(shell, pd);
+  const Vec3 xd(ScalarValue(point_in_cam(0)), ScalarValue(point_in_cam(1)),
+                ScalarValue(point_in_cam(2)));
+  auto sol = SolveDirection(gd, xd);
+  if (!sol) return std::nullopt;
+  if constexpr (std::is_same_v<T, double>) {
+    return sol->dir;
+  } else {
+    if (!sol->has_jacobian && !FillJacobian(gd, xd, &*sol)) return std::nullopt;
+    const Geometry<T> g = MakeGeometry<T>(shell, port);
+    Vec2T<T> r;
+    if (!DirectionResidual<T>(g, point_in_cam, sol->dir.cast<T>(), sol->f1, sol->f2, &r)) {
+      return std::nullopt;
+    }
+    const Eigen::Matrix2d ji = sol->jac.inverse();
+    const T da = -(T(ji(0, 0)) * r(0) + T(ji(0, 1)) * r(1));
+    const T db = -(T(ji(1, 0)) * r(0) + T(ji(1, 1)) * r(1));
+    const Vec3T<T> d = sol->dir.cast<T>() + sol->e1.cast<T>() * da + sol->e2.cast<T>() * db;
+    return Vec3T<T>(d / d.norm());
+  }
+}
+
+// The pixel of `point_in_cam` (mm, in the water) seen by the camera model M (camera/models.h) with
+// parameters `cam` behind the port: M::Project of the forward direction. nullopt where either
+// fails.
+template <typename M, typename T>
+std::optional<Vec2T<T>> Project(const camera::Sensor& sensor, const T* cam, const Shell& shell,
+                                const T* port, const Vec3T<T>& point_in_cam) {
+  const auto d = ForwardDirection<T>(shell, port, point_in_cam);
+  if (!d) return std::nullopt;
+  return M::template Project<T>(sensor, cam, *d);
+}
+
+// ---- A placed port (ports::PortSystem) as shell + parameters, and back ----
+
+// The shell of a placed port (housing frame → cam-frame axes; the dome's rim default is its outer
+// centre's plane, as ports::PortSystem::Outward).
+Shell ShellOf(const ports::PortSystem& sys);
+// Its parameters (ep − outer centre; or n_x, n_y and the pupil-to-inner-face distance).
+std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys);
+// The port spec (housing frame, pupil at sys.ep_in_housing_mm) with the parameters `p` in place of
+// the system's own: a dome's two spheres moved together so the pupil sits at `p` from the outer
+// centre; a flat port's inner face with normal and distance `p`. Name, material, thickness and
+// radii are kept. Throws InvalidInput when the result is not a valid port (ports::Validate).
+ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
+                               const std::array<double, kPortNumParams>& p);
+// The interfaces met by a ray leaving the pupil, in the CAM frame (the optics tracer's input):
+// the backward projection through optics::TraceSequence.
+std::vector<optics::Interface> Interfaces(const Shell& shell, const double* port);
+
+// Throws InvalidInput(field) unless the parameters describe a port the pupil sits in: a dome's
+// pupil inside the inner sphere; a flat normal with n_x² + n_y² < 1
+// and a positive distance.
+void ValidateParams(const Shell& shell, const double* port, const std::string& field);
+
+}  // namespace porthole::refraction
