@@ -14,6 +14,7 @@
 #include <set>
 
 #include "porthole/calib/residual.h"
+#include "porthole/calib/scales.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
@@ -138,16 +139,6 @@ std::array<int, 3> ChooseDatum(const std::vector<Eigen::Vector3d>& pts, const st
   return {a, b, c};
 }
 
-// Scales of the camera parameters in the adjustment (camera[i] = scale[i]·scaled[i], residual.h):
-// every parameter gets a comparable effect at the image corner (K_n by R^-2n, P by R^-1, for R
-// the half-diagonal in mm). Without them the Jacobian columns of c and K2 differ by ~R⁵ and the
-// covariance is numerically singular in pixel units.
-std::array<double, camera::kBrownNumParams> ParameterScales(const camera::Sensor& s) {
-  const double r = 0.5 * std::hypot(s.width_px, s.height_px) * s.pixel_pitch_mm;
-  return {r, r, r, std::pow(r, -2), std::pow(r, -4), std::pow(r, -6), 1 / r, 1 / r, 1, 1};
-}
-
-
 // The analytic cost of one observation in the residual form `form`.
 template <bool kPointFree>
 ceres::CostFunction* NewCost(Form form, const Observation& ob, double pitch_mm,
@@ -158,20 +149,6 @@ ceres::CostFunction* NewCost(Form form, const Observation& ob, double pitch_mm,
   }
   return new AnalyticResidual<Form::kCorrect, kPointFree>(ob.x_mm, ob.y_mm, pitch_mm, scale,
                                                           point);
-}
-
-// Scales of the parameters of a pixel model: px parameters by the half-diagonal in px, the
-// dimensionless distortion coefficients (on normalised radii or angles of order 1) by 1.
-template <typename M>
-std::array<double, M::kNumParams> ModelScales(const camera::Sensor& s) {
-  if constexpr (M::kId == CameraModelId::kBrown) {
-    return ParameterScales(s);
-  } else {
-    std::array<double, M::kNumParams> scale;
-    const double r = 0.5 * std::hypot(s.width_px, s.height_px);
-    for (int i = 0; i < M::kNumParams; ++i) scale[i] = M::kParams[i].unit == "px" ? r : 1.0;
-    return scale;
-  }
 }
 
 // The image residual of any model by automatic differentiation: Project(R·X + t) − observed, px.

@@ -56,7 +56,8 @@ SyntheticSet MakeSyntheticSet(const SyntheticOptions& o) {
     d.width_px = sensor.width_px;
     d.height_px = sensor.height_px;
     for (std::size_t k = 0; k < pts.size(); ++k) {
-      const auto px = o.camera.Project(Eigen::Vector3d(r * pts[k] + t));
+      const Eigen::Vector3d point_in_cam = r * pts[k] + t;
+      const auto px = o.project ? o.project(point_in_cam) : o.camera.Project(point_in_cam);
       if (!px) continue;
       const Eigen::Vector2d& uv = *px;
       if (uv.x() < 0 || uv.y() < 0 || uv.x() > sensor.width_px - 1 ||

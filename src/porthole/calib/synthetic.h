@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <vector>
 
 #include "porthole/calib/calibrate.h"
@@ -29,6 +31,9 @@ struct SyntheticOptions {
   double noise_px = 0.3;  // σ of the Gaussian noise per coordinate
   uint64_t pose_seed = 1;   // the views
   uint64_t noise_seed = 2;  // the noise (change it alone for Monte-Carlo runs)
+  // The projection of a point in the camera frame (mm) to a pixel; unset: camera.Project. A
+  // refractive calibration's tests project through a port here (refraction::Project).
+  std::function<std::optional<Eigen::Vector2d>(const Eigen::Vector3d&)> project;
 };
 
 struct SyntheticSet {

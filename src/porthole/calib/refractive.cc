@@ -1,0 +1,700 @@
+#include "porthole/calib/refractive.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+
+#include "porthole/calib/compare.h"
+#include "porthole/calib/scales.h"
+#include "porthole/core/error.h"
+
+namespace porthole::calib {
+namespace {
+
+using refraction::kPortNumParams;
+using refraction::PortKind;
+using PortArray = std::array<double, kPortNumParams>;
+
+struct Obs {
+  int image = 0, point = 0;
+  double u_px = 0, v_px = 0;
+  bool active = true;
+};
+
+// The image residual through the port (refraction::Project), px times `weight`. Blocks: scaled
+// lens [N], port [3], rotation [3], translation [3].
+template <typename M>
+struct RefractiveCost {
+  double u_px, v_px, weight;
+  camera::Sensor sensor;
+  std::array<double, M::kNumParams> scale;
+  refraction::Shell shell;
+  Eigen::Vector3d point;
+
+  template <typename T>
+  bool operator()(const T* scaled, const T* port, const T* rotation, const T* translation,
+                  T* r) const {
+    T cam[M::kNumParams];
+    for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
+    const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
+    T p[3];
+    ceres::AngleAxisRotatePoint(rotation, x, p);
+    const refraction::Vec3T<T> pc(p[0] + translation[0], p[1] + translation[1],
+                                  p[2] + translation[2]);
+    const auto uv = refraction::Project<M, T>(sensor, cam, shell, port, pc);
+    if (!uv) return false;
+    r[0] = ((*uv)(0) - T(u_px)) * T(weight);
+    r[1] = ((*uv)(1) - T(v_px)) * T(weight);
+    return true;
+  }
+};
+
+// The in-air calibration as a Gaussian prior on the lens parameters `idx`: r = L⁻¹(p − μ) with
+// Σ = L·Lᵀ over idx, on the scaled lens block (p = scale·scaled).
+class PriorCost final : public ceres::CostFunction {
+ public:
+  PriorCost(std::vector<int> idx, Eigen::VectorXd mean, Eigen::MatrixXd whiten,
+            std::vector<double> scale)
+      : idx_(std::move(idx)), mean_(std::move(mean)), w_(std::move(whiten)),
+        scale_(std::move(scale)) {
+    set_num_residuals(static_cast<int>(idx_.size()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(scale_.size()));
+  }
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const int m = static_cast<int>(idx_.size()), n = static_cast<int>(scale_.size());
+    Eigen::VectorXd d(m);
+    for (int a = 0; a < m; ++a) d(a) = params[0][idx_[a]] * scale_[idx_[a]] - mean_(a);
+    Eigen::Map<Eigen::VectorXd>(residuals, m) = w_ * d;
+    if (jacobians && jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> j(
+          jacobians[0], m, n);
+      j.setZero();
+      for (int a = 0; a < m; ++a) j.col(idx_[a]) = w_.col(a) * scale_[idx_[a]];
+    }
+    return true;
+  }
+
+ private:
+  std::vector<int> idx_;
+  Eigen::VectorXd mean_;
+  Eigen::MatrixXd w_;
+  std::vector<double> scale_;
+};
+
+struct Prior {
+  std::vector<int> idx;
+  Eigen::VectorXd mean;
+  Eigen::MatrixXd whiten;
+};
+
+template <typename M>
+class RefractiveAdjustment {
+ public:
+  static constexpr int N = M::kNumParams;
+
+  RefractiveAdjustment(const RefractiveOptions& o, const camera::Sensor& sensor,
+                       const refraction::Shell& shell, std::vector<Obs> obs,
+                       std::vector<Eigen::Vector3d> points, int n_images)
+      : o_(o), sensor_(sensor), shell_(shell), obs_(std::move(obs)), points_(std::move(points)),
+        scale_(ModelScales<M>(sensor)), rotation_(n_images), translation_(n_images) {}
+
+  std::array<double, N> lens{};
+  PortArray port{};
+  FreeMask lens_free;
+  std::array<bool, kPortNumParams> port_free{};
+  double weight = 1;  // 1/σ of the image residuals (px⁻¹)
+  std::optional<Prior> prior;
+
+  std::vector<std::array<double, 3>>& rotation() { return rotation_; }
+  std::vector<std::array<double, 3>>& translation() { return translation_; }
+  std::vector<Obs>& obs() { return obs_; }
+
+  // Adjusts; returns the iterations and the final cost (½Σr², weighted).
+  int Solve(int max_iterations, double* cost = nullptr) {
+    std::array<double, N> scaled;
+    ceres::Problem problem;
+    Build(&scaled, &problem);
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_SCHUR;
+    so.max_num_iterations = max_iterations;
+    so.max_num_consecutive_invalid_steps = 50;
+    // The start (a central calibration's poses, the lens) is close: let Levenberg–Marquardt take
+    // the Gauss–Newton step at once, as Calibrate does.
+    so.initial_trust_region_radius = 1e8;
+    so.function_tolerance = 1e-9;
+    so.parameter_tolerance = 1e-9;
+    so.gradient_tolerance = 1e-12;
+    so.num_threads = o_.lens.num_threads;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    for (int i = 0; i < N; ++i) lens[i] = scaled[i] * scale_[i];
+    if (cost) *cost = summary.final_cost;
+    return static_cast<int>(summary.iterations.size());
+  }
+
+  // The σ0²-free covariance (JᵀJ)⁻¹ of [lens (model order), port], marginal over the poses, in
+  // the parameters' own units; false if singular.
+  bool Covariance(Eigen::MatrixXd* cov) {
+    std::array<double, N> scaled;
+    ceres::Problem problem;
+    Build(&scaled, &problem);
+    ceres::Covariance::Options co;
+    co.num_threads = o_.lens.num_threads;
+    ceres::Covariance covariance(co);
+    const double* a = scaled.data();
+    const double* b = port.data();
+    std::vector<std::pair<const double*, const double*>> blocks = {{a, a}, {a, b}, {b, b}};
+    if (!covariance.Compute(blocks, &problem)) return false;
+    Eigen::Matrix<double, N, N, Eigen::RowMajor> caa;
+    Eigen::Matrix<double, N, kPortNumParams, Eigen::RowMajor> cab;
+    Eigen::Matrix<double, kPortNumParams, kPortNumParams, Eigen::RowMajor> cbb;
+    if (!covariance.GetCovarianceBlock(a, a, caa.data()) ||
+        !covariance.GetCovarianceBlock(a, b, cab.data()) ||
+        !covariance.GetCovarianceBlock(b, b, cbb.data())) {
+      return false;
+    }
+    cov->setZero(N + kPortNumParams, N + kPortNumParams);
+    const Eigen::Map<const Eigen::Matrix<double, N, 1>> sv(scale_.data());
+    cov->topLeftCorner(N, N) = sv.asDiagonal() * caa * sv.asDiagonal();
+    cov->topRightCorner(N, kPortNumParams) = sv.asDiagonal() * cab;
+    cov->bottomLeftCorner(kPortNumParams, N) = cov->topRightCorner(N, kPortNumParams).transpose();
+    cov->bottomRightCorner(kPortNumParams, kPortNumParams) = cbb;
+    return cov->allFinite();
+  }
+
+  // The image residual of one observation (px, unweighted); nullopt where it cannot be projected.
+  std::optional<Eigen::Vector2d> Residual(const Obs& ob) const {
+    Eigen::Matrix3d r;
+    ceres::AngleAxisToRotationMatrix(rotation_[ob.image].data(), r.data());
+    const Eigen::Vector3d p = r * points_[ob.point] + Eigen::Vector3d(translation_[ob.image].data());
+    const auto uv = refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p);
+    if (!uv) return std::nullopt;
+    return Eigen::Vector2d(*uv - Eigen::Vector2d(ob.u_px, ob.v_px));
+  }
+
+  // Σ|r|² (px², unweighted) over the active observations, and their count.
+  double SumSquares(int* n_active) const {
+    double ss = 0;
+    *n_active = 0;
+    for (const auto& ob : obs_) {
+      if (!ob.active) continue;
+      const auto r = Residual(ob);
+      ss += r ? r->squaredNorm() : 0;
+      ++*n_active;
+    }
+    return ss;
+  }
+
+  // Σ of the prior's squared residuals at the current lens.
+  double PriorSumSquares() const {
+    if (!prior) return 0;
+    Eigen::VectorXd d(prior->idx.size());
+    for (std::size_t a = 0; a < prior->idx.size(); ++a) d(a) = lens[prior->idx[a]] - prior->mean(a);
+    return (prior->whiten * d).squaredNorm();
+  }
+
+ private:
+  void Build(std::array<double, N>* scaled, ceres::Problem* problem) {
+    for (int i = 0; i < N; ++i) (*scaled)[i] = lens[i] / scale_[i];
+    for (const auto& ob : obs_) {
+      if (!ob.active) continue;
+      auto* f = new RefractiveCost<M>{ob.u_px, ob.v_px, weight, sensor_, scale_, shell_,
+                                      points_[ob.point]};
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<RefractiveCost<M>, 2, N, kPortNumParams, 3, 3>(f),
+          nullptr, scaled->data(), port.data(), rotation_[ob.image].data(),
+          translation_[ob.image].data());
+    }
+    if (prior) {
+      problem->AddResidualBlock(
+          new PriorCost(prior->idx, prior->mean, prior->whiten,
+                        std::vector<double>(scale_.begin(), scale_.end())),
+          nullptr, scaled->data());
+    }
+    std::vector<int> fixed;
+    for (int i = 0; i < N; ++i) {
+      if (!lens_free[i]) fixed.push_back(i);
+    }
+    if (static_cast<int>(fixed.size()) == N) {
+      problem->SetParameterBlockConstant(scaled->data());
+    } else if (!fixed.empty()) {
+      problem->SetManifold(scaled->data(), new ceres::SubsetManifold(N, fixed));
+    }
+    std::vector<int> port_fixed;
+    for (int i = 0; i < kPortNumParams; ++i) {
+      if (!port_free[i]) port_fixed.push_back(i);
+    }
+    if (static_cast<int>(port_fixed.size()) == kPortNumParams) {
+      problem->SetParameterBlockConstant(port.data());
+    } else if (!port_fixed.empty()) {
+      problem->SetManifold(port.data(), new ceres::SubsetManifold(kPortNumParams, port_fixed));
+    }
+  }
+
+  const RefractiveOptions& o_;
+  camera::Sensor sensor_;
+  refraction::Shell shell_;
+  std::vector<Obs> obs_;
+  std::vector<Eigen::Vector3d> points_;
+  std::array<double, N> scale_;
+  std::vector<std::array<double, 3>> rotation_, translation_;
+};
+
+PortArray DefaultPredictedSigma(PortKind kind) {
+  return kind == PortKind::kDome ? PortArray{0.5, 0.5, 0.5} : PortArray{0.005, 0.005, 1.0};
+}
+
+double Bic(double rss, int n, int k) {
+  return n * std::log(rss / n) + k * std::log(static_cast<double>(n));
+}
+
+template <typename M>
+RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& detections,
+                                          const TargetSpec& target, const RefractiveOptions& o,
+                                          const CalibrationResult& central) {
+  constexpr int N = M::kNumParams;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto say = [&](const std::string& m) {
+    if (o.lens.progress) o.lens.progress(m);
+  };
+  const camera::ModelInfo& info = camera::Info(M::kId);
+  const camera::Sensor sensor = central.camera.sensor;
+  const refraction::Shell shell = refraction::ShellOf(o.port);
+  const PortArray predicted = refraction::ParamsOf(o.port);
+  refraction::ValidateParams(shell, predicted.data(), "--port");
+
+  RefractiveResult res;
+  res.intrinsics = o.intrinsics;
+  res.kind = shell.kind;
+  res.predicted = predicted;
+  res.predicted_sigma = o.predicted_sigma ? *o.predicted_sigma : DefaultPredictedSigma(shell.kind);
+  res.port_free = o.port_free;
+
+  // The images the central calibration used, with its poses.
+  std::map<std::string, const ImageDetections*> by_name;
+  for (const auto& d : detections) by_name[d.image] = &d;
+  std::vector<Obs> obs;
+  const int n_images = static_cast<int>(central.images.size());
+  for (int i = 0; i < n_images; ++i) {
+    const ImageDetections* d = by_name.at(central.images[i].image);
+    for (std::size_t k = 0; k < d->ids.size(); ++k) {
+      obs.push_back({i, d->ids[k], d->points_px[k].x(), d->points_px[k].y(), true});
+    }
+  }
+  RefractiveAdjustment<M> adj(o, sensor, shell, obs, TargetPoints(target), n_images);
+  const auto set_poses = [&] {
+    for (int i = 0; i < n_images; ++i) {
+      const auto& im = central.images[i];
+      adj.rotation()[i] = {im.rotation_rad.x(), im.rotation_rad.y(), im.rotation_rad.z()};
+      adj.translation()[i] = {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()};
+    }
+  };
+
+  // The lens's start and free set.
+  camera::Camera start = central.camera;
+  FreeMask lens_free(N, false);
+  if (o.air) {
+    start.params = o.air->camera.params;
+  } else {
+    for (int i = info.first_distortion; i < N; ++i) start.params[i] = 0;
+    if (shell.kind == PortKind::kFlat) {
+      camera::SetFocalLengthPx(&start, start.FocalLengthPx() / shell.n_water);
+    }
+  }
+  if (o.intrinsics == IntrinsicsMode::kFree) {
+    lens_free = o.lens.FreeOrDefault();
+  } else if (o.intrinsics == IntrinsicsMode::kPrior) {
+    lens_free = o.air->free;
+    for (int i = 0; i < info.num_focal; ++i) lens_free[i] = true;
+  }
+  adj.lens_free = lens_free;
+  adj.port_free = o.port_free;
+
+  // 1-D search of the axial port parameter (dome ep_z, flat distance) around the prediction.
+  std::vector<double> candidates;
+  if (shell.kind == PortKind::kDome) {
+    for (double dz : {0.0, -8.0, -4.0, 4.0, 8.0}) candidates.push_back(predicted[2] + dz);
+  } else {
+    for (double f : {1.0, 0.5, 0.75, 1.5, 2.0}) candidates.push_back(predicted[2] * f);
+  }
+  if (!o.port_free[2] || !o.search) candidates.resize(1);
+  double best_cost = INFINITY, best_axial = predicted[2];
+  int iterations = 0;
+  for (double c : candidates) {
+    PortArray p = predicted;
+    p[2] = c;
+    try {
+      refraction::ValidateParams(shell, p.data(), "--port");
+    } catch (const InvalidInput&) {
+      continue;
+    }
+    std::copy(start.params.begin(), start.params.end(), adj.lens.begin());
+    adj.port = p;
+    set_poses();
+    double cost = INFINITY;
+    iterations += adj.Solve(candidates.size() > 1 ? 4 : 0, &cost);
+    say(fmt::format("start: {} = {:.2f} {} -> RMS {:.3f} px", refraction::PortParams(shell.kind)[2].name, c,
+                    refraction::PortParams(shell.kind)[2].unit,
+                    std::sqrt(2 * cost / obs.size())));
+    if (cost < best_cost) best_cost = cost, best_axial = c;
+  }
+  if (!std::isfinite(best_cost)) {
+    throw InvalidInput("--port", "no start of the port parameters projects the target points: "
+                                 "check the port, the pupil and the water");
+  }
+  std::copy(start.params.begin(), start.params.end(), adj.lens.begin());
+  adj.port = predicted;
+  adj.port[2] = best_axial;
+  set_poses();
+
+  // Adjust with outlier rejection (as Calibrate); then, with a prior, weight the images by 1/σ0
+  // and add the prior.
+  int n_port_free = 0, n_lens_free = 0;
+  for (bool f : o.port_free) n_port_free += f;
+  for (bool f : lens_free) n_lens_free += f;
+  const int n_unknowns = n_lens_free + n_port_free + 6 * n_images;
+  double ss = 0;
+  int n_active = 0;
+  for (int round = 0;; ++round) {
+    iterations += adj.Solve(o.lens.max_iterations);
+    ss = adj.SumSquares(&n_active);
+    const int redundancy = 2 * n_active - n_unknowns;
+    if (redundancy <= 0) {
+      throw InvalidInput("--images", fmt::format("{} points in {} images give {} observations for "
+                                                 "{} unknowns: add images", n_active, n_images,
+                                                 2 * n_active, n_unknowns));
+    }
+    const double sigma0 = std::sqrt(ss / redundancy);
+    if (o.lens.reject_k <= 0 || round >= o.lens.max_reject_rounds) break;
+    int rejected = 0;
+    for (auto& ob : adj.obs()) {
+      if (!ob.active) continue;
+      const auto r = adj.Residual(ob);
+      if (!r || r->norm() > o.lens.reject_k * sigma0) ob.active = false, ++rejected;
+    }
+    if (rejected == 0) break;
+    say(fmt::format("rejected {} points beyond {:g} sigma0 ({:.3f} px); readjusting", rejected,
+                    o.lens.reject_k, sigma0));
+  }
+  int n_prior = 0;
+  if (o.intrinsics == IntrinsicsMode::kPrior) {
+    Prior prior;
+    for (int i = info.num_focal; i < N; ++i) {
+      if (o.air->free[i]) prior.idx.push_back(i);
+    }
+    const int m = static_cast<int>(prior.idx.size());
+    if (m > 0) {
+      prior.mean.resize(m);
+      Eigen::MatrixXd cov(m, m);
+      for (int a = 0; a < m; ++a) {
+        prior.mean(a) = o.air->camera.params[prior.idx[a]];
+        for (int b = 0; b < m; ++b) cov(a, b) = o.air->covariance(prior.idx[a], prior.idx[b]);
+      }
+      const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+      if (llt.info() != Eigen::Success) {
+        throw InvalidInput("--air-calibration", "its covariance is not positive definite");
+      }
+      prior.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
+      n_prior = m;
+      adj.prior = prior;
+      adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns));
+      iterations += adj.Solve(o.lens.max_iterations);
+      ss = adj.SumSquares(&n_active);
+    }
+  }
+
+  // Statistics.
+  CalibrationResult& lr = res.lens;
+  lr.camera = central.camera;
+  lr.camera.params.assign(adj.lens.begin(), adj.lens.end());
+  lr.free = lens_free;
+  lr.n_images = n_images;
+  lr.n_points = n_active;
+  lr.n_unknowns = n_unknowns;
+  lr.redundancy = 2 * n_active + n_prior - n_unknowns;
+  lr.iterations = iterations;
+  lr.rms_px = std::sqrt(ss / n_active);
+  lr.sigma0_px = std::sqrt(ss / (2 * n_active - n_unknowns + n_prior));
+  const double weighted_ss = ss * adj.weight * adj.weight + adj.PriorSumSquares();
+  const double s0w2 = weighted_ss / lr.redundancy;  // σ0² of the weighted adjustment
+  say(fmt::format("adjusted: RMS {:.4f} px, {} iterations; covariance", lr.rms_px, iterations));
+  Eigen::MatrixXd cov;
+  lr.covariance_ok = adj.Covariance(&cov);
+  const int T = N + kPortNumParams;
+  if (!lr.covariance_ok) {
+    throw InvalidInput("--images", "the port parameters and the lens are not determined by these "
+                                   "images (singular covariance): add views at other ranges and "
+                                   "angles, or fix parameters (--intrinsics fixed, --free)");
+  }
+  cov *= s0w2;
+  std::vector<bool> free_all(T);
+  for (int i = 0; i < N; ++i) free_all[i] = lens_free[i];
+  for (int i = 0; i < kPortNumParams; ++i) free_all[N + i] = o.port_free[i];
+  res.covariance = cov;
+  res.correlation = Eigen::MatrixXd::Constant(T, T, NAN);
+  for (int i = 0; i < T; ++i) {
+    for (int j = 0; j < T; ++j) {
+      if (free_all[i] && free_all[j]) {
+        res.correlation(i, j) = cov(i, j) / std::sqrt(cov(i, i) * cov(j, j));
+      }
+    }
+  }
+  lr.covariance = cov.topLeftCorner(N, N);
+  lr.sigma.assign(N, NAN);
+  lr.correlation = res.correlation.topLeftCorner(N, N);
+  for (int i = 0; i < N; ++i) {
+    if (!lens_free[i]) continue;
+    lr.sigma[i] = std::sqrt(cov(i, i));
+    if (i >= info.first_distortion) {
+      const double t = std::abs(adj.lens[i]) / lr.sigma[i];
+      lr.significance.push_back({i, t, t >= o.lens.significance_t});
+    }
+  }
+  res.port = adj.port;
+  for (int i = 0; i < kPortNumParams; ++i) {
+    res.port_sigma[i] = o.port_free[i] ? std::sqrt(cov(N + i, N + i)) : NAN;
+  }
+  // Per image.
+  std::vector<double> image_ss(n_images, 0);
+  lr.images.resize(n_images);
+  for (const auto& ob : adj.obs()) {
+    auto& im = lr.images[ob.image];
+    if (!ob.active) {
+      ++im.n_rejected;
+      ++lr.n_rejected;
+      continue;
+    }
+    const auto r = adj.Residual(ob);
+    image_ss[ob.image] += r ? r->squaredNorm() : 0;
+    ++im.n_points;
+  }
+  std::vector<double> ranges;
+  for (int i = 0; i < n_images; ++i) {
+    auto& im = lr.images[i];
+    im.image = central.images[i].image;
+    im.rms_px = im.n_points > 0 ? std::sqrt(image_ss[i] / im.n_points) : NAN;
+    im.rotation_rad = Eigen::Vector3d(adj.rotation()[i].data());
+    im.translation_mm = Eigen::Vector3d(adj.translation()[i].data());
+    ranges.push_back(im.translation_mm.norm());
+  }
+  lr.target_points_mm = TargetPoints(target);
+
+  // χ² of the estimate against the prediction.
+  std::vector<int> pf;
+  for (int i = 0; i < kPortNumParams; ++i) {
+    if (o.port_free[i]) pf.push_back(i);
+  }
+  res.dof = static_cast<int>(pf.size());
+  if (res.dof > 0) {
+    Eigen::VectorXd d(res.dof);
+    Eigen::MatrixXd s(res.dof, res.dof);
+    for (int a = 0; a < res.dof; ++a) {
+      d(a) = res.port[pf[a]] - predicted[pf[a]];
+      for (int b = 0; b < res.dof; ++b) s(a, b) = cov(N + pf[a], N + pf[b]);
+      s(a, a) += res.predicted_sigma[pf[a]] * res.predicted_sigma[pf[a]];
+    }
+    res.chi2 = d.dot(s.ldlt().solve(d));
+    res.p_value = UpperIncompleteGammaQ(0.5 * res.dof, 0.5 * res.chi2);
+    res.port_differs = res.p_value < o.alpha;
+  }
+  if (shell.kind == PortKind::kFlat) {
+    const auto ge = refraction::MakeGeometry<double>(shell, res.port.data());
+    const auto gp = refraction::MakeGeometry<double>(shell, predicted.data());
+    res.normal_tilt_from_predicted_deg =
+        std::atan2(ge.normal.cross(gp.normal).norm(), ge.normal.dot(gp.normal)) * 180 / M_PI;
+  }
+
+  // Model choice against the central calibration of the same images.
+  const int n_c = 2 * central.n_points;
+  res.central_rms_px = central.rms_px;
+  res.central_k = central.n_unknowns;
+  res.central_bic = Bic(central.rms_px * central.rms_px * central.n_points, n_c, res.central_k);
+  res.k = n_unknowns;
+  res.bic = Bic(ss, 2 * n_active, n_unknowns);
+  res.preferred = res.bic < res.central_bic ? "refractive" : "central";
+
+  refraction::ValidateParams(shell, res.port.data(), "port");
+  res.estimated_port = refraction::SpecWithParams(o.port, res.port);
+  res.estimated_port.description = fmt::format("{} as calibrated from images ({})",
+                                               o.port.spec.name, o.port.spec.description);
+  res.estimated_port.source = "porthole calibrate --port: estimated from images";
+  res.estimated_port.name = o.port.spec.name + "-as-calibrated";
+
+  std::string note;
+  const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
+  if (*hi < 1.3 * *lo) {
+    note = fmt::format("; all targets at one range ({:.0f}-{:.0f} mm): the port's axial parameter "
+                       "is weakly observable, add views at another range", *lo, *hi);
+    say("warning" + note);
+  }
+  lr.message = "ok" + note;
+  res.message = lr.message;
+  lr.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  say(fmt::format("done: sigma0 {:.4f} px, RMS {:.4f} px, {} iterations, {:.3f} s", lr.sigma0_px,
+                  lr.rms_px, iterations, lr.seconds));
+  return res;
+}
+
+}  // namespace
+
+IntrinsicsMode ParseIntrinsicsMode(const std::string& s, const std::string& field) {
+  if (s == "free") return IntrinsicsMode::kFree;
+  if (s == "fixed") return IntrinsicsMode::kFixed;
+  if (s == "prior") return IntrinsicsMode::kPrior;
+  throw InvalidInput(field, "'" + s + "' is not one of free, fixed, prior");
+}
+
+std::string ToString(IntrinsicsMode m) {
+  return m == IntrinsicsMode::kFree ? "free" : m == IntrinsicsMode::kFixed ? "fixed" : "prior";
+}
+
+std::array<bool, kPortNumParams> ParsePortFree(PortKind kind, const std::string& list,
+                                               const std::string& field) {
+  if (list == "all") return {true, true, true};
+  std::array<bool, kPortNumParams> free{false, false, false};
+  const auto& names = refraction::PortParams(kind);
+  std::size_t start = 0;
+  while (start <= list.size()) {
+    std::size_t end = list.find(',', start);
+    if (end == std::string::npos) end = list.size();
+    const std::string name = list.substr(start, end - start);
+    bool found = false;
+    for (int i = 0; i < kPortNumParams; ++i) {
+      if (names[i].name == name) free[i] = found = true;
+    }
+    if (!found) {
+      throw InvalidInput(field, fmt::format("unknown {} port parameter '{}' (use {},{},{} or all)",
+                                            kind == PortKind::kDome ? "dome" : "flat", name,
+                                            names[0].name, names[1].name, names[2].name));
+    }
+    start = end + 1;
+  }
+  return free;
+}
+
+RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detections,
+                                     const TargetSpec& target, const RefractiveOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (o.intrinsics != IntrinsicsMode::kFree && !o.air) {
+    throw InvalidInput("--intrinsics", ToString(o.intrinsics) + " needs --air-calibration");
+  }
+  if (o.air) {
+    if (o.air->camera.model != o.lens.model) {
+      throw InvalidInput("--air-calibration",
+                         fmt::format("a {} calibration cannot start a {} one",
+                                     o.air->camera.model_name(), camera::Info(o.lens.model).name));
+    }
+    if (o.intrinsics == IntrinsicsMode::kPrior && !o.air->has_covariance) {
+      throw InvalidInput("--air-calibration", "has no covariance or sigma for a prior (use "
+                                              "--intrinsics fixed)");
+    }
+  }
+  if (o.predicted_sigma) {
+    for (double s : *o.predicted_sigma) RequirePositive("--port-sigma", s);
+  }
+  // The central calibration of the same images: the poses, the start, and the model choice.
+  CalibrationOptions co = o.lens;
+  co.drop_insignificant = false;
+  co.initial.reset();
+  co.free.reset();
+  co.target_free = false;
+  co.progress = [&](const std::string& m) {
+    if (o.lens.progress) o.lens.progress("central: " + m);
+  };
+  const CalibrationResult central = Calibrate(detections, target, co);
+  if (o.air) {
+    const camera::Sensor& a = o.air->camera.sensor;
+    const camera::Sensor& w = central.camera.sensor;
+    if (a.width_px != w.width_px || a.height_px != w.height_px ||
+        std::abs(a.pixel_pitch_mm - w.pixel_pitch_mm) > 1e-12) {
+      throw InvalidInput("--air-calibration",
+                         fmt::format("its sensor ({}x{} px, pitch {:g} mm) is not the images' "
+                                     "({}x{} px, pitch {:g} mm)", a.width_px, a.height_px,
+                                     a.pixel_pitch_mm, w.width_px, w.height_px, w.pixel_pitch_mm));
+    }
+  }
+  RefractiveResult r = camera::VisitModel(o.lens.model, [&](auto m) {
+    return CalibrateRefractiveModel<decltype(m)>(detections, target, o, central);
+  });
+  r.lens.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetSpec& target,
+                                        const RefractiveOptions& options) {
+  using Json = nlohmann::ordered_json;
+  const auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  Json j = CalibrationToJson(r.lens, target, options.lens);
+  const auto& names = refraction::PortParams(r.kind);
+  const camera::ModelInfo& m = r.lens.camera.info();
+  const int n = m.num_params;
+  Json params = Json::object(), sigma = Json::object(), pred = Json::object(),
+       pred_sigma = Json::object(), units = Json::object(), corr = Json::object();
+  for (int i = 0; i < kPortNumParams; ++i) {
+    const std::string key(names[i].json_key);
+    params[key] = r.port[i];
+    sigma[key] = r.port_free[i] ? num(r.port_sigma[i]) : Json(nullptr);
+    pred[key] = r.predicted[i];
+    pred_sigma[key] = r.predicted_sigma[i];
+    units[key] = std::string(names[i].unit);
+    if (!r.port_free[i]) continue;
+    Json row = Json::object();
+    for (int k = 0; k < n + kPortNumParams; ++k) {
+      const double c = r.correlation(n + i, k);
+      if (k == n + i || !std::isfinite(c)) continue;
+      row[k < n ? std::string(m.params[k].json_key) : std::string(names[k - n].json_key)] = c;
+    }
+    corr[key] = row;
+  }
+  Json geometry = Json::object();
+  if (const auto* d = std::get_if<ports::DomePort>(&r.estimated_port.shape)) {
+    geometry = {{"frame", "housing"},
+                {"outer_center_mm", {d->outer.center_mm.x(), d->outer.center_mm.y(), d->outer.center_mm.z()}},
+                {"inner_center_mm", {d->inner.center_mm.x(), d->inner.center_mm.y(), d->inner.center_mm.z()}},
+                {"entrance_pupil_mm", {r.estimated_port.default_ep_in_housing_mm.x(),
+                                       r.estimated_port.default_ep_in_housing_mm.y(),
+                                       r.estimated_port.default_ep_in_housing_mm.z()}}};
+  } else {
+    const auto& f = std::get<ports::FlatPort>(r.estimated_port.shape);
+    geometry = {{"frame", "housing"},
+                {"normal", {f.normal.x(), f.normal.y(), f.normal.z()}},
+                {"inner_point_mm", {f.inner_point_mm.x(), f.inner_point_mm.y(), f.inner_point_mm.z()}},
+                {"thickness_mm", f.thickness_mm},
+                {"normal_from_predicted_deg", num(r.normal_tilt_from_predicted_deg)}};
+  }
+  j["port"] = {{"name", options.port.spec.name},
+               {"kind", r.kind == PortKind::kDome ? "dome" : "flat"},
+               {"intrinsics", ToString(r.intrinsics)},
+               {"n_water", options.port.n_water},
+               {"n_glass", options.port.n_glass},
+               {"parameters", params},
+               {"sigma", sigma},
+               {"units", units},
+               {"predicted", pred},
+               {"predicted_sigma", pred_sigma},
+               {"correlation", corr},
+               {"chi2", num(r.chi2)},
+               {"dof", r.dof},
+               {"p_value", num(r.p_value)},
+               {"differs_from_predicted", r.port_differs},
+               {"geometry", geometry},
+               {"model_choice",
+                {{"criterion", "BIC = n ln(RSS/n) + k ln(n), n image coordinates"},
+                 {"central_model", std::string(m.name)},
+                 {"central_rms_px", num(r.central_rms_px)},
+                 {"central_k", r.central_k},
+                 {"central_bic", num(r.central_bic)},
+                 {"refractive_k", r.k},
+                 {"refractive_bic", num(r.bic)},
+                 {"preferred", r.preferred}}}};
+  return j;
+}
+
+}  // namespace porthole::calib

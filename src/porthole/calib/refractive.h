@@ -1,0 +1,117 @@
+// Explicit refractive calibration: a bundle adjustment whose camera is a lens model of the list
+// (camera/models.h) behind a port (refraction/refraction.h), in water. It measures the housing
+// from the images: a dome's entrance-pupil position relative to the dome, or a flat port's normal
+// and pupil-to-glass distance.
+//
+// Contract:
+//  - Observations: pixels of target points (observations.h), one camera, one port.
+//  - Model: pixel = M::Project(lens, ForwardDirection(shell, port, R·X + t)): the exact forward
+//    projection through the port; the residual is projected − observed, px (maximum likelihood
+//    for Gaussian pixel noise), derivatives by Jets through the projection (implicit-function
+//    step for the iteration, refraction.h).
+//  - Unknowns: the port's three parameters (refraction::PortParams: dome ep_in_dome_mm x, y, z;
+//    flat n_x, n_y, distance_mm) unless fixed, every image's cam_from_target pose, and the lens:
+//      kFree   the free set of options.lens (DefaultFree of the model unless given);
+//      kFixed  the in-air calibration `air`, held fixed;
+//      kPrior  `air` as a Gaussian prior with its full covariance on every parameter it adjusted
+//              except the focal length(s), which are free (a refocus on the virtual image changes
+//              them); the image residuals are then weighted by 1/σ0 of a first pass so the prior
+//              and the images have their stated weights.
+//    The shell (radii, inner-centre offset, thickness) and the indices come from the port system.
+//  - Start: a central calibration of the same images with the same model (calib::Calibrate) gives
+//    the poses; the lens starts from `air` or, without it, from that calibration with the
+//    distortion zeroed and, behind a flat port, the focal length divided by the water index; then a
+//    1-D search over the axial port parameter (dome ep_z: predicted ± 4, ± 8 mm; flat distance:
+//    predicted × 0.5 … 2), each candidate adjusted for 4 iterations, the best adjusted fully.
+//  - Statistics: σ0 = sqrt(Σ r²/(2n − u)) with r the (weighted) residuals, the lens+port
+//    covariance σ0²·(JᵀJ)⁻¹ marginal over the poses (Ceres Covariance), σ and correlations; a χ²
+//    test of the estimated port against the predicted one (the port file and pupil) with
+//    Σ_est + Σ_predicted, Σ_predicted = diag(predicted_sigma²); BIC of this model against the
+//    central calibration of the same images, BIC = n·ln(RSS/n) + k·ln(n) over the n image
+//    coordinates (k: free lens + port + pose parameters).
+// Bad input throws InvalidInput naming the field: as Calibrate, plus an intrinsics mode that needs
+// `air` without one, an air calibration of another model or sensor, a port the pupil is not in,
+// or a network whose port parameters are not determined (singular covariance).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "porthole/calib/calibrate.h"
+#include "porthole/calib/result_json.h"
+#include "porthole/ports/port.h"
+#include "porthole/refraction/refraction.h"
+
+namespace porthole::calib {
+
+enum class IntrinsicsMode { kFree, kFixed, kPrior };
+// "free" | "fixed" | "prior"; throws InvalidInput(field).
+IntrinsicsMode ParseIntrinsicsMode(const std::string& s, const std::string& field);
+std::string ToString(IntrinsicsMode m);
+// "ep_x,ep_z" (names of refraction::PortParams(kind)) or "all" → which port parameters are free.
+std::array<bool, refraction::kPortNumParams> ParsePortFree(refraction::PortKind kind,
+                                                          const std::string& list,
+                                                          const std::string& field);
+
+struct RefractiveOptions {
+  // The lens model, its free set (kFree), pitch, outlier rejection, iterations, threads, progress.
+  CalibrationOptions lens;
+  // The port placed in front of the pupil with the water and glass indices: the shell, and the
+  // PREDICTED port parameters (refraction::ParamsOf) the estimate is tested against.
+  ports::PortSystem port;
+  IntrinsicsMode intrinsics = IntrinsicsMode::kFree;
+  // The in-air calibration of the lens (same model; its sensor is checked against the images').
+  std::optional<CalibrationRecord> air;
+  // Which port parameters are adjusted (the others stay at the predicted value).
+  std::array<bool, refraction::kPortNumParams> port_free{true, true, true};
+  // 1σ of the predicted port parameters (the χ² test): dome pupil position 0.5 mm per axis (a
+  // flange survey and the lens's pupil position); flat normal components 0.005 (0.3°) and
+  // distance 1 mm. Unset: those defaults for the port's kind.
+  std::optional<std::array<double, refraction::kPortNumParams>> predicted_sigma;
+  double alpha = 0.05;  // significance level of the χ² test
+  // The 1-D search of the axial port parameter at the start (4 iterations per candidate). Off
+  // starts from the prediction alone: when it is known to be close (Monte-Carlo runs).
+  bool search = true;
+};
+
+struct RefractiveResult {
+  // The lens: model, sensor, parameters, free set, covariance/σ/correlation of the lens
+  // parameters, σ0, RMS, counts, per-image poses and RMS (CalibrationResult's meaning).
+  CalibrationResult lens;
+  IntrinsicsMode intrinsics = IntrinsicsMode::kFree;
+  refraction::PortKind kind = refraction::PortKind::kDome;
+  std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, predicted{},
+      predicted_sigma{};
+  std::array<bool, refraction::kPortNumParams> port_free{};
+  // Joint covariance and correlation of [lens parameters (model order), port parameters]: the
+  // marginal over the poses; NaN/0 for fixed parameters as in CalibrationResult.
+  Eigen::MatrixXd covariance, correlation;
+  // χ² test of port − predicted over the free port parameters.
+  double chi2 = NAN, p_value = NAN;
+  int dof = 0;
+  bool port_differs = false;  // p_value < alpha
+  // Flat port: the angle (deg) between the estimated and the predicted normal, and its σ.
+  double normal_tilt_from_predicted_deg = NAN;
+  // Model choice against the central calibration of the same images (same model, its default
+  // free set): its RMS, both BICs, and the preferred model ("refractive" or "central").
+  double central_rms_px = NAN, central_bic = NAN, bic = NAN;
+  int central_k = 0, k = 0;
+  std::string preferred;
+  ports::PortSpec estimated_port;  // housing frame, pupil where the port system put it
+  std::string message;             // "ok" or what went wrong
+};
+
+RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detections,
+                                     const TargetSpec& target, const RefractiveOptions& options);
+
+// The calibration JSON (CalibrationToJson of the lens) with a `port` block: kind, intrinsics,
+// parameters {key: value}, sigma, predicted, predicted_sigma, correlation with the lens
+// parameters, chi2, dof, p_value, differs, model_choice {central_rms_px, central_bic, bic,
+// preferred}, and the estimated port's geometry in the housing frame.
+nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetSpec& target,
+                                        const RefractiveOptions& options);
+
+}  // namespace porthole::calib
