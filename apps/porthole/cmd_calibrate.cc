@@ -1,7 +1,8 @@
 // `porthole calibrate`: self-calibration by bundle adjustment from images (detected here) or from
 // saved detections, with any camera model of the list (--model); the parameter table with σ and
 // significance as in the paper's Table 6, σ0, RMS, correlations; JSON (--json, --out) and OpenCV
-// YAML (--opencv-yaml) outputs.
+// YAML (--opencv-yaml) outputs. With --port, the explicit refractive calibration (the lens behind
+// the port, calib/refractive.h): the port block in the JSON, --port-out as-calibrated.toml.
 #include <fmt/format.h>
 
 #include <cmath>
@@ -10,10 +11,12 @@
 #include "common.h"
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
+#include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/camera/camera.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
+#include "porthole/io/presets.h"
 
 namespace porthole::cli {
 namespace {
@@ -69,6 +72,50 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
   return t;
 }
 
+// The port block of a refractive calibration: estimate, σ, prediction, χ², model choice.
+std::string PortTable(const calib::RefractiveResult& r, const calib::RefractiveOptions& o) {
+  const auto& names = refraction::PortParams(r.kind);
+  std::string t = fmt::format(
+      "port {} ({}, water n = {:.5f}, glass n = {:.5f}), lens intrinsics {}\n", o.port.spec.name,
+      r.kind == refraction::PortKind::kDome ? "dome: entrance pupil minus outer centre"
+                                            : "flat: inner-face normal and pupil distance",
+      o.port.n_water, o.port.n_glass, calib::ToString(r.intrinsics));
+  t += fmt::format("{:<16} {:>11} {:>9} {:>11} {:>9}  {}\n", "port", "estimate", "std",
+                   "predicted", "std", "unit");
+  for (int i = 0; i < refraction::kPortNumParams; ++i) {
+    t += fmt::format("{:<16} {:>11.4f} {:>9} {:>11.4f} {:>9.3g}  {}\n", names[i].json_key, r.port[i],
+                     r.port_free[i] ? fmt::format("{:.2g}", r.port_sigma[i]) : "fixed",
+                     r.predicted[i], r.predicted_sigma[i], names[i].unit);
+  }
+  if (std::isfinite(r.normal_tilt_from_predicted_deg)) {
+    t += fmt::format("normal {:.4f} deg from the predicted one\n", r.normal_tilt_from_predicted_deg);
+  }
+  if (r.dof > 0) {
+    t += fmt::format("estimate vs prediction: chi2 {:.2f} on {} dof, p = {:.3g}: {}\n", r.chi2,
+                     r.dof, r.p_value,
+                     r.port_differs ? "the port differs from its prediction"
+                                    : "consistent with the prediction");
+  }
+  const camera::ModelInfo& m = r.lens.camera.info();
+  std::string high;
+  for (int i = 0; i < refraction::kPortNumParams; ++i) {
+    for (int k = 0; k < r.correlation.cols(); ++k) {
+      const int n = m.num_params;
+      if (k == n + i || (k >= n && k < n + i)) continue;
+      const double c = r.correlation(n + i, k);
+      if (std::isfinite(c) && std::abs(c) > 0.9) {
+        high += fmt::format(" {}/{} {:+.2f}", names[i].name,
+                            k < n ? std::string(m.params[k].name) : std::string(names[k - n].name), c);
+      }
+    }
+  }
+  if (!high.empty()) t += "port correlations beyond 0.9:" + high + "\n";
+  t += fmt::format("model choice (BIC, lower is better): refractive {:.1f} (k {}) vs central {} "
+                   "{:.1f} (k {}, RMS {:.4f} px): {} preferred\n",
+                   r.bic, r.k, m.name, r.central_bic, r.central_k, r.central_rms_px, r.preferred);
+  return t;
+}
+
 }  // namespace
 
 void RegisterCalibrate(CLI::App& app) {
@@ -78,6 +125,11 @@ void RegisterCalibrate(CLI::App& app) {
     double pitch_mm = 1.0;
     calib::CalibrationOptions calib;
     bool json = false, quiet = false;
+    // Refractive calibration (--port).
+    PortOptions port;
+    WaterOptions water;
+    std::string air, intrinsics, free_port = "all", port_out;
+    std::vector<double> port_sigma;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -119,6 +171,27 @@ void RegisterCalibrate(CLI::App& app) {
                   "(RMS reported)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
+  // The explicit refractive calibration.
+  o->port.port.clear();
+  o->port.Add(cmd);
+  o->water.Add(cmd);
+  const std::string group = "Refractive calibration (with --port)";
+  cmd->add_option("--air-calibration", o->air,
+                  "In-air calibration of the lens (JSON from calibrate, or OpenCV YAML)")
+      ->group(group);
+  cmd->add_option("--intrinsics", o->intrinsics,
+                  "Lens under the port: free | fixed (the air calibration) | prior (the air "
+                  "calibration's covariance as a prior, focal length free; the default with "
+                  "--air-calibration)")
+      ->check(CLI::IsMember({"free", "fixed", "prior"}))->group(group);
+  cmd->add_option("--free-port", o->free_port,
+                  "Adjusted port parameters: dome ep_x,ep_y,ep_z; flat n_x,n_y,distance; or all")
+      ->capture_default_str()->group(group);
+  cmd->add_option("--port-sigma", o->port_sigma,
+                  "1-sigma of the predicted port parameters (dome mm; flat normal, normal, mm) for "
+                  "the chi2 test; default dome 0.5,0.5,0.5, flat 0.005,0.005,1")
+      ->delimiter(',')->expected(3)->group(group);
+  cmd->add_option("--port-out", o->port_out, "Write the estimated port as a port TOML")->group(group);
   cmd->callback([o] {
     if (o->images.empty() && o->detections.empty()) {
       throw InvalidInput("--images", "give --images DIR or --detections PATH");
@@ -134,6 +207,34 @@ void RegisterCalibrate(CLI::App& app) {
     if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
     if (!o->out.empty()) CheckOutputFile(o->out, "--out");
     if (!o->yaml.empty()) CheckOutputFile(o->yaml, "--opencv-yaml");
+    const bool refractive = !o->port.port.empty();
+    if (!refractive) {
+      const std::pair<const char*, bool> given[] = {
+          {"--air-calibration", !o->air.empty()}, {"--intrinsics", !o->intrinsics.empty()},
+          {"--port-sigma", !o->port_sigma.empty()}, {"--port-out", !o->port_out.empty()},
+          {"--ep", !o->port.ep.empty()}};
+      for (const auto& [flag, is_given] : given) {
+        if (is_given) throw InvalidInput(flag, "only with --port (the refractive calibration)");
+      }
+    }
+    calib::RefractiveOptions ro;
+    if (refractive) {
+      if (!o->port_out.empty()) CheckOutputFile(o->port_out, "--port-out");
+      if (!o->yaml.empty()) throw InvalidInput("--opencv-yaml", "not with --port (a refractive camera is not an OpenCV one)");
+      if (o->calib.target_free) throw InvalidInput("--free-target", "not with --port");
+      const ports::Environment env = o->water.ToEnvironment();
+      ro.port = ports::MakeSystem(o->port.Spec(), env, o->port.Ep());
+      if (!o->air.empty()) {
+        ro.air = calib::LoadCalibration(o->air, o->pitch_mm, "--air-calibration", nullptr);
+      }
+      const std::string mode = !o->intrinsics.empty() ? o->intrinsics : o->air.empty() ? "free" : "prior";
+      ro.intrinsics = calib::ParseIntrinsicsMode(mode, "--intrinsics");
+      const auto kind = ro.port.IsDome() ? refraction::PortKind::kDome : refraction::PortKind::kFlat;
+      ro.port_free = calib::ParsePortFree(kind, o->free_port, "--free-port");
+      if (!o->port_sigma.empty()) {
+        ro.predicted_sigma = std::array<double, 3>{o->port_sigma[0], o->port_sigma[1], o->port_sigma[2]};
+      }
+    }
     o->calib.loss = o->loss == "huber"    ? calib::LossKind::kHuber
                     : o->loss == "cauchy" ? calib::LossKind::kCauchy
                                           : calib::LossKind::kNone;
@@ -151,6 +252,25 @@ void RegisterCalibrate(CLI::App& app) {
     } else {
       dets = calib::LoadDetections(o->detections, "--detections", &target);
       if (target.cols == 0) throw InvalidInput("--target", "the detections name no target");
+    }
+    if (refractive) {
+      ro.lens = o->calib;
+      const auto rr = calib::CalibrateRefractive(dets, target, ro);
+      auto j = calib::RefractiveToJson(rr, target, ro);
+      Json skip = Json::array();
+      for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
+      j["skipped"] = skip;
+      std::string port_note;
+      if (!o->port_out.empty()) {
+        WriteFileAtomically(o->port_out, io::PortToToml(rr.estimated_port), "--port-out");
+        j["port"]["port_out"] = o->port_out;
+        port_note = fmt::format("estimated port written to {}\n", o->port_out);
+      }
+      if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
+      if (o->json) return fmt::print("{}\n", j.dump(2));
+      std::string text = CalibrationTable(rr.lens, o->calib) + PortTable(rr, ro) + port_note;
+      for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
+      return fmt::print("{}", text);
     }
     const auto r = calib::Calibrate(dets, target, o->calib);
     auto j = calib::CalibrationToJson(r, target, o->calib);
