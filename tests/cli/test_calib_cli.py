@@ -237,3 +237,44 @@ def test_killed_calibrate_leaves_old_output_or_none_and_no_temporaries(samples, 
     run("calibrate", "--detections", detections, "--out", out, "--quiet")
     assert json.loads(out.read_text())["model"] == old["model"]
     assert [p for p in os.listdir(tmp_path) if ".tmp" in p] == []
+
+
+def test_refractive_calibration_port_block_and_port_out(detections, tmp_path):
+    """`calibrate --port` (issue 14): the JSON gains a `port` block with the estimate, its σ, the
+    prediction, χ² and the BIC model choice; --port-out writes a port TOML every command reads.
+    (The samples are in-air images of an unknown lens: this checks the plumbing, not the optics;
+    calib_refractive_test checks the estimate on synthetic water images.)"""
+    port_out = tmp_path / "as-calibrated.toml"
+    j = run("calibrate", "--detections", detections, "--port", "generic-dome-4in",
+            "--port-out", port_out, "--json", "--quiet").json()
+    p = j["port"]
+    assert p["kind"] == "dome" and p["intrinsics"] == "free"
+    keys = ["ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm"]
+    for block in ("parameters", "sigma", "predicted", "predicted_sigma", "units"):
+        assert list(p[block].keys()) == keys, block
+    assert all(p["sigma"][k] > 0 for k in keys)
+    assert p["dof"] == 3 and 0 <= p["p_value"] <= 1
+    assert p["model_choice"]["preferred"] in ("refractive", "central")
+    assert p["port_out"] == str(port_out)
+    # The written port is read back by the port optics, and its pupil sits where the estimate says.
+    vi = run("virtual-image", "--port", port_out, "--json").json()
+    assert vi is not None
+    text = port_out.read_text()
+    assert 'type = "dome"' in text and 'frame = "housing"' in text
+    # Text output: the port table and the model choice are stated.
+    t = run("calibrate", "--detections", detections, "--port", "flat-acrylic-10mm",
+            "--free-port", "distance", "--quiet").out
+    assert "distance_mm" in t and "model choice (BIC" in t and "fixed" in t
+
+
+def test_refractive_bad_input_is_one_line_exit_2(detections, tmp_path):
+    run_bad("calibrate", "--detections", detections, "--port", "no-such-port")
+    run_bad("calibrate", "--detections", detections, "--port-out", tmp_path / "p.toml")
+    run_bad("calibrate", "--detections", detections, "--air-calibration", tmp_path / "a.json")
+    run_bad("calibrate", "--detections", detections, "--port", "nimar-ni320", "--intrinsics", "fixed")
+    run_bad("calibrate", "--detections", detections, "--port", "nimar-ni320", "--free-port", "ep_q")
+    run_bad("calibrate", "--detections", detections, "--port", "nimar-ni320", "--opencv-yaml",
+            tmp_path / "x.yml")
+    run_bad("calibrate", "--detections", tmp_path / "none", "--port", "nimar-ni320")
+    # A port the pupil is not in.
+    run_bad("calibrate", "--detections", detections, "--port", "nimar-ni320", "--ep", "0,0,200")

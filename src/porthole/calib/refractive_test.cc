@@ -13,6 +13,7 @@
 
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/synthetic.h"
+#include "porthole/refraction/test_camera.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
@@ -21,17 +22,7 @@ namespace {
 using ports::PortSystem;
 using refraction::PortKind;
 
-camera::Camera D300Brown() {
-  camera::BrownParams b;
-  b.c_mm = 24.6;
-  b.x0_mm = 0.05;
-  b.y0_mm = -0.03;
-  b.K1 = 1.8e-4;
-  b.K2 = -3e-7;
-  b.P1 = 2e-6;
-  b.P2 = -1e-6;
-  return camera::FromBrown(b, camera::Sensor{4288, 2848, 0.0055});
-}
+using refraction::testing::D300Brown;
 
 PortSystem AsBuiltNi320() {
   ports::PortSpec s;

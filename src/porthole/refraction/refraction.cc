@@ -13,8 +13,8 @@ using J1 = ceres::Jet<double, 1>;
 using J2 = ceres::Jet<double, 2>;
 
 // The Newton step (rad) below which an iteration is converged once the step is taken: Newton's
-// error after it is of order step² (< 1e-14 rad, 5e-11 px at f = 4500 px).
-constexpr double kFinalStep = 1e-7;
+// error after it is of order C·step² (C ~ 100 for a fisheye behind a flat port: < 1e-14 rad).
+constexpr double kFinalStep = 1e-8;
 
 // A unit vector perpendicular to unit v, and the third completing a right-handed frame.
 void Perpendiculars(const Vec3& v, Vec3* a, Vec3* b) {
@@ -194,7 +194,7 @@ std::optional<Solution> SolveDirection(const Geometry<double>& g, const Vec3& x)
     const Eigen::Vector2d step = -s.jac.partialPivLu().solve(r);
     if (!step.allFinite()) return std::nullopt;
     if (step.norm() <= kFinalStep) {
-      // Quadratic convergence: after this step the error is of order |step|² (< 1e-14 rad). The
+      // Quadratic convergence: after this step the error is of order C·|step|². The
       // Jacobian at the final direction is left to FillJacobian (Jets only).
       s.dir = (s.dir + step(0) * s.e1 + step(1) * s.e2).normalized();
       s.has_jacobian = false;

@@ -13,6 +13,7 @@
 #include "porthole/camera/camera.h"
 #include "porthole/core/error.h"
 #include "porthole/refraction/refraction.h"
+#include "porthole/refraction/test_camera.h"
 
 namespace porthole::refraction {
 namespace {
@@ -26,17 +27,7 @@ using ports::PortSystem;
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A Nikon D300 (4288 × 2848 px, 5.5 µm) with a 24 mm lens, Brown model with barrel distortion.
-Camera D300Brown() {
-  camera::BrownParams b;
-  b.c_mm = 24.6;
-  b.x0_mm = 0.05;
-  b.y0_mm = -0.03;
-  b.K1 = 1.8e-4;
-  b.K2 = -3e-7;
-  b.P1 = 2e-6;
-  return camera::FromBrown(b, camera::Sensor{4288, 2848, 0.0055});
-}
+using refraction::testing::D300Brown;
 
 // A Kannala–Brandt fisheye close to the Nikkor 10.5 mm on the D300, cropped to 100° across.
 Camera D300Fisheye() {
