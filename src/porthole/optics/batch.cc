@@ -234,6 +234,10 @@ Isa ResolveIsa(Isa requested) {
   return widest;
 }
 
+void ParallelBlocks(int threads, std::ptrdiff_t blocks, const std::function<void(std::ptrdiff_t)>& work) {
+  BlockPool::Instance().Run(threads > 0 ? threads : omp_get_max_threads(), blocks, work);
+}
+
 void TraceBatch(const std::vector<Interface>& seq, RayBatch* rays, const BatchOptions& options) {
   TraceBatch(seq, *rays, rays, options);
 }

@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string_view>
 #include <vector>
 
@@ -57,5 +58,12 @@ void TraceBatch(const std::vector<Interface>& seq, RayBatch* rays,
 // The same, out of place: `in` is left as it is and `out` receives the traced rays (resized).
 void TraceBatch(const std::vector<Interface>& seq, const RayBatch& in, RayBatch* out,
                 const BatchOptions& options = {});
+
+// Runs work(0) … work(blocks − 1) on the calling thread and up to threads − 1 helpers of the
+// batched tracer's thread pool (threads 0: every core, as BatchOptions::num_threads), handing
+// blocks out one at a time; returns when all are done. For work around the tracer that should
+// use the same threads (the renderer's ray generation and shading); a TraceBatch called inside
+// `work` runs on its caller's thread.
+void ParallelBlocks(int threads, std::ptrdiff_t blocks, const std::function<void(std::ptrdiff_t)>& work);
 
 }  // namespace porthole::optics

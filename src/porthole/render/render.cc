@@ -1,0 +1,612 @@
+#include "porthole/render/render.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <numbers>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "porthole/core/error.h"
+#include "porthole/io/presets.h"
+#include "porthole/optics/batch.h"
+
+namespace porthole::render {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+using Vec2 = Eigen::Vector2d;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Eigen::Matrix3d RotX(double a) { return Eigen::AngleAxisd(a, Vec3::UnitX()).toRotationMatrix(); }
+Eigen::Matrix3d RotY(double a) { return Eigen::AngleAxisd(a, Vec3::UnitY()).toRotationMatrix(); }
+Eigen::Matrix3d RotZ(double a) { return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix(); }
+double Rad(double deg) { return deg * std::numbers::pi / 180; }
+
+// splitmix64: a counter-based generator, so each pixel's samples depend on (seed, pixel) alone and
+// the image is the same on any number of threads.
+struct Rng {
+  std::uint64_t state;
+  std::uint64_t Next() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double Uniform() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }  // [0, 1)
+};
+
+// Shirley–Chiu concentric map of the unit square onto the unit disc (area-preserving, keeps strata).
+Vec2 ConcentricDisc(double a, double b) {
+  a = 2 * a - 1;
+  b = 2 * b - 1;
+  if (a == 0 && b == 0) return Vec2::Zero();
+  constexpr double kQuarter = std::numbers::pi / 4;
+  if (std::abs(a) > std::abs(b)) return a * Vec2(std::cos(kQuarter * b / a), std::sin(kQuarter * b / a));
+  return b * Vec2(std::cos(2 * kQuarter - kQuarter * a / b), std::sin(2 * kQuarter - kQuarter * a / b));
+}
+
+int ChannelOf(double lambda_nm, ColorMode color) {
+  if (color == ColorMode::kGrey) return 0;
+  return lambda_nm < 500 ? 2 : lambda_nm < 590 ? 1 : 0;
+}
+
+// The target plane in the housing frame: origin (the target frame's), and the rotation.
+struct Plane {
+  Vec3 origin_in_housing;
+  Eigen::Matrix3d rotation;  // columns: target X, Y, Z in housing axes
+  Vec3 normal() const { return rotation.col(2); }
+};
+Plane TargetPlane(const Setup& s, const Pose& pose) { return {s.ep_in_housing_mm + pose.translation_mm, pose.rotation}; }
+
+// Where a ray (housing frame) meets the target plane, in board coordinates; nullopt when it runs
+// parallel to the plane or away from it.
+std::optional<Vec2> BoardHit(const Plane& plane, const optics::Ray& ray) {
+  const Vec3 n = plane.normal();
+  const double denom = ray.dir.dot(n);
+  if (!(std::abs(denom) > 1e-15)) return std::nullopt;
+  const double t = (plane.origin_in_housing - ray.origin).dot(n) / denom;
+  if (!(t > 0)) return std::nullopt;
+  const Vec3 local = plane.rotation.transpose() * (ray.origin + t * ray.dir - plane.origin_in_housing);
+  return Vec2(local.x(), local.y());
+}
+
+// The chief ray of pixel uv through the band's port, on the board.
+std::optional<Vec2> ChiefOnBoard(const Setup& s, const Band& band, const Plane& plane, const Vec2& uv) {
+  const auto d = s.camera.Unproject(uv);
+  if (!d) return std::nullopt;
+  optics::Ray out;
+  if (optics::TraceSequence<double>(band.outward, optics::Ray{s.ep_in_housing_mm, *d}, &out) != optics::RayStatus::kOk) {
+    return std::nullopt;
+  }
+  return BoardHit(plane, out);
+}
+
+std::string Px(const Vec2& uv) { return fmt::format("({:.1f}, {:.1f}) px", uv.x(), uv.y()); }
+
+bool InsidePort(const ports::PortSystem& sys, const Vec3& p_in_housing) {
+  if (sys.IsDome()) return (p_in_housing - sys.dome().outer.center_mm).norm() < sys.dome().outer.radius_mm;
+  const auto& f = sys.flat();
+  return (p_in_housing - f.inner_point_mm).dot(f.normal) < f.thickness_mm;
+}
+
+}  // namespace
+
+Eigen::Vector3d TargetCentre(const calib::TargetSpec& target) {
+  Vec3 c = Vec3::Zero();
+  const auto pts = calib::TargetPoints(target);
+  for (const Vec3& p : pts) c += p;
+  return c / static_cast<double>(pts.size());
+}
+
+Pose PoseFacing(const calib::TargetSpec& target, double distance_mm, const Eigen::Vector2d& shift_mm, double tilt_x_deg,
+                double tilt_y_deg, double roll_deg) {
+  Pose p;
+  p.rotation = RotZ(Rad(roll_deg)) * RotY(Rad(tilt_y_deg)) * RotX(Rad(tilt_x_deg));
+  p.translation_mm = Vec3(shift_mm.x(), shift_mm.y(), distance_mm) - p.rotation * TargetCentre(target);
+  return p;
+}
+
+void Validate(const RenderOptions& o) {
+  const int m = static_cast<int>(std::lround(std::sqrt(static_cast<double>(o.samples_per_pixel))));
+  if (o.samples_per_pixel < 1 || m * m != o.samples_per_pixel || m > 64) {
+    throw InvalidInput("samples_per_pixel", "must be a square number from 1 to 4096 (1, 4, 9, 16, ...)");
+  }
+  if (!(std::isfinite(o.exposure) && o.exposure > 0)) throw InvalidInput("exposure", "must be a number > 0");
+  if (o.threads < 0) throw InvalidInput("threads", "must be >= 0");
+}
+
+Setup Resolve(const Scene& scene, ColorMode color) {
+  housing::HousedCamera h = scene.housed;
+  if (scene.medium == Medium::kAir) h.env.water_index = 1.0;
+  housing::Validate(h);
+  if (!(scene.f_number > 0)) throw InvalidInput("f_number", "must be > 0 (inf: a pinhole)");
+  if (scene.bands_nm.empty()) throw InvalidInput("bands_nm", "needs at least one wavelength");
+  for (double l : scene.bands_nm) {
+    if (!(std::isfinite(l) && l > 0)) throw InvalidInput("bands_nm", "wavelengths must be numbers > 0 (nm)");
+  }
+  Setup s;
+  if (scene.focus_distance_mm) {
+    const double fd = *scene.focus_distance_mm;
+    if (!(fd > 0)) throw InvalidInput("focus_distance_mm", "must be > 0 (mm, or inf)");
+    if (fd < h.lens.min_focus_mm) {
+      throw InvalidInput("focus_distance_mm", fmt::format("the {} focuses no closer than {:g} mm", h.lens.name,
+                                                          h.lens.min_focus_mm));
+    }
+    s.system = housing::SystemAtFocus(h, fd);
+    s.focus.focus_distance_mm = fd;
+    s.focus.d_s2ep_mm = lens::SubjectToPupilMm(h.lens, housing::MountOf(h), fd);
+    s.focus.ep_to_flange_mm = h.lens.PupilToFlangeMm(fd);
+    s.focus.ep_in_housing_mm = s.system.ep_in_housing_mm;
+  } else {
+    const double subject = scene.pose.Apply(TargetCentre(scene.target)).z();
+    if (!(subject > 0)) throw InvalidInput("pose", "the target's centre lies behind the camera");
+    const housing::Focused f = housing::FocusOnSubject(h, subject);
+    s.system = f.sys;
+    s.focus = f.focus;
+    s.focused_on_target = true;
+    s.focus_subject_mm = subject;
+  }
+  s.ep_in_housing_mm = s.system.ep_in_housing_mm;
+  s.pupil_radius_mm = std::isinf(scene.f_number) ? 0.0 : h.lens.focal_length_mm / (2 * scene.f_number);
+
+  if (scene.camera) {
+    s.camera = *scene.camera;
+    camera::ValidateCamera(s.camera, "camera");
+  } else {
+    const double c = scene.c_mm ? RequirePositive("c_mm", *scene.c_mm)
+                     : std::isinf(s.focus.d_s2ep_mm)
+                         ? h.lens.focal_length_mm
+                         : lens::PrincipalDistanceMm(h.lens.focal_length_mm, s.focus.d_s2ep_mm);
+    const camera::Sensor& sensor = h.camera.sensor;
+    using camera::CameraModelId;
+    using camera::Projection;
+    CameraModelId model = CameraModelId::kBrown;
+    switch (h.lens.projection) {
+      case Projection::kRectilinear: model = CameraModelId::kBrown; break;
+      case Projection::kEquidistant: model = CameraModelId::kEquidistant; break;
+      case Projection::kEquisolid: model = CameraModelId::kEquisolid; break;
+      case Projection::kStereographic: model = CameraModelId::kStereographic; break;
+      case Projection::kOrthographic: model = CameraModelId::kOrthographic; break;
+    }
+    s.camera = camera::Camera::Ideal(model, sensor, c / sensor.pixel_pitch_mm);
+  }
+
+  bool has[3] = {false, false, false};
+  for (double l : scene.bands_nm) {
+    ports::Environment env = h.env;
+    env.conditions.lambda_nm = l;
+    Band b;
+    b.lambda_nm = l;
+    b.channel = ChannelOf(l, color);
+    b.n_glass = env.GlassIndex(s.system.spec.material());
+    b.n_water = env.WaterIndex();
+    b.outward = ports::Place(s.system.spec, s.ep_in_housing_mm, b.n_glass, b.n_water).Outward();
+    has[b.channel] = true;
+    s.bands.push_back(std::move(b));
+  }
+  if (color == ColorMode::kRgb && !(has[0] && has[1] && has[2])) {
+    throw InvalidInput("bands_nm", "RGB needs a band in each channel: blue < 500 nm, green 500-590 nm, red >= 590 nm");
+  }
+  return s;
+}
+
+std::optional<Eigen::Vector2d> ProjectThroughPort(const Setup& s, const Band& band, const Pose& pose,
+                                                  const Eigen::Vector3d& point_in_target_mm) {
+  const Plane plane = TargetPlane(s, pose);
+  const Vec2 goal = point_in_target_mm.head<2>();
+  auto residual = [&](const Vec2& uv) -> std::optional<Vec2> {
+    const auto hit = ChiefOnBoard(s, band, plane, uv);
+    if (!hit) return std::nullopt;
+    return Vec2(*hit - goal);
+  };
+  // Start: the point seen without the port; else the principal point.
+  Vec2 uv = s.camera.Project(pose.Apply(point_in_target_mm)).value_or(s.camera.PrincipalPointPx());
+  auto r = residual(uv);
+  if (!r) {
+    uv = s.camera.PrincipalPointPx();
+    r = residual(uv);
+    if (!r) return std::nullopt;
+  }
+  constexpr double kH = 1e-4;  // px, central differences
+  for (int it = 0; it < 60; ++it) {
+    if (r->norm() < 1e-10) return uv;
+    Eigen::Matrix2d jac;
+    for (int k = 0; k < 2; ++k) {
+      Vec2 e = Vec2::Zero();
+      e[k] = kH;
+      const auto a = residual(uv + e), b = residual(uv - e);
+      if (!a || !b) return std::nullopt;
+      jac.col(k) = (*a - *b) / (2 * kH);
+    }
+    const Vec2 step = jac.fullPivLu().solve(*r);
+    if (!step.allFinite()) return std::nullopt;
+    // Damped: halve the step until the residual shrinks (rays beyond a rim fail).
+    double scale = 1;
+    bool moved = false;
+    for (int k = 0; k < 30; ++k, scale *= 0.5) {
+      const Vec2 next = uv - scale * step;
+      const auto rn = residual(next);
+      if (rn && rn->norm() < r->norm()) {
+        uv = next;
+        r = rn;
+        moved = true;
+        break;
+      }
+    }
+    if (!moved || scale * step.norm() < 1e-11) break;
+  }
+  if (r->norm() < 1e-7) return uv;
+  return std::nullopt;
+}
+
+std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s) {
+  const auto pts = calib::TargetPoints(scene.target);
+  const Extent e = BoardExtent(scene.target, scene.style);
+  std::vector<Vec3> check = {Vec3(e.x_min, e.y_min, 0), Vec3(e.x_max, e.y_min, 0), Vec3(e.x_min, e.y_max, 0),
+                             Vec3(e.x_max, e.y_max, 0)};
+  for (const Vec3& p : pts) check.push_back(p);
+  for (const Vec3& p : check) {
+    const Vec3 c = scene.pose.Apply(p);
+    if (!(c.z() > 0)) {
+      throw InvalidInput("pose", fmt::format("the target lies behind the camera (its point ({:g}, {:g}) mm at z = {:.1f} mm "
+                                             "from the pupil)", p.x(), p.y(), c.z()));
+    }
+    if (InsidePort(s.system, c + s.ep_in_housing_mm)) {
+      throw InvalidInput("pose", fmt::format("the target reaches into the port (its point ({:g}, {:g}) mm at {:.1f} mm "
+                                             "from the pupil)", p.x(), p.y(), c.norm()));
+    }
+  }
+  const camera::Sensor& sensor = s.camera.sensor;
+  std::vector<TruthPoint> out;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    TruthPoint tp;
+    tp.id = static_cast<int>(i);
+    tp.point_in_target_mm = pts[i];
+    tp.point_in_cam_mm = scene.pose.Apply(pts[i]);
+    for (const Band& b : s.bands) {
+      const auto uv = ProjectThroughPort(s, b, scene.pose, pts[i]);
+      if (!uv) {
+        const auto direct = s.camera.Project(tp.point_in_cam_mm);
+        const bool in_frame = direct && direct->x() >= 0 && direct->y() >= 0 && direct->x() <= sensor.width_px - 1 &&
+                              direct->y() <= sensor.height_px - 1;
+        if (!in_frame) {
+          throw InvalidInput("pose", fmt::format("the target falls outside the camera's field (point {})", i));
+        }
+        throw InvalidInput("port", fmt::format("no ray from target point {} passes the port at {:g} nm (beyond its rim, "
+                                               "or totally reflected)", i, b.lambda_nm));
+      }
+      if (uv->x() < 0 || uv->y() < 0 || uv->x() > sensor.width_px - 1 || uv->y() > sensor.height_px - 1) {
+        throw InvalidInput("pose", fmt::format("the target falls outside the image: point {} images at {} in a {}x{} "
+                                               "frame", i, Px(*uv), sensor.width_px, sensor.height_px));
+      }
+      tp.pixel_per_band.push_back(*uv);
+    }
+    out.push_back(std::move(tp));
+  }
+  return out;
+}
+
+Rendered Render(const Scene& scene, const RenderOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Validate(o);
+  Rendered r;
+  r.setup = Resolve(scene, o.color);
+  const Setup& s = r.setup;
+  r.truth = GroundTruth(scene, s);
+  {  // The image centre's chief ray must leave the housing in every band.
+    const Vec2 centre((s.camera.sensor.width_px - 1) / 2.0, (s.camera.sensor.height_px - 1) / 2.0);
+    const auto d = s.camera.Unproject(centre);
+    for (const Band& b : s.bands) {
+      optics::Ray out;
+      if (!d || optics::TraceSequence<double>(b.outward, optics::Ray{s.ep_in_housing_mm, *d}, &out) !=
+                    optics::RayStatus::kOk) {
+        throw InvalidInput("port", fmt::format("the ray through the image centre cannot pass the port at {:g} nm", b.lambda_nm));
+      }
+    }
+  }
+  const Reflectance reflect = MakeReflectance(scene.target, scene.style);
+  const Plane plane = TargetPlane(s, scene.pose);
+  const int W = s.camera.sensor.width_px, H = s.camera.sensor.height_px;
+  const int channels = o.color == ColorMode::kRgb ? 3 : 1;
+  r.image.width = W;
+  r.image.height = H;
+  r.image.channels = channels;
+  r.image.data.assign(static_cast<std::size_t>(W) * H * channels, 0.0f);
+  int bands_in[3] = {0, 0, 0};
+  for (const Band& b : s.bands) ++bands_in[b.channel];
+
+  const int n = o.samples_per_pixel;
+  const int m = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
+  const double focus_s = s.focus.d_s2ep_mm;
+  const bool fisheye = s.camera.info().caps.fisheye;
+  const bool pinhole = s.pupil_radius_mm == 0;
+  const Vec3 ep = s.ep_in_housing_mm;
+  const Vec3 plane_n = plane.normal();
+  const Eigen::Matrix3d board_from_housing = plane.rotation.transpose();
+
+  constexpr int kTile = 64;  // pixels of one row per block: ~1000 rays, in cache through the surfaces
+  const int tiles_per_row = (W + kTile - 1) / kTile;
+  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>(tiles_per_row) * H;
+  std::atomic<std::ptrdiff_t> done{0};
+  std::atomic<long long> blocked{0};
+  std::mutex progress_mutex;
+  const std::ptrdiff_t report_every = std::max<std::ptrdiff_t>(1, blocks / 20);
+
+  auto work = [&](std::ptrdiff_t block) {
+    const int v = static_cast<int>(block / tiles_per_row);
+    const int u0 = static_cast<int>(block % tiles_per_row) * kTile;
+    const int u1 = std::min(W, u0 + kTile);
+    const int np = u1 - u0;
+    const std::size_t nr = static_cast<std::size_t>(np) * n;
+    thread_local optics::RayBatch in, out;
+    thread_local std::vector<int> perm;
+    thread_local std::vector<double> sums;
+    in.resize(nr);
+    perm.resize(n);
+    sums.assign(static_cast<std::size_t>(np) * s.bands.size(), 0.0);
+    // Rays of every sample of the block's pixels, in the housing frame.
+    camera::VisitModel(s.camera.model, [&](auto model) {
+      using M = decltype(model);
+      const double* params = s.camera.params.data();
+      for (int p = 0; p < np; ++p) {
+        const int u = u0 + p;
+        Rng rng{o.seed * 0xD1B54A32D192ED03ull ^ (static_cast<std::uint64_t>(v) * W + u)};
+        for (int k = 0; k < n; ++k) perm[k] = k;
+        for (int k = n - 1; k > 0; --k) std::swap(perm[k], perm[static_cast<int>(rng.Next() % (k + 1))]);
+        for (int k = 0; k < n; ++k) {
+          const std::size_t i = static_cast<std::size_t>(p) * n + k;
+          const Vec2 uv(u - 0.5 + ((k % m) + rng.Uniform()) / m, v - 0.5 + ((k / m) + rng.Uniform()) / m);
+          const auto d = M::template Unproject<double>(s.camera.sensor, params, uv);
+          const int q = perm[k];
+          const Vec2 a = s.pupil_radius_mm * ConcentricDisc(((q % m) + rng.Uniform()) / m, ((q / m) + rng.Uniform()) / m);
+          bool ok = d.has_value();
+          Vec3 origin = ep, dir = d.value_or(Vec3::UnitZ());
+          if (ok && !pinhole) {
+            const Vec3 at(a.x(), a.y(), 0);
+            if (std::isinf(focus_s)) {
+              origin = ep + at;
+            } else if (fisheye) {
+              origin = ep + at;
+              dir = (focus_s * dir - at).normalized();
+            } else if (dir.z() > 0) {
+              origin = ep + at;
+              dir = ((focus_s / dir.z()) * dir - at).normalized();
+            } else {
+              ok = false;
+            }
+          }
+          in.ox[i] = origin.x();
+          in.oy[i] = origin.y();
+          in.oz[i] = origin.z();
+          in.dx[i] = dir.x();
+          in.dy[i] = dir.y();
+          in.dz[i] = dir.z();
+          in.status[i] = ok ? optics::RayStatus::kOk : optics::RayStatus::kMissed;
+        }
+      }
+      return 0;
+    });
+    optics::BatchOptions bo;
+    bo.num_threads = 1;
+    long long blocked_here = 0;
+    for (std::size_t bi = 0; bi < s.bands.size(); ++bi) {
+      optics::TraceBatch(s.bands[bi].outward, in, &out, bo);
+      for (int p = 0; p < np; ++p) {
+        double sum = 0;
+        for (int k = 0; k < n; ++k) {
+          const std::size_t i = static_cast<std::size_t>(p) * n + k;
+          if (out.status[i] != optics::RayStatus::kOk) {
+            ++blocked_here;
+            continue;
+          }
+          const Vec3 o3(out.ox[i], out.oy[i], out.oz[i]), d3(out.dx[i], out.dy[i], out.dz[i]);
+          const double denom = d3.dot(plane_n);
+          const double t = (plane.origin_in_housing - o3).dot(plane_n) / denom;
+          if (!(t > 0) || !std::isfinite(t)) {
+            sum += scene.style.background;
+            continue;
+          }
+          const Vec3 local = board_from_housing * (o3 + t * d3 - plane.origin_in_housing);
+          sum += reflect(local.x(), local.y());
+        }
+        sums[static_cast<std::size_t>(p) * s.bands.size() + bi] = sum / n;
+      }
+    }
+    float* row = r.image.data.data() + (static_cast<std::size_t>(v) * W + u0) * channels;
+    for (int p = 0; p < np; ++p) {
+      double c[3] = {0, 0, 0};
+      for (std::size_t bi = 0; bi < s.bands.size(); ++bi) c[s.bands[bi].channel] += sums[p * s.bands.size() + bi];
+      for (int ch = 0; ch < channels; ++ch) {
+        row[p * channels + ch] = static_cast<float>(std::min(1.0, o.exposure * c[ch] / bands_in[ch]));
+      }
+    }
+    blocked += blocked_here;
+    const std::ptrdiff_t d = ++done;
+    if (o.progress && (d % report_every == 0 || d == blocks)) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      o.progress(static_cast<double>(d) / blocks);
+    }
+  };
+  optics::ParallelBlocks(o.threads, blocks, work);
+  r.blocked_fraction = static_cast<double>(blocked.load()) / (static_cast<double>(W) * H * n * s.bands.size());
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+std::string EncodePng(const Image& image, int bit_depth) {
+  if (bit_depth != 8 && bit_depth != 16) throw InvalidInput("--bit-depth", "must be 8 or 16");
+  const int ch = image.channels;
+  const int type = bit_depth == 8 ? CV_MAKETYPE(CV_8U, ch) : CV_MAKETYPE(CV_16U, ch);
+  cv::Mat mat(image.height, image.width, type);
+  const double full = bit_depth == 8 ? 255.0 : 65535.0;
+  for (int v = 0; v < image.height; ++v) {
+    for (int u = 0; u < image.width; ++u) {
+      for (int c = 0; c < ch; ++c) {
+        const int cv_c = ch == 3 ? 2 - c : c;  // OpenCV writes BGR
+        const double x = std::clamp(static_cast<double>(image.at(u, v, c)), 0.0, 1.0) * full;
+        if (bit_depth == 8) mat.ptr<unsigned char>(v)[u * ch + cv_c] = static_cast<unsigned char>(std::lround(x));
+        else mat.ptr<unsigned short>(v)[u * ch + cv_c] = static_cast<unsigned short>(std::lround(x));
+      }
+    }
+  }
+  std::vector<unsigned char> buf;
+  if (!cv::imencode(".png", mat, buf)) throw InternalError("PNG encoding failed");
+  return std::string(buf.begin(), buf.end());
+}
+
+nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, const Rendered& r,
+                                 const std::string& image_file, int bit_depth) {
+  using Json = nlohmann::ordered_json;
+  const Setup& s = r.setup;
+  auto vec = [](const auto& v) {
+    Json a = Json::array();
+    for (int i = 0; i < v.size(); ++i) a.push_back(v[i]);
+    return a;
+  };
+  auto length = [](double mm) { return std::isfinite(mm) ? Json(mm) : Json("inf"); };
+  Json j;
+  j["image"] = image_file;
+  j["width_px"] = r.image.width;
+  j["height_px"] = r.image.height;
+  j["color"] = o.color == ColorMode::kRgb ? "rgb" : "grey";
+  j["bit_depth"] = bit_depth;
+  j["pixel_convention"] = "(0, 0) is the centre of the top-left pixel, u right, v down";
+  j["target"] = scene.target.ToString();
+  Json pose;
+  pose["frame"] = "cam_from_target: point_in_cam = R point_in_target + t; cam = entrance pupil, housing axes";
+  Json rot = Json::array();
+  for (int i = 0; i < 3; ++i) rot.push_back(vec(Eigen::RowVector3d(scene.pose.rotation.row(i))));
+  pose["rotation"] = rot;
+  const Eigen::AngleAxisd aa(scene.pose.rotation);
+  pose["rotation_deg"] = vec(Eigen::Vector3d(aa.axis() * aa.angle() * 180 / std::numbers::pi));
+  pose["translation_mm"] = vec(scene.pose.translation_mm);
+  j["pose"] = pose;
+  Json cam;
+  cam["model"] = std::string(s.camera.model_name());
+  Json params;
+  const auto& info = s.camera.info();
+  for (int i = 0; i < info.num_params; ++i) params[std::string(info.params[i].json_key)] = s.camera.params[i];
+  cam["camera"] = params;
+  cam["sensor"] = {{"width_px", s.camera.sensor.width_px},
+                   {"height_px", s.camera.sensor.height_px},
+                   {"pixel_pitch_mm", s.camera.sensor.pixel_pitch_mm}};
+  j["camera"] = cam;
+  j["camera_body"] = scene.housed.camera.name;
+  j["lens"] = {{"name", scene.housed.lens.name},
+               {"focal_length_mm", scene.housed.lens.focal_length_mm},
+               {"f_number", std::isinf(scene.f_number) ? Json("inf") : Json(scene.f_number)},
+               {"pupil_radius_mm", s.pupil_radius_mm}};
+  j["focus"] = {{"on", s.focused_on_target ? "target" : "focus_distance"},
+                {"subject_distance_mm", s.focused_on_target ? Json(s.focus_subject_mm) : Json(nullptr)},
+                {"focus_distance_mm", s.focus.focus_distance_mm ? length(*s.focus.focus_distance_mm) : Json(nullptr)},
+                {"d_s2ep_mm", length(s.focus.d_s2ep_mm)},
+                {"ep_in_housing_mm", vec(s.ep_in_housing_mm)}};
+  j["port"] = {{"name", s.system.spec.name}, {"toml", io::PortToToml(s.system.spec)}};
+  j["medium"] = scene.medium == Medium::kWater ? "water" : "air";
+  const auto& env = scene.housed.env;
+  j["water"] = {{"name", scene.medium == Medium::kWater ? env.water : "air"},
+                {"temperature_c", env.conditions.temperature_c},
+                {"salinity_psu", env.conditions.salinity_psu},
+                {"pressure_dbar", env.conditions.pressure_dbar}};
+  Json bands = Json::array();
+  const char* names[] = {"red", "green", "blue"};
+  for (const Band& b : s.bands) {
+    bands.push_back({{"lambda_nm", b.lambda_nm},
+                     {"channel", o.color == ColorMode::kRgb ? names[b.channel] : "grey"},
+                     {"n_glass", b.n_glass},
+                     {"n_water", b.n_water}});
+  }
+  j["bands"] = bands;
+  j["samples_per_pixel"] = o.samples_per_pixel;
+  j["seed"] = o.seed;
+  j["exposure"] = o.exposure;
+  j["style"] = {{"black", scene.style.black}, {"white", scene.style.white}, {"background", scene.style.background}};
+  j["blocked_fraction"] = r.blocked_fraction;
+  Json points = Json::array();
+  for (const TruthPoint& tp : r.truth) {
+    Json px = Json::array();
+    for (const Vec2& uv : tp.pixel_per_band) px.push_back({uv.x(), uv.y()});
+    points.push_back({{"id", tp.id},
+                      {"target_mm", vec(Eigen::Vector2d(tp.point_in_target_mm.head<2>()))},
+                      {"cam_mm", vec(tp.point_in_cam_mm)},
+                      {"px", px}});
+  }
+  j["points_note"] = "px: the point's image per band (the order of bands): its chief ray traced through the port";
+  j["points"] = points;
+  return j;
+}
+
+std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
+  if (o.count < 1 || o.count > 10000) throw InvalidInput("--count", "must be 1 to 10000");
+  if (!scene.focus_distance_mm) throw InvalidInput("focus_distance_mm", "a set needs one focus for all its images");
+  if (!(o.max_tilt_deg >= 0 && o.max_tilt_deg < 80)) throw InvalidInput("--max-tilt", "must be 0 to 80 degrees");
+  if (!(o.max_roll_deg >= 0 && o.max_roll_deg <= 180)) throw InvalidInput("--max-roll", "must be 0 to 180 degrees");
+  if (!(o.margin >= 0 && o.margin < 0.4)) throw InvalidInput("margin", "must be 0 to 0.4");
+  Scene water = scene, air = scene;
+  water.medium = Medium::kWater;
+  air.medium = Medium::kAir;
+  const Setup sw = Resolve(water), sa = Resolve(air);
+  const camera::Sensor& sensor = sw.camera.sensor;
+  const auto pts = calib::TargetPoints(scene.target);
+  double span = 0;  // the target's size
+  for (const Vec3& p : pts) span = std::max(span, (p - pts.front()).norm());
+  const double f_px = sw.camera.FocalLengthPx();
+  double near = o.near_mm, far = o.far_mm;
+  if (near == 0 && far == 0) {  // the target fills 80 % … 30 % of the frame's width
+    near = f_px * span / (0.8 * sensor.width_px);
+    far = f_px * span / (0.3 * sensor.width_px);
+  }
+  if (!(near > 0 && far >= near && std::isfinite(far))) throw InvalidInput("--distances", "must be near <= far, both > 0");
+  const double mu = o.margin * std::max(sensor.width_px, sensor.height_px);
+  auto fits = [&](const Scene& sc, const Setup& st) {
+    try {
+      for (const TruthPoint& tp : GroundTruth(sc, st)) {
+        for (const Vec2& uv : tp.pixel_per_band) {
+          if (uv.x() < mu || uv.y() < mu || uv.x() > sensor.width_px - 1 - mu || uv.y() > sensor.height_px - 1 - mu) {
+            return false;
+          }
+        }
+      }
+      return true;
+    } catch (const InvalidInput&) {
+      return false;
+    }
+  };
+  Rng rng{o.seed * 0x9E3779B97F4A7C15ull + 12345};
+  std::vector<Pose> poses;
+  for (int i = 0; i < o.count; ++i) {
+    bool found = false;
+    for (int attempt = 0; attempt < 4000 && !found; ++attempt) {
+      // Distances stratified over the range (image i in the i-th slice), the rest uniform.
+      const double dist = near + (far - near) * ((i % o.count) + rng.Uniform()) / o.count;
+      const Vec2 centre_px(rng.Uniform() * (sensor.width_px - 1), rng.Uniform() * (sensor.height_px - 1));
+      const auto dir = sw.camera.Unproject(centre_px);
+      if (!dir || !(dir->z() > 0.2)) continue;
+      const Vec3 c = *dir * (dist / dir->z());
+      const double tx = (2 * rng.Uniform() - 1) * o.max_tilt_deg, ty = (2 * rng.Uniform() - 1) * o.max_tilt_deg;
+      const double roll = (2 * rng.Uniform() - 1) * o.max_roll_deg;
+      Pose pose = PoseFacing(scene.target, c.z(), c.head<2>(), tx, ty, roll);
+      water.pose = pose;
+      air.pose = pose;
+      if (fits(water, sw) && fits(air, sa)) {
+        poses.push_back(pose);
+        found = true;
+      }
+    }
+    if (!found) {
+      throw InvalidInput("--count", fmt::format("no pose puts the whole target inside the frame at {:.0f}-{:.0f} mm "
+                                                "(pose {} of {}): a smaller target or other distances", near, far, i + 1,
+                                                o.count));
+    }
+  }
+  return poses;
+}
+
+}  // namespace porthole::render

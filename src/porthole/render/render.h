@@ -1,0 +1,186 @@
+// What the camera sees through the port: a planar calibration target at a pose, imaged by a camera
+// of the camera-model list behind a dome or flat port, in water or in air (docs/render.md).
+//
+// The model, per pixel (u, v) of the W × H frame:
+//  - n = m² stratified sample positions inside the pixel (pixel (u, v) covers [u ± 0.5] × [v ± 0.5],
+//    docs/conventions.md); each is unprojected by the camera model (its distortion applied exactly)
+//    to the chief-ray direction d in the cam frame (origin at the entrance pupil, housing axes).
+//  - Thin lens (depth of field): the lens is focused at D_S2EP = s in front of the pupil (in the
+//    housing's air: on a virtual image under water). Each sample also takes one point A of the
+//    entrance-pupil disc (radius f / 2N; m × m strata, shuffled per pixel); its ray leaves A toward
+//    the point where the chief ray meets the focus surface (the plane Z = s; for fisheye models the
+//    sphere |P| = s), so a point whose image (through the port) lies at s is sharp and others blur
+//    as planning predicts. f_number = ∞ is a pinhole (A = 0).
+//  - Each ray is traced outward through the port (optics::TraceBatch) once per wavelength band
+//    (glass and water indices at that band's λ) into the water (or air), and meets the target
+//    plane: the target's reflectance there (render/pattern.h), the background where it misses the
+//    board, black (0) when the ray cannot leave the housing (beyond the dome's rim, total internal
+//    reflection). The lens itself is achromatic: bands differ only through the port and the water.
+//  - A pixel is the mean over its samples, per band; grey = mean of the bands, RGB = each channel
+//    the mean of its bands (λ < 500 nm blue, < 590 nm green, else red). Linear, no gamma:
+//    value = exposure · reflectance (exposure 1: white paper at the style's 0.9).
+//
+// Frames (docs/conventions.md): housing (flange origin, +Z to the scene), cam (entrance pupil,
+// housing axes). The pose is cam_from_target: point_in_cam = R · point_in_target + t (mm).
+//
+// Ground truth: each target point's image, per band, is the pixel whose chief ray (from the pupil
+// centre, through the port) meets the target plane at that point: a Newton solve on the pixel
+// through the same tracer (GroundTruth below); converged to 1e-9 mm on the target.
+//
+// Failures: bad input (a target behind the camera or inside the port, a target that falls outside
+// the image, a port no ray from the target can pass, bad options) → InvalidInput naming the field,
+// before any pixel is rendered.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "porthole/calib/target.h"
+#include "porthole/camera/camera.h"
+#include "porthole/housing/housed.h"
+#include "porthole/optics/trace.h"
+#include "porthole/render/pattern.h"
+
+namespace porthole::render {
+
+// cam_from_target: point_in_cam = rotation · point_in_target + translation_mm.
+struct Pose {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d Apply(const Eigen::Vector3d& p) const { return rotation * p + translation_mm; }
+};
+
+// The pose that puts the centre of the target's points at (shift_mm, distance_mm) in the cam frame,
+// the target facing the camera (its X along cam X, Y along cam Y) turned by tilt_x_deg about its
+// own X axis, then tilt_y_deg about its Y axis, then roll_deg about the optical axis.
+Pose PoseFacing(const calib::TargetSpec& target, double distance_mm, const Eigen::Vector2d& shift_mm = {0, 0},
+                double tilt_x_deg = 0, double tilt_y_deg = 0, double roll_deg = 0);
+// The centre of the target's points (target frame, mm).
+Eigen::Vector3d TargetCentre(const calib::TargetSpec& target);
+
+enum class Medium { kWater, kAir };  // what is outside the port (air: the in-air calibration)
+enum class ColorMode { kGrey, kRgb };
+
+// The default bands: the F, e and C lines (nm).
+inline const std::vector<double> kDefaultBandsNm = {486.13, 546.07, 656.27};
+
+struct Scene {
+  housing::HousedCamera housed;  // body, lens, port, water (its λ is replaced by each band's)
+  calib::TargetSpec target;
+  Pose pose;
+  Medium medium = Medium::kWater;
+  // The lens's focus-scale distance FD (sensor to subject, mm; may be infinite). Unset: focused
+  // on the target, i.e. on the virtual image of its centre (housing::FocusOnSubject).
+  std::optional<double> focus_distance_mm;
+  double f_number = 8;  // aperture; infinity: a pinhole (no depth of field)
+  // The camera that unprojects pixels (any model of the list; its sensor is the image). Unset:
+  // the ideal camera of the lens's projection (Brown for a rectilinear lens) with principal
+  // distance c_mm, or the thin-lens c at the focus (lens::PrincipalDistanceMm) when c_mm is unset.
+  std::optional<camera::Camera> camera;
+  std::optional<double> c_mm;
+  std::vector<double> bands_nm = kDefaultBandsNm;
+  PatternStyle style;
+};
+
+struct RenderOptions {
+  int samples_per_pixel = 16;  // a square m², m × m strata (and m × m pupil strata)
+  ColorMode color = ColorMode::kGrey;
+  double exposure = 1.0;       // pixel value = exposure · reflectance (clipped to 1)
+  std::uint64_t seed = 1;      // the same seed gives the same image, on any number of threads
+  int threads = 0;             // 0: every core
+  // Called now and then with the fraction of rows done (from one thread at a time). May be empty.
+  std::function<void(double)> progress;
+};
+// Throws InvalidInput naming the option.
+void Validate(const RenderOptions& o);
+
+// Everything the scene resolves to before rendering.
+struct Band {
+  double lambda_nm = 0;
+  int channel = 0;  // 0 grey; RGB: 0 red, 1 green, 2 blue
+  double n_glass = 1, n_water = 1;
+  std::vector<optics::Interface> outward;  // air → glass → water (or air), housing frame
+};
+struct Setup {
+  camera::Camera camera;
+  housing::FocusSetting focus;      // FD, D_S2EP (= s), pupil
+  bool focused_on_target = false;
+  double focus_subject_mm = 0;      // the subject the focus was set on (from the pupil), if any
+  ports::PortSystem system;         // at the design wavelength (the housed camera's λ)
+  std::vector<Band> bands;
+  double pupil_radius_mm = 0;       // f / 2N (0: pinhole)
+  Eigen::Vector3d ep_in_housing_mm = Eigen::Vector3d::Zero();
+};
+// Resolves focus, camera, port and bands; checks the scene (InvalidInput). ColorMode decides each
+// band's channel.
+Setup Resolve(const Scene& scene, ColorMode color = ColorMode::kGrey);
+
+// One target point's image.
+struct TruthPoint {
+  int id = 0;
+  Eigen::Vector3d point_in_target_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d point_in_cam_mm = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector2d> pixel_per_band;  // (u, v), one per band of the setup
+};
+
+// Every target point's image per band (the Newton solve above). Throws InvalidInput("pose") when a
+// point lies behind the camera, inside the port or outside the image, InvalidInput("port") when no
+// ray from it passes the port.
+std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& setup);
+
+// The image of a chief ray: the pixel whose chief ray, traced through `band`, meets the target plane
+// of `pose` at board point (x, y) — the forward projection; nullopt if Newton fails.
+std::optional<Eigen::Vector2d> ProjectThroughPort(const Setup& setup, const Band& band, const Pose& pose,
+                                                  const Eigen::Vector3d& point_in_target_mm);
+
+// A linear image, row-major, channels interleaved, values 0 … 1.
+struct Image {
+  int width = 0, height = 0, channels = 1;
+  std::vector<float> data;
+  float at(int u, int v, int c = 0) const { return data[(static_cast<std::size_t>(v) * width + u) * channels + c]; }
+};
+
+struct Rendered {
+  Image image;
+  Setup setup;
+  std::vector<TruthPoint> truth;
+  double blocked_fraction = 0;  // of the samples' rays that could not leave the housing
+  double seconds = 0;
+};
+
+// Renders the scene (the model above). Throws InvalidInput for bad scenes and options.
+Rendered Render(const Scene& scene, const RenderOptions& options = {});
+
+// The ground-truth JSON (docs/render.md, "Ground truth"): image, target, pose, camera (readable by
+// calib::CalibrationFromJson), lens and focus, port (its TOML), medium and water, bands with their
+// indices, sampling, and every point's pixel per band.
+nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& options, const Rendered& r,
+                                 const std::string& image_file, int bit_depth);
+
+// The image as PNG bytes, 8 or 16 bits per channel (RGB written in PNG's order). Throws
+// InvalidInput("--bit-depth") for another depth.
+std::string EncodePng(const Image& image, int bit_depth);
+
+// ---- Sets: N poses rendered in water and in air, ready for `detect` and `calibrate`.
+
+struct SetOptions {
+  int count = 12;
+  std::uint64_t seed = 1;
+  double near_mm = 0, far_mm = 0;  // distances of the target's centre from the pupil; 0: chosen
+                                   // so the target fills 30–80 % of the frame's width
+  double max_tilt_deg = 35;        // tilts drawn uniformly in ±max about X and Y
+  double max_roll_deg = 15;
+  double margin = 0.04;            // points at least this fraction of the frame from its edges
+};
+
+// N seeded poses: distances, tilts and rolls spread over their ranges, the target's centre over
+// the frame, each kept only when every point lands inside the frame (with the margin) in water and
+// in air. Throws InvalidInput("--count") when poses cannot be found (a target too large).
+std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& options);
+
+}  // namespace porthole::render
