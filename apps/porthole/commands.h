@@ -22,5 +22,6 @@ void RegisterCalibrate(CLI::App& app);
 void RegisterCompare(CLI::App& app);
 void RegisterConvert(CLI::App& app);
 void RegisterReport(CLI::App& app);
+void RegisterRender(CLI::App& app);
 
 }  // namespace porthole::cli

@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterCompare(app);
   porthole::cli::RegisterConvert(app);
   porthole::cli::RegisterReport(app);
+  porthole::cli::RegisterRender(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,224 @@
+// `porthole render`: what the camera sees through the port — a calibration target at a pose,
+// rendered through the camera model, the thin lens and the port in water or air, with a
+// ground-truth JSON beside each image (docs/render.md). `--set N` renders N seeded poses in water
+// and in air, ready for `porthole detect` and `porthole calibrate`.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "camera_options.h"
+#include "commands.h"
+#include "common.h"
+#include "porthole/calib/result_json.h"
+#include "porthole/core/atomic_file.h"
+#include "porthole/render/render.h"
+
+namespace porthole::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RenderCliOptions {
+  std::string port = "nimar-ni320";
+  std::vector<double> ep;
+  CameraLensOptions camera;
+  WaterOptions water;
+  std::string target = "chessboard:9x6:40";
+  std::string medium = "water";
+  double distance_mm = 1000;
+  std::vector<double> shift = {0, 0}, tilt = {0, 0};
+  double roll_deg = 0;
+  std::string focus = "target";
+  std::string f_number = "8";
+  std::string camera_model;
+  std::optional<double> c_mm;
+  std::vector<double> bands = render::kDefaultBandsNm;
+  std::string color = "grey";
+  int bit_depth = 8;
+  int spp = 16;
+  std::uint64_t seed = 1;
+  double exposure = 1;
+  std::string out;
+  int set = 0;
+  std::vector<std::string> distances;
+  double max_tilt_deg = 35;
+  bool quiet = false;
+};
+
+double ParseLengthOrInf(const std::string& text, const std::string& field) {
+  return ParseLengthList({text}, field).front();
+}
+
+// Renders one scene and writes <png> and <png minus .png>.json, both whole or not at all.
+void RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int bit_depth, const fs::path& png,
+               const std::string& label, bool quiet) {
+  render::RenderOptions o = ro;
+  int last = -1;
+  if (!quiet) {
+    o.progress = [&](double f) {
+      const int pct = static_cast<int>(f * 100);
+      if (pct / 10 != last / 10) fmt::print(stderr, "render: {} {}%\n", label, pct);
+      last = pct;
+    };
+  }
+  const render::Rendered r = render::Render(scene, o);
+  const std::string bytes = render::EncodePng(r.image, bit_depth);
+  fs::path json = png;
+  json.replace_extension(".json");
+  const std::string truth = render::TruthJson(scene, o, r, png.filename().string(), bit_depth).dump(1) + "\n";
+  WriteFileAtomically(json, truth, "--out");
+  WriteFileAtomically(png, bytes, "--out");
+  if (!quiet) {
+    fmt::print(stderr, "render: {} {}x{} px, {} spp, {} bands in {:.1f} s; {:.2f} % of rays blocked by the housing\n",
+               label, r.image.width, r.image.height, o.samples_per_pixel, r.setup.bands.size(), r.seconds,
+               100 * r.blocked_fraction);
+  }
+}
+
+void RunRender(const RenderCliOptions& o) {
+  render::Scene scene;
+  scene.housed = o.camera.ToHoused(PortOptions{o.port, o.ep}, o.water);
+  scene.target = calib::ParseTarget(o.target);
+  if (o.medium != "water" && o.medium != "air") throw InvalidInput("--medium", "must be water or air");
+  scene.medium = o.medium == "air" ? render::Medium::kAir : render::Medium::kWater;
+  if (o.focus != "target") scene.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
+  scene.f_number = o.f_number == "inf" ? std::numeric_limits<double>::infinity()
+                                       : RequirePositive("--f-number", ParseLengthOrInf(o.f_number, "--f-number"));
+  if (!o.camera_model.empty()) {
+    scene.camera = calib::LoadCalibration(o.camera_model, scene.housed.camera.sensor.pixel_pitch_mm, "--camera-model",
+                                          nullptr)
+                       .camera;
+  }
+  scene.c_mm = o.c_mm;
+  scene.bands_nm = o.bands;
+  render::RenderOptions ro;
+  ro.samples_per_pixel = o.spp;
+  ro.seed = o.seed;
+  ro.exposure = o.exposure;
+  if (o.color != "grey" && o.color != "rgb") throw InvalidInput("--color", "must be grey or rgb");
+  ro.color = o.color == "rgb" ? render::ColorMode::kRgb : render::ColorMode::kGrey;
+  render::Validate(ro);
+  if (o.bit_depth != 8 && o.bit_depth != 16) throw InvalidInput("--bit-depth", "must be 8 or 16");
+  if (o.shift.size() != 2 || o.tilt.size() != 2) throw InvalidInput("--shift", "--shift and --tilt take X,Y");
+  if (o.out.empty()) throw InvalidInput("--out", "is required: the PNG file (single image) or a directory (--set)");
+
+  if (o.set == 0) {
+    const fs::path png = o.out;
+    if (png.extension() != ".png") throw InvalidInput("--out", "must name a .png file");
+    CheckOutputFile(o.out, "--out");
+    RequirePositive("--distance", o.distance_mm);
+    scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
+                                    o.roll_deg);
+    RenderOne(scene, ro, o.bit_depth, png, png.filename().string(), o.quiet);
+    return;
+  }
+
+  // A set: one focus for every image (on the middle distance under water unless --focus gives
+  // FD), the same poses in water and in air.
+  render::SetOptions so;
+  so.count = o.set;
+  so.seed = o.seed;
+  so.max_tilt_deg = o.max_tilt_deg;
+  so.max_roll_deg = 15;
+  if (!o.distances.empty()) {
+    const auto d = ParseLengthList(o.distances, "--distances");
+    if (d.size() != 2) throw InvalidInput("--distances", "takes NEAR,FAR in mm");
+    so.near_mm = d[0];
+    so.far_mm = d[1];
+  }
+  EnsureOutputDirectory(o.out, "--out");
+  if (!scene.focus_distance_mm) {
+    render::Scene probe = scene;
+    probe.focus_distance_mm = std::numeric_limits<double>::infinity();
+    const render::Setup s = render::Resolve(probe);
+    // The middle of the distances the set will use: the given ones, or those SetPoses chooses.
+    double mid = 0.5 * (so.near_mm + so.far_mm);
+    if (mid == 0) {
+      const auto pts = calib::TargetPoints(scene.target);
+      double span = 0;
+      for (const auto& p : pts) span = std::max(span, (p - pts.front()).norm());
+      mid = 0.5 * (1 / 0.8 + 1 / 0.3) * s.camera.FocalLengthPx() * span / s.camera.sensor.width_px;
+    }
+    scene.focus_distance_mm = *housing::FocusOnSubject(scene.housed, mid).focus.focus_distance_mm;
+  }
+  const auto poses = render::SetPoses(scene, so);
+  for (const char* medium : {"water", "air"}) EnsureOutputDirectory((fs::path(o.out) / medium).string(), "--out");
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    for (const render::Medium m : {render::Medium::kWater, render::Medium::kAir}) {
+      render::Scene sc = scene;
+      sc.pose = poses[i];
+      sc.medium = m;
+      render::RenderOptions r = ro;
+      r.seed = o.seed + i;
+      const std::string dir = m == render::Medium::kWater ? "water" : "air";
+      const fs::path png = fs::path(o.out) / dir / fmt::format("pose_{:03d}.png", i);
+      RenderOne(sc, r, o.bit_depth, png, dir + "/" + png.filename().string(), o.quiet);
+    }
+  }
+  if (!o.quiet) {
+    fmt::print(stderr, "render: {} poses in {}/water and {}/air; focus scale {:.1f} mm\n", poses.size(), o.out, o.out,
+               *scene.focus_distance_mm);
+  }
+}
+
+}  // namespace
+
+void RegisterRender(CLI::App& app) {
+  auto o = std::make_shared<RenderCliOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "render",
+      "Render what the camera sees through the port: a target at a pose, the lens's depth of field, the "
+      "port's refraction and dispersion; ground truth JSON beside each PNG; --set N for calibration sets");
+  cmd->add_option("--out", o->out, "Output PNG (the ground truth goes to the same name .json); with --set a directory")
+      ->required();
+  cmd->add_option("--target", o->target,
+                  "chessboard:COLSxROWS:SQUARE_MM | charuco:SQXxSQY:SQUARE_MM:MARKER_MM[:DICT] | circles:COLSxROWS:MM | "
+                  "acircles:COLSxROWS:MM")
+      ->capture_default_str();
+  cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
+      ->capture_default_str()->group("Port");
+  cmd->add_option("--ep", o->ep, "Entrance pupil X,Y,Z in the housing frame, mm (default: the lens's)")
+      ->delimiter(',')->expected(3)->group("Port");
+  cmd->add_option("--medium", o->medium, "What is outside the port: water, or air (the in-air calibration)")
+      ->capture_default_str();
+  o->camera.Add(cmd);
+  o->water.Add(cmd);
+  cmd->add_option("--distance", o->distance_mm, "Target centre's distance from the entrance pupil, mm")
+      ->capture_default_str()->group("Pose");
+  cmd->add_option("--shift", o->shift, "Target centre X,Y off the axis (cam frame: X right, Y down), mm")
+      ->delimiter(',')->expected(2)->group("Pose");
+  cmd->add_option("--tilt", o->tilt, "Target tilt about its X, then its Y axis, deg")->delimiter(',')->expected(2)->group("Pose");
+  cmd->add_option("--roll", o->roll_deg, "Target roll about the optical axis, deg")->group("Pose");
+  cmd->add_option("--focus", o->focus, "'target' (focus on the target's virtual image) or the focus-scale distance FD, mm")
+      ->capture_default_str()->group("Lens");
+  cmd->add_option("--f-number", o->f_number, "Aperture (inf: a pinhole, no depth of field)")
+      ->capture_default_str()->group("Lens");
+  cmd->add_option("--camera-model", o->camera_model,
+                  "Calibration JSON or OpenCV YAML of the camera (any model; default: the ideal camera of the lens)")
+      ->group("Lens");
+  cmd->add_option("--c", o->c_mm, "Principal distance of the ideal camera, mm (default: thin lens at the focus)")
+      ->group("Lens");
+  cmd->add_option("--bands", o->bands, "Wavelength bands, nm (RGB: blue < 500, green 500-590, red >= 590)")
+      ->delimiter(',')->capture_default_str()->group("Image");
+  cmd->add_option("--color", o->color, "grey or rgb")->capture_default_str()->group("Image");
+  cmd->add_option("--bit-depth", o->bit_depth, "PNG bits per channel: 8 or 16")->capture_default_str()->group("Image");
+  cmd->add_option("--spp", o->spp, "Samples per pixel, a square (1, 4, 9, 16, ...)")->capture_default_str()->group("Image");
+  cmd->add_option("--seed", o->seed, "Random seed (the same seed gives the same image)")->capture_default_str()->group("Image");
+  cmd->add_option("--exposure", o->exposure, "Pixel value = exposure x reflectance (white paper 0.9)")
+      ->capture_default_str()->group("Image");
+  cmd->add_option("--set", o->set, "Render N seeded poses in water and in air into --out/water and --out/air")
+      ->group("Set");
+  cmd->add_option("--distances", o->distances, "Set: NEAR,FAR target distances, mm (default: the target fills 30-80 %)")
+      ->delimiter(',')->group("Set");
+  cmd->add_option("--max-tilt", o->max_tilt_deg, "Set: largest tilt about either axis, deg")->capture_default_str()->group("Set");
+  cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
+  cmd->callback([o] {
+    WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
+                    {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"},
+                    {"samples_per_pixel", "--spp"}, {"exposure", "--exposure"}, {"pose", "pose"}},
+                   [&] { RunRender(*o); });
+  });
+}
+
+}  // namespace porthole::cli
