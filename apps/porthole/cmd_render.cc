@@ -107,7 +107,7 @@ void RunRender(const RenderCliOptions& o) {
     const fs::path png = o.out;
     if (png.extension() != ".png") throw InvalidInput("--out", "must name a .png file");
     CheckOutputFile(o.out, "--out");
-    RequirePositive("--distance", o.distance_mm);
+    RequireFinite("--distance", o.distance_mm);
     scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
                                     o.roll_deg);
     RenderOne(scene, ro, o.bit_depth, png, png.filename().string(), o.quiet);
@@ -140,7 +140,15 @@ void RunRender(const RenderCliOptions& o) {
       for (const auto& p : pts) span = std::max(span, (p - pts.front()).norm());
       mid = 0.5 * (1 / 0.8 + 1 / 0.3) * s.camera.FocalLengthPx() * span / s.camera.sensor.width_px;
     }
-    scene.focus_distance_mm = *housing::FocusOnSubject(scene.housed, mid).focus.focus_distance_mm;
+    try {
+      scene.focus_distance_mm = *housing::FocusOnSubject(scene.housed, mid).focus.focus_distance_mm;
+    } catch (const InvalidInput&) {  // closer than the lens focuses: its closest focus, as a camera would
+      scene.focus_distance_mm = scene.housed.lens.min_focus_mm;
+      if (!o.quiet) {
+        fmt::print(stderr, "porthole: note: the lens cannot focus on the set's middle distance ({:.0f} mm) under "
+                           "water; focused at its closest, {:g} mm\n", mid, scene.housed.lens.min_focus_mm);
+      }
+    }
   }
   const auto poses = render::SetPoses(scene, so);
   for (const char* medium : {"water", "air"}) EnsureOutputDirectory((fs::path(o.out) / medium).string(), "--out");

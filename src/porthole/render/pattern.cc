@@ -32,9 +32,9 @@ Reflectance ChessboardReflectance(const TargetSpec& t, const PatternStyle& st) {
   const double s = t.spacing_mm;
   return [=](double x, double y) {
     if (!Inside(board, x, y)) return st.background;
-    const double i = std::floor(x / s), j = std::floor(y / s);
+    const long i = static_cast<long>(std::floor(x / s)), j = static_cast<long>(std::floor(y / s));
     if (i < -1 || j < -1 || i > t.cols - 1 || j > t.rows - 1) return st.white;  // the margin
-    return std::fmod(std::abs(i + j), 2.0) == 1.0 ? st.white : st.black;
+    return ((i + j) & 1) ? st.white : st.black;
   };
 }
 

@@ -1,0 +1,62 @@
+"""Proves `porthole render` from the command line: a PNG and its ground truth appear together, the
+ground truth is readable by the commands that follow (its camera by compare's reader, its points
+where OpenCV's detector finds the corners), a set is laid out for `detect`, and bad scenes get one
+line, exit 2 and no file at all."""
+import json
+import math
+import os
+
+from conftest import run, run_bad
+
+SMALL = ["--pixel-pitch-mm", "0.029", "--spp", "4", "--quiet"]  # an 814 x 540 px D300
+
+
+def test_render_writes_the_image_and_its_ground_truth(tmp_path):
+    png = tmp_path / "board.png"
+    run("render", "--out", png, "--tilt", "15,-10", "--roll", "5", "--distance", "1200", "--color", "rgb",
+        "--bit-depth", "16", *SMALL)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    truth = json.loads((tmp_path / "board.json").read_text())
+    assert truth["image"] == "board.png" and truth["bit_depth"] == 16 and truth["color"] == "rgb"
+    assert [b["channel"] for b in truth["bands"]] == ["blue", "green", "red"]
+    # Sea water disperses: the blue index above the red one.
+    assert truth["bands"][0]["n_water"] > truth["bands"][2]["n_water"]
+    assert len(truth["points"]) == 54 and all(len(p["px"]) == 3 for p in truth["points"])
+    assert truth["focus"]["on"] == "target" and truth["camera"]["model"] == "brown"
+    # The detector finds the corners where the ground truth puts them.
+    det = run("detect", "--images", tmp_path, "--target", truth["target"], "--json", "--quiet").json()
+    found = det["images"][0]
+    gt = {p["id"]: p["px"][1] for p in truth["points"]}
+    err = [math.dist(uv, gt[i]) for i, uv in zip(found["ids"], found["points_px"])]
+    rev = [math.dist(uv, gt[53 - i]) for i, uv in zip(found["ids"], found["points_px"])]
+    assert min(max(err), max(rev)) < 0.3
+
+
+def test_a_set_is_ready_for_detect(tmp_path):
+    out = tmp_path / "set"
+    run("render", "--set", "3", "--out", out, "--target", "chessboard:7x5:40", "--f-number", "inf", *SMALL)
+    for medium in ("water", "air"):
+        names = sorted(os.listdir(out / medium))
+        assert names == [f"pose_{i:03d}.{ext}" for i in range(3) for ext in ("json", "png")]
+    water = json.loads((out / "water" / "pose_001.json").read_text())
+    air = json.loads((out / "air" / "pose_001.json").read_text())
+    assert water["pose"] == air["pose"] and water["medium"] == "water" and air["medium"] == "air"
+    assert water["focus"]["focus_distance_mm"] == air["focus"]["focus_distance_mm"]
+    det = run("detect", "--images", out / "water", "--target", "chessboard:7x5:40", "--json", "--quiet").json()
+    assert len(det["images"]) == 3
+
+
+def test_bad_scenes_fail_cleanly(tmp_path):
+    png = tmp_path / "x.png"
+    assert "behind the camera" in run_bad("render", "--out", png, "--distance", "-500", *SMALL)
+    assert "outside the image" in run_bad("render", "--out", png, "--shift", "900,0", "--distance", "1200", *SMALL)
+    assert "into the port" in run_bad("render", "--out", png, "--distance", "60", "--focus", "1000", *SMALL)
+    assert "--spp" in run_bad("render", "--out", png, "--pixel-pitch-mm", "0.029", "--spp", "5")
+    assert "--bit-depth" in run_bad("render", "--out", png, "--bit-depth", "12", *SMALL)
+    assert "--out" in run_bad("render", "--out", tmp_path / "x.jpg", *SMALL)
+    # A dome whose glass starts beyond its own vertex: no ray can leave the housing.
+    port = tmp_path / "blind.toml"
+    port.write_text('name = "blind"\ntype = "dome"\nframe = "cam"\nmaterial = "n-bk7"\nrim_z_mm = 95\n'
+                    '[outer]\ncenter_mm = [0, 0, 0]\nradius_mm = 100\n[inner]\ncenter_mm = [0, 0, 0]\nradius_mm = 92\n')
+    assert "--port" in run_bad("render", "--out", png, "--port", port, "--distance", "1200", "--focus", "1000", *SMALL)
+    assert list(tmp_path.glob("x.*")) == []
