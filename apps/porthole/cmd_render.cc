@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "camera_options.h"
 #include "commands.h"
@@ -54,12 +55,12 @@ double ParseLengthOrInf(const std::string& text, const std::string& field) {
 void RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int bit_depth, const fs::path& png,
                const std::string& label, bool quiet) {
   render::RenderOptions o = ro;
-  int last = -1;
+  int last_decile = 0;
   if (!quiet) {
-    o.progress = [&](double f) {
-      const int pct = static_cast<int>(f * 100);
-      if (pct / 10 != last / 10) fmt::print(stderr, "render: {} {}%\n", label, pct);
-      last = pct;
+    o.progress = [&](double f) {  // one line per tenth done
+      const int decile = static_cast<int>(f * 10);
+      if (decile > last_decile) fmt::print(stderr, "render: {} {}%\n", label, 10 * decile);
+      last_decile = std::max(last_decile, decile);
     };
   }
   const render::Rendered r = render::Render(scene, o);
@@ -76,6 +77,18 @@ void RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int 
   }
 }
 
+// A calibration (JSON or OpenCV YAML), or the camera of a render's ground truth (its "camera").
+camera::Camera LoadCameraModel(const std::string& path, double pixel_pitch_mm) {
+  if (fs::path(path).extension() == ".json") {
+    std::ifstream in(path);
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_object() && j.contains("points") && j.contains("camera") && j["camera"].is_object()) {
+      return calib::CalibrationFromJson(j["camera"], "--camera-model").camera;
+    }
+  }
+  return calib::LoadCalibration(path, pixel_pitch_mm, "--camera-model", nullptr).camera;
+}
+
 void RunRender(const RenderCliOptions& o) {
   render::Scene scene;
   scene.housed = o.camera.ToHoused(PortOptions{o.port, o.ep}, o.water);
@@ -85,11 +98,7 @@ void RunRender(const RenderCliOptions& o) {
   if (o.focus != "target") scene.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
   scene.f_number = o.f_number == "inf" ? std::numeric_limits<double>::infinity()
                                        : RequirePositive("--f-number", ParseLengthOrInf(o.f_number, "--f-number"));
-  if (!o.camera_model.empty()) {
-    scene.camera = calib::LoadCalibration(o.camera_model, scene.housed.camera.sensor.pixel_pitch_mm, "--camera-model",
-                                          nullptr)
-                       .camera;
-  }
+  if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed.camera.sensor.pixel_pitch_mm);
   scene.c_mm = o.c_mm;
   scene.bands_nm = o.bands;
   render::RenderOptions ro;
