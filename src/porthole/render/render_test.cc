@@ -36,10 +36,6 @@ Scene PaperScene(const std::string& port = "nimar-ni320", int width = 720) {
   return s;
 }
 
-int EnvInt(const char* name, int fallback) {
-  const char* v = std::getenv(name);
-  return v ? std::atoi(v) : fallback;
-}
 // The 8" dome made concentric and centred on the pupil (a cam-frame port).
 ports::PortSpec ConcentricDome() {
   ports::PortSpec dome = io::LoadPort("generic-dome-8in");
@@ -273,7 +269,7 @@ TEST(Render, BadScenesAreRefusedBeforeAnyPixel) {
   EXPECT_THROW(Render(s, bad), InvalidInput);
 }
 
-const int kCalibWidth = EnvInt("CW", 720), kCalibSpp = EnvInt("CS", 9), kCalibImages = EnvInt("CN", 10);
+constexpr int kCalibWidth = 720, kCalibSpp = 9, kCalibImages = 10;
 TEST(Render, CalibratingAnAirSetRecoversTheCamera) {
   // The poses of a set, pinhole renders in air behind a dome concentric with the pupil (the camera
   // alone), a Brown calibration of OpenCV's detections: c within 0.02 %.
