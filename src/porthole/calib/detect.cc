@@ -22,23 +22,6 @@ namespace porthole::calib {
 namespace fs = std::filesystem;
 namespace {
 
-std::optional<cv::aruco::PREDEFINED_DICTIONARY_NAME> DictionaryByName(const std::string& name) {
-  using namespace cv::aruco;
-  static const std::map<std::string, PREDEFINED_DICTIONARY_NAME> kNames = {
-      {"DICT_4X4_50", DICT_4X4_50},     {"DICT_4X4_100", DICT_4X4_100},
-      {"DICT_4X4_250", DICT_4X4_250},   {"DICT_4X4_1000", DICT_4X4_1000},
-      {"DICT_5X5_50", DICT_5X5_50},     {"DICT_5X5_100", DICT_5X5_100},
-      {"DICT_5X5_250", DICT_5X5_250},   {"DICT_5X5_1000", DICT_5X5_1000},
-      {"DICT_6X6_50", DICT_6X6_50},     {"DICT_6X6_100", DICT_6X6_100},
-      {"DICT_6X6_250", DICT_6X6_250},   {"DICT_6X6_1000", DICT_6X6_1000},
-      {"DICT_7X7_50", DICT_7X7_50},     {"DICT_7X7_100", DICT_7X7_100},
-      {"DICT_7X7_250", DICT_7X7_250},   {"DICT_7X7_1000", DICT_7X7_1000},
-      {"DICT_ARUCO_ORIGINAL", DICT_ARUCO_ORIGINAL}};
-  const auto it = kNames.find(name);
-  if (it == kNames.end()) return std::nullopt;
-  return it->second;
-}
-
 uint32_t Be32(const unsigned char* p) { return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3]; }
 uint16_t Be16(const unsigned char* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
 uint32_t Le32(const unsigned char* p) { return uint32_t(p[3]) << 24 | uint32_t(p[2]) << 16 | uint32_t(p[1]) << 8 | p[0]; }
@@ -112,9 +95,7 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
       found = cv::findCirclesGrid(gray, size, *pts, cv::CALIB_CB_ASYMMETRIC_GRID);
       break;
     case TargetKind::kCharuco: {
-      const auto dict_name = DictionaryByName(t.dictionary);
-      if (!dict_name) throw InvalidInput("--target", "unknown ArUco dictionary " + t.dictionary);
-      const auto dict = cv::aruco::getPredefinedDictionary(*dict_name);
+      const auto dict = ArucoDictionary(t.dictionary);
       const auto board = cv::aruco::CharucoBoard::create(
           t.cols, t.rows, static_cast<float>(t.spacing_mm), static_cast<float>(t.marker_mm), dict);
       std::vector<int> marker_ids;
@@ -132,6 +113,23 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
 }
 
 }  // namespace
+
+cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const std::string& field) {
+  using namespace cv::aruco;
+  static const std::map<std::string, PREDEFINED_DICTIONARY_NAME> kNames = {
+      {"DICT_4X4_50", DICT_4X4_50},     {"DICT_4X4_100", DICT_4X4_100},
+      {"DICT_4X4_250", DICT_4X4_250},   {"DICT_4X4_1000", DICT_4X4_1000},
+      {"DICT_5X5_50", DICT_5X5_50},     {"DICT_5X5_100", DICT_5X5_100},
+      {"DICT_5X5_250", DICT_5X5_250},   {"DICT_5X5_1000", DICT_5X5_1000},
+      {"DICT_6X6_50", DICT_6X6_50},     {"DICT_6X6_100", DICT_6X6_100},
+      {"DICT_6X6_250", DICT_6X6_250},   {"DICT_6X6_1000", DICT_6X6_1000},
+      {"DICT_7X7_50", DICT_7X7_50},     {"DICT_7X7_100", DICT_7X7_100},
+      {"DICT_7X7_250", DICT_7X7_250},   {"DICT_7X7_1000", DICT_7X7_1000},
+      {"DICT_ARUCO_ORIGINAL", DICT_ARUCO_ORIGINAL}};
+  const auto it = kNames.find(name);
+  if (it == kNames.end()) throw InvalidInput(field, "unknown ArUco dictionary " + name);
+  return cv::aruco::getPredefinedDictionary(it->second);
+}
 
 std::optional<std::pair<long, long>> ReadImageSize(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

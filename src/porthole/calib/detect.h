@@ -13,6 +13,7 @@
 #pragma once
 
 #include <functional>
+#include <opencv2/aruco/dictionary.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -31,6 +32,10 @@ struct DetectOptions {
   int reduced_long_side_px = 1600;   // ... of about this long side (integer factor)
   int threads = 0;                   // DetectAll: images in parallel; 0 = all cores
 };
+
+// OpenCV's predefined ArUco dictionary `name` (DICT_4X4_50, ... DICT_ARUCO_ORIGINAL: the ChArUco
+// spec's DICT). Throws InvalidInput(field, ...) for any other name.
+cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const std::string& field = "--target");
 
 // Width and height from an image file's header (PNG, JPEG, BMP, PGM/PPM, TIFF) without decoding
 // it; nullopt when the format is not one of these or the header is damaged.

@@ -4,11 +4,11 @@
 
 #include <array>
 #include <cmath>
-#include <map>
 #include <memory>
 #include <optional>
 #include <opencv2/aruco/charuco.hpp>
 
+#include "porthole/calib/detect.h"
 #include "porthole/core/error.h"
 
 namespace porthole::render {
@@ -72,20 +72,6 @@ Reflectance CirclesReflectance(const TargetSpec& t, const PatternStyle& st) {
 // origin; the squares holding markers are white, the others black; a marker is markerSize + 2 cells
 // across (one black border cell each side), its cell (0, 0) at its first corner, rows toward its
 // fourth corner, a set bit white (cv::aruco::drawMarker).
-std::optional<cv::aruco::PREDEFINED_DICTIONARY_NAME> Dictionary(const std::string& name) {
-  using namespace cv::aruco;
-  static const std::map<std::string, PREDEFINED_DICTIONARY_NAME> kNames = {
-      {"DICT_4X4_50", DICT_4X4_50},     {"DICT_4X4_100", DICT_4X4_100},   {"DICT_4X4_250", DICT_4X4_250},
-      {"DICT_4X4_1000", DICT_4X4_1000}, {"DICT_5X5_50", DICT_5X5_50},     {"DICT_5X5_100", DICT_5X5_100},
-      {"DICT_5X5_250", DICT_5X5_250},   {"DICT_5X5_1000", DICT_5X5_1000}, {"DICT_6X6_50", DICT_6X6_50},
-      {"DICT_6X6_100", DICT_6X6_100},   {"DICT_6X6_250", DICT_6X6_250},   {"DICT_6X6_1000", DICT_6X6_1000},
-      {"DICT_7X7_50", DICT_7X7_50},     {"DICT_7X7_100", DICT_7X7_100},   {"DICT_7X7_250", DICT_7X7_250},
-      {"DICT_7X7_1000", DICT_7X7_1000}, {"DICT_ARUCO_ORIGINAL", DICT_ARUCO_ORIGINAL}};
-  const auto it = kNames.find(name);
-  if (it == kNames.end()) return std::nullopt;
-  return it->second;
-}
-
 Extent CharucoExtent(const TargetSpec& t, const PatternStyle& st) {
   const double s = t.spacing_mm, m = st.margin * s;
   return {-m, -m, t.cols * s + m, t.rows * s + m};
@@ -97,9 +83,7 @@ struct Marker {
 };
 
 Reflectance CharucoReflectance(const TargetSpec& t, const PatternStyle& st) {
-  const auto name = Dictionary(t.dictionary);
-  if (!name) throw InvalidInput("--target", "unknown ArUco dictionary " + t.dictionary);
-  const auto dict = cv::aruco::getPredefinedDictionary(*name);
+  const auto dict = calib::ArucoDictionary(t.dictionary);
   const int n_markers = (t.cols * t.rows) / 2;
   if (n_markers > dict->bytesList.rows) {
     throw InvalidInput("--target", fmt::format("a {}x{} board needs {} markers; {} holds {}", t.cols, t.rows, n_markers,
