@@ -40,19 +40,21 @@ struct RenderCliOptions {
   int spp = 16;
   std::uint64_t seed = 1;
   double exposure = 1;
+  std::vector<double> noise;
   std::string out;
   int set = 0;
   std::vector<std::string> distances;
   double max_tilt_deg = 35;
-  bool quiet = false;
+  bool quiet = false, json = false;
 };
 
 double ParseLengthOrInf(const std::string& text, const std::string& field) {
   return ParseLengthList({text}, field).front();
 }
 
-// Renders one scene and writes <png> and <png minus .png>.json, both whole or not at all.
-void RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int bit_depth, const fs::path& png,
+// Renders one scene and writes <png> and <png minus .png>.json, both whole or not at all; returns
+// what --json prints of it.
+Json RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int bit_depth, const fs::path& png,
                const std::string& label, bool quiet) {
   render::RenderOptions o = ro;
   int last_decile = 0;
@@ -75,6 +77,10 @@ void RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int 
                label, r.image.width, r.image.height, o.samples_per_pixel, r.setup.bands.size(), r.seconds,
                100 * r.blocked_fraction);
   }
+  return Json{{"image", png.string()},        {"truth", json.string()},
+              {"width_px", r.image.width},    {"height_px", r.image.height},
+              {"points", r.truth.size()},     {"blocked_fraction", r.blocked_fraction},
+              {"seconds", r.seconds}};
 }
 
 // A calibration (JSON or OpenCV YAML), or the camera of a render's ground truth (its "camera").
@@ -105,6 +111,10 @@ void RunRender(const RenderCliOptions& o) {
   ro.samples_per_pixel = o.spp;
   ro.seed = o.seed;
   ro.exposure = o.exposure;
+  if (!o.noise.empty()) {
+    ro.full_well_e = RequirePositive("--noise", o.noise[0]);
+    ro.read_noise_e = o.noise[1];
+  }
   if (o.color != "grey" && o.color != "rgb") throw InvalidInput("--color", "must be grey or rgb");
   ro.color = o.color == "rgb" ? render::ColorMode::kRgb : render::ColorMode::kGrey;
   render::Validate(ro);
@@ -119,7 +129,8 @@ void RunRender(const RenderCliOptions& o) {
     RequireFinite("--distance", o.distance_mm);
     scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
                                     o.roll_deg);
-    RenderOne(scene, ro, o.bit_depth, png, png.filename().string(), o.quiet);
+    const Json j = RenderOne(scene, ro, o.bit_depth, png, png.filename().string(), o.quiet);
+    if (o.json) fmt::print("{}\n", j.dump(2));
     return;
   }
 
@@ -161,6 +172,7 @@ void RunRender(const RenderCliOptions& o) {
   }
   const auto poses = render::SetPoses(scene, so);
   for (const char* medium : {"water", "air"}) EnsureOutputDirectory((fs::path(o.out) / medium).string(), "--out");
+  Json images = {{"water", Json::array()}, {"air", Json::array()}};
   for (std::size_t i = 0; i < poses.size(); ++i) {
     for (const render::Medium m : {render::Medium::kWater, render::Medium::kAir}) {
       render::Scene sc = scene;
@@ -170,8 +182,12 @@ void RunRender(const RenderCliOptions& o) {
       r.seed = o.seed + i;
       const std::string dir = m == render::Medium::kWater ? "water" : "air";
       const fs::path png = fs::path(o.out) / dir / fmt::format("pose_{:03d}.png", i);
-      RenderOne(sc, r, o.bit_depth, png, dir + "/" + png.filename().string(), o.quiet);
+      images[dir].push_back(RenderOne(sc, r, o.bit_depth, png, dir + "/" + png.filename().string(), o.quiet));
     }
+  }
+  if (o.json) {
+    fmt::print("{}\n", Json{{"poses", poses.size()}, {"focus_distance_mm", Length(*scene.focus_distance_mm)},
+                            {"images", images}}.dump(2));
   }
   if (!o.quiet) {
     fmt::print(stderr, "render: {} poses in {}/water and {}/air; focus scale {:.1f} mm\n", poses.size(), o.out, o.out,
@@ -224,16 +240,20 @@ void RegisterRender(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Random seed (the same seed gives the same image)")->capture_default_str()->group("Image");
   cmd->add_option("--exposure", o->exposure, "Pixel value = exposure x reflectance (white paper 0.9)")
       ->capture_default_str()->group("Image");
+  cmd->add_option("--noise", o->noise, "Sensor noise FULL_WELL,READ in electrons (shot + read; default none)")
+      ->delimiter(',')->expected(2)->group("Image");
   cmd->add_option("--set", o->set, "Render N seeded poses in water and in air into --out/water and --out/air")
       ->group("Set");
   cmd->add_option("--distances", o->distances, "Set: NEAR,FAR target distances, mm (default: the target fills 30-80 %)")
       ->delimiter(',')->group("Set");
   cmd->add_option("--max-tilt", o->max_tilt_deg, "Set: largest tilt about either axis, deg")->capture_default_str()->group("Set");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
+  cmd->add_flag("--json", o->json, "Print what was written (files, size, time, rays blocked) as JSON");
   cmd->callback([o] {
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
                     {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"},
-                    {"samples_per_pixel", "--spp"}, {"exposure", "--exposure"}, {"pose", "pose"}},
+                    {"samples_per_pixel", "--spp"}, {"exposure", "--exposure"},
+                    {"full_well_e", "--noise"}, {"read_noise_e", "--noise"}, {"pose", "pose"}},
                    [&] { RunRender(*o); });
   });
 }

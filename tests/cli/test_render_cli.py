@@ -13,8 +13,9 @@ SMALL = ["--pixel-pitch-mm", "0.029", "--spp", "4", "--quiet"]  # an 814 x 540 p
 
 def test_render_writes_the_image_and_its_ground_truth(tmp_path):
     png = tmp_path / "board.png"
-    run("render", "--out", png, "--tilt", "15,-10", "--roll", "5", "--distance", "1200", "--color", "rgb",
-        "--bit-depth", "16", *SMALL)
+    summary = run("render", "--out", png, "--tilt", "15,-10", "--roll", "5", "--distance", "1200", "--color", "rgb",
+                  "--bit-depth", "16", "--json", *SMALL).json()
+    assert summary["points"] == 54 and summary["truth"].endswith("board.json")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     truth = json.loads((tmp_path / "board.json").read_text())
     assert truth["image"] == "board.png" and truth["bit_depth"] == 16 and truth["color"] == "rgb"
@@ -54,6 +55,7 @@ def test_bad_scenes_fail_cleanly(tmp_path):
     assert "--spp" in run_bad("render", "--out", png, "--pixel-pitch-mm", "0.029", "--spp", "5")
     assert "--bit-depth" in run_bad("render", "--out", png, "--bit-depth", "12", *SMALL)
     assert "--out" in run_bad("render", "--out", tmp_path / "x.jpg", *SMALL)
+    assert "--noise" in run_bad("render", "--out", png, "--noise", "0,3", *SMALL)
     # A dome whose glass starts beyond its own vertex: no ray can leave the housing.
     port = tmp_path / "blind.toml"
     port.write_text('name = "blind"\ntype = "dome"\nframe = "cam"\nmaterial = "n-bk7"\nrim_z_mm = 95\n'

@@ -133,6 +133,8 @@ void Validate(const RenderOptions& o) {
   }
   if (!(std::isfinite(o.exposure) && o.exposure > 0)) throw InvalidInput("exposure", "must be a number > 0");
   if (o.threads < 0) throw InvalidInput("threads", "must be >= 0");
+  if (!(std::isfinite(o.full_well_e) && o.full_well_e >= 0)) throw InvalidInput("full_well_e", "must be a number >= 0");
+  if (!(std::isfinite(o.read_noise_e) && o.read_noise_e >= 0)) throw InvalidInput("read_noise_e", "must be a number >= 0");
 }
 
 Setup Resolve(const Scene& scene, ColorMode color) {
@@ -436,8 +438,16 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
     for (int p = 0; p < np; ++p) {
       double c[3] = {0, 0, 0};
       for (std::size_t bi = 0; bi < s.bands.size(); ++bi) c[s.bands[bi].channel] += sums[p * s.bands.size() + bi];
+      Rng noise{~o.seed * 0xA0761D6478BD642Full ^ (static_cast<std::uint64_t>(v) * W + u0 + p)};
       for (int ch = 0; ch < channels; ++ch) {
-        row[p * channels + ch] = static_cast<float>(std::min(1.0, o.exposure * c[ch] / bands_in[ch]));
+        double value = std::min(1.0, o.exposure * c[ch] / bands_in[ch]);
+        if (o.full_well_e > 0) {  // Box–Muller pair: shot, read
+          const double a = std::sqrt(-2 * std::log(1 - noise.Uniform())), b = 2 * std::numbers::pi * noise.Uniform();
+          const double electrons = value * o.full_well_e;
+          value = std::clamp((electrons + std::sqrt(electrons) * a * std::cos(b) + o.read_noise_e * a * std::sin(b)) /
+                                 o.full_well_e, 0.0, 1.0);
+        }
+        row[p * channels + ch] = static_cast<float>(value);
       }
     }
     blocked += blocked_here;
@@ -540,6 +550,7 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
   j["samples_per_pixel"] = o.samples_per_pixel;
   j["seed"] = o.seed;
   j["exposure"] = o.exposure;
+  j["noise"] = o.full_well_e > 0 ? Json{{"full_well_e", o.full_well_e}, {"read_noise_e", o.read_noise_e}} : Json(nullptr);
   j["style"] = {{"black", scene.style.black}, {"white", scene.style.white}, {"background", scene.style.background}};
   j["blocked_fraction"] = r.blocked_fraction;
   Json points = Json::array();

@@ -91,6 +91,11 @@ struct RenderOptions {
   int samples_per_pixel = 16;  // a square m², m × m strata (and m × m pupil strata)
   ColorMode color = ColorMode::kGrey;
   double exposure = 1.0;       // pixel value = exposure · reflectance (clipped to 1)
+  // Sensor noise, off while full_well_e is 0: a pixel value v is v·full_well_e photo-electrons
+  // with shot noise (Gaussian of σ = √electrons: Poisson's limit, good above ~20 e⁻) and Gaussian
+  // read noise of read_noise_e, divided back and clipped to 0 … 1: σ_v = √(v·F + r²) / F.
+  double full_well_e = 0;
+  double read_noise_e = 0;
   std::uint64_t seed = 1;      // the same seed gives the same image, on any number of threads
   int threads = 0;             // 0: every core
   // Called now and then with the fraction of rows done (from one thread at a time). May be empty.

@@ -252,6 +252,32 @@ TEST(Render, BandsSeparateAsTheWaterDisperses) {
   }
 }
 
+TEST(Render, SensorNoiseHasTheStatedSigma) {
+  // Monte Carlo: on the uniform background (reflectance 0.25) the pixels scatter with
+  // σ = √(v·F + r²)/F for full well F and read noise r, about the noise-free value.
+  Scene s = PaperScene();
+  s.pose = PoseFacing(s.target, 2500);  // a small board: the frame's corners see the background
+  RenderOptions o;
+  o.samples_per_pixel = 1;
+  o.full_well_e = 2000;
+  o.read_noise_e = 12;
+  const Rendered r = Render(s, o);
+  double sum = 0, sum2 = 0;
+  int n = 0;
+  for (int v = 0; v < 80; ++v) {
+    for (int u = 0; u < 120; ++u) {
+      sum += r.image.at(u, v);
+      sum2 += r.image.at(u, v) * r.image.at(u, v);
+      ++n;
+    }
+  }
+  const double mean = sum / n, sigma = std::sqrt(sum2 / n - mean * mean);
+  const double v0 = s.style.background;
+  const double expected = std::sqrt(v0 * o.full_well_e + o.read_noise_e * o.read_noise_e) / o.full_well_e;
+  EXPECT_NEAR(mean, v0, 4 * expected / std::sqrt(n));
+  EXPECT_NEAR(sigma, expected, 0.05 * expected);  // σ of a σ estimate from 9600 pixels: 0.7 %
+}
+
 TEST(Render, BadScenesAreRefusedBeforeAnyPixel) {
   Scene s = PaperScene();
   RenderOptions o;
