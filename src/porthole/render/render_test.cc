@@ -344,9 +344,13 @@ TEST(Render, CalibratingAnAirSetRecoversTheCamera) {
   const double c_fit = cal.camera.params[camera::kBrownC];
   RecordProperty("c_rel_error", std::to_string(c_fit / c_true - 1));
   std::printf("c rel error %.2e, rms %.4f px\n", c_fit / c_true - 1, cal.rms_px);
-  // Measured 5.3e-4 and 0.25 px (docs/render.md): OpenCV's corner noise (0.05 px) on ten small
-  // frames bounds it; the 2e-4 and 0.05 px need more or larger frames than a unit test runs.
-  EXPECT_NEAR(c_fit / c_true, 1, 1.5e-3) << "rms " << cal.rms_px;
+  // The error lies within the calibration's own uncertainty (3σ), which the corner noise of ten
+  // small frames at 9 spp sets at a few 1e-4 (docs/render.md); a bias of the renderer (a wrong
+  // camera, a port that is not the identity) would stand out of it.
+  const double sigma_rel = cal.sigma[camera::kBrownC] / c_true;
+  std::printf("c sigma %.2e\n", sigma_rel);
+  EXPECT_LT(std::abs(c_fit / c_true - 1), 3 * sigma_rel);
+  EXPECT_LT(sigma_rel, 1e-3);
   // The calibrated distortion (the rendering camera has none) over the frame: the length of the
   // Brown correction at each pixel, in px.
   double worst = 0;
