@@ -4,6 +4,7 @@
 // and in air, ready for `porthole detect` and `porthole calibrate`.
 #include <fmt/format.h>
 
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -83,6 +84,17 @@ Json RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int 
               {"seconds", r.seconds}};
 }
 
+// "inf" (a pinhole) or a number > 0.
+double ParseFNumber(const std::string& text) {
+  if (text == "inf") return std::numeric_limits<double>::infinity();
+  double v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || end != text.data() + text.size() || !(v > 0) || !std::isfinite(v)) {
+    throw InvalidInput("--f-number", "'" + text + "' is not an f-number > 0 (or 'inf' for a pinhole)");
+  }
+  return v;
+}
+
 // A calibration (JSON or OpenCV YAML), or the camera of a render's ground truth (its "camera").
 camera::Camera LoadCameraModel(const std::string& path, double pixel_pitch_mm) {
   if (fs::path(path).extension() == ".json") {
@@ -102,8 +114,7 @@ void RunRender(const RenderCliOptions& o) {
   if (o.medium != "water" && o.medium != "air") throw InvalidInput("--medium", "must be water or air");
   scene.medium = o.medium == "air" ? render::Medium::kAir : render::Medium::kWater;
   if (o.focus != "target") scene.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
-  scene.f_number = o.f_number == "inf" ? std::numeric_limits<double>::infinity()
-                                       : RequirePositive("--f-number", ParseLengthOrInf(o.f_number, "--f-number"));
+  scene.f_number = ParseFNumber(o.f_number);
   if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed.camera.sensor.pixel_pitch_mm);
   scene.c_mm = o.c_mm;
   scene.bands_nm = o.bands;
@@ -147,7 +158,6 @@ void RunRender(const RenderCliOptions& o) {
     so.near_mm = d[0];
     so.far_mm = d[1];
   }
-  EnsureOutputDirectory(o.out, "--out");
   if (!scene.focus_distance_mm) {
     render::Scene probe = scene;
     probe.focus_distance_mm = std::numeric_limits<double>::infinity();
@@ -170,7 +180,8 @@ void RunRender(const RenderCliOptions& o) {
       }
     }
   }
-  const auto poses = render::SetPoses(scene, so);
+  const auto poses = render::SetPoses(scene, so);  // bad options fail here, before any directory exists
+  EnsureOutputDirectory(o.out, "--out");
   for (const char* medium : {"water", "air"}) EnsureOutputDirectory((fs::path(o.out) / medium).string(), "--out");
   Json images = {{"water", Json::array()}, {"air", Json::array()}};
   for (std::size_t i = 0; i < poses.size(); ++i) {

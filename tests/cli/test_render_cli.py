@@ -61,4 +61,6 @@ def test_bad_scenes_fail_cleanly(tmp_path):
     port.write_text('name = "blind"\ntype = "dome"\nframe = "cam"\nmaterial = "n-bk7"\nrim_z_mm = 95\n'
                     '[outer]\ncenter_mm = [0, 0, 0]\nradius_mm = 100\n[inner]\ncenter_mm = [0, 0, 0]\nradius_mm = 92\n')
     assert "--port" in run_bad("render", "--out", png, "--port", port, "--distance", "1200", "--focus", "1000", *SMALL)
-    assert list(tmp_path.glob("x.*")) == []
+    assert "--distances" in run_bad("render", "--set", "2", "--out", tmp_path / "set", "--distances", "900,500", *SMALL)
+    assert "--f-number" in run_bad("render", "--out", png, "--f-number", "0", *SMALL)
+    assert list(tmp_path.glob("x.*")) == [] and not (tmp_path / "set").exists()
