@@ -262,7 +262,7 @@ void RegisterRender(CLI::App& app) {
   cmd->add_flag("--json", o->json, "Print what was written (files, size, time, rays blocked) as JSON");
   cmd->callback([o] {
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
-                    {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"},
+                    {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"}, {"lambda_nm", "--bands"},
                     {"samples_per_pixel", "--spp"}, {"exposure", "--exposure"},
                     {"full_well_e", "--noise"}, {"read_noise_e", "--noise"}, {"pose", "pose"}},
                    [&] { RunRender(*o); });
