@@ -42,3 +42,14 @@ def test_same_names_and_keywords_as_the_cli():
         porthole.plan(lens="Nikon AF-S DX Nikkor 18-300mm f/3.5-6.3G ED VR")
     s = porthole.simulate(camera="olympus-tg6", port="flat-acrylic-10mm", grid_cols=5, grid_rows=5)
     assert s.model == "brown"
+
+
+def test_pixel_pitch_of_a_preset_body_as_the_cli():
+    # A preset body given another pitch keeps its sensor (23.58 x 15.66 mm) with other pixels, in
+    # Python as in the CLI (`plan --pixel-pitch-mm 0.011`): 2144 x 1424 px, and the default circle
+    # of confusion (two pitches) follows.
+    p = porthole.plan(pixel_pitch_mm=0.011)
+    assert (p.camera.width_px, p.camera.height_px) == (round(4288 * 0.0055 / 0.011), round(2848 * 0.0055 / 0.011))
+    assert p.coc_mm == pytest.approx(0.022)
+    with pytest.raises(ValueError, match="^pixel_pitch_mm:"):
+        porthole.plan(pixel_pitch_mm=-1)
