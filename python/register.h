@@ -7,8 +7,10 @@
 #include <optional>
 #include <string>
 
+#include "porthole/core/field_names.h"
 #include "porthole/io/lookup.h"
 #include "porthole/io/presets.h"
+#include "porthole/materials/materials.h"
 #include "porthole/planning/focus.h"
 #include "porthole/ports/environment.h"
 
@@ -30,6 +32,8 @@ inline ports::Environment MakeEnvironment(const std::string& water, std::optiona
                                           std::optional<double> glass_index, double lambda_nm,
                                           double temperature_c, double salinity_psu,
                                           double pressure_dbar, bool extrapolate = false) {
+  // An unknown water is named by its keyword (the library says "medium", which may be the glass).
+  WithFieldNames({{"medium", "water"}}, [&] { materials::ModelOf(water); });
   ports::Environment env;
   env.water = water;
   env.water_index = water_index;

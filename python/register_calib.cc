@@ -26,6 +26,9 @@ namespace {
 // A camera from a dict {"model": name (default brown), parameter keys…} and the sensor.
 camera::Camera CameraFromDict(const py::dict& camera, int width_px, int height_px,
                               double pixel_pitch_mm) {
+  if (width_px < 1 || width_px > 1000000) throw InvalidInput("width_px", "must be a whole number from 1 to 1000000");
+  if (height_px < 1 || height_px > 1000000) throw InvalidInput("height_px", "must be a whole number from 1 to 1000000");
+  RequirePositive("pixel_pitch_mm", pixel_pitch_mm);
   nlohmann::json wrapped = {{"camera", nlohmann::json::object()},
                             {"sensor", {{"width_px", width_px}, {"height_px", height_px},
                                         {"pixel_pitch_mm", pixel_pitch_mm}}}};
@@ -169,7 +172,7 @@ void RegisterCalib(py::module_& m) {
           o.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
         }
         calib::CalibrationResult r;
-        WithFieldNames({{"--images", "detections"}}, [&] {
+        WithFieldNames({{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}}, [&] {
           py::gil_scoped_release release;
           r = calib::Calibrate(dets, t, o);
         });

@@ -129,6 +129,11 @@ def keywords(f):
     (porthole.detect, dict(images="/no/such/folder", target="chessboard:9x6:25")),
     (porthole.detect, dict(images=[], target="chessboard:9x6:25")),
     (porthole.report, dict(out="/proc/no-such-dir/x", f_number=8)),
+    (porthole.plan, dict(water="milk")),
+    (porthole.place, dict(port="nimar-ni320", water="milk")),
+    (porthole.calibrate, dict(detections=[], target="chessboard:9x6:25", pixel_pitch_mm=-1)),
+    (porthole.synthetic_detections, dict(camera={"c_mm": 26}, width_px=0, height_px=2848, pixel_pitch_mm=0.0055)),
+    (porthole.simulate, dict(air_calibration={"camera": {"c_mm": "x"}})),
 ])
 def test_errors_name_the_python_keyword(call, kwargs):
     with pytest.raises(ValueError) as e:

@@ -104,8 +104,8 @@ BrownEstimate LoadBrownJson(const std::string& text_or_path, const std::string& 
   const std::string origin = is_text ? "(JSON text)" : text_or_path;
   const std::string text = is_text ? text_or_path : ReadInputFile(text_or_path, field, kMaxJsonFileBytes);
   const nlohmann::json j = ParseJsonText(text, field, origin);
-  // Errors name the key and the file:line it is on (field.camera.K1: file.json:12: …).
-  return WithJsonLines(text, field, origin, [&] {
+  // Errors name the key and, for a file, the line it is on (field.camera.K1: file.json:12: …).
+  const auto read = [&] {
     // A calibration file as `porthole calibrate --out` writes it (calib/result_json.h): the Brown
     // parameters under "camera" (null = not adjusted) and their σ under "sigma".
     if (j.is_object() && j.contains("camera") && j["camera"].is_object()) {
@@ -119,7 +119,8 @@ BrownEstimate LoadBrownJson(const std::string& text_or_path, const std::string& 
       return e;
     }
     return BrownFromJson(j, field);
-  });
+  };
+  return is_text ? read() : WithJsonLines(text, field, origin, read);
 }
 
 }  // namespace porthole::camera
