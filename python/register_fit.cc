@@ -7,8 +7,10 @@
 
 #include "porthole/core/error.h"
 #include "porthole/core/field_names.h"
+#include "porthole/fit/assembly.h"
 #include "porthole/fit/dome.h"
 #include "porthole/fit/sphere_fit.h"
+#include "porthole/io/presets.h"
 #include "porthole/pointcloud/pointcloud.h"
 #include "register.h"
 
@@ -59,6 +61,17 @@ py::dict SphereDict(const fit::SphereFitSummary& s) {
   auto w = inl.mutable_unchecked<1>();
   for (std::size_t i = 0; i < s.is_inlier.size(); ++i) w(static_cast<py::ssize_t>(i)) = s.is_inlier[i];
   d["is_inlier"] = inl;
+  return d;
+}
+
+fit::PlaneWithCenter Plane(const std::array<double, 6>& p) {
+  return {{p[0], p[1], p[2]}, {p[3], p[4], p[5]}};
+}
+
+py::dict TransformDict(const fit::RigidTransform& t) {
+  py::dict d;
+  d["rotation"] = Eigen::Matrix3d(t.rotation);
+  d["translation_mm"] = Eigen::Vector3d(t.translation);
   return d;
 }
 
@@ -130,6 +143,75 @@ void RegisterFit(py::module_& m) {
       py::arg("nominal_outer_radius_mm") = 0.0, py::arg("nominal_thickness_mm") = 0.0,
       "Dome shell from scans of its outer and inner surfaces: both spheres, thickness, centre "
       "offset, wall extremes (the paper's Table 3).");
+
+  m.def(
+      "assemble",
+      [](const std::array<double, 4>& outer, const std::array<double, 4>& inner,
+         const std::array<double, 6>& housing_flange, const std::array<double, 6>& camera_flange,
+         const std::optional<std::array<double, 6>>& dome_rear, bool dome_centered,
+         const Eigen::Vector3d& x_hint, const Eigen::Vector3d& dome_x_hint,
+         std::optional<double> pupil_to_flange_mm, const std::string& lens, std::optional<double> focus_mm,
+         const std::string& material, const std::string& name) {
+        return WithFieldNames(
+            {{"--outer", "outer"}, {"--inner", "inner"}, {"--housing-flange", "housing_flange"},
+             {"--camera-flange", "camera_flange"}, {"--dome-rear", "dome_rear"}, {"--dome-centered", "dome_centered"},
+             {"--x-hint", "x_hint"}, {"--dome-x-hint", "dome_x_hint"}, {"--pupil-offset", "pupil_to_flange_mm"},
+             {"--lens", "lens"}, {"focus", "focus_mm"}, {"--port", "name"}},
+            [&] {
+              fit::AssemblyInput in;
+              in.camera_flange = Plane(camera_flange);
+              in.housing_flange = Plane(housing_flange);
+              in.outer = {{outer[0], outer[1], outer[2]}, outer[3]};
+              in.inner = {{inner[0], inner[1], inner[2]}, inner[3]};
+              if (dome_rear) in.dome_rear = Plane(*dome_rear);
+              in.dome_centered = dome_centered;
+              in.survey_x_hint = x_hint;
+              in.scan_x_hint = dome_x_hint;
+              if (!lens.empty() == pupil_to_flange_mm.has_value()) {
+                throw InvalidInput("pupil_to_flange_mm", "give pupil_to_flange_mm, or lens and focus_mm");
+              }
+              if (!lens.empty()) {
+                if (!focus_mm) throw InvalidInput("focus_mm", "required with lens (mm, math.inf allowed)");
+                in.pupil_to_flange_mm = io::LoadLens(lens).PupilToFlangeMm(*focus_mm);
+              } else {
+                in.pupil_to_flange_mm = *pupil_to_flange_mm;
+              }
+              const fit::HousingAssembly a = fit::AssembleHousing(in);
+              py::dict d;
+              d["frame"] = "housing";
+              d["camera_flange_center_mm"] = Eigen::Vector3d(a.camera_flange_center_mm);
+              d["dome_outer_center_mm"] = Eigen::Vector3d(a.outer.center_mm);
+              d["dome_inner_center_mm"] = Eigen::Vector3d(a.inner.center_mm);
+              d["entrance_pupil_mm"] = Eigen::Vector3d(a.entrance_pupil_mm);
+              d["housing_flange_center_mm"] = Eigen::Vector3d(a.housing_flange_center_mm);
+              d["housing_flange_normal"] = Eigen::Vector3d(a.housing_flange_normal);
+              d["housing_flange_tilt_deg"] = a.housing_flange_tilt_rad * 180 / M_PI;
+              d["outer_radius_mm"] = a.outer.radius_mm;
+              d["inner_radius_mm"] = a.inner.radius_mm;
+              d["thickness_mm"] = a.thickness_mm;
+              d["center_distance_mm"] = a.center_distance_mm;
+              d["pupil_to_flange_mm"] = in.pupil_to_flange_mm;
+              d["pupil_ahead_of_outer_mm"] = a.pupil_ahead_of_outer_mm;
+              d["pupil_off_axis_outer_mm"] = a.pupil_off_axis_outer_mm;
+              d["pupil_ahead_of_inner_mm"] = a.pupil_ahead_of_inner_mm;
+              d["pupil_off_axis_inner_mm"] = a.pupil_off_axis_inner_mm;
+              d["housing_from_survey"] = TransformDict(a.housing_from_survey);
+              d["housing_from_scan"] = TransformDict(a.housing_from_scan);
+              d["report"] = a.Report();
+              d["port"] = py::cast(fit::AsBuiltPort(a, name, material));
+              return d;
+            });
+      },
+      py::kw_only(), py::arg("outer"), py::arg("inner"), py::arg("housing_flange"),
+      py::arg("camera_flange") = std::array<double, 6>{0, 0, 0, 0, 0, 1}, py::arg("dome_rear") = py::none(),
+      py::arg("dome_centered") = false, py::arg("x_hint") = Eigen::Vector3d(1, 0, 0),
+      py::arg("dome_x_hint") = Eigen::Vector3d(1, 0, 0), py::arg("pupil_to_flange_mm") = py::none(),
+      py::arg("lens") = "", py::arg("focus_mm") = py::none(), py::arg("material") = "n-bk7",
+      py::arg("name") = "as-built",
+      "The camera-housing-dome geometry from separate measurements (paper Section 3.4, Table 4; as "
+      "`porthole assemble --json`): spheres (x, y, z, R) or SphereFit, planes (x, y, z, nx, ny, nz), the "
+      "pupil from pupil_to_flange_mm or lens and focus_mm. Returns the Table 4 quantities and `port`, "
+      "the as-built PortSpec (its to_toml() is the file `porthole assemble -o` writes).");
 }
 
 }  // namespace porthole::python

@@ -26,6 +26,7 @@ import numpy as np
 
 from . import _porthole
 from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detections, DomeFit, FlatAnalysis,
+                       HousingAssembly,
                        Medium, Plan, PortFocal, PortType, Preset, RayStatus, Record, ReportSummary, Simulation,
                        SkippedImage, SphereFit, Status, Table, TraceResult, VirtualImage, VirtualImageTable)
 
@@ -281,6 +282,21 @@ def analyze_dome(outer_points, inner_points, **kwargs) -> DomeFit:
     return DomeFit.from_dict(_porthole.analyze_dome(_points(outer_points), _points(inner_points), **kwargs))
 
 
+@_wraps(_porthole.assemble, "porthole.HousingAssembly", "outer and inner may be SphereFit results.")
+def assemble(**kwargs) -> HousingAssembly:
+    for key in ("outer", "inner"):
+        if isinstance(kwargs.get(key), SphereFit):
+            fit = kwargs[key]
+            kwargs[key] = (*fit.center_mm.tolist(), fit.radius_mm)
+    d = _porthole.assemble(**kwargs)
+    port = d.pop("port")
+    out = HousingAssembly({k: (v.tolist() if isinstance(v, np.ndarray) else
+                               {kk: vv.tolist() for kk, vv in v.items()} if isinstance(v, dict) else v)
+                           for k, v in d.items()})
+    object.__setattr__(out, "port", port)
+    return out
+
+
 def _points(points):
     if isinstance(points, (str, os.PathLike)):
         return read_point_cloud(os.fspath(points))
@@ -301,7 +317,8 @@ __all__ = [
     "__version__", "index", "media", "depth_to_pressure_dbar", "load_port", "presets", "place", "PortSpec",
     "PortSystem", "virtual_image_table", "plan", "flat", "simulate", "camera_models", "project", "unproject",
     "detect", "calibrate", "calibrate_images", "synthetic_detections", "compare", "load_calibration",
-    "read_point_cloud", "fit_sphere", "analyze_dome", "report", "RayStatus", "PortType", "CameraModel",
+    "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
+    "PortType", "CameraModel",
     "Status", "Record", "Table", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",
     "Detections", "SkippedImage", "DetectionSet", "Calibration", "VirtualImage", "VirtualImageTable",
     "PortFocal", "TraceResult", "SphereFit", "DomeFit", "Preset", "Medium", "DEFAULT_WD_MM",

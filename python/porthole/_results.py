@@ -19,7 +19,7 @@ import numpy as np
 
 __all__ = [
     "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "Plan", "FlatAnalysis",
-    "Simulation", "Comparison", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
+    "Simulation", "Comparison", "HousingAssembly", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
     "Calibration", "VirtualImage", "VirtualImageTable", "PortFocal", "TraceResult", "SphereFit",
     "DomeFit", "Preset", "Medium",
 ]
@@ -202,6 +202,12 @@ class Simulation(Record):
 class Comparison(Record):
     """porthole.compare(): two calibrations compared (parameters table with sigma and z, chi2 test,
     p_value, significant, radial and decentring curves in um)."""
+
+
+class HousingAssembly(Record):
+    """porthole.assemble(): the paper's Table 4 in the housing frame (flanges, dome centres and radii,
+    the entrance pupil and its offsets from the dome's centres, the transforms from the survey and
+    scan frames), as `porthole assemble --json`, and `port`: the as-built PortSpec."""
 
 
 class ReportSummary(Record):

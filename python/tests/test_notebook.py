@@ -272,6 +272,39 @@ def test_analyze_dome_recovers_the_shell():
     assert d.outer_radius_deviation_mm == pytest.approx(d.outer.radius_mm - 160, abs=1e-12)
 
 
+def test_assemble_gives_table4_and_the_cli(tmp_path):
+    # The paper's Table 4 (housing frame) and Table 3 radii: Section 3.4 says the pupil lies 5.4 mm
+    # ahead of the dome centre and about 1 mm off its axis.
+    outer, inner, flange = (-0.4, -1.0, 21.5, 83.4), (-0.4, -1.5, 20.3, 75.7), (-0.4, -1.0, 34.3, 0, 0, 1)
+    a = porthole.assemble(outer=outer, inner=inner, housing_flange=flange, lens="nikkor-24mm-f2.8d", focus_mm=300)
+    assert isinstance(a, porthole.HousingAssembly) and isinstance(a.entrance_pupil_mm, np.ndarray)
+    assert a.pupil_ahead_of_outer_mm == pytest.approx(5.4, abs=1e-9)
+    assert 0.9 < a.pupil_off_axis_outer_mm < 1.2 and a.thickness_mm == pytest.approx(7.7)
+    np.testing.assert_allclose(a.entrance_pupil_mm, [0, 0, 26.9], atol=1e-12)  # Table 2: D_EP2F 26.9 mm
+    assert a.port.type is porthole.PortType.DOME
+    # The CLI on the same numbers: the same JSON and the same as-built port file.
+    fmt = lambda v: ",".join(f"{x:g}" for x in v)  # noqa: E731
+    theirs = cli_json("assemble", "--outer", fmt(outer), "--inner", fmt(inner), "--housing-flange", fmt(flange),
+                      "--lens", "nikkor-24mm-f2.8d", "--focus", 300, "-o", tmp_path / "p.toml", "--name", "as-built")
+    assert set(theirs) - set(a.fields()) == {"lens", "focus_mm", "port_file"}  # the CLI echoes its options
+    for key, value in theirs.items():
+        if key not in a.fields():
+            continue
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            assert getattr(a, key) == pytest.approx(value, rel=1e-12, abs=1e-12), key
+        elif isinstance(value, list):
+            np.testing.assert_allclose(getattr(a, key), value, rtol=1e-12, atol=1e-12)
+    assert a.port.to_toml() == (tmp_path / "p.toml").read_text()
+    # A sphere fit can be given directly; a missing pupil names its keyword.
+    fit = porthole.fit_sphere(sphere_points(outer[:3], outer[3], 2000, 0.0, seed=6))
+    b = porthole.assemble(outer=fit, inner=inner, housing_flange=flange, pupil_to_flange_mm=26.9)
+    assert b.outer_radius_mm == pytest.approx(83.4, abs=1e-6)
+    with pytest.raises(ValueError, match="^pupil_to_flange_mm:"):
+        porthole.assemble(outer=outer, inner=inner, housing_flange=flange)
+    with pytest.raises(ValueError, match="^inner:"):
+        porthole.assemble(outer=outer, inner=(0, 0, 0, 90), housing_flange=flange, pupil_to_flange_mm=26.9)
+
+
 def test_virtual_image_table_is_table5_and_the_cli():
     t = porthole.virtual_image_table(port="nimar-ni320-nominal", water_index=1.341)
     with open(os.path.join(DATA, "menna2016_table5.csv")) as f:
