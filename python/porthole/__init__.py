@@ -17,9 +17,10 @@ A whole calibration from a notebook:
 """
 from __future__ import annotations
 
-import functools
+import contextlib
 import math
 import os
+import tempfile
 from typing import Any, Callable, Iterable, Optional, Union
 
 import numpy as np
@@ -187,22 +188,43 @@ def virtual_image_table(*, port: str = "nimar-ni320", wd_mm: Iterable[float] = D
 
 # --- planning and simulation --------------------------------------------------------------------
 
-@_wraps(_porthole.plan, "porthole.Plan")
+@contextlib.contextmanager
+def _port_files(kwargs, *keys):
+    """PortSpec objects among kwargs[keys] (load_port(), assemble().port) passed to the bindings as
+    TOML files (they take a preset name or a path), removed afterwards."""
+    with tempfile.TemporaryDirectory(prefix="porthole-port-") as tmp:
+        for key in keys:
+            spec = kwargs.get(key)
+            if isinstance(spec, PortSpec):
+                path = os.path.join(tmp, f"{key}.toml")
+                with open(path, "w") as f:
+                    f.write(spec.to_toml())
+                kwargs[key] = path
+        yield kwargs
+
+
+_PORT_DOC = "port may also be a PortSpec (load_port(), assemble().port)."
+
+
+@_wraps(_porthole.plan, "porthole.Plan", _PORT_DOC)
 def plan(**kwargs) -> Plan:
-    return Plan(_porthole.plan(**kwargs))
+    with _port_files(kwargs, "port"):
+        return Plan(_porthole.plan(**kwargs))
 
 
-@_wraps(_porthole.flat, "porthole.FlatAnalysis")
+@_wraps(_porthole.flat, "porthole.FlatAnalysis", _PORT_DOC)
 def flat(**kwargs) -> FlatAnalysis:
-    return FlatAnalysis(_porthole.flat(**kwargs))
+    with _port_files(kwargs, "port"):
+        return FlatAnalysis(_porthole.flat(**kwargs))
 
 
 @_wraps(_porthole.simulate, "porthole.Simulation",
-        "air_calibration may also be a Calibration (calibrate()'s result).")
+        "air_calibration may also be a Calibration (calibrate()'s result); " + _PORT_DOC)
 def simulate(**kwargs) -> Simulation:
     if "air_calibration" in kwargs:
         kwargs["air_calibration"] = _plain(kwargs["air_calibration"])
-    return Simulation(_porthole.simulate(**kwargs))
+    with _port_files(kwargs, "port"):
+        return Simulation(_porthole.simulate(**kwargs))
 
 
 # --- cameras and calibration ------------------------------------------------------------------
@@ -305,12 +327,13 @@ def _points(points):
 
 # --- report -----------------------------------------------------------------------------------
 
-@_wraps(_porthole.report, "porthole.ReportSummary")
+@_wraps(_porthole.report, "porthole.ReportSummary", "port and compare_port may also be PortSpec objects.")
 def report(out, **kwargs) -> ReportSummary:
     for key in ("air_calibration", "water_calibration"):
         if key in kwargs and isinstance(kwargs[key], Calibration):
             kwargs[key] = kwargs[key].to_dict()
-    return ReportSummary(_porthole.report(os.fspath(out), **kwargs))
+    with _port_files(kwargs, "port", "compare_port"):
+        return ReportSummary(_porthole.report(os.fspath(out), **kwargs))
 
 
 __all__ = [

@@ -295,6 +295,9 @@ def test_assemble_gives_table4_and_the_cli(tmp_path):
         elif isinstance(value, list):
             np.testing.assert_allclose(getattr(a, key), value, rtol=1e-12, atol=1e-12)
     assert a.port.to_toml() == (tmp_path / "p.toml").read_text()
+    # The as-built port plans as the CLI's plan of the file it wrote.
+    assert porthole.plan(port=a.port, wd_mm=1000).to_dict() == cli_json("plan", "--port", tmp_path / "p.toml",
+                                                                        "--wd", 1000)
     # A sphere fit can be given directly; a missing pupil names its keyword.
     fit = porthole.fit_sphere(sphere_points(outer[:3], outer[3], 2000, 0.0, seed=6))
     b = porthole.assemble(outer=fit, inner=inner, housing_flange=flange, pupil_to_flange_mm=26.9)
