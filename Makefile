@@ -1,6 +1,7 @@
 # Thin wrapper over scripts/install-deps, CMake and CTest. The README's two commands:
 #   make demo   install what is missing, build, write the report of the paper's system ($(BUILD)/report)
 #   make test   install what is missing, build, run every test
+#   make install [PREFIX=/usr/local]   the CLI into PREFIX/bin and the Python package where python3 finds it
 BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 PY := /usr/bin/python3
@@ -14,7 +15,7 @@ SANITIZER_ENV := ASAN_OPTIONS=exitcode=86:detect_leaks=1:strict_string_checks=1 
                  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:exitcode=86 \
                  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp:print_suppressions=0
 
-.PHONY: all deps configure build demo test test-sanitize fuzz bench clean format
+.PHONY: all deps configure build demo test install test-sanitize fuzz bench clean format
 
 all: build
 
@@ -32,6 +33,13 @@ demo: build
 
 test: build
 	@ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
+
+# PREFIX/bin/porthole and the Python package `porthole` in the site directory /usr/bin/python3 searches
+# for PREFIX (/usr/local: /usr/local/lib/python3.X/dist-packages; ~/.local: the user site; other
+# prefixes: PREFIX/lib/python3.X/site-packages, to put on PYTHONPATH). PYTHON_DIR=... overrides it.
+PREFIX ?= /usr/local
+install: build
+	@PORTHOLE_PYTHON_DIR=$(PYTHON_DIR) cmake --install $(BUILD) --prefix $(PREFIX)
 
 # The whole suite built with AddressSanitizer + UndefinedBehaviorSanitizer in its own directory
 # (no Python module: it would need the sanitizer runtime preloaded into python3).

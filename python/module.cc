@@ -1,14 +1,19 @@
-// The Python module `porthole`: the libraries' functions for notebooks. Options are keyword
-// arguments (a typo raises TypeError); bad input raises ValueError with the field named.
+// The compiled part of the Python package `porthole` (python/porthole/__init__.py wraps it): the
+// libraries' functions for notebooks. Options are keyword arguments (a typo raises TypeError); bad
+// input raises ValueError naming the Python keyword. Results leave here as the CLI's JSON (Python
+// dicts) or numpy arrays; the package turns them into typed objects (python/porthole/_results.py).
 #include <pybind11/pybind11.h>
 
 #include "register.h"
 
-PYBIND11_MODULE(porthole, m) {
-  m.doc() = "porthole: optics and geometry of underwater camera housings (mm, nm, degC, PSU, dbar)";
+PYBIND11_MODULE(_porthole, m) {
+  m.doc() = "porthole's compiled bindings (use the package `porthole`, which wraps them)";
+  m.attr("__version__") = PORTHOLE_VERSION;
   porthole::python::RegisterMaterials(m);
   porthole::python::RegisterPorts(m);
   porthole::python::RegisterCalib(m);
   porthole::python::RegisterPlanning(m);
   porthole::python::RegisterSimulate(m);
+  porthole::python::RegisterFit(m);
+  porthole::python::RegisterReport(m);
 }

@@ -2,13 +2,29 @@
 
 #include <pybind11/pybind11.h>
 
+#include <nlohmann/json.hpp>
+
 #include <optional>
 #include <string>
 
+#include "porthole/core/field_names.h"
 #include "porthole/io/lookup.h"
+#include "porthole/io/presets.h"
+#include "porthole/materials/materials.h"
+#include "porthole/planning/focus.h"
 #include "porthole/ports/environment.h"
 
 namespace porthole::python {
+
+// JSON to Python (dicts, lists, numbers; infinite lengths stay the strings "inf" of the CLI's JSON,
+// which the package turns into math.inf) and back, through Python's json module.
+template <typename J>
+pybind11::object JsonToPython(const J& j) {
+  return pybind11::module_::import("json").attr("loads")(j.dump());
+}
+inline nlohmann::json PythonToJson(const pybind11::handle& o) {
+  return nlohmann::json::parse(pybind11::module_::import("json").attr("dumps")(o).template cast<std::string>());
+}
 
 // The water a port works in, from the keyword arguments every binding accepts (one place, so the
 // bindings cannot drift apart). Validation happens where the indices are resolved.
@@ -16,6 +32,8 @@ inline ports::Environment MakeEnvironment(const std::string& water, std::optiona
                                           std::optional<double> glass_index, double lambda_nm,
                                           double temperature_c, double salinity_psu,
                                           double pressure_dbar, bool extrapolate = false) {
+  // An unknown water is named by its keyword (the library says "medium", which may be the glass).
+  WithFieldNames({{"medium", "water"}}, [&] { materials::ModelOf(water); });
   ports::Environment env;
   env.water = water;
   env.water_index = water_index;
@@ -41,10 +59,27 @@ inline io::CameraAndLens FindCameraAndLens(const std::string& camera, const std:
   return io::FindCameraAndLens(q);
 }
 
+// The housed camera of plan, flat and report from their keyword arguments.
+inline planning::Setup MakeSetup(const std::string& camera, const std::string& lens, const std::string& port,
+                                 const std::string& water, std::optional<double> water_index, double lambda_nm,
+                                 double temperature_c, double salinity_psu, double pressure_dbar,
+                                 std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm) {
+  const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm);
+  planning::Setup s;
+  s.camera = cl.camera;
+  s.lens = cl.lens;
+  s.port = io::LoadPort(port);
+  s.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
+                          pressure_dbar);
+  return s;
+}
+
 void RegisterMaterials(pybind11::module_& m);
 void RegisterPorts(pybind11::module_& m);
 void RegisterCalib(pybind11::module_& m);
 void RegisterPlanning(pybind11::module_& m);
 void RegisterSimulate(pybind11::module_& m);
+void RegisterFit(pybind11::module_& m);
+void RegisterReport(pybind11::module_& m);
 
 }  // namespace porthole::python

@@ -9,10 +9,12 @@
 
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/compare.h"
+#include "porthole/calib/detect.h"
 #include "porthole/calib/detections_json.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/synthetic.h"
 #include "porthole/camera/json.h"
+#include "porthole/core/field_names.h"
 #include "register.h"
 
 namespace py = pybind11;
@@ -20,20 +22,17 @@ namespace py = pybind11;
 namespace porthole::python {
 namespace {
 
-nlohmann::json ToJson(const py::object& o) {
-  return nlohmann::json::parse(py::module_::import("json").attr("dumps")(o).cast<std::string>());
-}
-py::object FromJson(const nlohmann::ordered_json& j) {
-  return py::module_::import("json").attr("loads")(j.dump());
-}
 
 // A camera from a dict {"model": name (default brown), parameter keys…} and the sensor.
 camera::Camera CameraFromDict(const py::dict& camera, int width_px, int height_px,
                               double pixel_pitch_mm) {
+  if (width_px < 1 || width_px > 1000000) throw InvalidInput("width_px", "must be a whole number from 1 to 1000000");
+  if (height_px < 1 || height_px > 1000000) throw InvalidInput("height_px", "must be a whole number from 1 to 1000000");
+  RequirePositive("pixel_pitch_mm", pixel_pitch_mm);
   nlohmann::json wrapped = {{"camera", nlohmann::json::object()},
                             {"sensor", {{"width_px", width_px}, {"height_px", height_px},
                                         {"pixel_pitch_mm", pixel_pitch_mm}}}};
-  const nlohmann::json given = ToJson(camera);  // kept alive: items() refers into it
+  const nlohmann::json given = PythonToJson(camera);  // kept alive: items() refers into it
   for (const auto& [key, val] : given.items()) {
     if (key == "model") {
       wrapped["model"] = val;
@@ -119,6 +118,36 @@ void RegisterCalib(py::module_& m) {
       "Unit rays (N x 3, camera frame) of N x 2 pixels; NaN where the model cannot be inverted.");
 
   m.def(
+      "detect",
+      [](const py::object& images, const std::string& target, int threads, bool progress) {
+        return WithFieldNames({{"--images", "images"}}, [&] {
+          const auto t = calib::ParseTarget(target, "target");
+          std::vector<std::string> paths;
+          if (py::isinstance<py::str>(images) || py::hasattr(images, "__fspath__")) {
+            paths = calib::ListImages(py::str(py::module_::import("os").attr("fspath")(images)), "images");
+          } else {
+            for (const auto& p : images) paths.push_back(py::str(py::module_::import("os").attr("fspath")(p)));
+            if (paths.empty()) throw InvalidInput("images", "no image files given");
+          }
+          if (threads < 0) throw InvalidInput("threads", "must be >= 0 (0 = all cores)");
+          calib::DetectOptions o;
+          o.threads = threads;
+          std::function<void(const std::string&)> report;
+          if (progress) report = [](const std::string& line) { std::fprintf(stderr, "detect: %s\n", line.c_str()); };
+          calib::DetectionRun run;
+          {
+            py::gil_scoped_release release;
+            run = calib::DetectAll(paths, t, report, o);
+          }
+          return JsonToPython(calib::DetectionSetToJson(run.detections, run.skipped, t));
+        });
+      },
+      py::arg("images"), py::arg("target"), py::kw_only(), py::arg("threads") = 0, py::arg("progress") = false,
+      "Detects a target (chessboard:COLSxROWS:SQUARE_MM, charuco:…, circles:…) in images: a folder or a list "
+      "of files. Returns the set of `porthole detect --json`: target, images (one dict per image with the "
+      "target: image, width_px, height_px, ids, points_px) and skipped (image, reason).");
+
+  m.def(
       "calibrate",
       [](const py::list& detections, const std::string& target, const std::string& model,
          double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
@@ -126,7 +155,7 @@ void RegisterCalib(py::module_& m) {
         const auto t = calib::ParseTarget(target, "target");
         std::vector<calib::ImageDetections> dets;
         for (std::size_t i = 0; i < detections.size(); ++i) {
-          dets.push_back(calib::DetectionsFromJson(ToJson(detections[i]),
+          dets.push_back(calib::DetectionsFromJson(PythonToJson(detections[i]),
                                                    "detections[" + std::to_string(i) + "]"));
         }
         calib::CalibrationOptions o;
@@ -143,11 +172,11 @@ void RegisterCalib(py::module_& m) {
           o.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
         }
         calib::CalibrationResult r;
-        {
+        WithFieldNames({{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}}, [&] {
           py::gil_scoped_release release;
           r = calib::Calibrate(dets, t, o);
-        }
-        return FromJson(calib::CalibrationToJson(r, t, o));
+        });
+        return JsonToPython(calib::CalibrationToJson(r, t, o));
       },
       py::arg("detections"), py::arg("target"), py::kw_only(), py::arg("model") = "brown",
       py::arg("pixel_pitch_mm") = 1.0, py::arg("free") = "default", py::arg("reject_k") = 5.0,
@@ -174,7 +203,7 @@ void RegisterCalib(py::module_& m) {
         o.noise_seed = seed;
         const auto set = calib::MakeSyntheticSet(o);
         py::list out;
-        for (const auto& d : set.detections) out.append(FromJson(calib::DetectionsToJson(d, o.target)));
+        for (const auto& d : set.detections) out.append(JsonToPython(calib::DetectionsToJson(d, o.target)));
         return out;
       },
       py::arg("camera"), py::kw_only(), py::arg("width_px"), py::arg("height_px"),
@@ -190,8 +219,8 @@ void RegisterCalib(py::module_& m) {
       [](const py::dict& a, const py::dict& b, double alpha) {
         calib::CompareOptions o;
         o.alpha = alpha;
-        const auto r = calib::Compare(calib::CalibrationFromJson(ToJson(a), "a"),
-                                      calib::CalibrationFromJson(ToJson(b), "b"), o);
+        const auto r = calib::Compare(calib::CalibrationFromJson(PythonToJson(a), "a"),
+                                      calib::CalibrationFromJson(PythonToJson(b), "b"), o);
         nlohmann::ordered_json rows = nlohmann::ordered_json::array(), curves = rows;
         for (const auto& row : r.rows) {
           rows.push_back({{"parameter", std::string(camera::Info(r.model).params[row.index].json_key)},
@@ -204,7 +233,7 @@ void RegisterCalib(py::module_& m) {
                             {"radial_b_um", p.radial_b_um}, {"decentring_a_um", p.decentring_a_um},
                             {"decentring_b_um", p.decentring_b_um}});
         }
-        return FromJson({{"parameters", rows},
+        return JsonToPython(nlohmann::ordered_json{{"parameters", rows},
                          {"chi2", std::isfinite(r.chi2) ? nlohmann::ordered_json(r.chi2) : nullptr},
                          {"dof", r.dof},
                          {"p_value", std::isfinite(r.p_value) ? nlohmann::ordered_json(r.p_value) : nullptr},

@@ -5,35 +5,13 @@
 
 #include <limits>
 
-#include "porthole/io/presets.h"
-#include "porthole/planning/json.h"
 #include "porthole/core/field_names.h"
-#include "porthole/io/lookup.h"
+#include "porthole/planning/json.h"
 #include "register.h"
 
 namespace py = pybind11;
 
 namespace porthole::python {
-namespace {
-
-planning::Setup MakeSetup(const std::string& camera, const std::string& lens, const std::string& port,
-                          const std::string& water, std::optional<double> water_index, double lambda_nm,
-                          double temperature_c, double salinity_psu, double pressure_dbar,
-                          std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm) {
-  const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm);
-  planning::Setup s;
-  s.camera = cl.camera;
-  s.lens = cl.lens;
-  s.port = io::LoadPort(port);
-  s.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
-                          pressure_dbar);
-  return s;
-}
-
-py::object ToPython(const planning::Json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
-
-}  // namespace
-
 void RegisterPlanning(py::module_& m) {
   m.def(
       "plan",
@@ -42,7 +20,7 @@ void RegisterPlanning(py::module_& m) {
          const std::string& water, std::optional<double> water_index, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm) {
-        return WithFieldNames({{"focal_length_mm", "focal_mm"}}, [&] {
+        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"--port", "port"}}, [&] {
           const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
                                               salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
           planning::PlanOptions o;
@@ -51,7 +29,7 @@ void RegisterPlanning(py::module_& m) {
           o.f_number = f_number;
           o.coc_mm = coc_mm;
           o.lambda_nm = lambda_nm;
-          return ToPython(planning::PlanToJson(s, planning::MakePlan(s, o)));
+          return JsonToPython(planning::PlanToJson(s, planning::MakePlan(s, o)));
         });
       },
       py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "",
@@ -67,12 +45,12 @@ void RegisterPlanning(py::module_& m) {
          const std::string& water, std::optional<double> water_index, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm) {
-        return WithFieldNames({{"focal_length_mm", "focal_mm"}}, [&] {
+        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"--port", "port"}}, [&] {
           const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
                                               salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
           planning::FlatOptions o;
           o.wd_mm = wd_mm;
-          return ToPython(planning::FlatToJson(s, planning::AnalyseFlat(s, o)));
+          return JsonToPython(planning::FlatToJson(s, planning::AnalyseFlat(s, o)));
         });
       },
       py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "",

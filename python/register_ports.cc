@@ -4,6 +4,7 @@
 
 #include <limits>
 
+#include "porthole/core/field_names.h"
 #include "porthole/io/presets.h"
 #include "porthole/optics/batch.h"
 #include "porthole/ports/environment.h"
@@ -65,27 +66,36 @@ py::tuple TraceArrays(const std::vector<optics::Interface>& seq, const py::array
 
 void RegisterPorts(py::module_& m) {
   py::class_<ports::PortSpec>(m, "PortSpec", "A dome or flat port as described by a preset or TOML file.")
-      .def_readonly("name", &ports::PortSpec::name)
-      .def_readonly("description", &ports::PortSpec::description)
-      .def_property_readonly("type", [](const ports::PortSpec& p) { return p.IsDome() ? "dome" : "flat"; })
-      .def_property_readonly("material", &ports::PortSpec::material)
-      .def("to_toml", &io::PortToToml)
+      .def_readonly("name", &ports::PortSpec::name, "The preset's or file's name.")
+      .def_readonly("description", &ports::PortSpec::description, "What the port is, with its source.")
+      .def_property_readonly("_type", [](const ports::PortSpec& p) { return p.IsDome() ? "dome" : "flat"; })
+      .def_property_readonly("material", &ports::PortSpec::material, "The glass (a medium of media()).")
+      .def("to_toml", &io::PortToToml, "The port as a TOML file's text (the schema of docs/presets.md).")
       .def("__repr__", [](const ports::PortSpec& p) { return "<PortSpec " + p.name + ">"; });
 
-  m.def("load_port", &io::LoadPort, py::arg("name_or_path"),
+  m.def(
+      "load_port",
+      [](const std::string& name_or_path) {
+        return WithFieldNames({{"--port", "name_or_path"}}, [&] { return io::LoadPort(name_or_path); });
+      },
+      py::arg("name_or_path"),
         "A built-in port preset by name (see presets()) or a port TOML file.");
-  m.def("presets", [] {
-    py::list out;
-    for (const auto& p : io::BuiltinPresets()) {
-      out.append(py::make_tuple(std::string(p.kind), std::string(p.name), io::PresetDescription(p)));
-    }
-    return out;
-  });
+  m.def(
+      "presets",
+      [] {
+        py::list out;
+        for (const auto& p : io::BuiltinPresets()) {
+          out.append(py::make_tuple(std::string(p.kind), std::string(p.name), io::PresetDescription(p)));
+        }
+        return out;
+      },
+      "The built-in presets (ports, cameras, lenses) as (kind, name, description).");
 
   py::class_<ports::PortSystem>(m, "PortSystem", "A port placed in front of an entrance pupil, indices resolved.")
-      .def_readonly("n_glass", &ports::PortSystem::n_glass)
-      .def_readonly("n_water", &ports::PortSystem::n_water)
-      .def_readonly("ep_in_housing_mm", &ports::PortSystem::ep_in_housing_mm)
+      .def_readonly("n_glass", &ports::PortSystem::n_glass, "Glass index relative to air.")
+      .def_readonly("n_water", &ports::PortSystem::n_water, "Water index relative to air.")
+      .def_readonly("ep_in_housing_mm", &ports::PortSystem::ep_in_housing_mm, "Entrance pupil, housing frame, mm.")
+      .def_property_readonly("_type", [](const ports::PortSystem& s) { return s.IsDome() ? "dome" : "flat"; })
       .def_property_readonly("is_central", [](const ports::PortSystem& s) { return s.IsCentral(); })
       .def_property_readonly("outer_vertex_z_mm", &ports::PortSystem::OuterVertexZ)
       .def(
@@ -111,7 +121,8 @@ void RegisterPorts(py::module_& m) {
             d["back_focal_mm"] = f.back_focal_mm;
             d["front_focal_mm"] = f.front_focal_mm;
             return d;
-          })
+          },
+          "Paraxial focal properties: power_per_mm, efl_air_mm, efl_water_mm, back_focal_mm, front_focal_mm.")
       .def(
           "trace_out",
           [](const ports::PortSystem& s, const py::array_t<double>& o, const py::array_t<double>& d) {

@@ -13,14 +13,6 @@
 namespace py = pybind11;
 
 namespace porthole::python {
-namespace {
-
-py::object ToPython(const simulate::Json& j) {
-  return py::module_::import("json").attr("loads")(j.dump());
-}
-
-}  // namespace
-
 void RegisterSimulate(py::module_& m) {
   m.def(
       "simulate",
@@ -32,7 +24,7 @@ void RegisterSimulate(py::module_& m) {
          bool free_rotation, const std::optional<std::string>& sweep_axis,
          const std::vector<double>& offsets_mm, bool with_map, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm) {
-        return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}}, [&] {
+        return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}, {"--port", "port"}}, [&] {
         const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm);
         simulate::SystemSpec spec;
         spec.port = io::LoadPort(port);
@@ -74,7 +66,7 @@ void RegisterSimulate(py::module_& m) {
           }
           if (with_map) out["map"] = simulate::MapJson(simulate::DistortionMap(p));
         }
-        return ToPython(out);
+        return JsonToPython(out);
         });
       },
       py::kw_only(), py::arg("port") = "nimar-ni320", py::arg("camera") = "nikon-d300",

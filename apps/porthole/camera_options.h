@@ -44,9 +44,7 @@ struct CameraLensOptions {
     const io::CameraAndLens cl = io::FindCameraAndLens(query);
     housing::HousedCamera s;
     s.camera = cl.camera;
-    // A preset or file body with another pitch: the same sensor (its size in mm), other pixels.
-    const auto& pitch = query.pixel_pitch_mm;
-    if (pitch && *pitch != s.camera.sensor.pixel_pitch_mm) s.camera = WithPixelPitch(s.camera, *pitch);
+    const auto& pitch = query.pixel_pitch_mm;  // a preset body's other pitch: io::FindCamera
     s.lens = cl.lens;
     WarnIfImplausible(pitch ? "--pixel-pitch-mm" : query.camera + ": pixel_pitch_mm", s.camera.sensor.pixel_pitch_mm,
                       kPixelPitchRange);

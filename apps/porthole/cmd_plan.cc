@@ -27,7 +27,8 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                               "confusion {:.4f} mm ({})\n\n",
                               s.camera.name, s.lens.name, s.lens.focal_length_mm, projection, sys.spec.name,
                               sys.IsDome() ? "dome" : "flat", sys.n_water, p.f_number, p.coc_mm, p.coc_source);
-  t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil\n", Fixed(p.d_s2ep_infinity_mm, 1));
+  t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
+                   Fixed(p.d_s2ep_infinity_mm, 1));
   t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm, Eq. 2)\n",
                    Fixed(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm);
   if (p.lens_covers_virtual_range) {

@@ -169,17 +169,6 @@ void RequireWritableDirectory(const std::filesystem::path& dir, const std::strin
 
 }  // namespace
 
-lens::CameraBody WithPixelPitch(lens::CameraBody body, double pitch_mm) {
-  const double w = body.SensorWidthMm(), h = body.SensorHeightMm();
-  const double pitch = RequirePositive("--pixel-pitch-mm", pitch_mm);
-  if (!(w / pitch < 1e6 && h / pitch < 1e6)) {
-    throw InvalidInput("--pixel-pitch-mm", "gives a million pixels or more across the sensor");
-  }
-  body.sensor = {static_cast<int>(std::max(1L, std::lround(w / pitch))),
-                 static_cast<int>(std::max(1L, std::lround(h / pitch))), pitch};
-  return body;
-}
-
 void EnsureOutputDirectory(const std::string& dir, const std::string& field) {
   if (dir.empty()) throw InvalidInput(field, "give a directory");
   const std::filesystem::path p(dir);

@@ -82,11 +82,6 @@ bool WarnIfImplausible(const std::string& field, double value, const PlausibleRa
 // Warns (WarnIfImplausible) for a port's radii or thickness, naming the port's fields.
 void WarnIfImplausiblePort(const ports::PortSpec& spec, const std::string& where = "port");
 
-// The same sensor (its size in mm) with pixels of pitch_mm: --pixel-pitch-mm given with a preset or
-// file body. Throws InvalidInput("--pixel-pitch-mm") unless pitch_mm > 0 and gives fewer than a
-// million pixels across.
-lens::CameraBody WithPixelPitch(lens::CameraBody body, double pitch_mm);
-
 // Makes `dir` a directory outputs can be written into: creates it (and missing parents) when it
 // does not exist, as `report --out` does, and checks it is writable. Throws InvalidInput(field, ...)
 // when it exists and is not a directory, cannot be created, or is not writable. Call it before

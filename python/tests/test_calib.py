@@ -1,6 +1,9 @@
 """Proves the calib bindings: a known camera is recovered from synthetic detections within 3 sigma,
 the chi2 comparison accepts the same camera and rejects a changed one, and bad input raises
 ValueError naming the field."""
+import math
+
+import numpy as np
 import pytest
 
 import porthole
@@ -18,18 +21,22 @@ def calibrate(camera, seed):
 
 def test_recovers_known_camera():
     r = calibrate(TRUTH, 2)
-    assert r["status"] == "ok" and r["sigma0_px"] == pytest.approx(0.3, rel=0.05)
+    assert r.status == porthole.Status.OK and r.sigma0_px == pytest.approx(0.3, rel=0.05)
+    assert r.model == porthole.CameraModel.BROWN
     for k, v in TRUTH.items():
-        assert abs(r["camera"][k] - v) < 3 * r["sigma"][k], k
-    assert r["camera"]["K3"] is None and r["sigma"]["B1"] is None
+        assert abs(r.params[k] - v) < 3 * r.sigma[k], k
+    # Not adjusted: K3 fixed at 0, no sigma; the covariance is over the adjusted parameters only.
+    assert r.params["K3"] == 0.0 and math.isnan(r.sigma["B1"]) and "K3" not in r.adjusted
+    assert r.covariance.shape == (7, 7) and np.allclose(np.sqrt(np.diag(r.covariance)),
+                                                        [r.sigma[k] for k in r.adjusted], rtol=1e-6)
 
 
 def test_compare_same_and_changed_camera():
     a = calibrate(TRUTH, 2)
     same = porthole.compare(a, calibrate(TRUTH, 3))
-    assert same["dof"] == 7 and same["p_value"] > 0.01
+    assert same.dof == 7 and same.p_value > 0.01
     changed = porthole.compare(a, calibrate(dict(TRUTH, c_mm=TRUTH["c_mm"] + 0.03), 3))
-    assert changed["significant"] and changed["p_value"] < 1e-6
+    assert changed.significant and changed.p_value < 1e-6
 
 
 def test_bad_input():
@@ -38,7 +45,7 @@ def test_bad_input():
         porthole.calibrate(dets, "chessboard:13x9:40", free="c,k1")
     with pytest.raises(ValueError, match="target"):
         porthole.calibrate(dets, "chessboard:13x9")
-    with pytest.raises(ValueError, match="images"):
+    with pytest.raises(ValueError, match="^detections:"):
         porthole.calibrate(dets[:2], "chessboard:13x9:40")
     with pytest.raises(TypeError):
         porthole.calibrate(dets, "chessboard:13x9:40", pitch=1)

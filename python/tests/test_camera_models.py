@@ -23,10 +23,11 @@ def points_over_field(max_deg, n=400, seed=1):
 
 
 def test_model_list_is_exposed():
-    names = [m["name"] for m in porthole.camera_models()]
+    names = [m.name for m in porthole.camera_models()]
     assert names[:3] == ["brown", "opencv", "kannala-brandt"]
+    assert names == [m.value for m in porthole.CameraModel]  # the enum is the whole list
     kb = porthole.camera_models()[2]
-    assert kb["fisheye"] and [p["key"] for p in kb["parameters"]][:4] == ["fx_px", "fy_px", "cx_px", "cy_px"]
+    assert kb.fisheye and kb.parameters.key[:4] == ["fx_px", "fy_px", "cx_px", "cy_px"]
 
 
 def test_opencv_model_projects_as_cv2_projectPoints():
@@ -61,31 +62,31 @@ def test_fisheye_calibration_matches_cv2_fisheye_calibrate():
                                          noise_px=0.3, seed=7, max_tilt_deg=50, max_off_axis_deg=85,
                                          fill=0.35)
     ours = porthole.calibrate(dets, "chessboard:13x9:40", model="kannala-brandt", reject_k=0)
-    assert ours["status"] == "ok"
+    assert ours.status == porthole.Status.OK and ours.model == porthole.CameraModel.KANNALA_BRANDT
     # The views reach 80 deg off axis.
     max_deg = 0
     for d in dets:
-        if d["points_px"]:
-            rays = porthole.unproject(truth, np.array(d["points_px"], float), **SENSOR)
+        if len(d.points_px):
+            rays = porthole.unproject(truth, d.points_px, **SENSOR)
             max_deg = max(max_deg, math.degrees(math.acos(rays[:, 2].min())))
     assert max_deg >= 80
     # OpenCV on exactly the images porthole used (it skips boards whose points fix no pose).
-    used = {im["image"] for im in ours["images"]}
+    used = {im.image for im in ours.images}
     obj, img = [], []
     for d in dets:
-        if d["image"] not in used:
+        if d.image not in used:
             continue
-        ids = np.array(d["ids"])
+        ids = d.ids
         cols = 13
         xy = np.stack([(ids % cols + 1) * 40.0, (ids // cols + 1) * 40.0, np.zeros(len(ids))], 1)
         obj.append(xy.reshape(-1, 1, 3))
-        img.append(np.array(d["points_px"], float).reshape(-1, 1, 2))
+        img.append(d.points_px.reshape(-1, 1, 2))
     k0 = np.array([[1900.0, 0, 2143.5], [0, 1900.0, 1423.5], [0, 0, 1]], float)
     flags = cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW | cv2.fisheye.CALIB_USE_INTRINSIC_GUESS
     criteria = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
     rms, k, d, _, _ = cv2.fisheye.calibrate(obj, img, (4288, 2848), k0, np.zeros(4), flags=flags,
                                             criteria=criteria)
-    print(f"porthole RMS {ours['rms_px']:.5f} px, cv2.fisheye RMS {rms:.5f} px; "
-          f"fx {ours['camera']['fx_px']:.3f} vs {k[0, 0]:.3f}")
-    assert ours["rms_px"] == pytest.approx(rms, rel=0.01)
-    assert ours["camera"]["fx_px"] == pytest.approx(k[0, 0], abs=3 * ours["sigma"]["fx_px"])
+    print(f"porthole RMS {ours.rms_px:.5f} px, cv2.fisheye RMS {rms:.5f} px; "
+          f"fx {ours.params['fx_px']:.3f} vs {k[0, 0]:.3f}")
+    assert ours.rms_px == pytest.approx(rms, rel=0.01)
+    assert ours.params["fx_px"] == pytest.approx(k[0, 0], abs=3 * ours.sigma["fx_px"])

@@ -11,16 +11,16 @@ import porthole
 def test_plan_section4_from_python():
     p = porthole.plan(port="nimar-ni320-nominal", water_index=1.341, subject_distance_mm=1000, f_number=8,
                       coc_mm=0.015)
-    assert 680 <= p["min_wd_mm"] <= 730
-    assert abs(p["dof"]["water"]["virtual_focus_mm"] - 238) <= 1  # Menna et al. 2016, Section 4
-    assert abs(p["dof"]["water"]["near_mm"] - 792) <= 0.02 * 792
-    assert abs(p["dof"]["air"]["near_mm"] - 831) <= 3
+    assert 680 <= p.min_wd_mm <= 730
+    assert abs(p.dof.water.virtual_focus_mm - 238) <= 1  # Menna et al. 2016, Section 4
+    assert abs(p.dof.water.near_mm - 792) <= 0.02 * 792
+    assert abs(p.dof.air.near_mm - 831) <= 3
 
 
 def test_flat_max_fov():
     f = porthole.flat(water_index=1.333)
-    assert abs(f["max_fov_deg"] - 2 * math.degrees(math.asin(1 / 1.333))) < 1e-9
-    assert abs(f["max_fov_deg"] - 97.2) <= 0.1
+    assert abs(f.max_fov_deg - 2 * math.degrees(math.asin(1 / 1.333))) < 1e-9
+    assert abs(f.max_fov_deg - 97.2) <= 0.1
 
 
 def test_plan_errors():
@@ -33,12 +33,23 @@ def test_plan_errors():
 def test_same_names_and_keywords_as_the_cli():
     # A fixed-lens camera brings its own lens; a lensfun fisheye is planned with its projection.
     p = porthole.plan(camera="gopro-hero4-black", port="flat-acrylic-10mm", f_number=2.8)
-    assert p["lens"]["name"] == "gopro-hero4-black-wide"
+    assert p.lens.name == "gopro-hero4-black-wide"
     f = porthole.plan(lens="Nikon AF DX Fisheye-Nikkor 10.5mm f/2.8G ED")
     r = 0.5 * math.hypot(4288 * 0.0055, 2848 * 0.0055)
-    assert f["fov"]["air"]["diagonal_deg"] == pytest.approx(4 * math.degrees(math.asin(r / 21)))
+    assert f.fov.air.diagonal_deg == pytest.approx(4 * math.degrees(math.asin(r / 21)))
     # Errors name Python's keywords: a lensfun zoom needs focal_mm.
     with pytest.raises(ValueError, match="^focal_mm:"):
         porthole.plan(lens="Nikon AF-S DX Nikkor 18-300mm f/3.5-6.3G ED VR")
     s = porthole.simulate(camera="olympus-tg6", port="flat-acrylic-10mm", grid_cols=5, grid_rows=5)
-    assert s["model"] == "brown"
+    assert s.model == "brown"
+
+
+def test_pixel_pitch_of_a_preset_body_as_the_cli():
+    # A preset body given another pitch keeps its sensor (23.58 x 15.66 mm) with other pixels, in
+    # Python as in the CLI (`plan --pixel-pitch-mm 0.011`): 2144 x 1424 px, and the default circle
+    # of confusion (two pitches) follows.
+    p = porthole.plan(pixel_pitch_mm=0.011)
+    assert (p.camera.width_px, p.camera.height_px) == (round(4288 * 0.0055 / 0.011), round(2848 * 0.0055 / 0.011))
+    assert p.coc_mm == pytest.approx(0.022)
+    with pytest.raises(ValueError, match="^pixel_pitch_mm:"):
+        porthole.plan(pixel_pitch_mm=-1)

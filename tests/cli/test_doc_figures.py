@@ -239,9 +239,13 @@ def test_report_one_quantity_figures():
     assert round(far["focus"]["focus_distance_mm"]) == 355
     move = far["ep_in_housing_mm"][2] - 24.6
     assert round(move, 2) == 1.94
-    # "d_s2ep_infinity_mm, 284.3 mm"; "the same housing z (to 0.01 mm; it is 0.002 mm ...)"
-    assert round(target["d_s2ep_infinity_mm"], 1) == 284.3
-    gap = abs((24.6 + target["d_s2ep_infinity_mm"]) - (far["ep_in_housing_mm"][2] + far["virtual_image"]["d_s2ep_mm"]))
+    # "`porthole plan` prints the same number (d_s2ep_infinity_mm, lens focused on the image)"
+    assert round(target["d_s2ep_infinity_mm"], 1) == 282.4
+    # "the same point seen from the pupil at the focus-scale infinity (284.3 mm)"; "the same housing
+    # z to 0.01 mm. They differ by 0.002 mm" (the pupil at infinity focus: 24.6 mm, Table 2)
+    at_inf = run("virtual-image", "--ep", "0", "0", "24.6", "--wd", "inf", "--json").json()["rows"][0]["d_s2ep_mm"]
+    assert round(at_inf, 1) == 284.3
+    gap = abs((24.6 + at_inf) - (far["ep_in_housing_mm"][2] + far["virtual_image"]["d_s2ep_mm"]))
     assert round(gap, 3) == 0.002
     # "c = 26.78 mm for the default system: 47.5 deg horizontal in air, 46.4 deg in water ... 52.3 deg"
     assert round(target["principal_distance_mm"], 2) == 26.78

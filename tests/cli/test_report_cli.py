@@ -258,11 +258,15 @@ def test_one_quantity_one_number(default_report):
     assert far["virtual_image"]["d_s2ep_mm"] == pytest.approx(d, abs=2e-4)
     assert far["virtual_image"]["vwd_mm"] == pytest.approx(inf["vwd_mm"], abs=2e-4)
     assert far["focus"]["focus_distance_mm"] == pytest.approx(inf["focus_scale_fd_mm"], abs=5e-4)
-    # plan's d_s2ep_infinity_mm is the same point seen from the pupil at infinity focus: equal to
-    # the report's view of it, and the two differ exactly by the pupil's move (one point in the housing).
+    # plan's d_s2ep_infinity_mm is that one number (the lens focused on the image: issue 12's
+    # acceptance is 0.05 mm; the two commands solve the same focus, so they agree far closer).
     plan = run("plan", "--subject-distance", "1000", "--json").json()
+    assert plan["d_s2ep_infinity_mm"] == pytest.approx(d, abs=0.05)
+    assert plan["d_s2ep_infinity_mm"] == pytest.approx(d, abs=1e-9)
+    assert plan["infinity_image_focus_distance_mm"] == pytest.approx(inf["focus_scale_fd_mm"], abs=1e-9)
+    # The same point seen from the pupil at the focus-scale infinity: the two differ exactly by the
+    # pupil's move (one point in the housing).
     at_inf = inf["with_focus_scale_at_infinity"]
-    assert at_inf["d_s2ep_mm"] == plan["d_s2ep_infinity_mm"]
     # (To 0.01 mm, against a 1.9 mm move of the pupil: the NI320's centres sit 0.4 mm off the axis,
     # so the chief ray about which the paraxial image is taken, and the image, shift by ~0.002 mm.)
     assert inf["ep_z_in_housing_mm"] - at_inf["ep_z_in_housing_mm"] > 1.5
@@ -277,11 +281,9 @@ def test_one_quantity_one_number(default_report):
     dat = (out / "figures" / "virtual-image.dat").read_text().split("# index 2:")[1]
     values = [ln for ln in dat.splitlines()[1:] if ln and not ln.startswith("#")][0]
     assert float(values.split()[0]) == pytest.approx(d, abs=1e-4)  # 7 digits in data files
-    # Its view at infinity focus appears only in plan's advice, which names that focus.
-    other = f"{plan['d_s2ep_infinity_mm']:.1f}"
-    assert other != shown
-    for m in re.finditer(re.escape(other), text):
-        assert "set the focus to infinity" in text[max(0, m.start() - 120):m.start()], text[m.start() - 120:m.end()]
+    # Its view from the pupil at the focus-scale infinity is not shown as a number on the page.
+    other = f"{at_inf['d_s2ep_mm']:.1f}"
+    assert other != shown and not re.search(r"(?<![\d.])" + re.escape(other) + r"(?![\d])", text), other
     # The field of view: the plan's for the same focus (the target's), stated with its c.
     fov = rep["field_of_view"]
     assert fov["air"] == plan["fov"]["air"] and fov["water"] == plan["fov"]["water"]

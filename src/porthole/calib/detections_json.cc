@@ -21,24 +21,34 @@ nlohmann::ordered_json DetectionsToJson(const ImageDetections& d, const TargetSp
 
 ImageDetections DetectionsFromJson(const nlohmann::json& j, const std::string& where) {
   ImageDetections d;
+  std::string reading = "image";  // the key being read, named in errors ("points_px[3]: …")
   try {
     d.image = j.at("image").get<std::string>();
     // Whole numbers in [1, 1e6]: get<int>() would wrap 4294967936 to 640.
     for (auto [key, out] : {std::pair{"width_px", &d.width_px}, std::pair{"height_px", &d.height_px}}) {
+      reading = key;
       const double v = j.at(key).is_number() ? j.at(key).get<double>() : NAN;
       if (!(v >= 1 && v <= 1e6 && v == std::floor(v))) {
         throw InvalidInput(where, std::string(key) + ": must be a whole number from 1 to 1000000");
       }
       *out = static_cast<int>(v);
     }
+    reading = "ids";
     d.ids = j.at("ids").get<std::vector<int>>();
-    for (const auto& p : j.at("points_px")) {
-      if (!p.is_array() || p.size() != 2) throw InvalidInput(where, "points_px: [u, v] pairs");
+    reading = "points_px";
+    const auto& points = j.at("points_px");
+    if (!points.is_array()) throw InvalidInput(where, "points_px: must be a list of [u, v] pairs");
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const auto& p = points[i];
+      const std::string at = "points_px[" + std::to_string(i) + "]";
+      if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number()) {
+        throw InvalidInput(where, at + ": must be a pair [u, v] of numbers");
+      }
       d.points_px.emplace_back(p[0].get<double>(), p[1].get<double>());
-      if (!d.points_px.back().allFinite()) throw InvalidInput(where, "points_px: finite numbers");
+      if (!d.points_px.back().allFinite()) throw InvalidInput(where, at + ": finite numbers");
     }
   } catch (const nlohmann::json::exception& e) {
-    throw InvalidInput(where, "not a detections object: " + JsonMessage(e));
+    throw InvalidInput(where, reading + ": not a detections object: " + JsonMessage(e));
   }
   if (d.ids.size() != d.points_px.size()) {
     throw InvalidInput(where, "ids and points_px differ in length");
@@ -71,10 +81,6 @@ void MergeTarget(const nlohmann::json& j, const std::string& where, const std::s
   }
 }
 
-nlohmann::json ReadJsonFile(const fs::path& p, const std::string& field) {
-  return ParseJsonText(ReadInputFile(p, field, kMaxJsonFileBytes), field, p.string());
-}
-
 }  // namespace
 
 std::vector<ImageDetections> LoadDetections(const std::string& path, const std::string& field,
@@ -93,21 +99,24 @@ std::vector<ImageDetections> LoadDetections(const std::string& path, const std::
   }
   std::vector<ImageDetections> out;
   for (const auto& f : files) {
-    const auto j = ReadJsonFile(f, field);
-    try {
-    if (j.contains("images")) {  // a set file
-      MergeTarget(j, f.string(), field, target);
-      for (std::size_t i = 0; i < j.at("images").size(); ++i) {
-        out.push_back(DetectionsFromJson(j["images"][i], f.string() + ".images[" +
-                                                             std::to_string(i) + "]"));
+    const std::string text = ReadInputFile(f, field, kMaxJsonFileBytes);
+    const auto j = ParseJsonText(text, field, f.string());
+    // Errors name the file, the line and the key (file.json.images[3]: file.json:17: points_px: …).
+    WithJsonLines(text, f.string(), f.string(), [&] {
+      try {
+        if (j.contains("images")) {  // a set file
+          MergeTarget(j, f.string(), field, target);
+          for (std::size_t i = 0; i < j.at("images").size(); ++i) {
+            out.push_back(DetectionsFromJson(j["images"][i], f.string() + ".images[" + std::to_string(i) + "]"));
+          }
+        } else {
+          MergeTarget(j, f.string(), field, target);
+          out.push_back(DetectionsFromJson(j, f.string()));
+        }
+      } catch (const nlohmann::json::exception& e) {  // "images" or "target" of the wrong type
+        throw InvalidInput(field, f.string() + ": " + JsonMessage(e));
       }
-    } else {
-      MergeTarget(j, f.string(), field, target);
-      out.push_back(DetectionsFromJson(j, f.string()));
-    }
-    } catch (const nlohmann::json::exception& e) {  // "images" or "target" of the wrong type
-      throw InvalidInput(field, f.string() + ": " + JsonMessage(e));
-    }
+    });
   }
   return out;
 }

@@ -340,7 +340,8 @@ CalibrationRecord LoadCalibration(const std::string& path, double pixel_pitch_mm
   if (ext == ".yml" || ext == ".yaml") {
     rec = ImportOpenCVYaml(text, pixel_pitch_mm, field, fit);
   } else {
-    rec = CalibrationFromJson(ParseJsonText(text, field, path), field);
+    const nlohmann::json j = ParseJsonText(text, field, path);
+    rec = WithJsonLines(text, field, path, [&] { return CalibrationFromJson(j, field); });
   }
   rec.label = std::filesystem::path(path).stem().string();
   return rec;

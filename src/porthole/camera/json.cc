@@ -1,9 +1,7 @@
 #include "porthole/camera/json.h"
 
-#include <fstream>
-#include <sstream>
-
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 namespace porthole::camera {
 namespace {
@@ -35,6 +33,41 @@ void ReadKeys(const nlohmann::json& j, const std::string& where, bool require_c,
   *p = BrownParams::FromArray(a.data());
 }
 
+// ValidateBrownParams with its errors named under `where` ("c_mm" -> "where.c_mm").
+void Validate(const BrownParams& p, const std::string& where) {
+  try {
+    ValidateBrownParams(p);
+  } catch (const InvalidInput& e) {
+    for (const auto& info : kBrownParamInfo) {
+      if (e.field() == info.json_key) {
+        throw InvalidInput(where + "." + e.field(), std::string(e.what()).substr(e.field().size() + 2));
+      }
+    }
+    throw;
+  }
+}
+
+// The σ object: the same keys, non-negative.
+BrownParams ReadSigma(const nlohmann::json& j, const std::string& where) {
+  BrownParams s;
+  ReadKeys(j, where, /*require_c=*/false, &s);
+  const auto a = s.ToArray();
+  for (int i = 0; i < kBrownNumParams; ++i) {
+    RequireNonNegative(where + "." + std::string(kBrownParamInfo[i].json_key), a[i]);
+  }
+  return s;
+}
+
+// The non-null members of an object (a calibration file's null = not adjusted).
+nlohmann::json WithoutNulls(const nlohmann::json& j) {
+  if (!j.is_object()) return j;
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& [key, val] : j.items()) {
+    if (!val.is_null()) out[key] = val;
+  }
+  return out;
+}
+
 }  // namespace
 
 OJson BrownToJson(const BrownParams& p) {
@@ -60,55 +93,34 @@ OJson BrownToJson(const BrownEstimate& e) {
 BrownEstimate BrownFromJson(const nlohmann::json& j, const std::string& where) {
   BrownEstimate e;
   ReadKeys(j, where, /*require_c=*/true, &e.value);
-  ValidateBrownParams(e.value);
-  if (j.contains("sigma")) {
-    BrownParams s;
-    ReadKeys(j["sigma"], where + ".sigma", /*require_c=*/false, &s);
-    const auto a = s.ToArray();
-    for (int i = 0; i < kBrownNumParams; ++i) {
-      RequireNonNegative(where + ".sigma." + std::string(kBrownParamInfo[i].json_key), a[i]);
-    }
-    e.sigma = s;
-  }
+  Validate(e.value, where);
+  if (j.contains("sigma")) e.sigma = ReadSigma(j["sigma"], where + ".sigma");
   return e;
 }
 
 BrownEstimate LoadBrownJson(const std::string& text_or_path, const std::string& field) {
-  std::string text = text_or_path;
-  const auto first = text.find_first_not_of(" \t\r\n");
-  if (first == std::string::npos || text[first] != '{') {
-    std::ifstream in(text_or_path);
-    if (!in) throw InvalidInput(field, "cannot read '" + text_or_path + "'");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    text = ss.str();
-  }
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& err) {
-    throw InvalidInput(field, std::string("not valid JSON: ") + err.what());
-  }
-  // A calibration file as `porthole calibrate --out` writes it (calib/result_json.h): the Brown
-  // parameters under "camera" (null = not adjusted) and their σ under "sigma".
-  if (j.is_object() && j.contains("camera") && j["camera"].is_object()) {
-    if (j.contains("model") && !(j["model"].is_string() && j["model"].get<std::string>() == "brown")) {
-      throw InvalidInput(field, "needs a Brown calibration, got model " + j["model"].dump());
-    }
-    nlohmann::json brown = nlohmann::json::object();
-    for (const auto& [key, val] : j["camera"].items()) {
-      if (!val.is_null()) brown[key] = val;
-    }
-    if (j.contains("sigma") && j["sigma"].is_object()) {
-      nlohmann::json sigma = nlohmann::json::object();
-      for (const auto& [key, val] : j["sigma"].items()) {
-        if (!val.is_null()) sigma[key] = val;
+  const auto first = text_or_path.find_first_not_of(" \t\r\n");
+  const bool is_text = first != std::string::npos && text_or_path[first] == '{';
+  const std::string origin = is_text ? "(JSON text)" : text_or_path;
+  const std::string text = is_text ? text_or_path : ReadInputFile(text_or_path, field, kMaxJsonFileBytes);
+  const nlohmann::json j = ParseJsonText(text, field, origin);
+  // Errors name the key and, for a file, the line it is on (field.camera.K1: file.json:12: …).
+  const auto read = [&] {
+    // A calibration file as `porthole calibrate --out` writes it (calib/result_json.h): the Brown
+    // parameters under "camera" (null = not adjusted) and their σ under "sigma".
+    if (j.is_object() && j.contains("camera") && j["camera"].is_object()) {
+      if (j.contains("model") && !(j["model"].is_string() && j["model"].get<std::string>() == "brown")) {
+        throw InvalidInput(field + ".model", "needs a Brown calibration, got model " + j["model"].dump());
       }
-      brown["sigma"] = sigma;
+      BrownEstimate e;
+      ReadKeys(WithoutNulls(j["camera"]), field + ".camera", /*require_c=*/true, &e.value);
+      Validate(e.value, field + ".camera");
+      if (j.contains("sigma") && j["sigma"].is_object()) e.sigma = ReadSigma(WithoutNulls(j["sigma"]), field + ".sigma");
+      return e;
     }
-    return BrownFromJson(brown, field);
-  }
-  return BrownFromJson(j, field);
+    return BrownFromJson(j, field);
+  };
+  return is_text ? read() : WithJsonLines(text, field, origin, read);
 }
 
 }  // namespace porthole::camera

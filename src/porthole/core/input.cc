@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -110,5 +111,95 @@ nlohmann::ordered_json ParseOrderedJsonText(std::string_view text, const std::st
                                             const std::string& origin) {
   return Parse<nlohmann::ordered_json>(text, field, origin);
 }
+
+std::size_t JsonPathLine(std::string_view text, std::string_view path) {
+  struct Frame {
+    bool object;
+    std::string key;    // object: the current member's key
+    long index = -1;    // array: the current element
+    bool expect_key = true, pending = true;
+  };
+  std::vector<Frame> stack;
+  std::size_t line = 1, best_line = 1, best_len = 0;
+  bool done = false;
+  // A value begins at `at_line` with the current path: an exact match ends the scan; an ancestor
+  // of `path` is remembered.
+  auto value_starts = [&](std::size_t at_line) {
+    std::string p;
+    for (const Frame& f : stack) {
+      if (f.object) p += (p.empty() ? "" : ".") + f.key;
+      else p += "[" + std::to_string(f.index) + "]";
+    }
+    if (p == path) {
+      best_line = at_line, done = true;
+    } else if (p.size() >= best_len && path.substr(0, p.size()) == p &&
+               (p.empty() || path[p.size()] == '.' || path[p.size()] == '[')) {
+      best_line = at_line, best_len = p.size();
+    }
+  };
+  value_starts(1);
+  for (std::size_t i = 0; i < text.size() && !done; ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      continue;
+    }
+    if (c == ' ' || c == '\t' || c == '\r') continue;
+    Frame* top = stack.empty() ? nullptr : &stack.back();
+    if (top && !top->object && top->pending && c != ']') {  // an array element begins
+      ++top->index;
+      top->pending = false;
+      value_starts(line);
+    }
+    if (c == '"') {
+      const std::size_t start_line = line;
+      std::string s;
+      for (++i; i < text.size() && text[i] != '"'; ++i) {
+        if (text[i] == '\\' && i + 1 < text.size()) {
+          s += text[++i];  // escapes kept as their letter: enough to match plain keys
+        } else {
+          if (text[i] == '\n') ++line;
+          s += text[i];
+        }
+      }
+      if (top && top->object && top->expect_key) {
+        top->key = s;
+        top->expect_key = false;
+        value_starts(start_line);
+      }
+    } else if (c == '{' || c == '[') {
+      stack.push_back(Frame{c == '{', "", -1, true, true});
+    } else if (c == '}' || c == ']') {
+      if (!stack.empty()) stack.pop_back();
+    } else if (c == ',' && top) {
+      if (top->object) top->expect_key = true;
+      else top->pending = true;
+    }
+  }
+  return best_line;
+}
+
+namespace detail {
+
+void RethrowWithJsonLine(const InvalidInput& e, std::string_view text, const std::string& field,
+                         const std::string& origin) {
+  const std::string& f = e.field();
+  const std::string rule = std::string(e.what()).substr(f.size() + 2);  // "field: rule"
+  std::string path;
+  if (f.rfind(field, 0) != 0) throw e;  // not about this document
+  if (f.size() > field.size()) {
+    if (f[field.size()] != '.' && f[field.size()] != '[') throw e;
+    path = f.substr(field.size() + (f[field.size()] == '.' ? 1 : 0));
+  }
+  // "sensor.width_px: must be …": a key path leading the rule goes one deeper.
+  const std::size_t colon = rule.find(": ");
+  if (colon != std::string::npos && colon > 0 && rule.find(' ') > colon) {
+    const std::string key = rule.substr(0, colon);
+    path = path.empty() ? key : key[0] == '[' ? path + key : path + "." + key;
+  }
+  throw InvalidInput(fmt::format("{}: {}:{}", f, origin, JsonPathLine(text, path)), rule);
+}
+
+}  // namespace detail
 
 }  // namespace porthole

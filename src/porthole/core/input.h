@@ -5,9 +5,12 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
+
+#include "porthole/core/error.h"
 
 namespace porthole {
 
@@ -28,7 +31,40 @@ nlohmann::json ParseJsonText(std::string_view text, const std::string& field, co
 nlohmann::ordered_json ParseOrderedJsonText(std::string_view text, const std::string& field,
                                             const std::string& origin);
 
+// The 1-based line where the value at `path` begins in JSON `text` (for an object member: the line of
+// its key). Paths are keys joined by '.', array elements by [i]: "camera.K1", "images[2].points_px",
+// "" = the whole document. When `path` is absent, the line of its deepest present ancestor (a
+// missing key points at the object that lacks it). nlohmann::json keeps no positions for values, so
+// this is a small scan of its own (strings, nesting, commas), run only when an error is reported.
+std::size_t JsonPathLine(std::string_view text, std::string_view path);
+
+// Runs f(), which reads JSON parsed from `text` (read from file `origin`) and reports bad values as
+// InvalidInput(field + path, rule) — path as above after `field`, or leading the rule ("sensor.
+// width_px: must be …"). Such an error is rethrown with "origin:line" of that path after its field:
+// "--air-calibration.camera.K1: paper-air.json:12: must be a number". nlohmann's type errors are
+// reported the same way at `field`.
+template <typename F>
+auto WithJsonLines(std::string_view text, const std::string& field, const std::string& origin, F&& f)
+    -> decltype(f());
+
 // The message of a nlohmann::json exception without its "[json.exception.type_error.302] " prefix.
 std::string JsonMessage(const std::exception& e);
+
+namespace detail {
+[[noreturn]] void RethrowWithJsonLine(const InvalidInput& e, std::string_view text, const std::string& field,
+                                      const std::string& origin);
+}  // namespace detail
+
+template <typename F>
+auto WithJsonLines(std::string_view text, const std::string& field, const std::string& origin, F&& f)
+    -> decltype(f()) {
+  try {
+    return f();
+  } catch (const InvalidInput& e) {
+    detail::RethrowWithJsonLine(e, text, field, origin);
+  } catch (const nlohmann::json::exception& e) {
+    detail::RethrowWithJsonLine(InvalidInput(field, JsonMessage(e)), text, field, origin);
+  }
+}
 
 }  // namespace porthole

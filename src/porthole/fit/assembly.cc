@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 namespace porthole::fit {
 namespace {
@@ -72,45 +73,54 @@ std::optional<std::vector<double>> ParseNumbers(const std::string& spec) {
 
 using Json = nlohmann::json;
 
-// Reads the JSON written by `porthole fit <shape> --json`; `shapes` lists the acceptable shapes.
-Json LoadFitJson(const std::string& path, const std::string& field, const std::string& expected,
-                 const std::vector<std::string>& shapes) {
+// The JSON written by `porthole fit <shape> --json`, with its text so that errors name the line.
+struct FitJson {
+  Json j;
+  std::string text, path;
+  // "path:line" of `key` (of the document when the key is absent).
+  std::string Where(const std::string& key) const { return fmt::format("{}:{}", path, JsonPathLine(text, key)); }
+};
+
+// Reads a fit file; `shapes` lists the acceptable shapes.
+FitJson LoadFitJson(const std::string& path, const std::string& field, const std::string& expected,
+                    const std::vector<std::string>& shapes) {
   std::ifstream f(path, std::ios::binary);
   if (!f)
     throw InvalidInput(field,
                        fmt::format("'{}' is neither {} nor a readable file", path, expected));
   std::stringstream text;
   text << f.rdbuf();
-  Json j;
+  FitJson out{Json(), text.str(), path};
   try {
-    j = Json::parse(text.str());
+    out.j = Json::parse(out.text);
   } catch (const Json::parse_error& e) {
-    throw InvalidInput(field, fmt::format("{}: not valid JSON at byte {} (expected the output of "
+    const std::size_t line = 1 + std::count(out.text.begin(), out.text.begin() + std::min(e.byte, out.text.size()), '\n');
+    throw InvalidInput(field, fmt::format("{}:{}: not valid JSON at byte {} (expected the output of "
                                           "'porthole fit ... --json')",
-                                          path, e.byte));
+                                          path, line, e.byte));
   }
-  if (!j.is_object()) throw InvalidInput(field, path + ": not a JSON object");
-  if (j.contains("shape")) {
-    const std::string shape = j["shape"].is_string() ? j["shape"].get<std::string>() : "?";
+  if (!out.j.is_object()) throw InvalidInput(field, out.Where("") + ": not a JSON object");
+  if (out.j.contains("shape")) {
+    const std::string shape = out.j["shape"].is_string() ? out.j["shape"].get<std::string>() : "?";
     if (std::find(shapes.begin(), shapes.end(), shape) == shapes.end())
-      throw InvalidInput(field, fmt::format("{}: a '{}' fit where a {} fit is expected", path,
+      throw InvalidInput(field, fmt::format("{}: a '{}' fit where a {} fit is expected", out.Where("shape"),
                                             shape, fmt::join(shapes, " or ")));
   }
-  return j;
+  return out;
 }
 
-double JsonNumber(const Json& j, const std::string& key, const std::string& path,
-                  const std::string& field) {
+double JsonNumber(const FitJson& f, const std::string& key, const std::string& field) {
+  const Json& j = f.j;
   if (!j.contains(key) || !j[key].is_number())
-    throw InvalidInput(field, fmt::format("{}: key '{}' missing or not a number", path, key));
+    throw InvalidInput(field, fmt::format("{}: key '{}' missing or not a number", f.Where(key), key));
   return j[key].get<double>();
 }
 
-Eigen::Vector3d JsonVec3(const Json& j, const std::string& key, const std::string& path,
-                         const std::string& field) {
+Eigen::Vector3d JsonVec3(const FitJson& f, const std::string& key, const std::string& field) {
+  const Json& j = f.j;
   if (!j.contains(key) || !j[key].is_array() || j[key].size() != 3 ||
       !std::all_of(j[key].begin(), j[key].end(), [](const Json& x) { return x.is_number(); }))
-    throw InvalidInput(field, fmt::format("{}: key '{}' missing or not [x, y, z]", path, key));
+    throw InvalidInput(field, fmt::format("{}: key '{}' missing or not [x, y, z]", f.Where(key), key));
   return {j[key][0].get<double>(), j[key][1].get<double>(), j[key][2].get<double>()};
 }
 
@@ -227,10 +237,9 @@ PlaneWithCenter ParsePlaneSpec(const std::string& spec, const std::string& field
       throw InvalidInput(field, fmt::format("expected {}, got {} numbers", expected, v->size()));
     return {{(*v)[0], (*v)[1], (*v)[2]}, {(*v)[3], (*v)[4], (*v)[5]}};
   }
-  const Json j = LoadFitJson(spec, field, expected, {"circle", "plane"});
-  const bool circle = j.contains("center_mm");
-  return {JsonVec3(j, circle ? "center_mm" : "centroid_mm", spec, field),
-          JsonVec3(j, "normal", spec, field)};
+  const FitJson f = LoadFitJson(spec, field, expected, {"circle", "plane"});
+  const bool circle = f.j.contains("center_mm");
+  return {JsonVec3(f, circle ? "center_mm" : "centroid_mm", field), JsonVec3(f, "normal", field)};
 }
 
 Sphere ParseSphereSpec(const std::string& spec, const std::string& field) {
@@ -240,11 +249,11 @@ Sphere ParseSphereSpec(const std::string& spec, const std::string& field) {
       throw InvalidInput(field, fmt::format("expected {}, got {} numbers", expected, v->size()));
     return {{(*v)[0], (*v)[1], (*v)[2]}, (*v)[3]};
   }
-  const Json j = LoadFitJson(spec, field, expected, {"sphere"});
-  if (j.contains("usable") && j["usable"] == false)
-    throw InvalidInput(field, fmt::format("{}: the sphere fit is not usable ({})", spec,
-                                          j.value("status", std::string("no status"))));
-  return {JsonVec3(j, "center_mm", spec, field), JsonNumber(j, "radius_mm", spec, field)};
+  const FitJson f = LoadFitJson(spec, field, expected, {"sphere"});
+  if (f.j.contains("usable") && f.j["usable"] == false)
+    throw InvalidInput(field, fmt::format("{}: the sphere fit is not usable ({})", f.Where("usable"),
+                                          f.j.value("status", std::string("no status"))));
+  return {JsonVec3(f, "center_mm", field), JsonNumber(f, "radius_mm", field)};
 }
 
 }  // namespace porthole::fit

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <lensfun/lensfun.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -71,8 +72,24 @@ std::optional<std::string> MountFromLensfun(const std::string& m) {
   return std::nullopt;
 }
 
+lens::CameraBody WithPixelPitch(lens::CameraBody body, double pitch_mm) {
+  const double w = body.SensorWidthMm(), h = body.SensorHeightMm();
+  const double pitch = RequirePositive("pixel_pitch_mm", pitch_mm);
+  if (!(w / pitch < 1e6 && h / pitch < 1e6)) {
+    throw InvalidInput("pixel_pitch_mm", "gives a million pixels or more across the sensor");
+  }
+  body.sensor = {static_cast<int>(std::max(1L, std::lround(w / pitch))),
+                 static_cast<int>(std::max(1L, std::lround(h / pitch))), pitch};
+  return body;
+}
+
 lens::CameraBody FindCamera(const std::string& name, std::optional<double> pitch) {
-  if (IsPorthole("camera", name)) return LoadCamera(name);
+  if (IsPorthole("camera", name)) {
+    lens::CameraBody b = LoadCamera(name);
+    // Another pitch for a preset or file body: the same sensor (its size in mm), other pixels.
+    if (pitch && *pitch != b.sensor.pixel_pitch_mm) b = WithPixelPitch(b, *pitch);
+    return b;
+  }
   if (!Db()) throw InvalidInput("camera", "unknown camera '" + name + "' (and the lensfun database is missing)");
   LfList<lfCamera> found(lf_db_find_cameras_ext(Db(), nullptr, name.c_str(), LF_SEARCH_LOOSE), &lf_free);
   if (!found || !found[0]) {

@@ -19,11 +19,16 @@
 namespace porthole::io {
 
 // A preset/file name, else the best lensfun match for `name` (maker and model, loose search).
-// A lensfun body needs `pixel_pitch_mm`: its sensor is 43.27 mm / crop factor across the
+// A preset or file body given another `pixel_pitch_mm` keeps its sensor size (mm) with other pixels
+// (WithPixelPitch). A lensfun body needs `pixel_pitch_mm`: its sensor is 43.27 mm / crop factor across the
 // diagonal, 4:3 on Micro Four Thirds and 3:2 elsewhere. Throws InvalidInput("camera") when
 // nothing matches, the mount is not one porthole knows, or the pitch is missing
 // (InvalidInput("pixel_pitch_mm")).
 lens::CameraBody FindCamera(const std::string& name, std::optional<double> pixel_pitch_mm = std::nullopt);
+
+// The body's sensor (its size in mm) divided into pixels of `pitch_mm`. Throws
+// InvalidInput("pixel_pitch_mm") for a pitch that is not > 0 or gives a million pixels a side.
+lens::CameraBody WithPixelPitch(lens::CameraBody body, double pitch_mm);
 
 // A preset/file name, else the best lensfun match. A zoom needs `focal_mm` within its range.
 // Estimated (docs/planning.md): minimum focus 10 f; the entrance pupil 68.1 mm / crop factor ahead

@@ -11,6 +11,7 @@
 
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
+#include "porthole/materials/materials.h"
 
 namespace porthole::io {
 
@@ -227,6 +228,13 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
   if (const auto ep = r.OptVec3("entrance_pupil_mm")) p.default_ep_in_housing_mm = *ep;
   const auto type = r.OptString("type");
   const auto material = r.OptString("material");
+  if (material) {
+    try {
+      materials::ModelOf(*material);  // an unknown glass is named at its line, not when first traced
+    } catch (const InvalidInput& e) {
+      r.Fail("material", std::string(e.what()).substr(e.field().size() + 2));
+    }
+  }
   if (type == "dome") {
     ports::DomePort d;
     if (material) d.material = *material;

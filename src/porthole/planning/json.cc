@@ -46,6 +46,9 @@ Json PlanToJson(const Setup& s, const Plan& p) {
   out["coc_mm"] = p.coc_mm;
   out["coc_source"] = p.coc_source;
   out["d_s2ep_infinity_mm"] = L(p.d_s2ep_infinity_mm);
+  out["d_s2ep_infinity_assumes"] = "the lens focused on the virtual image of infinity";
+  out["infinity_image_focus_distance_mm"] =
+      p.infinity_image_focus_distance_mm ? L(*p.infinity_image_focus_distance_mm) : Json(nullptr);
   out["closest_d_s2ep_mm"] = L(p.closest_d_s2ep_mm);
   out["min_wd_mm"] = L(p.min_wd_mm);
   out["min_wd_set_by"] = p.lens_covers_virtual_range ? "glass" : "lens";

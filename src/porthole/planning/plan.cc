@@ -236,7 +236,11 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   const ports::PortSystem at_min = SystemAtFocus(setup, ln.min_focus_mm);
   const ports::PortSystem at_inf = SystemAtFocus(setup, kInf);
   plan.closest_d_s2ep_mm = lens::SubjectToPupilMm(ln, mount, ln.min_focus_mm);
-  plan.d_s2ep_infinity_mm = VirtualD(at_inf, kInf);
+  // The virtual image of infinity with the lens focused on it (the pupil where that focus puts it):
+  // one definition for plan, report and Python (the report's Table 5 row WD = inf solves the same).
+  const Solved on_inf = SolveFocus(setup, mount, [](const ports::PortSystem& sys) { return VirtualD(sys, kInf); });
+  plan.d_s2ep_infinity_mm = VirtualD(on_inf.sys, kInf);
+  plan.infinity_image_focus_distance_mm = on_inf.fd_mm;
   plan.min_wd_mm = WdForVirtualImage(at_min, plan.closest_d_s2ep_mm);
   plan.d_s2ep_touching_mm = VirtualD(at_min, 1e-9);  // the limit WD → 0 (the paraxial trace needs WD > 0)
   plan.lens_covers_virtual_range = plan.closest_d_s2ep_mm <= plan.d_s2ep_touching_mm;
@@ -349,8 +353,9 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
                                plan.field_cut.clear_radius_mm, dome ? "rim and the housing" : "housing"));
   }
   if (dome) {
+    // Focus scale at infinity: its near limit against the image of infinity seen from that pupil.
     const double near_at_inf = ThinLensDof(kInf, f, n, coc).near_mm;
-    std::string what = near_at_inf > plan.d_s2ep_infinity_mm
+    std::string what = near_at_inf > VirtualD(at_inf, kInf)
                            ? "nothing in the water is then sharp"
                            : fmt::format("only objects beyond WD {:.0f} mm are then sharp",
                                          WdForVirtualImage(plan.system, near_at_inf));

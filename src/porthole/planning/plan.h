@@ -137,7 +137,11 @@ struct Plan {
   double f_number = 0, coc_mm = 0;
   std::string coc_source;              // how the circle of confusion was chosen
   ports::PortSystem system;            // at the target's focus (or at infinity focus)
-  double d_s2ep_infinity_mm = 0;       // virtual image of infinity from the pupil
+  // The virtual image of infinity from the pupil, with the lens focused on it (the pupil moves with
+  // focus: at the focus-scale infinity it would be ~2 mm farther for the NI320 and a 24 mm lens).
+  // The report's Table 5 row WD = inf is the same number.
+  double d_s2ep_infinity_mm = 0;
+  std::optional<double> infinity_image_focus_distance_mm;  // FD that focuses on it; nullopt: out of reach
   double closest_d_s2ep_mm = 0;        // the lens at its minimum focus (Eq. 2)
   double min_wd_mm = 0;                // infinite: nothing in the water is in reach
   // The virtual image of an object touching the port's outer vertex (the limit WD → 0), at the

@@ -126,12 +126,14 @@ Results Gather(const ReportInputs& in, Steps& steps) {
     const lens::Mount& mount = lens::MountByName(in.setup.camera.mount);
     const double h = in.setup.lens.focal_length_mm / (2 * in.f_number);
     for (double wd : kTable5Wd) r.table.push_back(VirtualAt(in.setup, mount, wd, h));
-    // The virtual image of infinity, once: the table's last row, and the plan's view of the same
-    // point from the pupil at infinity focus (a fixed pupil makes the two one number).
+    // The virtual image of infinity, once: the table's last row (lens focused on it, as plan's
+    // d_s2ep_infinity_mm), and the same point seen from the pupil at the focus-scale infinity (a
+    // fixed pupil makes the two one number).
     PORTHOLE_CHECK(std::isinf(r.table.back().wd_mm));
     r.infinity.focused = r.table.back();
-    r.infinity.d_s2ep_at_infinity_focus_mm = r.plan.d_s2ep_infinity_mm;
-    r.infinity.ep_z_at_infinity_focus_mm = planning::SystemAtFocus(in.setup, kInf).ep_in_housing_mm.z();
+    const ports::PortSystem at_inf = planning::SystemAtFocus(in.setup, kInf);
+    r.infinity.d_s2ep_at_infinity_focus_mm = ports::ParaxialVirtualImage(at_inf, kInf).d_s2ep_mm;
+    r.infinity.ep_z_at_infinity_focus_mm = at_inf.ep_in_housing_mm.z();
     for (int k = 0; k <= 60; ++k) {  // 50 mm … 100 m, log-spaced
       r.curve.push_back(VirtualAt(in.setup, mount, 50 * std::pow(2000.0, k / 60.0), h));
     }

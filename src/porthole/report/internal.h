@@ -35,11 +35,11 @@ struct VirtualRow {
 };
 
 // The virtual image of infinity, computed once and used by every table, figure and caption: the
-// Table 5 row WD = ∞ (lens focused on it), and the same point seen from the pupil where the lens
-// puts it with its focus scale at ∞ (what `porthole plan` prints as d_s2ep_infinity_mm).
+// Table 5 row WD = ∞ (lens focused on it, what `porthole plan` prints as d_s2ep_infinity_mm), and the
+// same point seen from the pupil where the lens puts it with its focus scale at ∞.
 struct InfinityImage {
   VirtualRow focused;                    // lens focused on the image of infinity
-  double d_s2ep_at_infinity_focus_mm = 0;  // = plan.d_s2ep_infinity_mm
+  double d_s2ep_at_infinity_focus_mm = 0;  // from the pupil at the focus-scale infinity
   double ep_z_at_infinity_focus_mm = 0;  // housing frame
 };
 

@@ -169,12 +169,12 @@ Json ReportJson(const Results& r, const std::vector<Figure>& figures) {
   const InfinityImage& inf = r.infinity;
   j["virtual_image_of_infinity"] = {
       {"assumes", "the lens focused on the image of infinity (the pupil where that focus puts it); the last row "
-                  "of virtual_image.rows"},
+                  "of virtual_image.rows, and `porthole plan`'s d_s2ep_infinity_mm"},
       {"d_s2ep_mm", L(inf.focused.d_s2ep_mm)}, {"vwd_mm", L(inf.focused.vwd_mm)},
       {"focus_scale_fd_mm", inf.focused.fd_mm ? L(*inf.focused.fd_mm) : Json(nullptr)},
       {"ep_z_in_housing_mm", inf.focused.ep_z_mm}, {"image_z_in_housing_mm", L(inf.focused.image_z_mm)},
       {"with_focus_scale_at_infinity",
-       {{"assumes", "the lens's focus scale at infinity, as `porthole plan` prints d_s2ep_infinity_mm"},
+       {{"assumes", "the lens's focus scale at infinity (the pupil there); the same point in the housing"},
         {"d_s2ep_mm", L(inf.d_s2ep_at_infinity_focus_mm)}, {"ep_z_in_housing_mm", inf.ep_z_at_infinity_focus_mm}}}};
   j["field_of_view"] = {{"assumes", "the lens focused on the target's virtual image, as `porthole plan "
                                     "--subject-distance` (without a target plan assumes infinity focus, c = f)"},

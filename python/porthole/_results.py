@@ -1,0 +1,474 @@
+"""porthole's results as typed Python objects: floats (infinity is math.inf, never the string "inf"),
+numpy arrays for vectors, matrices and table columns, enums for statuses and kinds.
+
+The compiled bindings hand back the CLI's JSON (as `porthole <command> --json` prints it); the classes
+here are built from it and give it back with to_dict(), so a result can be saved as the file the CLI
+reads (`json.dump(result.to_dict(), f)`).
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+import enum
+import json
+import math
+import os
+from typing import Any, Dict, List, NamedTuple, Optional, Tuple
+
+import numpy as np
+
+__all__ = [
+    "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "Plan", "FlatAnalysis",
+    "Simulation", "Comparison", "HousingAssembly", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
+    "Calibration", "VirtualImage", "VirtualImageTable", "PortFocal", "TraceResult", "SphereFit",
+    "DomeFit", "Preset", "Medium",
+]
+
+
+class RayStatus(enum.IntEnum):
+    """What became of a traced ray (optics/trace.h); TraceResult.status holds these as integers."""
+    OK = 0                          #: reached the far side
+    MISSED = 1                      #: no intersection ahead of the ray
+    OUTSIDE_APERTURE = 2            #: hit a surface where it has no glass (beyond a dome's rim)
+    TOTAL_INTERNAL_REFLECTION = 3   #: refraction impossible
+
+
+class PortType(str, enum.Enum):
+    """The kind of a port."""
+    DOME = "dome"
+    FLAT = "flat"
+
+
+class CameraModel(str, enum.Enum):
+    """The camera models porthole calibrates and projects with (camera/models.h; camera_models())."""
+    BROWN = "brown"
+    OPENCV = "opencv"
+    KANNALA_BRANDT = "kannala-brandt"
+    EQUIDISTANT = "equidistant"
+    EQUISOLID = "equisolid"
+    STEREOGRAPHIC = "stereographic"
+    ORTHOGRAPHIC = "orthographic"
+
+
+class Status(str, enum.Enum):
+    """Outcome of an adjustment or fit: OK, or NOT_USABLE with the reason in the result's `message`."""
+    OK = "ok"
+    NOT_USABLE = "not usable"
+
+
+_INF = {"inf": math.inf, "-inf": -math.inf}
+
+
+def _is_number(x) -> bool:
+    """A JSON number, null (an unavailable number) or the CLI's "inf" / "-inf"."""
+    return x is None or (isinstance(x, (int, float)) and not isinstance(x, bool)) or (isinstance(x, str) and x in _INF)
+
+
+def _float(x) -> float:
+    """A JSON number as a float: null is NaN, "inf" is math.inf."""
+    if x is None:
+        return math.nan
+    if isinstance(x, str):
+        return _INF[x]
+    return float(x)
+
+
+def _identifier(key: str) -> str:
+    out = "".join(c if c.isalnum() or c == "_" else "_" for c in key)
+    return "_" + out if out[:1].isdigit() else out
+
+
+def convert(value):
+    """One JSON value as porthole's Python types: "inf" -> math.inf, a list of numbers -> a float
+    (or int) numpy array, a list of equal-length number lists -> a 2-D array, a list of objects with
+    the same number-valued keys -> a Table, an object -> a Record."""
+    if isinstance(value, str):
+        return _INF.get(value, value)
+    if isinstance(value, dict):
+        return Record(value)
+    if isinstance(value, list) and value:
+        if all(_is_number(x) for x in value):
+            if all(isinstance(x, int) and not isinstance(x, bool) for x in value):
+                return np.array(value, dtype=np.int64)
+            return np.array([_float(x) for x in value], dtype=float)
+        if all(isinstance(x, list) and x and all(_is_number(y) for y in x) for x in value) \
+                and len({len(x) for x in value}) == 1:
+            return np.array([[_float(y) for y in x] for x in value], dtype=float)
+        if all(isinstance(x, dict) for x in value) and len({tuple(x) for x in value}) == 1 \
+                and all(_is_number(v) or isinstance(v, (str, bool)) for x in value for v in x.values()):
+            return Table(value)
+        return [convert(x) for x in value]
+    return value
+
+
+class Record:
+    """A result object: every JSON field of the CLI's output as an attribute (units in the names),
+    numbers as floats (math.inf for infinity), vectors and tables as numpy arrays. fields() lists
+    them; to_dict() gives the JSON back."""
+
+    def __init__(self, data: Dict[str, Any]):
+        object.__setattr__(self, "_json", data)
+        for key, value in data.items():
+            object.__setattr__(self, _identifier(key), convert(value))
+
+    def fields(self) -> List[str]:
+        """The attribute names, in the JSON's order."""
+        return [_identifier(k) for k in self._json]
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The result as the CLI's JSON (a deep copy): json.dump() it to get the CLI's file."""
+        return copy.deepcopy(self._json)
+
+    def __repr__(self):
+        parts = []
+        for name in self.fields()[:8]:
+            v = getattr(self, name)
+            text = f"<{type(v).__name__}>" if isinstance(v, (Record, Table, list, np.ndarray)) else repr(v)
+            parts.append(f"{name}={text}")
+        more = ", ..." if len(self._json) > 8 else ""
+        return f"{type(self).__name__}({', '.join(parts)}{more})"
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"{type(self).__name__} is read-only")
+
+    def __eq__(self, other):
+        return type(self) is type(other) and self._json == other._json
+
+
+class Table:
+    """Rows of a table (a JSON list of flat objects) as columns: each column is an attribute holding a
+    numpy array (numbers; math.inf for infinity, NaN where unavailable) or a list (text);
+    len() is the number of rows, table[i] one row as a Record; columns() gives a dict for pandas."""
+
+    def __init__(self, rows: List[Dict[str, Any]]):
+        object.__setattr__(self, "_rows", rows)
+        keys = list(rows[0]) if rows else []
+        cols = {}
+        for key in keys:
+            values = [r[key] for r in rows]
+            if all(_is_number(v) for v in values):
+                cols[_identifier(key)] = np.array([_float(v) for v in values], dtype=float)
+            elif all(isinstance(v, bool) for v in values):
+                cols[_identifier(key)] = np.array(values, dtype=bool)
+            else:
+                cols[_identifier(key)] = [convert(v) for v in values]
+        object.__setattr__(self, "_columns", cols)
+        for name, col in cols.items():
+            object.__setattr__(self, name, col)
+
+    def columns(self) -> Dict[str, Any]:
+        """{column name: array or list}: pandas.DataFrame(table.columns()) makes a data frame."""
+        return dict(self._columns)
+
+    def fields(self) -> List[str]:
+        """The column names."""
+        return list(self._columns)
+
+    def to_dict(self) -> List[Dict[str, Any]]:
+        """The rows as the CLI's JSON list."""
+        return copy.deepcopy(self._rows)
+
+    def __len__(self):
+        return len(self._rows)
+
+    def __getitem__(self, i) -> Record:
+        return Record(self._rows[i])
+
+    def __iter__(self):
+        return (Record(r) for r in self._rows)
+
+    def __repr__(self):
+        return f"Table({len(self)} rows: {', '.join(self._columns)})"
+
+    def __setattr__(self, name, value):
+        raise AttributeError("Table is read-only")
+
+
+class Plan(Record):
+    """porthole.plan(): the dive plan as `porthole plan --json` (focus, minimum WD, close-up lenses,
+    depth of field, field of view, GSD, field curvature); attributes follow its JSON keys."""
+
+
+class FlatAnalysis(Record):
+    """porthole.flat(): the flat-port analysis as `porthole flat --json` (FOV in air and water, the
+    maximum FOV, the Eq. 1 table, lateral colour)."""
+
+
+class Simulation(Record):
+    """porthole.simulate(): the calibration to expect behind a port, as `porthole simulate --json`
+    (water, air, change, predicted_water, radial_profile; sweep and map when asked)."""
+
+
+class Comparison(Record):
+    """porthole.compare(): two calibrations compared (parameters table with sigma and z, chi2 test,
+    p_value, significant, radial and decentring curves in um)."""
+
+
+class HousingAssembly(Record):
+    """porthole.assemble(): the paper's Table 4 in the housing frame (flanges, dome centres and radii,
+    the entrance pupil and its offsets from the dome's centres, the transforms from the survey and
+    scan frames), as `porthole assemble --json`, and `port`: the as-built PortSpec."""
+
+
+class ReportSummary(Record):
+    """porthole.report(): where the report is (index_html, report_json), its figures and timings."""
+
+
+class Preset(NamedTuple):
+    """A built-in preset: kind (port, camera, lens), name, description."""
+    kind: str
+    name: str
+    description: str
+
+
+class Medium(NamedTuple):
+    """A medium of the index models: name and description."""
+    name: str
+    description: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Detections:
+    """The target points found in one image. Pixels: (0, 0) is the centre of the top-left pixel,
+    u right, v down (OpenCV's convention)."""
+    image: str
+    width_px: int
+    height_px: int
+    ids: np.ndarray        #: target point id of each point (int)
+    points_px: np.ndarray  #: (N, 2) pixels (u, v)
+    target: str = ""       #: the target spec, e.g. "chessboard:9x6:25"
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "Detections":
+        pts = np.array(d.get("points_px") or [], dtype=float).reshape(-1, 2)
+        return cls(image=d["image"], width_px=int(d["width_px"]), height_px=int(d["height_px"]),
+                   ids=np.array(d.get("ids") or [], dtype=np.int64), points_px=pts, target=d.get("target", ""))
+
+    def to_dict(self) -> Dict[str, Any]:
+        """As `porthole detect` writes one image's file."""
+        out = {"image": self.image}
+        if self.target:
+            out["target"] = self.target
+        out.update({"width_px": self.width_px, "height_px": self.height_px, "ids": [int(i) for i in self.ids],
+                    "points_px": [[float(u), float(v)] for u, v in self.points_px]})
+        return out
+
+
+class SkippedImage(NamedTuple):
+    """An image in which no target was used, and why."""
+    image: str
+    reason: str
+
+
+@dataclasses.dataclass(frozen=True)
+class DetectionSet:
+    """porthole.detect(): the detections of a target in a set of images (iterable over `images`)."""
+    target: str
+    images: List[Detections]
+    skipped: List[SkippedImage]
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "DetectionSet":
+        return cls(target=d.get("target", ""), images=[Detections.from_dict(i) for i in d.get("images", [])],
+                   skipped=[SkippedImage(s["image"], s["reason"]) for s in d.get("skipped", [])])
+
+    def to_dict(self) -> Dict[str, Any]:
+        """As `porthole detect --json` prints the set."""
+        return {"target": self.target, "images": [i.to_dict() for i in self.images],
+                "skipped": [{"image": s.image, "reason": s.reason} for s in self.skipped]}
+
+    def __iter__(self):
+        return iter(self.images)
+
+    def __len__(self):
+        return len(self.images)
+
+
+def _square(block: Optional[Dict[str, Any]]) -> Tuple[List[str], np.ndarray]:
+    if not block or not block.get("parameters"):
+        return [], np.zeros((0, 0))
+    return list(block["parameters"]), np.array([[_float(x) for x in row] for row in block["matrix"]], dtype=float)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Calibration:
+    """porthole.calibrate(): a camera calibration (the paper's Table 6 for any camera model).
+
+    params maps each parameter key of the model (units in the key, or in `units`: Brown c_mm,
+    x0_mm, y0_mm, K1 mm^-2 ...) to its value; a parameter that was not adjusted is 0.0 or its fixed
+    value. sigma holds 1-sigma of the adjusted ones (NaN for the others). covariance and correlation
+    are square arrays over `adjusted` (in that order)."""
+    model: CameraModel
+    params: Dict[str, float]
+    sigma: Dict[str, float]
+    units: Dict[str, str]
+    adjusted: List[str]
+    covariance: np.ndarray
+    correlation: np.ndarray
+    sigma0_px: float
+    rms_px: float
+    width_px: int
+    height_px: int
+    pixel_pitch_mm: float
+    n_images: int
+    n_points: int
+    n_rejected: int
+    redundancy: int
+    images: List[Record]          #: per image: image, n_points, n_rejected, rms_px, rotation_rad, translation_mm
+    significance: Optional[Table]  #: per free distortion parameter: parameter, t, significant
+    status: Status
+    message: str                   #: "ok" or why the result is not usable
+    _json: Dict[str, Any] = dataclasses.field(repr=False)
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "Calibration":
+        """From calibrate()'s JSON, `porthole calibrate --json`/--out or a hand-written
+        {"camera": {...}, "sigma": {...}, "sensor": {...}} file (the paper's Table 6)."""
+        cam = d.get("camera", {})
+        sig = d.get("sigma", {}) or {}
+        params = {k: (0.0 if v is None else float(v)) for k, v in cam.items()}
+        sigma = {k: _float(sig.get(k)) for k in cam}
+        names, cov = _square(d.get("covariance"))
+        cnames, corr = _square(d.get("correlation"))
+        adjusted = names or cnames or [k for k in cam if sig.get(k) is not None]
+        sensor = d.get("sensor", {})
+        message = str(d.get("status", "ok"))
+        signif = d.get("significance")
+        return cls(model=CameraModel(d.get("model", "brown")), params=params, sigma=sigma,
+                   units=dict(d.get("units", {})), adjusted=adjusted, covariance=cov, correlation=corr,
+                   sigma0_px=_float(d.get("sigma0_px")), rms_px=_float(d.get("rms_px")),
+                   width_px=int(sensor.get("width_px", 0)), height_px=int(sensor.get("height_px", 0)),
+                   pixel_pitch_mm=_float(sensor.get("pixel_pitch_mm")), n_images=int(d.get("n_images", 0)),
+                   n_points=int(d.get("n_points", 0)), n_rejected=int(d.get("n_rejected", 0)),
+                   redundancy=int(d.get("redundancy", 0)), images=[Record(i) for i in d.get("images", [])],
+                   significance=Table(signif) if signif else None,
+                   status=Status.OK if message.startswith("ok") else Status.NOT_USABLE, message=message,
+                   _json=copy.deepcopy(d))
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The calibration as `porthole calibrate --json` prints it (what every command reads)."""
+        return copy.deepcopy(self._json)
+
+    def save(self, path) -> None:
+        """Writes the calibration JSON file that `porthole compare/simulate/report` read."""
+        with open(os.fspath(path), "w") as f:
+            json.dump(self._json, f, indent=2)
+
+
+@dataclasses.dataclass(frozen=True)
+class VirtualImage:
+    """Where a port images an axial object at wd_mm (object to the outer vertex): d_s2ep_mm from the
+    entrance pupil, vwd_mm from the outer vertex (the paper's D_S2EP and VWD), lateral magnification,
+    and the image's lateral offset from the axis (decentred ports), all mm."""
+    wd_mm: float
+    d_s2ep_mm: float
+    vwd_mm: float
+    magnification: float
+    lateral_offset_mm: float
+
+
+@dataclasses.dataclass(frozen=True)
+class PortFocal:
+    """Paraxial focal properties of a port: power (1/mm), effective focal lengths in air and in
+    water, back and front focal distances (mm; math.inf for a flat port)."""
+    power_per_mm: float
+    efl_air_mm: float
+    efl_water_mm: float
+    back_focal_mm: float
+    front_focal_mm: float
+
+
+@dataclasses.dataclass(frozen=True)
+class VirtualImageTable:
+    """The paper's Table 5 for a port (as `porthole virtual-image --json`): one entry per working
+    distance in each column, paraxial and by real rays through a pupil circle of radius
+    aperture_height_mm (NaN where the real rays fail); spherical_aberration_mm = real - paraxial."""
+    wd_mm: np.ndarray
+    d_s2ep_mm: np.ndarray
+    vwd_mm: np.ndarray
+    d_s2ep_real_mm: np.ndarray
+    vwd_real_mm: np.ndarray
+    spherical_aberration_mm: np.ndarray
+    image_offset_real_mm: np.ndarray
+    magnification: np.ndarray
+    aperture_height_mm: float
+    focal: PortFocal
+
+    def columns(self) -> Dict[str, np.ndarray]:
+        """{column: array}: pandas.DataFrame(table.columns()) makes a data frame."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                if isinstance(getattr(self, f.name), np.ndarray)}
+
+
+@dataclasses.dataclass(frozen=True)
+class TraceResult:
+    """Rays after a port: origins (N, 3) mm on the last surface, unit directions (N, 3), and status
+    (N,) integers of RayStatus (compare with RayStatus.OK; only those rays are meaningful)."""
+    origins_mm: np.ndarray
+    directions: np.ndarray
+    status: np.ndarray
+
+    def ok(self) -> np.ndarray:
+        """Boolean mask of the rays that came through."""
+        return self.status == RayStatus.OK
+
+
+@dataclasses.dataclass(frozen=True)
+class SphereFit:
+    """A sphere fitted to a scan (as `porthole fit sphere --json`): centre and radius (mm) with their
+    1-sigma, the 4x4 covariance of (cx, cy, cz, R) in mm^2, residual statistics, per-point signed
+    residuals and inlier flags. status NOT_USABLE says why in message."""
+    center_mm: np.ndarray
+    radius_mm: float
+    sigma_center_mm: np.ndarray
+    sigma_radius_mm: float
+    covariance_mm2: np.ndarray
+    sigma0_mm: float
+    rms_mm: float
+    max_abs_residual_mm: float
+    n_points: int
+    n_inliers: int
+    converged: bool
+    residuals_mm: np.ndarray
+    is_inlier: np.ndarray
+    status: Status
+    message: str
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "SphereFit":
+        return cls(center_mm=np.asarray(d["center_mm"], float), radius_mm=float(d["radius_mm"]),
+                   sigma_center_mm=np.asarray(d["sigma_center_mm"], float), sigma_radius_mm=float(d["sigma_radius_mm"]),
+                   covariance_mm2=np.asarray(d["covariance_mm2"], float), sigma0_mm=float(d["sigma0_mm"]),
+                   rms_mm=float(d["rms_mm"]), max_abs_residual_mm=float(d["max_abs_residual_mm"]),
+                   n_points=int(d["n_points"]), n_inliers=int(d["n_inliers"]), converged=bool(d["converged"]),
+                   residuals_mm=np.asarray(d["residuals_mm"], float), is_inlier=np.asarray(d["is_inlier"], bool),
+                   status=Status.OK if d["usable"] else Status.NOT_USABLE, message=d["message"])
+
+
+@dataclasses.dataclass(frozen=True)
+class DomeFit:
+    """A dome shell from scans of its two surfaces (the paper's Table 3): both sphere fits, the
+    thickness R_out - R_in with its sigma, the inner centre minus the outer one (mm) and its length,
+    the thinnest and thickest wall, deviations from the nominal (NaN without one)."""
+    outer: SphereFit
+    inner: SphereFit
+    thickness_mm: float
+    sigma_thickness_mm: float
+    center_offset_mm: np.ndarray
+    center_distance_mm: float
+    sigma_center_distance_mm: float
+    min_wall_mm: float
+    max_wall_mm: float
+    outer_radius_deviation_mm: float
+    thickness_deviation_mm: float
+    status: Status
+    report: str
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "DomeFit":
+        scalars = ("thickness_mm", "sigma_thickness_mm", "center_distance_mm", "sigma_center_distance_mm",
+                   "min_wall_mm", "max_wall_mm", "outer_radius_deviation_mm", "thickness_deviation_mm")
+        return cls(outer=SphereFit.from_dict(d["outer"]), inner=SphereFit.from_dict(d["inner"]),
+                   center_offset_mm=np.asarray(d["center_offset_mm"], float),
+                   status=Status.OK if d["usable"] else Status.NOT_USABLE, report=d["report"],
+                   **{k: float(d[k]) for k in scalars})
