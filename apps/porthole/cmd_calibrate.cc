@@ -110,6 +110,26 @@ std::string PortTable(const calib::RefractiveResult& r, const calib::RefractiveO
     }
   }
   if (!high.empty()) t += "port correlations beyond 0.9:" + high + "\n";
+  const calib::CentralPrediction& cp = r.central_prediction;
+  if (cp.available) {
+    t += fmt::format("water c, x0, y0 (simulate's central fit at {:.0f}-{:.0f} mm): predicted "
+                     "port + in-air lens vs estimated port + lens; central calibration beside\n",
+                     cp.distances_mm.front(), cp.distances_mm.back());
+    const char* names3[] = {"c_mm", "x0_mm", "y0_mm"};
+    t += fmt::format("{:<16} {:>11} {:>9} {:>11} {:>9} {:>11} {:>9}\n", "", "estimated", "std",
+                     "predicted", "std", "central", "std");
+    for (int k = 0; k < 3; ++k) {
+      t += fmt::format("{:<16} {:>11.4f} {:>9.2g} {:>11.4f} {:>9.2g} {:>11.4f} {:>9.2g}\n",
+                       names3[k], cp.estimated[k], cp.estimated_sigma[k], cp.predicted[k],
+                       cp.predicted_sigma[k], cp.central[k], cp.central_sigma[k]);
+    }
+    t += fmt::format("c, x0, y0 estimate vs prediction: chi2 {:.2f} on {} dof, p = {:.3g}: {}\n",
+                     cp.chi2, cp.dof, cp.p_value,
+                     cp.differs ? "the water calibration differs from its prediction"
+                                : "consistent with the prediction");
+  } else {
+    t += "water c, x0, y0 vs the simulate prediction: not compared: " + cp.why_not + "\n";
+  }
   t += fmt::format("model choice (BIC, lower is better): refractive {:.1f} (k {}) vs central {} "
                    "{:.1f} (k {}, RMS {:.4f} px): {} preferred\n",
                    r.bic, r.k, m.name, r.central_bic, r.central_k, r.central_rms_px, r.preferred);

@@ -265,6 +265,29 @@ def test_refractive_calibration_port_block_and_port_out(detections, tmp_path):
     t = run("calibrate", "--detections", detections, "--port", "flat-acrylic-10mm",
             "--free-port", "distance", "--quiet").out
     assert "distance_mm" in t and "model choice (BIC" in t and "fixed" in t
+    # Without an in-air calibration there is no lens to predict c, x0, y0 with: said so.
+    assert p["central_prediction"] == {
+        "available": False,
+        "why_not": "needs --air-calibration, the in-air lens the prediction puts behind the port"}
+
+
+def test_refractive_central_prediction_block(detections, tmp_path):
+    """With --air-calibration the port block compares the simulate prediction of the water c, x0,
+    y0 with the estimate's (calib_refractive_test checks the numbers on synthetic water images)."""
+    air = tmp_path / "air.json"
+    run("calibrate", "--detections", detections, "--out", air, "--quiet")
+    j = run("calibrate", "--detections", detections, "--port", "generic-dome-4in",
+            "--air-calibration", air, "--json", "--quiet").json()
+    cp = j["port"]["central_prediction"]
+    assert cp["available"] is True and cp["dof"] == 3 and 0 <= cp["p_value"] <= 1
+    for block in ("predicted", "predicted_sigma", "estimated", "estimated_sigma",
+                  "central_calibration", "central_calibration_sigma"):
+        assert list(cp[block].keys()) == ["c_mm", "x0_mm", "y0_mm"], block
+    assert all(cp["estimated_sigma"][k] > 0 for k in cp["estimated_sigma"])
+    assert len(cp["distances_mm"]) == 3
+    t = run("calibrate", "--detections", detections, "--port", "generic-dome-4in",
+            "--air-calibration", air, "--quiet").out
+    assert "c, x0, y0 estimate vs prediction: chi2" in t
 
 
 def test_refractive_bad_input_is_one_line_exit_2(detections, tmp_path):

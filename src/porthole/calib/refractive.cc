@@ -14,6 +14,7 @@
 #include "porthole/calib/compare.h"
 #include "porthole/calib/scales.h"
 #include "porthole/core/error.h"
+#include "porthole/simulate/simulate.h"
 
 namespace porthole::calib {
 namespace {
@@ -251,6 +252,108 @@ PortArray DefaultPredictedSigma(PortKind kind) {
   return kind == PortKind::kDome ? PortArray{0.5, 0.5, 0.5} : PortArray{0.005, 0.005, 1.0};
 }
 
+// c, x0, y0 of simulate's water fit (a central Brown model fitted to rays traced through the
+// port) for the Brown lens `lens` behind `base`'s port with the parameters `p`.
+std::array<double, 3> EquivalentCentral(const ports::PortSystem& base, const PortArray& p,
+                                        const camera::Camera& lens,
+                                        const simulate::FitOptions& fo) {
+  const ports::PortSystem sys = ports::Place(refraction::SpecWithParams(base, p),
+                                             base.ep_in_housing_mm, base.n_glass, base.n_water);
+  const simulate::CameraSetup setup{lens.sensor, camera::ToBrown(lens), base.ep_in_housing_mm};
+  const simulate::BrownFit fit = simulate::SimulateFit(sys, setup, fo);
+  return {fit.params.c_mm, fit.params.x0_mm, fit.params.y0_mm};
+}
+
+// CentralPrediction (refractive.h): `cov` is the σ0-scaled joint covariance [lens, port] of the
+// estimate, `prior` the in-air prior the adjustment used (kPrior), `ranges` the images' target
+// distances (mm).
+CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationResult& central,
+                                 const camera::Camera& lens, const PortArray& port,
+                                 const PortArray& predicted_sigma, const Eigen::MatrixXd& cov,
+                                 const std::optional<Prior>& prior,
+                                 const std::vector<double>& ranges) {
+  CentralPrediction cp;
+  if (lens.model != camera::CameraModelId::kBrown) {
+    cp.why_not = fmt::format("the simulate prediction fits Brown's c, x0, y0; a {} lens has none",
+                             lens.model_name());
+    return cp;
+  }
+  if (!o.air) {
+    cp.why_not = "needs --air-calibration, the in-air lens the prediction puts behind the port";
+    return cp;
+  }
+  const int N = lens.info().num_params, T = N + kPortNumParams;
+  const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
+  // Two planes at one range cannot separate c from the centre's Z (simulate.h): span ≥ 1.3×.
+  const double far = std::max(*hi, 1.3 * *lo);
+  simulate::FitOptions fo;
+  fo.grid_cols = 13;
+  fo.grid_rows = 9;
+  fo.distances_mm = {*lo, 0.5 * (*lo + far), far};
+  cp.distances_mm = fo.distances_mm;
+  const PortArray predicted = refraction::ParamsOf(o.port);
+  const auto pred = EquivalentCentral(o.port, predicted, o.air->camera, fo);
+  const auto est = EquivalentCentral(o.port, port, lens, fo);
+  // Covariances, NaN (fixed) → 0.
+  const auto clean = [](Eigen::MatrixXd m) { return m.unaryExpr([](double v) { return std::isfinite(v) ? v : 0.0; }).eval(); };
+  const Eigen::MatrixXd post = clean(cov);
+  Eigen::MatrixXd pred_cov = Eigen::MatrixXd::Zero(T, T);
+  const bool air_cov = o.intrinsics != IntrinsicsMode::kFixed && o.air->has_covariance &&
+                       o.air->covariance.rows() == N;
+  if (air_cov) pred_cov.topLeftCorner(N, N) = clean(o.air->covariance);
+  for (int i = 0; i < kPortNumParams; ++i) {
+    if (o.port_free[i]) pred_cov(N + i, N + i) = predicted_sigma[i] * predicted_sigma[i];
+  }
+  Eigen::MatrixXd cross = Eigen::MatrixXd::Zero(T, T);  // Cov(estimate, in-air lens)
+  if (prior && air_cov) {
+    const int m = static_cast<int>(prior->idx.size());
+    const Eigen::MatrixXd w = prior->whiten.transpose() * prior->whiten;  // Σ_air[idx]⁻¹
+    Eigen::MatrixXd post_idx(T, m), air_idx(m, N);
+    for (int a = 0; a < m; ++a) {
+      post_idx.col(a) = post.col(prior->idx[a]);
+      air_idx.row(a) = pred_cov.topLeftCorner(N, N).row(prior->idx[a]);
+    }
+    cross.leftCols(N) = post_idx * w * air_idx;
+  }
+  // J by central differences, one σ steps, over the parameters that carry variance.
+  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(3, T);
+  for (int i = 0; i < T; ++i) {
+    const double h = std::sqrt(std::max(post(i, i), pred_cov(i, i)));
+    if (!(h > 0)) continue;
+    camera::Camera lp = lens, lm = lens;
+    PortArray pp = port, pm = port;
+    if (i < N) {
+      lp.params[i] += h;
+      lm.params[i] -= h;
+    } else {
+      pp[i - N] += h;
+      pm[i - N] -= h;
+    }
+    const auto fp = EquivalentCentral(o.port, pp, lp, fo);
+    const auto fm = EquivalentCentral(o.port, pm, lm, fo);
+    for (int k = 0; k < 3; ++k) jac(k, i) = (fp[k] - fm[k]) / (2 * h);
+  }
+  const Eigen::Matrix3d s_est = jac * post * jac.transpose();
+  const Eigen::Matrix3d s_pred = jac * pred_cov * jac.transpose();
+  const Eigen::Matrix3d s_d = jac * (post + pred_cov - cross - cross.transpose()) * jac.transpose();
+  Eigen::Vector3d d;
+  for (int k = 0; k < 3; ++k) {
+    cp.predicted[k] = pred[k];
+    cp.estimated[k] = est[k];
+    cp.predicted_sigma[k] = std::sqrt(s_pred(k, k));
+    cp.estimated_sigma[k] = std::sqrt(s_est(k, k));
+    cp.central[k] = central.camera.params[k];
+    cp.central_sigma[k] = k < static_cast<int>(central.sigma.size()) ? central.sigma[k] : NAN;
+    d(k) = est[k] - pred[k];
+  }
+  cp.chi2 = d.dot(s_d.ldlt().solve(d));
+  cp.p_value = UpperIncompleteGammaQ(0.5 * cp.dof, 0.5 * cp.chi2);
+  cp.differs = cp.p_value < o.alpha;
+  cp.available = std::isfinite(cp.chi2);
+  if (!cp.available) cp.why_not = "the difference's covariance is singular";
+  return cp;
+}
+
 double Bic(double rss, int n, int k) {
   return n * std::log(rss / n) + k * std::log(static_cast<double>(n));
 }
@@ -384,6 +487,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
                     o.lens.reject_k, sigma0));
   }
   int n_prior = 0;
+  std::optional<Prior> used_prior;
   if (o.intrinsics == IntrinsicsMode::kPrior) {
     Prior prior;
     for (int i = info.num_focal; i < N; ++i) {
@@ -404,6 +508,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
       prior.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
       n_prior = m;
       adj.prior = prior;
+      used_prior = prior;
       adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns));
       iterations += adj.Solve(o.lens.max_iterations);
       ss = adj.SumSquares(&n_active);
@@ -526,6 +631,14 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
                                                o.port.spec.name, o.port.spec.description);
   res.estimated_port.source = "porthole calibrate --port: estimated from images";
   res.estimated_port.name = o.port.spec.name + "-as-calibrated";
+
+  if (o.compare_central) {
+    say("comparing the simulate prediction of c, x0, y0");
+    res.central_prediction = CompareCentral(o, central, lr.camera, res.port, res.predicted_sigma,
+                                            cov, used_prior, ranges);
+  } else {
+    res.central_prediction.why_not = "not asked for";
+  }
 
   std::string note;
   const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
@@ -669,6 +782,28 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
                 {"thickness_mm", f.thickness_mm},
                 {"normal_from_predicted_deg", num(r.normal_tilt_from_predicted_deg)}};
   }
+  const CentralPrediction& cp = r.central_prediction;
+  Json central = {{"available", cp.available}};
+  if (cp.available) {
+    const auto trio = [&](const std::array<double, 3>& v) {
+      return Json{{"c_mm", num(v[0])}, {"x0_mm", num(v[1])}, {"y0_mm", num(v[2])}};
+    };
+    central["compared"] = "simulate's water fit (central Brown) through the predicted port with "
+                          "the in-air lens vs through the estimated port with the estimated lens";
+    central["distances_mm"] = cp.distances_mm;
+    central["predicted"] = trio(cp.predicted);
+    central["predicted_sigma"] = trio(cp.predicted_sigma);
+    central["estimated"] = trio(cp.estimated);
+    central["estimated_sigma"] = trio(cp.estimated_sigma);
+    central["central_calibration"] = trio(cp.central);
+    central["central_calibration_sigma"] = trio(cp.central_sigma);
+    central["chi2"] = num(cp.chi2);
+    central["dof"] = cp.dof;
+    central["p_value"] = num(cp.p_value);
+    central["differs_from_predicted"] = cp.differs;
+  } else {
+    central["why_not"] = cp.why_not;
+  }
   j["port"] = {{"name", options.port.spec.name},
                {"kind", r.kind == PortKind::kDome ? "dome" : "flat"},
                {"intrinsics", ToString(r.intrinsics)},
@@ -685,6 +820,7 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
                {"p_value", num(r.p_value)},
                {"differs_from_predicted", r.port_differs},
                {"geometry", geometry},
+               {"central_prediction", central},
                {"model_choice",
                 {{"criterion", "BIC = n ln(RSS/n) + k ln(n), n image coordinates"},
                  {"central_model", std::string(m.name)},

@@ -71,10 +71,41 @@ struct RefractiveOptions {
   // flange survey and the lens's pupil position); flat normal components 0.005 (0.3°) and
   // distance 1 mm. Unset: those defaults for the port's kind.
   std::optional<std::array<double, refraction::kPortNumParams>> predicted_sigma;
-  double alpha = 0.05;  // significance level of the χ² test
+  double alpha = 0.05;  // significance level of the χ² tests
+  // Compare the simulate prediction of c, x0, y0 with the estimate's (CentralPrediction; ~25
+  // simulate fits of a 13 × 9 grid).
+  bool compare_central = true;
   // The 1-D search of the axial port parameter at the start (4 iterations per candidate). Off
   // starts from the prediction alone: when it is known to be close (Monte-Carlo runs).
   bool search = true;
+};
+
+// Prediction vs measurement of the water calibration's central c, x0, y0 (a Brown lens only).
+// The refractive model has no central c in water: its lens is the in-air model behind the port.
+// What is compared is simulate's water fit (simulate::SimulateFit: a central Brown model fitted
+// to rays traced through the port from a grid over the frame, object planes at the network's
+// range) run twice with the same fit options:
+//  - predicted: the PREDICTED port (the port file and pupil) with the in-air calibration's lens;
+//  - estimated: the ESTIMATED port with the estimated lens (the refractive calibration's
+//    equivalent central camera over this network's range).
+// Their difference d = estimated − predicted is tested by χ² = dᵀ Σ_d⁻¹ d on 3 dof, Σ_d = J Σ_x Jᵀ
+// with J = ∂(c, x0, y0)/∂(lens, port) by central differences of the fit (steps of one σ: the fit
+// is a least-squares solution, not a closed form) and Σ_x the covariance of (estimated −
+// predicted) lens and port parameters: the joint covariance, plus diag(predicted_sigma²) over the
+// free port parameters, plus the in-air covariance of the lens unless it is fixed (then both
+// share it), minus the cross-covariance the prior puts between the estimate and the in-air
+// calibration (linear model: Cov(x̂, μ) = Σ_post·Σ_air[idx]⁻¹·Σ_air[idx, ·]). The central
+// calibration of the same images (its own c, x0, y0 and σ) is reported beside them.
+struct CentralPrediction {
+  bool available = false;
+  std::string why_not;                // when not available
+  std::vector<double> distances_mm;   // object planes of the fits (the network's range)
+  // c_mm, x0_mm, y0_mm (camera/brown.h units and axes).
+  std::array<double, 3> predicted{}, estimated{}, central{};
+  std::array<double, 3> predicted_sigma{}, estimated_sigma{}, central_sigma{};
+  double chi2 = NAN, p_value = NAN;
+  int dof = 3;
+  bool differs = false;  // p_value < alpha
 };
 
 struct RefractiveResult {
@@ -100,6 +131,8 @@ struct RefractiveResult {
   double central_rms_px = NAN, central_bic = NAN, bic = NAN;
   int central_k = 0, k = 0;
   std::string preferred;
+  // The simulate prediction of the water calibration's c, x0, y0 against the estimate's.
+  CentralPrediction central_prediction;
   ports::PortSpec estimated_port;  // housing frame, pupil where the port system put it
   std::string message;             // "ok" or what went wrong
 };

@@ -15,6 +15,7 @@
 #include "porthole/calib/synthetic.h"
 #include "porthole/refraction/test_camera.h"
 #include "porthole/core/error.h"
+#include "porthole/simulate/simulate.h"
 
 namespace porthole::calib {
 namespace {
@@ -125,6 +126,18 @@ void Print(const char* what, const RefractiveResult& r) {
               what, r.port[0], r.port[1], r.port[2], r.port_sigma[0], r.port_sigma[1],
               r.port_sigma[2], r.lens.sigma0_px, r.lens.rms_px, r.chi2, r.p_value, r.bic,
               r.central_bic, r.central_rms_px, r.preferred.c_str(), r.lens.seconds);
+  const auto& c = r.central_prediction;
+  if (c.available) {
+    std::printf("  c x0 y0 predicted %.4f %.4f %.4f (%.2g %.2g %.2g), estimated %.4f %.4f %.4f "
+                "(%.2g %.2g %.2g), central %.4f %.4f %.4f (%.2g %.2g %.2g): chi2 %.2f p %.3f\n",
+                c.predicted[0], c.predicted[1], c.predicted[2], c.predicted_sigma[0],
+                c.predicted_sigma[1], c.predicted_sigma[2], c.estimated[0], c.estimated[1],
+                c.estimated[2], c.estimated_sigma[0], c.estimated_sigma[1], c.estimated_sigma[2],
+                c.central[0], c.central[1], c.central[2], c.central_sigma[0], c.central_sigma[1],
+                c.central_sigma[2], c.chi2, c.p_value);
+  } else {
+    std::printf("  c x0 y0: %s\n", c.why_not.c_str());
+  }
 }
 
 // The paper's as-built NI320 (pupil 0.4, 1.0, 5.4 mm from the outer centre), predicted as the
@@ -151,6 +164,9 @@ TEST(RefractiveCalibration, RecoversTheAsBuiltNi320Pupil) {
     // the central Brown model must lose on BIC.
     EXPECT_TRUE(r.port_differs);
     EXPECT_EQ(r.preferred, "refractive");
+    // The simulate prediction of c, x0, y0 for that nominal port is off too (c by ~0.5 mm).
+    EXPECT_TRUE(r.central_prediction.available);
+    EXPECT_TRUE(r.central_prediction.differs);
     sigma_z_prior = r.port_sigma[2];
     if (std::string(spec).rfind("chessboard", 0) == 0) {
       // Without the air calibration the focal length and distortion absorb the pupil's axial
@@ -160,6 +176,35 @@ TEST(RefractiveCalibration, RecoversTheAsBuiltNi320Pupil) {
       Print("chessboard, lens free", f);
       EXPECT_GT(f.port_sigma[2], 10 * sigma_z_prior);
     }
+  }
+}
+
+// The prediction of c, x0, y0 from the TRUE port (σ 0.5 mm per axis) with the in-air calibration:
+// consistent with the estimate (χ² not rejected), and the estimate's equivalent central camera
+// equals simulate's fit through the true port with the true lens within 3σ.
+TEST(RefractiveCalibration, CentralPredictionFromTheTruePortIsConsistent) {
+  const camera::Camera cam = D300Brown();
+  const PortSystem truth = AsBuiltNi320();
+  const TargetSpec target = ParseTarget("chessboard:12x9:30");
+  RefractiveOptions o = Options(truth, cam.sensor.pixel_pitch_mm);
+  o.air = AirCalibration(cam, target);
+  o.intrinsics = IntrinsicsMode::kPrior;
+  const auto r = CalibrateRefractive(Views(cam, truth, target, 7), target, o);
+  Print("true prediction", r);
+  const auto& c = r.central_prediction;
+  ASSERT_TRUE(c.available) << c.why_not;
+  EXPECT_FALSE(c.differs);
+  EXPECT_GT(c.p_value, 0.01);
+  simulate::FitOptions fo;
+  fo.grid_cols = 13;
+  fo.grid_rows = 9;
+  fo.distances_mm = c.distances_mm;
+  const auto fit = simulate::SimulateFit(
+      truth, {cam.sensor, camera::ToBrown(cam), truth.ep_in_housing_mm}, fo);
+  const double t[3] = {fit.params.c_mm, fit.params.x0_mm, fit.params.y0_mm};
+  for (int i = 0; i < 3; ++i) {
+    std::printf("  truth %.4f, estimated %.4f +- %.4f\n", t[i], c.estimated[i], c.estimated_sigma[i]);
+    EXPECT_LE(std::abs(c.estimated[i] - t[i]), 3 * c.estimated_sigma[i]) << i;
   }
 }
 
@@ -207,14 +252,30 @@ TEST(RefractiveCalibration, SigmaMatchesMonteCarloSpread) {
     o.search = false;
     const int runs = std::getenv("PORTHOLE_MC_RUNS") ? std::atoi(std::getenv("PORTHOLE_MC_RUNS")) : 30;
     std::array<double, 3> sum{}, sum2{}, sigma{};
+    // The equivalent central c, x0, y0 (CentralPrediction) and their propagated σ, alike.
+    std::array<double, 3> csum{}, csum2{}, csigma{};
     for (int k = 0; k < runs; ++k) {
       const auto r = CalibrateRefractive(Views(cam, truth, target, 1000 + k), target, o);
       if (std::getenv("PORTHOLE_TEST_VERBOSE")) Print("run", r);
+      ASSERT_TRUE(r.central_prediction.available) << r.central_prediction.why_not;
       for (int i = 0; i < 3; ++i) {
         sum[i] += r.port[i] - t[i];
         sum2[i] += (r.port[i] - t[i]) * (r.port[i] - t[i]);
         sigma[i] += r.port_sigma[i] / runs;
+        const double e = r.central_prediction.estimated[i] - r.central_prediction.predicted[i];
+        csum[i] += e;
+        csum2[i] += e * e;
+        csigma[i] += r.central_prediction.estimated_sigma[i] / runs;
       }
+    }
+    for (int i = 0; i < 3; ++i) {
+      const double mean = csum[i] / runs;
+      const double spread = std::sqrt((csum2[i] - runs * mean * mean) / (runs - 1));
+      std::printf("%s equivalent central %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f\n",
+                  truth.IsDome() ? "dome" : "flat", i == 0 ? "c" : i == 1 ? "x0" : "y0",
+                  csigma[i], spread, csigma[i] / spread);
+      EXPECT_GT(csigma[i] / spread, 1 / 1.5);
+      EXPECT_LT(csigma[i] / spread, 1.5);
     }
     for (int i = 0; i < 3; ++i) {
       const double mean = sum[i] / runs;
