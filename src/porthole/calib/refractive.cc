@@ -354,6 +354,83 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
   return cp;
 }
 
+// The lens the adjustment starts from: the in-air calibration, or the central calibration of the
+// water images with its distortion zeroed and, behind a flat port, its focal length / n_water.
+camera::Camera StartLens(const RefractiveOptions& o, const CalibrationResult& central,
+                         const refraction::Shell& shell) {
+  camera::Camera start = central.camera;
+  if (o.air) {
+    start.params = o.air->camera.params;
+    return start;
+  }
+  const camera::ModelInfo& info = start.info();
+  for (int i = info.first_distortion; i < info.num_params; ++i) start.params[i] = 0;
+  if (shell.kind == PortKind::kFlat) {
+    camera::SetFocalLengthPx(&start, start.FocalLengthPx() / shell.n_water);
+  }
+  return start;
+}
+
+// The adjusted lens parameters of the intrinsics mode.
+FreeMask LensFree(const RefractiveOptions& o) {
+  const camera::ModelInfo& info = camera::Info(o.lens.model);
+  if (o.intrinsics == IntrinsicsMode::kFree) return o.lens.FreeOrDefault();
+  FreeMask free(info.num_params, false);
+  if (o.intrinsics == IntrinsicsMode::kPrior) {
+    free = o.air->free;
+    for (int i = 0; i < info.num_focal; ++i) free[i] = true;
+  }
+  return free;
+}
+
+// The in-air calibration as a prior (kPrior: every parameter it adjusted but the focal
+// length(s)); nullopt in the other modes or when it adjusted nothing else.
+std::optional<Prior> MakePrior(const RefractiveOptions& o) {
+  if (o.intrinsics != IntrinsicsMode::kPrior) return std::nullopt;
+  const camera::ModelInfo& info = camera::Info(o.lens.model);
+  Prior prior;
+  for (int i = info.num_focal; i < info.num_params; ++i) {
+    if (o.air->free[i]) prior.idx.push_back(i);
+  }
+  const int m = static_cast<int>(prior.idx.size());
+  if (m == 0) return std::nullopt;
+  prior.mean.resize(m);
+  Eigen::MatrixXd cov(m, m);
+  for (int a = 0; a < m; ++a) {
+    prior.mean(a) = o.air->camera.params[prior.idx[a]];
+    for (int b = 0; b < m; ++b) cov(a, b) = o.air->covariance(prior.idx[a], prior.idx[b]);
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+  if (llt.info() != Eigen::Success) {
+    throw InvalidInput("--air-calibration", "its covariance is not positive definite");
+  }
+  prior.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
+  return prior;
+}
+
+// "" or the warning that every target sits at one range (max < 1.3 × min of `ranges_mm`, the
+// targets' distances from the pupil): a flat port's distance and a dome pupil's axial offset are
+// then weakly observable.
+std::string RangeWarning(const std::vector<double>& ranges_mm) {
+  if (ranges_mm.empty()) return "";
+  const auto [lo, hi] = std::minmax_element(ranges_mm.begin(), ranges_mm.end());
+  if (*hi >= 1.3 * *lo) return "";
+  return fmt::format("all targets at one range ({:.0f}-{:.0f} mm): the port's axial parameter "
+                     "is weakly observable, add views at another range", *lo, *hi);
+}
+
+// The correlation matrix of `cov` over the free parameters (NaN elsewhere).
+Eigen::MatrixXd Correlation(const Eigen::MatrixXd& cov, const std::vector<bool>& free) {
+  const int t = static_cast<int>(cov.rows());
+  Eigen::MatrixXd corr = Eigen::MatrixXd::Constant(t, t, NAN);
+  for (int i = 0; i < t; ++i) {
+    for (int j = 0; j < t; ++j) {
+      if (free[i] && free[j]) corr(i, j) = cov(i, j) / std::sqrt(cov(i, i) * cov(j, j));
+    }
+  }
+  return corr;
+}
+
 double Bic(double rss, int n, int k) {
   return n * std::log(rss / n) + k * std::log(static_cast<double>(n));
 }
@@ -401,22 +478,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   };
 
   // The lens's start and free set.
-  camera::Camera start = central.camera;
-  FreeMask lens_free(N, false);
-  if (o.air) {
-    start.params = o.air->camera.params;
-  } else {
-    for (int i = info.first_distortion; i < N; ++i) start.params[i] = 0;
-    if (shell.kind == PortKind::kFlat) {
-      camera::SetFocalLengthPx(&start, start.FocalLengthPx() / shell.n_water);
-    }
-  }
-  if (o.intrinsics == IntrinsicsMode::kFree) {
-    lens_free = o.lens.FreeOrDefault();
-  } else if (o.intrinsics == IntrinsicsMode::kPrior) {
-    lens_free = o.air->free;
-    for (int i = 0; i < info.num_focal; ++i) lens_free[i] = true;
-  }
+  const camera::Camera start = StartLens(o, central, shell);
+  const FreeMask lens_free = LensFree(o);
   adj.lens_free = lens_free;
   adj.port_free = o.port_free;
 
@@ -488,31 +551,13 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   }
   int n_prior = 0;
   std::optional<Prior> used_prior;
-  if (o.intrinsics == IntrinsicsMode::kPrior) {
-    Prior prior;
-    for (int i = info.num_focal; i < N; ++i) {
-      if (o.air->free[i]) prior.idx.push_back(i);
-    }
-    const int m = static_cast<int>(prior.idx.size());
-    if (m > 0) {
-      prior.mean.resize(m);
-      Eigen::MatrixXd cov(m, m);
-      for (int a = 0; a < m; ++a) {
-        prior.mean(a) = o.air->camera.params[prior.idx[a]];
-        for (int b = 0; b < m; ++b) cov(a, b) = o.air->covariance(prior.idx[a], prior.idx[b]);
-      }
-      const Eigen::LLT<Eigen::MatrixXd> llt(cov);
-      if (llt.info() != Eigen::Success) {
-        throw InvalidInput("--air-calibration", "its covariance is not positive definite");
-      }
-      prior.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
-      n_prior = m;
-      adj.prior = prior;
-      used_prior = prior;
-      adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns));
-      iterations += adj.Solve(o.lens.max_iterations);
-      ss = adj.SumSquares(&n_active);
-    }
+  if (const auto prior = MakePrior(o)) {
+    n_prior = static_cast<int>(prior->idx.size());
+    adj.prior = prior;
+    used_prior = prior;
+    adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns));
+    iterations += adj.Solve(o.lens.max_iterations);
+    ss = adj.SumSquares(&n_active);
   }
 
   // Statistics.
@@ -543,14 +588,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   for (int i = 0; i < N; ++i) free_all[i] = lens_free[i];
   for (int i = 0; i < kPortNumParams; ++i) free_all[N + i] = o.port_free[i];
   res.covariance = cov;
-  res.correlation = Eigen::MatrixXd::Constant(T, T, NAN);
-  for (int i = 0; i < T; ++i) {
-    for (int j = 0; j < T; ++j) {
-      if (free_all[i] && free_all[j]) {
-        res.correlation(i, j) = cov(i, j) / std::sqrt(cov(i, i) * cov(j, j));
-      }
-    }
-  }
+  res.correlation = Correlation(cov, free_all);
   lr.covariance = cov.topLeftCorner(N, N);
   lr.sigma.assign(N, NAN);
   lr.correlation = res.correlation.topLeftCorner(N, N);
@@ -640,14 +678,9 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     res.central_prediction.why_not = "not asked for";
   }
 
-  std::string note;
-  const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
-  if (*hi < 1.3 * *lo) {
-    note = fmt::format("; all targets at one range ({:.0f}-{:.0f} mm): the port's axial parameter "
-                       "is weakly observable, add views at another range", *lo, *hi);
-    say("warning" + note);
-  }
-  lr.message = "ok" + note;
+  const std::string warning = RangeWarning(ranges);
+  if (!warning.empty()) say("warning: " + warning);
+  lr.message = warning.empty() ? "ok" : "ok; " + warning;
   res.message = lr.message;
   lr.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   say(fmt::format("done: sigma0 {:.4f} px, RMS {:.4f} px, {} iterations, {:.3f} s", lr.sigma0_px,
@@ -655,7 +688,195 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   return res;
 }
 
+template <typename M>
+RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec& target,
+                         const camera::Camera& lens, const RefractiveOptions& o, double sigma0_px) {
+  constexpr int N = M::kNumParams;
+  const refraction::Shell shell = refraction::ShellOf(o.port);
+  const PortArray port = refraction::ParamsOf(o.port);
+  refraction::ValidateParams(shell, port.data(), "--port");
+  RefractivePlan plan;
+  plan.model = M::kId;
+  plan.kind = shell.kind;
+  plan.sigma0_px = sigma0_px;
+  plan.port_free = o.port_free;
+  const std::vector<Eigen::Vector3d> points = TargetPoints(target);
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& p : points) centre += p / static_cast<double>(points.size());
+  const camera::Sensor& sensor = lens.sensor;
+  std::vector<Obs> obs;
+  std::vector<double> ranges;
+  std::vector<const ImageResult*> used;
+  for (const auto& pose : poses) {
+    Eigen::Matrix3d r;
+    ceres::AngleAxisToRotationMatrix(pose.rotation_rad.data(), r.data());
+    std::vector<Obs> seen;
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      const auto uv = refraction::Project<M, double>(sensor, lens.params.data(), shell, port.data(),
+                                                     r * points[k] + pose.translation_mm);
+      if (!uv || uv->x() < 0 || uv->y() < 0 || uv->x() > sensor.width_px - 1 ||
+          uv->y() > sensor.height_px - 1) {
+        continue;
+      }
+      seen.push_back({static_cast<int>(used.size()), static_cast<int>(k), uv->x(), uv->y(), true});
+    }
+    if (seen.size() < 4) continue;  // as Calibrate: an image needs 4 points
+    obs.insert(obs.end(), seen.begin(), seen.end());
+    ranges.push_back((r * centre + pose.translation_mm).norm());
+    used.push_back(&pose);
+  }
+  plan.n_images = static_cast<int>(used.size());
+  plan.n_points = static_cast<int>(obs.size());
+  if (used.empty()) throw InvalidInput("--images", "no pose sees 4 target points through the port");
+  RefractiveAdjustment<M> adj(o, sensor, shell, obs, points, plan.n_images);
+  for (int i = 0; i < plan.n_images; ++i) {
+    const auto& p = *used[i];
+    adj.rotation()[i] = {p.rotation_rad.x(), p.rotation_rad.y(), p.rotation_rad.z()};
+    adj.translation()[i] = {p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z()};
+  }
+  std::copy(lens.params.begin(), lens.params.end(), adj.lens.begin());
+  adj.port = port;
+  adj.lens_free = LensFree(o);
+  adj.port_free = o.port_free;
+  adj.weight = 1 / sigma0_px;
+  adj.prior = MakePrior(o);
+  const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
+  plan.min_range_mm = *lo;
+  plan.max_range_mm = *hi;
+  plan.warning = RangeWarning(ranges);
+  Eigen::MatrixXd cov;
+  plan.determined = adj.Covariance(&cov);
+  plan.lens_sigma.assign(N, NAN);
+  plan.port_sigma.fill(NAN);
+  if (!plan.determined) {
+    plan.warning = "the port parameters and the lens are not determined by this network (singular "
+                   "covariance): add views at other ranges and angles, or fix parameters" +
+                   (plan.warning.empty() ? "" : "; " + plan.warning);
+    return plan;
+  }
+  std::vector<bool> free_all(N + kPortNumParams);
+  for (int i = 0; i < N; ++i) free_all[i] = adj.lens_free[i];
+  for (int i = 0; i < kPortNumParams; ++i) free_all[N + i] = o.port_free[i];
+  plan.covariance = cov;
+  plan.correlation = Correlation(cov, free_all);
+  for (int i = 0; i < N; ++i) {
+    if (free_all[i]) plan.lens_sigma[i] = std::sqrt(cov(i, i));
+  }
+  for (int i = 0; i < kPortNumParams; ++i) {
+    if (o.port_free[i]) plan.port_sigma[i] = std::sqrt(cov(N + i, N + i));
+  }
+  return plan;
+}
+
+// Checks shared by the refractive calibration and its plan.
+void CheckOptions(const RefractiveOptions& o) {
+  if (o.intrinsics != IntrinsicsMode::kFree && !o.air) {
+    throw InvalidInput("--intrinsics", ToString(o.intrinsics) + " needs --air-calibration");
+  }
+  if (o.air) {
+    if (o.air->camera.model != o.lens.model) {
+      throw InvalidInput("--air-calibration",
+                         fmt::format("a {} calibration cannot start a {} one",
+                                     o.air->camera.model_name(), camera::Info(o.lens.model).name));
+    }
+    if (o.intrinsics == IntrinsicsMode::kPrior && !o.air->has_covariance) {
+      throw InvalidInput("--air-calibration", "has no covariance or sigma for a prior (use "
+                                              "--intrinsics fixed)");
+    }
+  }
+}
+
+// The central calibration of the same images (CalibrateRefractive's first step).
+CalibrationResult CentralOf(const std::vector<ImageDetections>& detections,
+                            const TargetSpec& target, const RefractiveOptions& o) {
+  CalibrationOptions co = o.lens;
+  co.drop_insignificant = false;
+  co.initial.reset();
+  co.free.reset();
+  co.target_free = false;
+  co.progress = [&](const std::string& m) {
+    if (o.lens.progress) o.lens.progress("central: " + m);
+  };
+  const CalibrationResult central = Calibrate(detections, target, co);
+  if (o.air) {
+    const camera::Sensor& a = o.air->camera.sensor;
+    const camera::Sensor& w = central.camera.sensor;
+    if (a.width_px != w.width_px || a.height_px != w.height_px ||
+        std::abs(a.pixel_pitch_mm - w.pixel_pitch_mm) > 1e-12) {
+      throw InvalidInput("--air-calibration",
+                         fmt::format("its sensor ({}x{} px, pitch {:g} mm) is not the images' "
+                                     "({}x{} px, pitch {:g} mm)", a.width_px, a.height_px,
+                                     a.pixel_pitch_mm, w.width_px, w.height_px, w.pixel_pitch_mm));
+    }
+  }
+  return central;
+}
+
 }  // namespace
+
+RefractivePlan PlanRefractive(const std::vector<ImageResult>& poses, const TargetSpec& target,
+                              const camera::Camera& lens, const RefractiveOptions& o,
+                              double sigma0_px) {
+  RequirePositive("--plan-sigma-px", sigma0_px);
+  if (poses.empty()) throw InvalidInput("--images", "no poses to plan with");
+  if (lens.model != o.lens.model) {
+    throw InvalidInput("--model", fmt::format("the design lens is {}, the plan's model {}",
+                                              lens.model_name(), camera::Info(o.lens.model).name));
+  }
+  CheckOptions(o);
+  camera::ValidateCamera(lens, "lens");
+  return camera::VisitModel(o.lens.model, [&](auto m) {
+    return PlanModel<decltype(m)>(poses, target, lens, o, sigma0_px);
+  });
+}
+
+RefractivePlan PlanRefractiveFromImages(const std::vector<ImageDetections>& detections,
+                                        const TargetSpec& target, const RefractiveOptions& o,
+                                        double sigma0_px) {
+  RequirePositive("--plan-sigma-px", sigma0_px);
+  CheckOptions(o);
+  const CalibrationResult central = CentralOf(detections, target, o);
+  const camera::Camera lens = StartLens(o, central, refraction::ShellOf(o.port));
+  return PlanRefractive(central.images, target, lens, o, sigma0_px);
+}
+
+nlohmann::ordered_json PlanToJson(const RefractivePlan& p) {
+  using Json = nlohmann::ordered_json;
+  const auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  const auto& names = refraction::PortParams(p.kind);
+  const camera::ModelInfo& m = camera::Info(p.model);
+  Json port = Json::object(), lens = Json::object();
+  for (int i = 0; i < kPortNumParams; ++i) port[std::string(names[i].json_key)] = num(p.port_sigma[i]);
+  for (int i = 0; i < m.num_params; ++i) {
+    lens[std::string(m.params[i].json_key)] = i < static_cast<int>(p.lens_sigma.size()) ? num(p.lens_sigma[i]) : Json(nullptr);
+  }
+  Json high = Json::array();
+  const int t = static_cast<int>(p.correlation.rows());
+  const auto name = [&](int k) {
+    return k < m.num_params ? std::string(m.params[k].name) : std::string(names[k - m.num_params].name);
+  };
+  for (int i = 0; i < t; ++i) {
+    for (int j = i + 1; j < t; ++j) {
+      if ((i >= m.num_params || j >= m.num_params) && std::isfinite(p.correlation(i, j)) &&
+          std::abs(p.correlation(i, j)) > 0.9) {
+        high.push_back({{"a", name(i)}, {"b", name(j)}, {"correlation", p.correlation(i, j)}});
+      }
+    }
+  }
+  return {{"plan",
+           {{"kind", p.kind == PortKind::kDome ? "dome" : "flat"},
+            {"model", std::string(m.name)},
+            {"sigma0_px", p.sigma0_px},
+            {"n_images", p.n_images},
+            {"n_points", p.n_points},
+            {"determined", p.determined},
+            {"port_sigma", port},
+            {"lens_sigma", lens},
+            {"port_correlations_beyond_0_9", high},
+            {"min_range_mm", p.min_range_mm},
+            {"max_range_mm", p.max_range_mm},
+            {"warning", p.warning}}}};
+}
 
 IntrinsicsMode ParseIntrinsicsMode(const std::string& s, const std::string& field) {
   if (s == "free") return IntrinsicsMode::kFree;
@@ -695,44 +916,12 @@ std::array<bool, kPortNumParams> ParsePortFree(PortKind kind, const std::string&
 RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detections,
                                      const TargetSpec& target, const RefractiveOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (o.intrinsics != IntrinsicsMode::kFree && !o.air) {
-    throw InvalidInput("--intrinsics", ToString(o.intrinsics) + " needs --air-calibration");
-  }
-  if (o.air) {
-    if (o.air->camera.model != o.lens.model) {
-      throw InvalidInput("--air-calibration",
-                         fmt::format("a {} calibration cannot start a {} one",
-                                     o.air->camera.model_name(), camera::Info(o.lens.model).name));
-    }
-    if (o.intrinsics == IntrinsicsMode::kPrior && !o.air->has_covariance) {
-      throw InvalidInput("--air-calibration", "has no covariance or sigma for a prior (use "
-                                              "--intrinsics fixed)");
-    }
-  }
+  CheckOptions(o);
   if (o.predicted_sigma) {
     for (double s : *o.predicted_sigma) RequirePositive("--port-sigma", s);
   }
   // The central calibration of the same images: the poses, the start, and the model choice.
-  CalibrationOptions co = o.lens;
-  co.drop_insignificant = false;
-  co.initial.reset();
-  co.free.reset();
-  co.target_free = false;
-  co.progress = [&](const std::string& m) {
-    if (o.lens.progress) o.lens.progress("central: " + m);
-  };
-  const CalibrationResult central = Calibrate(detections, target, co);
-  if (o.air) {
-    const camera::Sensor& a = o.air->camera.sensor;
-    const camera::Sensor& w = central.camera.sensor;
-    if (a.width_px != w.width_px || a.height_px != w.height_px ||
-        std::abs(a.pixel_pitch_mm - w.pixel_pitch_mm) > 1e-12) {
-      throw InvalidInput("--air-calibration",
-                         fmt::format("its sensor ({}x{} px, pitch {:g} mm) is not the images' "
-                                     "({}x{} px, pitch {:g} mm)", a.width_px, a.height_px,
-                                     a.pixel_pitch_mm, w.width_px, w.height_px, w.pixel_pitch_mm));
-    }
-  }
+  const CalibrationResult central = CentralOf(detections, target, o);
   RefractiveResult r = camera::VisitModel(o.lens.model, [&](auto m) {
     return CalibrateRefractiveModel<decltype(m)>(detections, target, o, central);
   });

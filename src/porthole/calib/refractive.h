@@ -140,6 +140,45 @@ struct RefractiveResult {
 RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detections,
                                      const TargetSpec& target, const RefractiveOptions& options);
 
+// Network advice: the σ a network will give the port parameters (and the lens), before any data —
+// the covariance of the adjustment evaluated at the design: noise-free pixels of the target
+// points projected through the PREDICTED port (options.port) by the design lens at the given
+// poses, every pixel weighted by 1/sigma0_px (the noise expected: 0.3 px by default), the
+// intrinsics mode's free set and prior as CalibrateRefractive uses them; covariance
+// (JᵀJ)⁻¹ marginal over the poses (Ceres Covariance). Points whose pixel falls outside the frame
+// or cannot be projected are not seen.
+struct RefractivePlan {
+  camera::CameraModelId model = camera::CameraModelId::kBrown;
+  refraction::PortKind kind = refraction::PortKind::kDome;
+  double sigma0_px = 0.3;
+  int n_images = 0, n_points = 0;
+  bool determined = false;  // false: singular (the σ below are NaN)
+  std::array<double, refraction::kPortNumParams> port_sigma{};  // NaN for fixed parameters
+  std::array<bool, refraction::kPortNumParams> port_free{};
+  std::vector<double> lens_sigma;  // model order; NaN for fixed parameters
+  Eigen::MatrixXd covariance, correlation;  // [lens, port] as RefractiveResult
+  double min_range_mm = 0, max_range_mm = 0;  // the target centres' distances from the pupil
+  std::string warning;  // "" or what is weak (one range; not determined)
+};
+
+// The plan for cam_from_target `poses` (rotation_rad, translation_mm of ImageResult) of `target`
+// seen by `lens` (the design lens: the in-air calibration, or a nominal camera of
+// options.lens.model). Throws InvalidInput for no poses, a lens of another model than
+// options.lens.model, sigma0_px ≤ 0 or a port the pupil is not in.
+RefractivePlan PlanRefractive(const std::vector<ImageResult>& poses, const TargetSpec& target,
+                              const camera::Camera& lens, const RefractiveOptions& options,
+                              double sigma0_px = 0.3);
+// The plan for the images given: their poses from a central calibration of the detections, the
+// lens the refractive calibration would start from (the in-air calibration, or that central
+// calibration with its distortion zeroed and, behind a flat port, f / n_water). Throws as
+// Calibrate and PlanRefractive.
+RefractivePlan PlanRefractiveFromImages(const std::vector<ImageDetections>& detections,
+                                        const TargetSpec& target,
+                                        const RefractiveOptions& options, double sigma0_px = 0.3);
+// {"plan": {...}}: sigma0_px, counts, port sigma by key, lens sigma by key, correlations beyond
+// 0.9, ranges, warning.
+nlohmann::ordered_json PlanToJson(const RefractivePlan& plan);
+
 // The calibration JSON (CalibrationToJson of the lens) with a `port` block: kind, intrinsics,
 // parameters {key: value}, sigma, predicted, predicted_sigma, correlation with the lens
 // parameters, chi2, dof, p_value, differs, model_choice {central_rms_px, central_bic, bic,

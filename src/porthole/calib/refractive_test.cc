@@ -50,19 +50,22 @@ PortSystem TiltedFlat(double tilt_deg, double distance_mm) {
 
 // 20 views at three ranges (the target fills 90 %, 40 % and 15 % of the width), projected through
 // the port `truth` by the lens `cam`, with noise σ = 0.3 px.
+// `poses` (optional) receives the true cam_from_target poses; `fill_list` replaces the three.
 std::vector<ImageDetections> Views(const camera::Camera& cam, const PortSystem& truth,
-                                   const TargetSpec& target, uint64_t noise_seed) {
+                                   const TargetSpec& target, uint64_t noise_seed,
+                                   std::vector<ImageResult>* poses = nullptr,
+                                   std::vector<double> fill_list = {0.9, 0.4, 0.15}) {
   const refraction::Shell shell = refraction::ShellOf(truth);
   const auto port = refraction::ParamsOf(truth);
   std::vector<ImageDetections> all;
   int k = 0;
-  const double fills[] = {0.9, 0.4, 0.15};
-  for (int range = 0; range < 3; ++range) {
+  const int n_ranges = static_cast<int>(fill_list.size());
+  for (int range = 0; range < n_ranges; ++range) {
     SyntheticOptions so;
     so.camera = cam;
     so.target = target;
-    so.n_images = range < 2 ? 7 : 6;
-    so.fill = fills[range];
+    so.n_images = 20 / n_ranges + (range < 20 % n_ranges ? 1 : 0);
+    so.fill = fill_list[range];
     so.noise_px = 0.3;
     so.pose_seed = 11 + range;
     so.noise_seed = noise_seed * 3 + range;
@@ -70,10 +73,12 @@ std::vector<ImageDetections> Views(const camera::Camera& cam, const PortSystem& 
       return refraction::Project<camera::BrownModel, double>(cam.sensor, cam.params.data(), shell,
                                                              port.data(), p);
     };
-    for (auto& d : MakeSyntheticSet(so).detections) {
+    auto set = MakeSyntheticSet(so);
+    for (auto& d : set.detections) {
       d.image = "view" + std::to_string(k++);
       all.push_back(std::move(d));
     }
+    if (poses) poses->insert(poses->end(), set.poses.begin(), set.poses.end());
   }
   return all;
 }
@@ -277,10 +282,21 @@ TEST(RefractiveCalibration, SigmaMatchesMonteCarloSpread) {
       EXPECT_GT(csigma[i] / spread, 1 / 1.5);
       EXPECT_LT(csigma[i] / spread, 1.5);
     }
+    // Network advice: the σ the design (true poses, predicted port, σ0 0.3 px) promises.
+    std::vector<ImageResult> poses;
+    Views(cam, truth, target, 1000, &poses);
+    const RefractivePlan plan = PlanRefractive(poses, target, cam, o, 0.3);
+    ASSERT_TRUE(plan.determined);
+    EXPECT_EQ(plan.warning, "");
     for (int i = 0; i < 3; ++i) {
       const double mean = sum[i] / runs;
       const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
       const double ratio = sigma[i] / spread;
+      std::printf("%s parameter %d: planned sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f\n",
+                  truth.IsDome() ? "dome" : "flat", i, plan.port_sigma[i], spread,
+                  plan.port_sigma[i] / spread);
+      EXPECT_GT(plan.port_sigma[i] / spread, 1 / 1.5);
+      EXPECT_LT(plan.port_sigma[i] / spread, 1.5);
       std::printf("%s parameter %d: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f\n",
                   truth.IsDome() ? "dome" : "flat", i, sigma[i], spread, ratio);
       // 30 runs: the spread itself is uncertain by ~13 % (1σ); 1.5 is beyond 3σ of that.
@@ -288,6 +304,48 @@ TEST(RefractiveCalibration, SigmaMatchesMonteCarloSpread) {
       EXPECT_LT(ratio, 1.5);
     }
   }
+}
+
+// Network advice from the images: the planned σ agree with the calibration's own (σ0 ≈ 0.3 px);
+// with every target at one range the axial parameter's σ grows and the plan warns.
+TEST(RefractiveCalibration, PlanFromImagesAndOneRangeWarning) {
+  const camera::Camera cam = D300Brown();
+  const TargetSpec target = ParseTarget("chessboard:12x9:30");
+  for (const PortSystem& truth : {AsBuiltNi320(), TiltedFlat(2.0, 25.0)}) {
+    const char* what = truth.IsDome() ? "dome" : "flat";
+    RefractiveOptions o = Options(truth, cam.sensor.pixel_pitch_mm);
+    o.air = AirCalibration(cam, target);
+    o.intrinsics = IntrinsicsMode::kPrior;
+    const auto views = Views(cam, truth, target, 9);
+    const RefractivePlan from_images = PlanRefractiveFromImages(views, target, o, 0.3);
+    const RefractiveResult r = CalibrateRefractive(views, target, o);
+    for (int i = 0; i < 3; ++i) {
+      const double ratio = from_images.port_sigma[i] / (r.port_sigma[i] * 0.3 / r.lens.sigma0_px);
+      std::printf("%s parameter %d: planned from images %.4g, calibration %.4g (sigma0 %.4f), "
+                  "ratio %.2f\n", what, i, from_images.port_sigma[i], r.port_sigma[i],
+                  r.lens.sigma0_px, ratio);
+      EXPECT_GT(ratio, 1 / 1.5);
+      EXPECT_LT(ratio, 1.5);
+    }
+    // The same 20 views' design, all at one range (the target filling 40 % of the width).
+    std::vector<ImageResult> three, one;
+    Views(cam, truth, target, 9, &three);
+    Views(cam, truth, target, 9, &one, {0.4});
+    const RefractivePlan p3 = PlanRefractive(three, target, o.air->camera, o, 0.3);
+    const RefractivePlan p1 = PlanRefractive(one, target, o.air->camera, o, 0.3);
+    std::printf("%s axial sigma: three ranges %.4g (%.0f-%.0f mm), one range %.4g (%.0f-%.0f mm): "
+                "%s\n", what, p3.port_sigma[2], p3.min_range_mm, p3.max_range_mm,
+                p1.port_sigma[2], p1.min_range_mm, p1.max_range_mm, p1.warning.c_str());
+    EXPECT_EQ(p3.warning, "");
+    EXPECT_NE(p1.warning.find("all targets at one range"), std::string::npos);
+    EXPECT_GT(p1.port_sigma[2], 1.5 * p3.port_sigma[2]);
+  }
+  // Bad input.
+  RefractiveOptions o = Options(AsBuiltNi320(), cam.sensor.pixel_pitch_mm);
+  EXPECT_THROW(PlanRefractive({}, target, cam, o, 0.3), InvalidInput);
+  std::vector<ImageResult> poses;
+  Views(cam, AsBuiltNi320(), target, 9, &poses);
+  EXPECT_THROW(PlanRefractive(poses, target, cam, o, 0.0), InvalidInput);
 }
 
 TEST(RefractiveCalibration, BadInputIsRefused) {
