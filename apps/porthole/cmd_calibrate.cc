@@ -136,6 +136,41 @@ std::string PortTable(const calib::RefractiveResult& r, const calib::RefractiveO
   return t;
 }
 
+// Network advice (--plan-only): the σ the design gives, the ranges, the warning.
+std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOptions& o) {
+  const auto& names = refraction::PortParams(p.kind);
+  const camera::ModelInfo& m = camera::Info(p.model);
+  std::string t = fmt::format(
+      "network advice for port {} (lens intrinsics {}): {} images, {} points, targets at "
+      "{:.0f}-{:.0f} mm, pixel noise {:g} px\n",
+      o.port.spec.name, calib::ToString(o.intrinsics), p.n_images, p.n_points, p.min_range_mm,
+      p.max_range_mm, p.sigma0_px);
+  t += fmt::format("{:<16} {:>11}  {}\n", "port", "std", "unit");
+  for (int i = 0; i < refraction::kPortNumParams; ++i) {
+    t += fmt::format("{:<16} {:>11}  {}\n", names[i].json_key,
+                     !p.port_free[i] ? "fixed" : fmt::format("{:.3g}", p.port_sigma[i]), names[i].unit);
+  }
+  std::string lens;
+  for (int i = 0; i < m.num_params; ++i) {
+    if (std::isfinite(p.lens_sigma[i])) lens += fmt::format(" {} {:.3g};", m.params[i].name, p.lens_sigma[i]);
+  }
+  if (!lens.empty()) t += "lens std:" + lens + "\n";
+  const int n = m.num_params;
+  std::string high;
+  for (int i = n; i < p.correlation.rows(); ++i) {
+    for (int k = 0; k < i; ++k) {
+      const double c = p.correlation(i, k);
+      if (std::isfinite(c) && std::abs(c) > 0.9) {
+        high += fmt::format(" {}/{} {:+.2f}", names[i - n].name,
+                            k < n ? std::string(m.params[k].name) : std::string(names[k - n].name), c);
+      }
+    }
+  }
+  if (!high.empty()) t += "port correlations beyond 0.9:" + high + "\n";
+  t += "status: " + (p.warning.empty() ? std::string("ok") : "warning: " + p.warning) + "\n";
+  return t;
+}
+
 }  // namespace
 
 void RegisterCalibrate(CLI::App& app) {
@@ -150,6 +185,8 @@ void RegisterCalibrate(CLI::App& app) {
     WaterOptions water;
     std::string air, intrinsics, free_port = "all", port_out;
     std::vector<double> port_sigma;
+    bool plan_only = false;
+    double plan_sigma_px = 0.3;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -212,6 +249,13 @@ void RegisterCalibrate(CLI::App& app) {
                   "the chi2 test; default dome 0.5,0.5,0.5, flat 0.005,0.005,1")
       ->delimiter(',')->expected(3)->group(group);
   cmd->add_option("--port-out", o->port_out, "Write the estimated port as a port TOML")->group(group);
+  cmd->add_flag("--plan-only", o->plan_only,
+                "Network advice, no adjustment: the sigma these images' poses will give the port "
+                "(and lens) parameters at --plan-sigma-px noise, and a warning for one range")
+      ->group(group);
+  cmd->add_option("--plan-sigma-px", o->plan_sigma_px,
+                  "Pixel noise (1-sigma per coordinate) --plan-only assumes")
+      ->capture_default_str()->group(group);
   cmd->callback([o] {
     if (o->images.empty() && o->detections.empty()) {
       throw InvalidInput("--images", "give --images DIR or --detections PATH");
@@ -232,7 +276,7 @@ void RegisterCalibrate(CLI::App& app) {
       const std::pair<const char*, bool> given[] = {
           {"--air-calibration", !o->air.empty()}, {"--intrinsics", !o->intrinsics.empty()},
           {"--port-sigma", !o->port_sigma.empty()}, {"--port-out", !o->port_out.empty()},
-          {"--ep", !o->port.ep.empty()}};
+          {"--ep", !o->port.ep.empty()}, {"--plan-only", o->plan_only}};
       for (const auto& [flag, is_given] : given) {
         if (is_given) throw InvalidInput(flag, "only with --port (the refractive calibration)");
       }
@@ -272,6 +316,15 @@ void RegisterCalibrate(CLI::App& app) {
     } else {
       dets = calib::LoadDetections(o->detections, "--detections", &target);
       if (target.cols == 0) throw InvalidInput("--target", "the detections name no target");
+    }
+    if (refractive && o->plan_only) {
+      ro.lens = o->calib;
+      if (!o->port_out.empty()) throw InvalidInput("--port-out", "not with --plan-only (nothing is estimated)");
+      const auto plan = calib::PlanRefractiveFromImages(dets, target, ro, o->plan_sigma_px);
+      auto j = calib::PlanToJson(plan);
+      if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
+      if (o->json) return fmt::print("{}\n", j.dump(2));
+      return fmt::print("{}", PlanTable(plan, ro));
     }
     if (refractive) {
       ro.lens = o->calib;

@@ -301,3 +301,29 @@ def test_refractive_bad_input_is_one_line_exit_2(detections, tmp_path):
     run_bad("calibrate", "--detections", tmp_path / "none", "--port", "nimar-ni320")
     # A port the pupil is not in.
     run_bad("calibrate", "--detections", detections, "--port", "nimar-ni320", "--ep", "0,0,200")
+
+
+def test_refractive_plan_only(detections, tmp_path):
+    """`calibrate --port --plan-only` (issue 14, network advice): the σ the images' poses give the
+    port at the pixel noise assumed, no adjustment (calib_refractive_test checks the σ against
+    Monte Carlo); the σ scale with --plan-sigma-px; bad input is one line, exit 2."""
+    out = tmp_path / "plan.json"
+    j = run("calibrate", "--detections", detections, "--port", "flat-acrylic-10mm", "--plan-only",
+            "--json", "--quiet", "--out", out).json()
+    p = j["plan"]
+    assert p["kind"] == "flat" and p["determined"] is True and p["sigma0_px"] == 0.3
+    assert list(p["port_sigma"].keys()) == ["normal_x", "normal_y", "distance_mm"]
+    assert all(v > 0 for v in p["port_sigma"].values())
+    assert "port" not in j and out.exists()
+    j2 = run("calibrate", "--detections", detections, "--port", "flat-acrylic-10mm", "--plan-only",
+             "--plan-sigma-px", "0.6", "--json", "--quiet").json()
+    for k, v in p["port_sigma"].items():
+        assert abs(j2["plan"]["port_sigma"][k] / v - 2) < 1e-6, k
+    t = run("calibrate", "--detections", detections, "--port", "generic-dome-4in", "--plan-only",
+            "--quiet").out
+    assert "network advice for port generic-dome-4in" in t and "ep_in_dome_z_mm" in t
+    run_bad("calibrate", "--detections", detections, "--plan-only")
+    run_bad("calibrate", "--detections", detections, "--port", "nimar-ni320", "--plan-only",
+            "--plan-sigma-px", "0")
+    run_bad("calibrate", "--detections", detections, "--port", "nimar-ni320", "--plan-only",
+            "--port-out", tmp_path / "p.toml")
