@@ -52,7 +52,7 @@ void RegisterConvert(CLI::App& app) {
       RequirePositive("--pixel-pitch-mm", *o->pitch_mm);
       WarnIfImplausible("--pixel-pitch-mm", *o->pitch_mm, kPixelPitchRange);
     }
-    const auto in = interop::ReadCameraFile(o->in, o->pitch_mm.value_or(1.0), "IN");
+    const auto in = interop::ReadCalibrationFile(o->in, o->pitch_mm.value_or(1.0), "IN");
     std::filesystem::path out = o->out;
     const std::optional<std::string> to = o->to.empty() ? std::nullopt : std::optional(o->to);
     if (std::filesystem::is_directory(out)) {
@@ -63,7 +63,7 @@ void RegisterConvert(CLI::App& app) {
       out /= dir_format == interop::Format::kColmapText ? "cameras.txt" : "cameras.bin";
     }
     const auto format = interop::OutputFormat(out.string(), to, "OUT");
-    const auto w = interop::WriteCamera(in.camera, format, "OUT '" + out.string() + "'");
+    const auto w = interop::WriteCalibration(in.calibration, format, "OUT '" + out.string() + "'");
     WriteFileAtomically(out, w.content, "OUT");
 
     const std::string how = w.exact ? "exact"
@@ -74,15 +74,15 @@ void RegisterConvert(CLI::App& app) {
       Json j = {{"in", o->in},
                 {"in_format", std::string(interop::FormatName(in.format))},
                 {"in_model", in.format_model},
-                {"camera_model", std::string(in.camera.model_name())},
+                {"camera_model", std::string(in.camera().model_name())},
                 {"out", out.string()},
                 {"out_format", std::string(interop::FormatName(format))},
                 {"out_model", w.format_model},
                 {"exact", w.exact},
                 {"refit_rms_px", w.exact ? Json(0.0) : Json(w.fit.rms_px)},
                 {"refit_max_px", w.exact ? Json(0.0) : Json(w.fit.max_px)},
-                {"width_px", in.camera.sensor.width_px},
-                {"height_px", in.camera.sensor.height_px}};
+                {"width_px", in.camera().sensor.width_px},
+                {"height_px", in.camera().sensor.height_px}};
       return fmt::print("{}\n", j.dump(2));
     }
     fmt::print("{} ({} {}) -> {} ({} {}): {}\n", o->in, interop::FormatName(in.format),

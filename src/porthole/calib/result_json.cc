@@ -47,6 +47,10 @@ std::string KnownKeys(const camera::ModelInfo& m) {
 
 }  // namespace
 
+Json CovarianceJson(const camera::ModelInfo& m, const FreeMask& free, const Eigen::MatrixXd& matrix) {
+  return Matrix(m, free, matrix);
+}
+
 Json CameraUnitsJson(camera::CameraModelId model) {
   Json j = Json::object();
   for (const auto& p : camera::Info(model).params) j[std::string(p.json_key)] = std::string(p.unit);

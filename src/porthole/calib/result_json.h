@@ -34,6 +34,10 @@ struct CalibrationRecord {
 
 // {key: unit} for every parameter of the model.
 nlohmann::ordered_json CameraUnitsJson(camera::CameraModelId model);
+// {parameters: [keys of the adjusted ones], matrix: [[…]]} of a matrix in the model's order (the
+// `covariance` and `correlation` objects); non-finite entries null.
+nlohmann::ordered_json CovarianceJson(const camera::ModelInfo& m, const FreeMask& free,
+                                      const Eigen::MatrixXd& matrix);
 
 nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                                          const CalibrationOptions& options);

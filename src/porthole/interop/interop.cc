@@ -13,7 +13,10 @@
 
 #include "porthole/calib/result_json.h"
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
+#include "porthole/interop/metashape.h"
 #include "porthole/interop/pyliteral.h"
+#include "porthole/interop/refit.h"
 
 namespace porthole::interop {
 namespace {
@@ -23,12 +26,13 @@ using camera::CameraModelId;
 using OpenCV = camera::OpenCVModel;
 using KB = camera::KannalaBrandtModel;
 
-constexpr std::array<std::pair<Format, std::string_view>, 5> kFormatNames = {{
+constexpr std::array<std::pair<Format, std::string_view>, 6> kFormatNames = {{
     {Format::kJson, "json"},
     {Format::kOpenCVYaml, "opencv-yaml"},
     {Format::kColmapText, "colmap"},
     {Format::kColmapBinary, "colmap-bin"},
     {Format::kMrcal, "mrcal"},
+    {Format::kMetashape, "metashape"},
 }};
 
 // COLMAP's models as it numbers and names them (colmap/src/base/camera_models.h), with their
@@ -74,14 +78,6 @@ constexpr std::array<std::pair<std::string_view, int>, 4> kMrcalModels = {{
     {"LENSMODEL_OPENCV8", 8},
 }};
 
-std::string ReadAll(const std::string& path, const std::string& field) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InvalidInput(field, "cannot read '" + path + "'");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 std::string Lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   return s;
@@ -100,30 +96,148 @@ Camera OpenCVCamera(const camera::Sensor& s, std::initializer_list<double> p) {
   return c;
 }
 
-// A camera in the model family the pixel formats share: Brown refit to opencv (over the image);
-// equidistant as kannala-brandt (exact); opencv and kannala-brandt unchanged.
-struct PixelCamera {
-  Camera cam;
+// ---- Conversions with σ (interop/refit.h) ----
+
+// q's adjusted parameters and covariance from p's, by the pixel Jacobians of both models over
+// `rays`: a q parameter is adjusted when it is free in the conversion and moves with an adjusted p
+// parameter (its share of the pixel motion above 1e-9). Σp unknown (NaN) stays unknown.
+template <typename Src, typename Dst>
+void CarrySigma(const Src& src, const std::vector<double>& p, const calib::FreeMask& adjusted_p,
+                const Eigen::MatrixXd& cov_p, const Dst& dst, const std::vector<double>& q,
+                const std::vector<bool>& free_q, const std::vector<Eigen::Vector3d>& rays,
+                calib::CalibrationRecord* out) {
+  const Eigen::MatrixXd jp = refit::PixelJacobian(src, p, rays);
+  const Eigen::MatrixXd jq = refit::PixelJacobian(dst, q, rays);
+  Eigen::MatrixXd sp = Eigen::MatrixXd::Zero(Src::kNumParams, Src::kNumParams);
+  for (int i = 0; i < Src::kNumParams; ++i) {
+    for (int j = 0; j < Src::kNumParams; ++j) {
+      if (adjusted_p[i] && adjusted_p[j]) sp(i, j) = cov_p(i, j);
+    }
+  }
+  const auto prop = refit::PropagateCovariance(jq, free_q, jp, sp);
+  out->free.assign(Dst::kNumParams, false);
+  for (int a = 0; a < Dst::kNumParams; ++a) {
+    for (int j = 0; j < Src::kNumParams && free_q[a]; ++j) {
+      const double share = jq.col(a).norm() * std::abs(prop.g(a, j)) / std::max(jp.col(j).norm(), 1e-300);
+      if (adjusted_p[j] && share > 1e-9) out->free[a] = true;
+    }
+  }
+  // A q parameter the adjusted ones determine exactly (Metashape's b1 = fx − fy of a camera with
+  // one focal length adjusted) has its variance cancel: not adjusted.
+  for (int a = 0; a < Dst::kNumParams; ++a) {
+    double parts = 0;
+    for (int j = 0; j < Src::kNumParams; ++j) parts += prop.g(a, j) * prop.g(a, j) * sp(j, j);
+    if (out->free[a] && std::isfinite(parts) && prop.covariance(a, a) <= 1e-12 * parts) out->free[a] = false;
+  }
+  out->covariance = Eigen::MatrixXd::Zero(Dst::kNumParams, Dst::kNumParams);
+  bool finite = true;
+  for (int a = 0; a < Dst::kNumParams; ++a) {
+    for (int b = 0; b < Dst::kNumParams; ++b) {
+      if (!out->free[a] || !out->free[b]) continue;
+      out->covariance(a, b) = prop.covariance(a, b);
+      finite = finite && std::isfinite(prop.covariance(a, b));
+    }
+  }
+  out->has_covariance = finite && std::find(out->free.begin(), out->free.end(), true) != out->free.end();
+}
+
+std::vector<bool> FreeFirst(int n, int count) {
+  std::vector<bool> f(n, false);
+  std::fill(f.begin(), f.begin() + count, true);
+  return f;
+}
+
+// The record converted from `src` (parameters p of the record `in`) to the list model M: q starts
+// at `start` (the closed form); q's `free_q` parameters are refit over the image
+// so that M reprojects src's pixels (`refit_q`; false: start is exact, or already a refit). Rays from `start`'s unprojection of a 40 × 30 pixel grid.
+template <typename M, typename Src>
+calib::CalibrationRecord ConvertTo(const Src& src, const std::vector<double>& p, const calib::FreeMask& adjusted_p,
+                                   const Eigen::MatrixXd& cov_p, const calib::CalibrationRecord& in,
+                                   const Camera& start, const std::vector<bool>& free_q, bool refit_q,
+                                   camera::ConversionFit* fit) {
+  const auto rays = refit::GridRays(start.sensor, [&](const Eigen::Vector2d& uv) { return start.Unproject(uv); });
+  calib::CalibrationRecord out = in;
+  out.camera = start;
+  const refit::ListProjector<M> dst{start.sensor};
+  if (refit_q) {
+    std::vector<Eigen::Vector3d> used;
+    std::vector<Eigen::Vector2d> px;
+    for (const auto& r : rays) {
+      if (const auto uv = src(p.data(), camera::Vec3<double>(r))) {
+        used.push_back(r);
+        px.push_back(*uv);
+      }
+    }
+    const camera::ConversionFit f = refit::Fit(dst, &out.camera.params, free_q, used, px);
+    if (fit != nullptr) *fit = f;
+    camera::ValidateCamera(out.camera, "refit");
+  } else if (fit != nullptr) {
+    *fit = {};
+  }
+  CarrySigma(src, p, adjusted_p, cov_p, dst, out.camera.params, free_q, rays, &out);
+  if (!in.has_covariance) {  // unknown stays unknown
+    out.has_covariance = false;
+    for (int a = 0; a < M::kNumParams; ++a) {
+      for (int b = 0; b < M::kNumParams; ++b) {
+        if (out.free[a] && out.free[b]) out.covariance(a, b) = NAN;
+      }
+    }
+  }
+  return out;
+}
+
+// A list model's record as its projector's inputs.
+template <typename M>
+calib::CalibrationRecord FromListModel(const calib::CalibrationRecord& in, const Camera& start,
+                                       const std::vector<bool>& free_q, bool refit_q,
+                                       camera::ConversionFit* fit) {
+  calib::CalibrationRecord r;
+  camera::VisitModel(in.camera.model, [&](auto src_model) {
+    using S = decltype(src_model);
+    const refit::ListProjector<S> src{in.camera.sensor};
+    r = [&] {
+      switch (start.model) {
+        case CameraModelId::kOpenCV:
+          return ConvertTo<OpenCV>(src, in.camera.params, in.free, in.covariance, in, start, free_q, refit_q, fit);
+        case CameraModelId::kKannalaBrandt:
+          return ConvertTo<KB>(src, in.camera.params, in.free, in.covariance, in, start, free_q, refit_q, fit);
+        case CameraModelId::kBrown:
+          return ConvertTo<camera::BrownModel>(src, in.camera.params, in.free, in.covariance, in, start,
+                                               free_q, refit_q, fit);
+        default: throw InternalError("conversion target not handled");
+      }
+    }();
+  });
+  return r;
+}
+
+// A calibration in the model family the pixel formats share: Brown refit to opencv (over the
+// image, camera::BrownToOpenCV); equidistant as kannala-brandt (exact); opencv and kannala-brandt
+// unchanged. σ carried through.
+struct PixelCalibration {
+  calib::CalibrationRecord cal;
   bool exact = true;
   camera::ConversionFit fit;
 };
-PixelCamera ToPixelFamily(const Camera& cam) {
-  PixelCamera out{cam, true, {}};
+PixelCalibration ToPixelFamily(const calib::CalibrationRecord& in) {
+  const Camera& cam = in.camera;
+  PixelCalibration out{in, true, {}};
   if (cam.model == CameraModelId::kBrown) {
     const auto conv = camera::BrownToOpenCV(camera::ToBrown(cam), cam.sensor);
     const auto& o = conv.opencv;
-    out.cam = OpenCVCamera(cam.sensor, {o.fx, o.fy, o.cx, o.cy, o.k1, o.k2, o.p1, o.p2, o.k3});
+    const Camera start = OpenCVCamera(cam.sensor, {o.fx, o.fy, o.cx, o.cy, o.k1, o.k2, o.p1, o.p2, o.k3});
+    out.cal = FromListModel<OpenCV>(in, start, FreeFirst(OpenCV::kNumParams, 9), /*refit_q=*/false, nullptr);
     out.exact = false;
     out.fit = conv.fit;
   } else if (cam.model == CameraModelId::kEquidistant) {
     using E = camera::EquidistantModel;
     const auto& p = cam.params;
-    out.cam = Camera{CameraModelId::kKannalaBrandt, cam.sensor,
-                     {p[E::kF], p[E::kF], p[E::kCx], p[E::kCy], p[E::kK1], p[E::kK2], 0, 0}};
+    const Camera start{CameraModelId::kKannalaBrandt, cam.sensor,
+                       {p[E::kF], p[E::kF], p[E::kCx], p[E::kCy], p[E::kK1], p[E::kK2], 0, 0}};
+    out.cal = FromListModel<KB>(in, start, FreeFirst(KB::kNumParams, 6), false, nullptr);
   }
   return out;
 }
-
 [[noreturn]] void NoRepresentation(const Camera& cam, std::string_view format,
                                    const std::string& field, std::string_view hint) {
   throw InvalidInput(field, fmt::format("the {} model has no {} equivalent ({})", cam.model_name(),
@@ -230,10 +344,12 @@ ReadResult ReadOpenCVYaml(const std::string& y, double pitch_mm, const std::stri
   }
   const auto& dd = *d;
   auto at = [&](std::size_t i) { return i < n ? dd[i] : 0.0; };
-  ReadResult r{OpenCVCamera(PixelSensor(w, h, pitch_mm),
-                            {(*k)[0], (*k)[4], (*k)[2], (*k)[5], at(0), at(1), at(2), at(3), at(4),
-                             at(5), at(6), at(7)}),
-               Format::kOpenCVYaml, fmt::format("{} coefficients", n)};
+  ReadResult r;
+  r.calibration.camera = OpenCVCamera(PixelSensor(w, h, pitch_mm),
+                                      {(*k)[0], (*k)[4], (*k)[2], (*k)[5], at(0), at(1), at(2), at(3),
+                                       at(4), at(5), at(6), at(7)});
+  r.format = Format::kOpenCVYaml;
+  r.format_model = fmt::format("{} coefficients", n);
   return r;
 }
 
@@ -362,7 +478,11 @@ ReadResult FromColmapList(const std::vector<ColmapCamera>& list, Format format, 
     throw InvalidInput(field, fmt::format("holds {} cameras; porthole convert reads a file with one",
                                           list.size()));
   }
-  return {FromColmap(list[0], pitch_mm, field), format, list[0].model};
+  ReadResult r;
+  r.calibration.camera = FromColmap(list[0], pitch_mm, field);
+  r.format = format;
+  r.format_model = list[0].model;
+  return r;
 }
 
 // ---- mrcal ----
@@ -388,7 +508,11 @@ ReadResult ReadMrcal(const std::string& text, double pitch_mm, const std::string
   }
   m.width_px = j["imagersize"][0].get<int>();
   m.height_px = j["imagersize"][1].get<int>();
-  return {FromMrcal(m, pitch_mm, field), Format::kMrcal, m.lensmodel};
+  ReadResult r;
+  r.calibration.camera = FromMrcal(m, pitch_mm, field);
+  r.format = Format::kMrcal;
+  r.format_model = m.lensmodel;
+  return r;
 }
 
 std::string MrcalText(const MrcalModel& m, std::string_view source) {
@@ -409,21 +533,137 @@ std::string MrcalText(const MrcalModel& m, std::string_view source) {
 
 // ---- porthole JSON ----
 
-std::string PortholeJson(const Camera& cam) {
-  nlohmann::ordered_json params = nlohmann::ordered_json::object();
+// The camera's parameters (null: not adjusted and 0), σ (null: unknown or not adjusted) and, when
+// known, the covariance of the adjusted ones (calib/result_json.h reads them back).
+std::string PortholeJson(const calib::CalibrationRecord& cal) {
+  using Json = nlohmann::ordered_json;
+  const Camera& cam = cal.camera;
+  Json params = Json::object(), sigma = Json::object(), fixed = Json::array();
   const auto& info = cam.info();
-  for (int i = 0; i < info.num_params; ++i) params[std::string(info.params[i].json_key)] = cam.params[i];
-  nlohmann::ordered_json j = {
+  for (int i = 0; i < info.num_params; ++i) {
+    const std::string key(info.params[i].json_key);
+    const bool adjusted = cal.free.size() == cam.params.size() && cal.free[i];
+    const bool written = adjusted || cam.params[i] != 0 || i < info.first_distortion;
+    params[key] = written ? Json(cam.params[i]) : Json(nullptr);
+    if (written && !adjusted) fixed.push_back(key);
+    const double var = adjusted ? cal.covariance(i, i) : NAN;
+    sigma[key] = var > 0 ? Json(std::sqrt(var)) : Json(nullptr);
+  }
+  Json j = {
       {"model", std::string(info.name)},
       {"camera", params},
+      {"sigma", sigma},
+      {"fixed", fixed},
       {"units", calib::CameraUnitsJson(cam.model)},
       {"sensor",
        {{"width_px", cam.sensor.width_px},
         {"height_px", cam.sensor.height_px},
         {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
-      {"note", "written by porthole convert"},
+      {"note", cal.has_covariance ? "written by porthole convert"
+                                  : "written by porthole convert; sigma null: unknown (" + cal.covariance_note + ")"},
   };
+  if (cal.has_covariance) j["covariance"] = calib::CovarianceJson(info, cal.free, cal.covariance);
   return j.dump(2) + "\n";
+}
+
+// ---- Metashape ----
+
+// A Metashape calibration read as porthole's opencv (frame) or kannala-brandt (fisheye) model:
+// exact without b2, k4, p3, p4 (frame) or b2, p1–p4 (fisheye), else refit over the image.
+ReadResult ReadMetashape(const std::string& text, double pitch_mm, const std::string& field) {
+  const MetashapeCalibration m = ParseMetashapeXml(text, field);
+  const auto s = PixelSensor(m.width_px, m.height_px, pitch_mm);
+  const auto& q = m.params;
+  const double fx = q[kMsF] + q[kMsB1], fy = q[kMsF];
+  const double cx = 0.5 * m.width_px - 0.5 + q[kMsCx], cy = 0.5 * m.height_px - 0.5 + q[kMsCy];
+  calib::CalibrationRecord in;
+  in.free.assign(kMetashapeNumParams, false);
+  const bool has_cov = m.covariance.size() > 0;
+  for (int i = 0; i < kMetashapeNumParams; ++i) in.free[i] = has_cov ? m.covariance(i, i) > 0 : m.present[i];
+  in.covariance = has_cov ? m.covariance
+                          : Eigen::MatrixXd::Constant(kMetashapeNumParams, kMetashapeNumParams, NAN);
+  in.has_covariance = has_cov;
+  in.covariance_note = has_cov ? "" : "σ unknown: the Metashape file has no <covariance>";
+  const std::vector<double> p(q.begin(), q.end());
+  const MetashapeProjector src{m.fisheye, m.width_px, m.height_px};
+  ReadResult r;
+  r.format = Format::kMetashape;
+  if (m.fisheye) {
+    r.format_model = "fisheye";
+    r.exact = q[kMsB2] == 0 && q[kMsP1] == 0 && q[kMsP2] == 0 && q[kMsP3] == 0 && q[kMsP4] == 0;
+    const Camera start{CameraModelId::kKannalaBrandt, s, {fx, fy, cx, cy, q[kMsK1], q[kMsK2], q[kMsK3], q[kMsK4]}};
+    camera::ValidateCamera(start, field);
+    r.calibration = ConvertTo<KB>(src, p, in.free, in.covariance, in, start,
+                                  FreeFirst(KB::kNumParams, KB::kNumParams), !r.exact, &r.fit);
+  } else {
+    r.format_model = m.photoscan_form ? "frame (PhotoScan fx, fy)" : "frame";
+    r.exact = q[kMsB2] == 0 && q[kMsK4] == 0 && q[kMsP3] == 0 && q[kMsP4] == 0;
+    // OpenCV's p1 is Metashape's P2 and its p2 Metashape's P1.
+    const Camera start = OpenCVCamera(s, {fx, fy, cx, cy, q[kMsK1], q[kMsK2], q[kMsP2], q[kMsP1], q[kMsK3]});
+    camera::ValidateCamera(start, field);
+    r.calibration = ConvertTo<OpenCV>(src, p, in.free, in.covariance, in, start,
+                                      FreeFirst(OpenCV::kNumParams, 9), !r.exact, &r.fit);
+  }
+  return r;
+}
+
+// The Metashape projector's parameters as a record (for CarrySigma's target side).
+MetashapeCalibration ToMetashape(const calib::CalibrationRecord& in, const std::string& field,
+                                 bool* exact, camera::ConversionFit* fit) {
+  const PixelCalibration pc = ToPixelFamily(in);
+  const Camera& c = pc.cal.camera;
+  *exact = pc.exact;
+  *fit = pc.fit;
+  MetashapeCalibration m;
+  m.width_px = c.sensor.width_px;
+  m.height_px = c.sensor.height_px;
+  const auto& p = c.params;
+  std::vector<double> q(kMetashapeNumParams, 0.0);
+  std::vector<bool> free_q(kMetashapeNumParams, false);
+  bool refit_q = false;
+  if (c.model == CameraModelId::kKannalaBrandt) {
+    m.fisheye = true;
+    q = {p[KB::kFy], p[KB::kCx] + 0.5 - 0.5 * m.width_px, p[KB::kCy] + 0.5 - 0.5 * m.height_px,
+         p[KB::kFx] - p[KB::kFy], 0, p[KB::kK1], p[KB::kK2], p[KB::kK3], p[KB::kK4], 0, 0, 0, 0};
+    for (int i : {kMsF, kMsCx, kMsCy, kMsB1, kMsK1, kMsK2, kMsK3, kMsK4}) free_q[i] = true;
+  } else if (c.model == CameraModelId::kOpenCV) {
+    q = {p[OpenCV::kFy], p[OpenCV::kCx] + 0.5 - 0.5 * m.width_px, p[OpenCV::kCy] + 0.5 - 0.5 * m.height_px,
+         p[OpenCV::kFx] - p[OpenCV::kFy], 0, p[OpenCV::kK1], p[OpenCV::kK2], p[OpenCV::kK3], 0,
+         p[OpenCV::kP2], p[OpenCV::kP1], 0, 0};
+    for (int i : {kMsF, kMsCx, kMsCy, kMsB1, kMsK1, kMsK2, kMsK3, kMsP1, kMsP2}) free_q[i] = true;
+    // OpenCV's rational k4–k6 have no Metashape term: refit with Metashape's k4 free.
+    refit_q = p[OpenCV::kK4] != 0 || p[OpenCV::kK5] != 0 || p[OpenCV::kK6] != 0;
+    if (refit_q) free_q[kMsK4] = true;
+  } else {
+    NoRepresentation(in.camera, "Metashape", field, "Metashape's frame and fisheye models hold opencv and kannala-brandt");
+  }
+  const MetashapeProjector dst{m.fisheye, m.width_px, m.height_px};
+  const auto rays = refit::GridRays(c.sensor, [&](const Eigen::Vector2d& uv) { return c.Unproject(uv); });
+  calib::CalibrationRecord out;
+  camera::VisitModel(c.model, [&](auto model) {
+    using S = decltype(model);
+    if constexpr (S::kId == CameraModelId::kOpenCV || S::kId == CameraModelId::kKannalaBrandt) {
+      const refit::ListProjector<S> src{c.sensor};
+      if (refit_q) {
+        std::vector<Eigen::Vector3d> used;
+        std::vector<Eigen::Vector2d> px;
+        for (const auto& r : rays) {
+          if (const auto uv = src(p.data(), camera::Vec3<double>(r))) {
+            used.push_back(r);
+            px.push_back(*uv);
+          }
+        }
+        const camera::ConversionFit f = refit::Fit(dst, &q, free_q, used, px);
+        *exact = false;
+        *fit = f;
+      }
+      CarrySigma(src, p, pc.cal.free, pc.cal.covariance, dst, q, free_q, rays, &out);
+    }
+  });
+  std::copy(q.begin(), q.end(), m.params.begin());
+  for (int i = 0; i < kMetashapeNumParams; ++i) m.present[i] = out.free[i];
+  if (pc.cal.has_covariance && out.has_covariance) m.covariance = out.covariance;
+  return m;
 }
 
 }  // namespace
@@ -456,6 +696,12 @@ Format DetectInputFormat(const std::string& path, const std::string& content, co
   if (ext == ".cameramodel") return Format::kMrcal;
   if (ext == ".bin") return Format::kColmapBinary;
   if (ext == ".txt") return Format::kColmapText;
+  if (ext == ".xml" || content.find("<calibration") != std::string::npos) {
+    if (content.find("<opencv_storage") != std::string::npos) {
+      throw InvalidInput(field, "'" + path + "': OpenCV FileStorage XML is not read yet (save it as .yml)");
+    }
+    return Format::kMetashape;
+  }
   const auto first = content.find_first_not_of(" \t\r\n");
   if (first != std::string::npos) {
     if (content[first] == '{' && content.find("'lensmodel'") != std::string::npos) return Format::kMrcal;
@@ -479,8 +725,9 @@ Format OutputFormat(const std::string& path, const std::optional<std::string>& t
   if (ext == ".cameramodel") return Format::kMrcal;
   if (ext == ".bin") return Format::kColmapBinary;
   if (ext == ".txt") return Format::kColmapText;
+  if (ext == ".xml") return Format::kMetashape;
   throw InvalidInput(field, "'" + path + "': cannot tell the format from the extension (.json, .yml, "
-                            ".cameramodel, cameras.txt, cameras.bin): give --to");
+                            ".cameramodel, cameras.txt, cameras.bin, .xml): give --to");
 }
 
 ColmapCamera ToColmap(const Camera& cam, const std::string& field) {
@@ -597,21 +844,74 @@ Camera FromMrcal(const MrcalModel& m, double pitch_mm, const std::string& field)
   return cam;
 }
 
-ReadResult ReadCamera(const std::string& content, Format format, double pixel_pitch_mm,
-                      const std::string& field) {
+calib::CalibrationRecord WithoutSigma(const Camera& cam, const std::string& note) {
+  calib::CalibrationRecord r;
+  r.camera = cam;
+  const auto& info = cam.info();
+  r.free.assign(info.num_params, false);
+  for (int i = 0; i < info.num_params; ++i) r.free[i] = i < info.first_distortion || cam.params[i] != 0;
+  r.covariance = Eigen::MatrixXd::Zero(info.num_params, info.num_params);
+  for (int i = 0; i < info.num_params; ++i) {
+    for (int j = 0; j < info.num_params; ++j) {
+      if (r.free[i] && r.free[j]) r.covariance(i, j) = NAN;
+    }
+  }
+  r.has_covariance = false;
+  r.covariance_note = note;
+  return r;
+}
+
+calib::CalibrationRecord ConvertCalibration(const calib::CalibrationRecord& cal, CameraModelId model,
+                                            const std::string& field, camera::ConversionFit* fit) {
+  if (fit != nullptr) *fit = {};
+  const Camera& c = cal.camera;
+  if (c.model == model) return cal;
+  if (model == CameraModelId::kOpenCV && c.model == CameraModelId::kBrown) {
+    const PixelCalibration pc = ToPixelFamily(cal);
+    if (fit != nullptr) *fit = pc.fit;
+    return pc.cal;
+  }
+  if (model == CameraModelId::kKannalaBrandt && c.model == CameraModelId::kEquidistant) {
+    return ToPixelFamily(cal).cal;
+  }
+  if (model == CameraModelId::kBrown && c.model == CameraModelId::kOpenCV) {
+    const auto& p = c.params;
+    if (p[OpenCV::kK4] != 0 || p[OpenCV::kK5] != 0 || p[OpenCV::kK6] != 0) {
+      throw InvalidInput(field, "an opencv calibration with rational k4-k6 has no Brown equivalent");
+    }
+    const auto conv = camera::OpenCVToBrown(
+        {p[OpenCV::kFx], p[OpenCV::kFy], p[OpenCV::kCx], p[OpenCV::kCy], p[OpenCV::kK1], p[OpenCV::kK2],
+         p[OpenCV::kP1], p[OpenCV::kP2], p[OpenCV::kK3]},
+        c.sensor);
+    if (fit != nullptr) *fit = conv.fit;
+    return FromListModel<camera::BrownModel>(cal, camera::FromBrown(conv.brown, c.sensor),
+                                             FreeFirst(camera::kBrownNumParams, camera::kBrownNumParams),
+                                             /*refit_q=*/false, nullptr);
+  }
+  throw InvalidInput(field, fmt::format("a {} calibration cannot be converted to the {} model "
+                                        "(porthole converts brown <-> opencv and equidistant -> kannala-brandt)",
+                                        c.model_name(), camera::Info(model).name));
+}
+
+ReadResult ReadCalibration(const std::string& content, Format format, double pixel_pitch_mm,
+                           const std::string& field) {
   RequirePositive("--pixel-pitch-mm", pixel_pitch_mm);
   ReadResult r;
   switch (format) {
     case Format::kJson: {
-      nlohmann::json j;
-      try {
-        j = nlohmann::json::parse(content);
-      } catch (const nlohmann::json::exception& e) {
-        throw InvalidInput(field, std::string("not JSON (") + e.what() + ")");
+      r.calibration = calib::CalibrationFromJson(ParseJsonText(content, field, "JSON"), field);
+      r.format = format;
+      r.format_model = std::string(r.camera().model_name());
+      r.pitch_known = true;
+      // A σ the file does not give is unknown, not 0.
+      auto& rec = r.calibration;
+      for (int i = 0; i < rec.camera.info().num_params; ++i) {
+        if (!rec.free[i] || rec.covariance(i, i) > 0) continue;
+        rec.covariance.row(i).setConstant(NAN);
+        rec.covariance.col(i).setConstant(NAN);
+        rec.has_covariance = false;
       }
-      const auto rec = calib::CalibrationFromJson(j, field);
-      r = {rec.camera, format, std::string(rec.camera.model_name()), true};
-      return r;
+      break;
     }
     case Format::kOpenCVYaml: r = ReadOpenCVYaml(content, pixel_pitch_mm, field); break;
     case Format::kColmapText:
@@ -621,12 +921,16 @@ ReadResult ReadCamera(const std::string& content, Format format, double pixel_pi
       r = FromColmapList(ParseColmapBinary(content, field), format, pixel_pitch_mm, field);
       break;
     case Format::kMrcal: r = ReadMrcal(content, pixel_pitch_mm, field); break;
+    case Format::kMetashape: r = ReadMetashape(content, pixel_pitch_mm, field); break;
   }
-  camera::ValidateCamera(r.camera, field);
+  if (format != Format::kJson && format != Format::kMetashape) {
+    r.calibration = WithoutSigma(r.camera(), fmt::format("σ unknown: {} holds none", FormatName(format)));
+  }
+  camera::ValidateCamera(r.camera(), field);
   return r;
 }
 
-ReadResult ReadCameraFile(const std::string& path, double pixel_pitch_mm, const std::string& field) {
+ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field) {
   std::string file = path;
   if (std::filesystem::is_directory(path)) {
     const auto txt = std::filesystem::path(path) / "cameras.txt";
@@ -639,44 +943,58 @@ ReadResult ReadCameraFile(const std::string& path, double pixel_pitch_mm, const 
       throw InvalidInput(field, "'" + path + "' is a directory without cameras.txt or cameras.bin");
     }
   }
-  const std::string content = ReadAll(file, field);
+  const std::string content = ReadInputFile(file, field, kMaxJsonFileBytes);
   const std::string where = field + " '" + file + "'";
-  return ReadCamera(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where);
+  ReadResult r = ReadCalibration(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where);
+  r.calibration.label = std::filesystem::path(path).stem().string();
+  return r;
 }
 
 WriteResult WriteCamera(const Camera& cam, Format format, const std::string& field) {
+  return WriteCalibration(WithoutSigma(cam, ""), format, field);
+}
+
+WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field) {
+  const Camera& cam = cal.camera;
   camera::ValidateCamera(cam, field);
   WriteResult w;
   if (format == Format::kJson) {
-    w.content = PortholeJson(cam);
+    w.content = PortholeJson(cal);
     w.format_model = std::string(cam.model_name());
+    w.sigma_written = cal.has_covariance;
     return w;
   }
   if (format == Format::kOpenCVYaml) {
     // calib's exporter: exact for the opencv model, a dense refit for Brown.
-    calib::CalibrationRecord rec;
-    rec.camera = cam;
     if (cam.model != CameraModelId::kOpenCV && cam.model != CameraModelId::kBrown) {
       NoRepresentation(cam, "OpenCV YAML", field, "write brown or opencv; kannala-brandt goes to COLMAP OPENCV_FISHEYE");
     }
-    w.content = calib::ExportOpenCVYaml(rec, &w.fit);
+    w.content = calib::ExportOpenCVYaml(cal, &w.fit);
     w.exact = cam.model == CameraModelId::kOpenCV;
     w.format_model = w.exact ? "8 coefficients" : "5 coefficients";
     return w;
   }
-  const PixelCamera pc = ToPixelFamily(cam);
+  if (format == Format::kMetashape) {
+    const MetashapeCalibration m = ToMetashape(cal, field, &w.exact, &w.fit);
+    w.content = MetashapeXml(m);
+    w.format_model = m.fisheye ? "fisheye" : "frame";
+    w.sigma_written = m.covariance.size() > 0;
+    return w;
+  }
+  const PixelCalibration pc = ToPixelFamily(cal);
+  const Camera& pcam = pc.cal.camera;
   w.exact = pc.exact;
   w.fit = pc.fit;
   switch (format) {
     case Format::kColmapText:
     case Format::kColmapBinary: {
-      const ColmapCamera c = ToColmap(pc.cam, field);
+      const ColmapCamera c = ToColmap(pcam, field);
       w.content = format == Format::kColmapText ? ColmapText(c) : ColmapBinary(c);
       w.format_model = c.model;
       break;
     }
     case Format::kMrcal: {
-      const MrcalModel m = ToMrcal(pc.cam, field);
+      const MrcalModel m = ToMrcal(pcam, field);
       w.content = MrcalText(m, pc.exact ? "exact" : fmt::format("refit from {}, RMS {:.6f} px",
                                                                 cam.model_name(), pc.fit.rms_px));
       w.format_model = m.lensmodel;

@@ -10,11 +10,18 @@
 //                                              RADIAL, OPENCV, FULL_OPENCV;
 //                                              kannala-brandt ↔ OPENCV_FISHEYE
 //   mrcal         mrcal .cameramodel           opencv ↔ LENSMODEL_PINHOLE, OPENCV4, OPENCV5, OPENCV8
+//   metashape     Agisoft Metashape / PhotoScan  opencv ↔ frame, kannala-brandt ↔ fisheye (exact
+//                 calibration XML              without b2, k4, p3, p4; a refit with them)
 //
 // Exact pairs convert parameter for parameter (COLMAP's principal point is shifted by 0.5 px: its
 // top-left pixel centre is (0.5, 0.5), porthole's (0, 0)); a Brown camera written to a pixel format
 // is first refit to the opencv model over the image (camera::BrownToOpenCV), and the refit's RMS is
 // returned. The equidistant model is written as kannala-brandt (exact: θ(1 + k1θ² + k2θ⁴)).
+//
+// σ: a calibration is read with its covariance where the format holds one (porthole JSON,
+// Metashape's <covariance>), in porthole's parameter order, carried through the conversion by its
+// Jacobian (interop/refit.h); where the format holds none (OpenCV YAML, COLMAP, mrcal) the
+// covariance of the adjusted parameters is NaN — unknown, never 0 — and has_covariance false.
 #pragma once
 
 #include <optional>
@@ -22,14 +29,15 @@
 #include <string_view>
 #include <vector>
 
+#include "porthole/calib/result_json.h"
 #include "porthole/camera/camera.h"
 #include "porthole/camera/opencv_model.h"
 
 namespace porthole::interop {
 
-enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal };
+enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal, kMetashape };
 
-// "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal" (what --to takes).
+// "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal", "metashape" (what --to takes).
 std::string_view FormatName(Format f);
 // Throws InvalidInput(field, "unknown format … (known: …)").
 Format FormatFromName(std::string_view name, const std::string& field);
@@ -38,7 +46,8 @@ std::string FormatNames();
 
 // The format of a file to read, from its extension and content: .json / '{' → json; .yml, .yaml,
 // '%YAML' → opencv-yaml; .cameramodel or a Python dict with 'lensmodel' → mrcal; .bin → colmap-bin;
-// .txt or lines "ID MODEL W H params…" → colmap. A directory is read as its cameras.txt (or
+// .txt or lines "ID MODEL W H params…" → colmap; .xml or '<' with a <calibration> element →
+// metashape. A directory is read as its cameras.txt (or
 // cameras.bin). Throws InvalidInput(field, …) naming the file when nothing matches.
 Format DetectInputFormat(const std::string& path, const std::string& content,
                          const std::string& field);
@@ -47,12 +56,17 @@ Format DetectInputFormat(const std::string& path, const std::string& content,
 Format OutputFormat(const std::string& path, const std::optional<std::string>& to,
                     const std::string& field);
 
-// A camera read from a file, with what the reader knows of it.
+// A calibration read from a file, with what the reader knows of it.
 struct ReadResult {
-  camera::Camera camera;
+  // camera, adjusted parameters, covariance in porthole's order (NaN where unknown), label
+  calib::CalibrationRecord calibration;
   Format format;
   std::string format_model;  // the model's name in the file (e.g. "OPENCV", "LENSMODEL_OPENCV8")
   bool pitch_known = false;  // the file gave the pixel pitch (only porthole JSON does)
+  bool exact = true;         // false: the file's model was refit into porthole's (fit: its quality)
+  camera::ConversionFit fit;
+
+  const camera::Camera& camera() const { return calibration.camera; }
 };
 
 // What was written, and how faithfully.
@@ -61,19 +75,36 @@ struct WriteResult {
   std::string format_model;  // the model's name in the file
   bool exact = true;         // false: a refit (fit holds its quality)
   camera::ConversionFit fit;  // the refit's RMS and max over the image, px (exact: zeros)
+  bool sigma_written = false;  // the format holds σ and the calibration had a covariance
 };
 
 // Reads a camera from `content` in `format`. Pixel formats carry no pitch: the sensor gets
 // `pixel_pitch_mm` (> 0; callers without one pass 1 and say "pixels are mm"). `field` names the
 // file in errors: InvalidInput("<field>: <format key>", rule).
-ReadResult ReadCamera(const std::string& content, Format format, double pixel_pitch_mm,
-                      const std::string& field);
-// Reads a file (or a COLMAP sparse-model directory), detecting its format.
-ReadResult ReadCameraFile(const std::string& path, double pixel_pitch_mm, const std::string& field);
+ReadResult ReadCalibration(const std::string& content, Format format, double pixel_pitch_mm,
+                           const std::string& field);
+// Reads a file (or a COLMAP sparse-model directory), detecting its format; the label is the file's
+// stem. The one loader of every command that reads a calibration (convert, compare, simulate,
+// report).
+ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field);
 
-// Writes `cam` in `format`. Throws InvalidInput(field, …) when the model has no representation in
-// the format (e.g. kannala-brandt in mrcal, which has no such model).
+// Writes the calibration in `format`, with its covariance where the format holds one. Throws
+// InvalidInput(field, …) when the model has no representation in the format (e.g. kannala-brandt
+// in mrcal, which has no such model).
+WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field);
+// A camera without σ.
 WriteResult WriteCamera(const camera::Camera& cam, Format format, const std::string& field);
+
+// The calibration as a camera of `model`: unchanged when it is already; exact where the two are
+// one family (equidistant → kannala-brandt); else a dense refit over the image (opencv ↔ brown,
+// camera::BrownToOpenCV / OpenCVToBrown) whose quality lands in `fit`. σ is carried through by the
+// conversion's Jacobian. Throws InvalidInput(field, …) for pairs porthole cannot convert.
+calib::CalibrationRecord ConvertCalibration(const calib::CalibrationRecord& cal, camera::CameraModelId model,
+                                            const std::string& field, camera::ConversionFit* fit = nullptr);
+
+// A record of `cam` whose adjusted parameters (the model's non-zero ones and its focal length and
+// principal point) have unknown σ (NaN covariance): what a format without σ gives.
+calib::CalibrationRecord WithoutSigma(const camera::Camera& cam, const std::string& note);
 
 // ---- The individual formats (also used by the tests) ----
 

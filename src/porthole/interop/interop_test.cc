@@ -7,14 +7,23 @@
 //  - a Brown camera (the paper's Table 6, in air and under water) written to COLMAP and mrcal is a
 //    dense refit whose RMS is reported and below 0.01 px;
 //  - the Python-literal reader accepts what mrcal writes and refuses anything that is not a literal;
+//  - Metashape's conventions on a hand-computed example (top-left pixel centre (0.5, 0.5), cx and
+//    cy from the image centre, P1/P2 swapped against OpenCV's, PhotoScan's fx/fy/skew form), its
+//    covariance carried to porthole's parameters by the hand-derived Jacobian, and a refit for
+//    the terms OpenCV lacks (b2, k4, p3, p4);
+//  - σ through a refit (Brown → OpenCV) agrees with a Monte Carlo of the refit;
 //  - malformed files give InvalidInput naming the file and the field.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <cmath>
+#include <random>
 #include <string>
 
 #include "porthole/core/error.h"
 #include "porthole/interop/interop.h"
+#include "porthole/interop/metashape.h"
 #include "porthole/interop/pyliteral.h"
 
 namespace porthole::interop {
@@ -82,6 +91,10 @@ std::vector<ExactCase> ExactCases() {
       {"opencv -> LENSMODEL_OPENCV4", cv4, Format::kMrcal, "LENSMODEL_OPENCV4"},
       {"opencv no distortion -> LENSMODEL_PINHOLE", pinhole, Format::kMrcal, "LENSMODEL_PINHOLE"},
       {"opencv rational -> OpenCV YAML", full, Format::kOpenCVYaml, "8 coefficients"},
+      {"opencv k3 -> Metashape frame", cv5, Format::kMetashape, "frame"},
+      {"opencv fx=fy -> Metashape frame", radial, Format::kMetashape, "frame"},
+      {"kannala-brandt -> Metashape fisheye", kb, Format::kMetashape, "fisheye"},
+      {"equidistant -> Metashape fisheye", equidistant, Format::kMetashape, "fisheye"},
   };
   // Every model of the list through porthole's own JSON.
   for (const Camera& c : {full, kb, equidistant, brown}) {
@@ -109,10 +122,10 @@ TEST(Interop, EveryExactPairRoundTripsTo1e9PxOverTheWholeImage) {
     if (c.format_model != nullptr) {
       EXPECT_EQ(w.format_model, c.format_model);
     }
-    const ReadResult r = ReadCamera(w.content, c.format, kD300.pixel_pitch_mm, "in");
-    EXPECT_EQ(r.camera.sensor.width_px, kD300.width_px);
-    EXPECT_EQ(r.camera.sensor.height_px, kD300.height_px);
-    const double px = MaxReprojectionPx(c.cam, r.camera);
+    const ReadResult r = ReadCalibration(w.content, c.format, kD300.pixel_pitch_mm, "in");
+    EXPECT_EQ(r.camera().sensor.width_px, kD300.width_px);
+    EXPECT_EQ(r.camera().sensor.height_px, kD300.height_px);
+    const double px = MaxReprojectionPx(c.cam, r.camera());
     EXPECT_LE(px, 1e-9);
     worst = std::max(worst, px);
   }
@@ -155,8 +168,8 @@ TEST(Interop, BrownToPixelFormatsIsARefitBelow1e2PxForThePapersTable6) {
       EXPECT_GT(w.fit.num_points, 100);
       EXPECT_LT(w.fit.rms_px, 0.01);
       // What is read back reprojects the Brown camera to within the refit's max.
-      const ReadResult r = ReadCamera(w.content, f, kD300.pixel_pitch_mm, "in");
-      EXPECT_LE(MaxReprojectionPx(brown, r.camera), w.fit.max_px * 1.01 + 1e-9);
+      const ReadResult r = ReadCalibration(w.content, f, kD300.pixel_pitch_mm, "in");
+      EXPECT_LE(MaxReprojectionPx(brown, r.camera()), w.fit.max_px * 1.01 + 1e-9);
       std::printf("Table 6 c=%.3f -> %s: refit RMS %.2e px, max %.2e px\n", p[0],
                   std::string(FormatName(f)).c_str(), w.fit.rms_px, w.fit.max_px);
     }
@@ -188,7 +201,7 @@ TEST(Interop, PythonLiteralReaderTakesWhatMrcalWritesAndNothingElse) {
 TEST(Interop, MalformedFilesNameTheFileAndTheField) {
   auto message = [](const std::string& content, Format f) {
     try {
-      ReadCamera(content, f, 1.0, "IN 'x'");
+      ReadCalibration(content, f, 1.0, "IN 'x'");
     } catch (const InvalidInput& e) {
       return std::string(e.what());
     }
@@ -222,6 +235,216 @@ TEST(Interop, MalformedFilesNameTheFileAndTheField) {
   EXPECT_THROW(WriteCamera(kb, Format::kOpenCVYaml, "OUT"), InvalidInput);
 }
 
+// Metashape Professional 1.5 manual, Appendix C (docs/interop.md): u = w/2 + cx + x'(f + B1) + y'B2,
+// v = h/2 + cy + y'f in coordinates whose top-left pixel centre is (0.5, 0.5), with
+// x' = x + P1(r² + 2x²) + 2P2xy. By hand, for f = 3000, cx = 10, cy = −20, P1 = 1e-3 and the point
+// (0.2, 0.1, 1): r² = 0.05, x' = 0.2 + 1e-3·0.13 = 0.20013, y' = 0.1 + 2e-3·0.02 = 0.10004, so
+// Metashape's pixel is (2000 + 10 + 600.39, 1500 − 20 + 300.12) = (2610.39, 1780.12) and porthole's
+// (0.5 less) (2609.89, 1779.62). OpenCV's term p2(r² + 2x²) is the same one: p2 = P1, p1 = P2 = 0.
+TEST(Metashape, HandCheckedHalfPixelAndP1P2Conventions) {
+  const std::string xml =
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<calibration>\n  <projection>frame</projection>\n"
+      "  <width>4000</width>\n  <height>3000</height>\n  <f>3000</f>\n  <cx>10</cx>\n  <cy>-20</cy>\n"
+      "  <k1>0</k1>\n  <k2>0</k2>\n  <p1>0.001</p1>\n  <p2>0</p2>\n  <date>2024-01-01T00:00:00Z</date>\n"
+      "</calibration>\n";
+  const ReadResult r = ReadCalibration(xml, Format::kMetashape, 0.004, "IN");
+  EXPECT_TRUE(r.exact);
+  EXPECT_EQ(r.format_model, "frame");
+  const Camera& c = r.camera();
+  ASSERT_EQ(c.model, CameraModelId::kOpenCV);
+  using M = camera::OpenCVModel;
+  EXPECT_EQ(c.params[M::kCx], 2009.5);
+  EXPECT_EQ(c.params[M::kCy], 1479.5);
+  EXPECT_EQ(c.params[M::kP1], 0);
+  EXPECT_EQ(c.params[M::kP2], 0.001);
+  const auto uv = c.Project({0.2, 0.1, 1});
+  ASSERT_TRUE(uv);
+  EXPECT_NEAR((*uv)(0), 2609.89, 1e-9);
+  EXPECT_NEAR((*uv)(1), 1779.62, 1e-9);
+  // Written back: the same numbers in Metashape's form.
+  const auto back = ParseMetashapeXml(WriteCamera(c, Format::kMetashape, "OUT").content, "back");
+  EXPECT_NEAR(back.params[kMsCx], 10, 1e-12);
+  EXPECT_NEAR(back.params[kMsCy], -20, 1e-12);
+  EXPECT_EQ(back.params[kMsP1], 0.001);
+  EXPECT_EQ(back.params[kMsP2], 0);
+  EXPECT_EQ(back.params[kMsB1], 0);
+
+  // Old PhotoScan form (fx, fy, principal point from the corner): u = cx + x'fx, v = cy + y'fy.
+  // fx = 3001, fy = 3000, cx = 2010, cy = 1480 → porthole fx = 3001, cx = 2009.5.
+  const ReadResult ps = ReadCalibration(
+      "<calibration><projection>frame</projection><width>4000</width><height>3000</height>"
+      "<fx>3001</fx><fy>3000</fy><cx>2010</cx><cy>1480</cy><skew>0</skew><k1>-0.1</k1>"
+      "<p1>0.001</p1></calibration>",
+      Format::kMetashape, 0.004, "IN");
+  EXPECT_TRUE(ps.exact);
+  EXPECT_EQ(ps.camera().params[M::kFx], 3001);
+  EXPECT_EQ(ps.camera().params[M::kFy], 3000);
+  EXPECT_EQ(ps.camera().params[M::kCx], 2009.5);
+  EXPECT_EQ(ps.camera().params[M::kCy], 1479.5);
+  EXPECT_EQ(ps.camera().params[M::kK1], -0.1);
+  EXPECT_EQ(ps.camera().params[M::kP2], 0.001);
+}
+
+// Metashape's fisheye: x = x0·atan(r0)/r0 is the equidistant angle, so k1–k4 on it are
+// Kannala–Brandt's: a point 30° off axis along +X lands at cx + f·θ(1 + k1θ²) by hand.
+TEST(Metashape, FisheyeIsKannalaBrandt) {
+  const ReadResult r = ReadCalibration(
+      "<calibration><projection>fisheye</projection><width>4000</width><height>3000</height>"
+      "<f>1500</f><cx>0</cx><cy>0</cy><k1>0.02</k1></calibration>",
+      Format::kMetashape, 0.004, "IN");
+  EXPECT_TRUE(r.exact);
+  ASSERT_EQ(r.camera().model, CameraModelId::kKannalaBrandt);
+  const double th = M_PI / 6;
+  const auto uv = r.camera().Project({std::sin(th), 0, std::cos(th)});
+  ASSERT_TRUE(uv);
+  EXPECT_NEAR((*uv)(0), 1999.5 + 1500 * th * (1 + 0.02 * th * th), 1e-9);
+  EXPECT_NEAR((*uv)(1), 1499.5, 1e-9);
+}
+
+// The covariance block: Metashape's <params>/<coeffs> in porthole's order, by the Jacobian of the
+// exact mapping (fx = f + b1: σ²fx = σ²f + σ²b1 + 2cov; cx, k1 unchanged; OpenCV p1 = P2, p2 = P1),
+// and back to Metashape unchanged.
+TEST(Metashape, CovarianceIsCarriedByTheMappingsJacobian) {
+  // params f cx cy b1 k1 k2 k3 p1 p2; a symmetric positive matrix with correlations.
+  const std::vector<std::string> names = {"f", "cx", "cy", "b1", "k1", "k2", "k3", "p1", "p2"};
+  const std::vector<double> sd = {1.5, 0.8, 0.9, 0.05, 1e-4, 4e-4, 9e-4, 2e-6, 3e-6};
+  const int n = static_cast<int>(names.size());
+  Eigen::MatrixXd cov(n, n);
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) cov(a, b) = sd[a] * sd[b] * (a == b ? 1.0 : 0.3 * std::cos(a + 2.0 * b) * std::cos(b + 2.0 * a));
+  }
+  cov = 0.5 * (cov + cov.transpose()).eval();
+  cov.diagonal() = Eigen::Map<const Eigen::VectorXd>(sd.data(), n).array().square();
+  std::string params, coeffs;
+  for (int a = 0; a < n; ++a) {
+    params += (a ? " " : "") + names[a];
+    for (int b = 0; b < n; ++b) coeffs += fmt::format(" {:.17g}", cov(a, b));
+  }
+  const std::string xml =
+      "<calibration><projection>frame</projection><width>6000</width><height>4000</height>"
+      "<f>4500</f><cx>12</cx><cy>-8</cy><b1>0.7</b1><k1>-0.08</k1><k2>0.1</k2><k3>-0.02</k3>"
+      "<p1>1e-4</p1><p2>-2e-4</p2><covariance><params>" + params + "</params><coeffs>" + coeffs +
+      "</coeffs></covariance></calibration>";
+  const ReadResult r = ReadCalibration(xml, Format::kMetashape, 0.004, "IN");
+  ASSERT_TRUE(r.calibration.has_covariance);
+  using M = camera::OpenCVModel;
+  const Eigen::MatrixXd& s = r.calibration.covariance;
+  const auto rel = [](double a, double b) { return std::abs(a - b) / std::abs(b); };
+  EXPECT_LT(rel(s(M::kFx, M::kFx), cov(0, 0) + cov(3, 3) + 2 * cov(0, 3)), 1e-6);
+  EXPECT_LT(rel(s(M::kFy, M::kFy), cov(0, 0)), 1e-6);
+  EXPECT_LT(rel(s(M::kFx, M::kFy), cov(0, 0) + cov(0, 3)), 1e-6);
+  EXPECT_LT(rel(s(M::kCx, M::kCx), cov(1, 1)), 1e-6);
+  EXPECT_LT(rel(s(M::kK3, M::kK3), cov(6, 6)), 1e-6);
+  EXPECT_LT(rel(s(M::kP1, M::kP1), cov(8, 8)), 1e-6);  // OpenCV p1 = Metashape P2
+  EXPECT_LT(rel(s(M::kP2, M::kP2), cov(7, 7)), 1e-6);
+  EXPECT_LT(rel(s(M::kP1, M::kK1), cov(8, 4)), 1e-6);
+  for (int i : {M::kK4, M::kK5, M::kK6}) EXPECT_FALSE(r.calibration.free[i]);
+  // Back to Metashape: the same covariance.
+  const WriteResult w = WriteCalibration(r.calibration, Format::kMetashape, "OUT");
+  EXPECT_TRUE(w.exact);
+  EXPECT_TRUE(w.sigma_written);
+  const MetashapeCalibration back = ParseMetashapeXml(w.content, "back");
+  const int idx[] = {kMsF, kMsCx, kMsCy, kMsB1, kMsK1, kMsK2, kMsK3, kMsP1, kMsP2};
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) {
+      EXPECT_NEAR(back.covariance(idx[a], idx[b]), cov(a, b), 1e-6 * sd[a] * sd[b]) << names[a] << " " << names[b];
+    }
+  }
+  // Without <covariance>, σ is unknown (NaN), not 0.
+  const ReadResult none = ReadCalibration(
+      "<calibration><width>6000</width><height>4000</height><f>4500</f><cx>0</cx><cy>0</cy>"
+      "<k1>-0.08</k1></calibration>", Format::kMetashape, 0.004, "IN");
+  EXPECT_FALSE(none.calibration.has_covariance);
+  EXPECT_TRUE(none.calibration.free[M::kK1]);
+  EXPECT_TRUE(std::isnan(none.calibration.covariance(M::kK1, M::kK1)));
+}
+
+// Terms OpenCV has not (b2 skew, k4, p3, p4): a refit over the image, reported; what is read
+// reprojects Metashape's own equations (written out in MetashapeProjector) to the refit's max.
+TEST(Metashape, TermsOpenCVLacksAreRefitWithTheirRms) {
+  MetashapeCalibration m;
+  m.width_px = 6000;
+  m.height_px = 4000;
+  m.params = {4500, 12, -8, 0.7, 0, -0.08, 0.1, -0.02, 0.004, 1e-4, -2e-4, 0, 0};
+  m.present.fill(true);
+  const ReadResult r = ReadCalibration(MetashapeXml(m), Format::kMetashape, 0.004, "IN");
+  EXPECT_FALSE(r.exact);
+  EXPECT_GT(r.fit.num_points, 1000);
+  EXPECT_LT(r.fit.rms_px, 0.05);
+  const MetashapeProjector proj{false, 6000, 4000};
+  double worst = 0;
+  for (const Eigen::Vector2d& uv : camera::FramePixels(r.camera().sensor, 21, 15)) {
+    const auto ray = r.camera().Unproject(uv);
+    ASSERT_TRUE(ray);
+    worst = std::max(worst, ((*proj(m.params.data(), camera::Vec3<double>(*ray))) - uv).norm());
+  }
+  EXPECT_LE(worst, r.fit.max_px * 1.05 + 1e-6);
+  std::printf("Metashape k4 = 0.004 read as opencv: refit RMS %.2e px, max %.2e px\n", r.fit.rms_px, r.fit.max_px);
+}
+
+// σ through a refit: the paper's in-air Table 6 calibration with its σ (Brown) written as OpenCV;
+// the propagated σ of each OpenCV parameter against the spread of 60 refits of Brown cameras drawn
+// from N(p, Σ) (Monte Carlo, independent of the Jacobian). Agreement within 30% (the sampling
+// error of a σ from 60 draws is ~9%).
+TEST(Interop, SigmaThroughARefitMatchesMonteCarlo) {
+  const std::vector<double> p = {25.801, -0.026, -0.144, 1.842e-4, -3.030e-7, 0, 0, 0, 0, 0};
+  const std::vector<double> sd = {0.004, 0.003, 0.003, 1.5e-6, 8e-9, 0, 0, 0, 0, 0};
+  calib::CalibrationRecord rec;
+  rec.camera = {CameraModelId::kBrown, kD300, p};
+  rec.free = {true, true, true, true, true, false, false, false, false, false};
+  rec.covariance = Eigen::MatrixXd::Zero(10, 10);
+  for (int i = 0; i < 5; ++i) rec.covariance(i, i) = sd[i] * sd[i];
+  rec.has_covariance = true;
+  const auto conv = ConvertCalibration(rec, CameraModelId::kOpenCV, "A");
+  ASSERT_TRUE(conv.has_covariance);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g;
+  const int n = 60;
+  Eigen::MatrixXd samples(n, 9);
+  for (int k = 0; k < n; ++k) {
+    calib::CalibrationRecord s = rec;
+    for (int i = 0; i < 5; ++i) s.camera.params[i] += sd[i] * g(rng);
+    const auto c = ConvertCalibration(s, CameraModelId::kOpenCV, "A");
+    for (int i = 0; i < 9; ++i) samples(k, i) = c.camera.params[i];
+  }
+  const Eigen::RowVectorXd mean = samples.colwise().mean();
+  for (int i : {0, 1, 2, 3, 4, 5}) {  // fx fy cx cy k1 k2
+    const double mc = std::sqrt((samples.col(i).array() - mean(i)).square().sum() / (n - 1));
+    const double prop = std::sqrt(conv.covariance(i, i));
+    EXPECT_NEAR(prop / mc, 1.0, 0.3) << camera::OpenCVModel::kParams[i].name;
+    std::printf("%s: propagated σ %.3g, Monte Carlo %.3g\n", std::string(camera::OpenCVModel::kParams[i].name).c_str(), prop, mc);
+  }
+}
+
+TEST(Metashape, MalformedFilesNameTheElement) {
+  auto message = [](const std::string& content) {
+    try {
+      ReadCalibration(content, Format::kMetashape, 1.0, "IN 'x'");
+    } catch (const InvalidInput& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string head = "<calibration><width>100</width><height>80</height>";
+  auto has = [&](const std::string& content, const std::string& part) {
+    const std::string m = message(content);
+    EXPECT_NE(m.find("IN 'x'"), std::string::npos) << m;
+    EXPECT_NE(m.find(part), std::string::npos) << m;
+  };
+  has(head + "<cx>0</cx></calibration>", "<f>");
+  has(head + "<f>abc</f></calibration>", "<f>");
+  has(head + "<f>100</f><k1>1</k1><k1>2</k1></calibration>", "given twice");
+  has("<calibration><f>100</f></calibration>", "<width>");
+  has(head + "<f>100</f><projection>spherical</projection></calibration>", "projection");
+  has(head + "<f>100</f><fx>100</fx><fy>100</fy></calibration>", "either f");
+  has(head + "<f>100</f><covariance><params>f q</params><coeffs>1 0 0 1</coeffs></covariance></calibration>", "'q'");
+  has(head + "<f>100</f><covariance><params>f cx</params><coeffs>1 0 0</coeffs></covariance></calibration>", "<coeffs>");
+  has(head + "<f>100</f>", "not XML");
+  has("<!DOCTYPE x [<!ENTITY a \"aaaa\">]><calibration/>", "DOCTYPE");
+  has(std::string(40, '<').replace(0, 40, [] { std::string d; for (int i = 0; i < 40; ++i) d += "<a>"; return d; }()), "deeper");
+  has("<other/>", "<calibration>");
+}
+
 TEST(Interop, FormatDetection) {
   EXPECT_EQ(DetectInputFormat("a/cameras.txt", "", "f"), Format::kColmapText);
   EXPECT_EQ(DetectInputFormat("a/cameras.bin", "", "f"), Format::kColmapBinary);
@@ -232,6 +455,9 @@ TEST(Interop, FormatDetection) {
   EXPECT_EQ(DetectInputFormat("c", "{\"camera\": {}}", "f"), Format::kJson);
   EXPECT_EQ(DetectInputFormat("c", "# cams\n1 PINHOLE 640 480 1 1 1 1\n", "f"), Format::kColmapText);
   EXPECT_THROW(DetectInputFormat("c", "hello", "f"), InvalidInput);
+  EXPECT_EQ(DetectInputFormat("cal.xml", "", "f"), Format::kMetashape);
+  EXPECT_EQ(DetectInputFormat("c", "<?xml version=\"1.0\"?>\n<calibration>", "f"), Format::kMetashape);
+  EXPECT_THROW(DetectInputFormat("c.xml", "<opencv_storage>", "f"), InvalidInput);
   EXPECT_EQ(OutputFormat("x.anything", std::string("mrcal"), "f"), Format::kMrcal);
   EXPECT_THROW(OutputFormat("x.anything", std::nullopt, "f"), InvalidInput);
 }

@@ -1,0 +1,196 @@
+#include "porthole/interop/metashape.h"
+
+#include <fmt/format.h>
+
+#include <sstream>
+
+#include "porthole/core/error.h"
+#include "porthole/interop/xml.h"
+
+namespace porthole::interop {
+namespace {
+
+std::string Trim(const std::string& s) {
+  const auto a = s.find_first_not_of(" \t\r\n");
+  if (a == std::string::npos) return "";
+  return s.substr(a, s.find_last_not_of(" \t\r\n") - a + 1);
+}
+
+double Number(const std::string& text, const std::string& field) {
+  const std::string s = Trim(text);
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) {
+    throw InvalidInput(field, "'" + s.substr(0, 40) + "' is not a finite number");
+  }
+  return v;
+}
+
+int PixelCount(const std::string& text, const std::string& field) {
+  const double v = Number(text, field);
+  if (!(v >= 1 && v <= 1e6 && v == std::floor(v))) {
+    throw InvalidInput(field, "must be a whole number of pixels from 1 to 1000000");
+  }
+  return static_cast<int>(v);
+}
+
+int IndexOf(std::string_view name) {
+  for (int i = 0; i < kMetashapeNumParams; ++i) {
+    if (kMetashapeNames[i] == name) return i;
+  }
+  return -1;
+}
+
+std::string Num(double v) { return fmt::format("{:.17g}", v); }
+
+}  // namespace
+
+MetashapeCalibration ParseMetashapeXml(std::string_view text, const std::string& field) {
+  const XmlDocument doc = ParseXml(text, field);
+  const XmlElement* cal = doc.root().name == "calibration" ? &doc.root() : doc.Find("calibration");
+  if (cal == nullptr) {
+    throw InvalidInput(field, "not a Metashape calibration: no <calibration> element");
+  }
+  const auto where = [&](std::string_view element) { return field + ": <" + std::string(element) + ">"; };
+  MetashapeCalibration m;
+  // Projection: <projection>frame</projection> (calibration export) or type="frame" (doc.xml).
+  std::string projection = "frame";
+  if (const XmlElement* e = doc.Child(*cal, "projection")) {
+    projection = Trim(e->text);
+  } else if (const auto t = XmlDocument::Attribute(*cal, "type")) {
+    projection = *t;
+  }
+  if (projection != "frame" && projection != "fisheye") {
+    throw InvalidInput(where("projection"), "'" + projection.substr(0, 40) +
+                                                "' is not supported (porthole reads frame and fisheye)");
+  }
+  m.fisheye = projection == "fisheye";
+  // Image size: <width>, <height>, or <resolution width=… height=…/>.
+  const XmlElement* w = doc.Child(*cal, "width");
+  const XmlElement* h = doc.Child(*cal, "height");
+  if (w != nullptr && h != nullptr) {
+    m.width_px = PixelCount(w->text, where("width"));
+    m.height_px = PixelCount(h->text, where("height"));
+  } else if (const XmlElement* r = doc.Child(*cal, "resolution")) {
+    const auto rw = XmlDocument::Attribute(*r, "width"), rh = XmlDocument::Attribute(*r, "height");
+    if (!rw || !rh) throw InvalidInput(where("resolution"), "needs width and height attributes");
+    m.width_px = PixelCount(*rw, where("resolution") + " width");
+    m.height_px = PixelCount(*rh, where("resolution") + " height");
+  } else {
+    throw InvalidInput(where("width"), "missing (the image size: <width>, <height>)");
+  }
+  // Parameters: each element at most once.
+  std::array<std::optional<double>, kMetashapeNumParams> value;
+  std::optional<double> fx, fy, skew;
+  for (int c : cal->children) {
+    const XmlElement& e = doc.elements[c];
+    std::optional<double>* slot = nullptr;
+    const int i = IndexOf(e.name);
+    if (i >= 0) {
+      slot = &value[i];
+    } else if (e.name == "fx") {
+      slot = &fx;
+    } else if (e.name == "fy") {
+      slot = &fy;
+    } else if (e.name == "skew") {
+      slot = &skew;
+    }
+    if (slot == nullptr) continue;  // date, projection, width, height, covariance, …
+    if (slot->has_value()) throw InvalidInput(where(e.name), "given twice");
+    *slot = Number(e.text, where(e.name));
+  }
+  if (fx || fy) {
+    // Old PhotoScan: fx, fy, principal point from the image corner, skew.
+    if (value[kMsF] || value[kMsB1] || value[kMsB2]) {
+      throw InvalidInput(where("fx"), "a file gives either f (with b1, b2) or fx, fy (with skew), not both");
+    }
+    if (!fx || !fy) throw InvalidInput(where(fx ? "fy" : "fx"), "missing (fx and fy come together)");
+    if (!value[kMsCx] || !value[kMsCy]) throw InvalidInput(where("cx"), "missing (PhotoScan's principal point)");
+    m.photoscan_form = true;
+    value[kMsF] = *fy;
+    value[kMsB1] = *fx - *fy;
+    if (skew) value[kMsB2] = *skew;
+    *value[kMsCx] -= 0.5 * m.width_px;
+    *value[kMsCy] -= 0.5 * m.height_px;
+  } else if (skew) {
+    throw InvalidInput(where("skew"), "belongs to PhotoScan's fx, fy form (Metashape writes b2)");
+  }
+  if (!value[kMsF]) throw InvalidInput(where("f"), "missing (the focal length in pixels)");
+  for (int i = 0; i < kMetashapeNumParams; ++i) {
+    m.present[i] = value[i].has_value();
+    m.params[i] = value[i].value_or(0.0);
+  }
+  if (!(m.params[kMsF] > 0) || !(m.params[kMsF] + m.params[kMsB1] > 0)) {
+    throw InvalidInput(where("f"), "the focal lengths f and f + b1 must be positive");
+  }
+  // Covariance: inside <calibration> (calibration export) or beside it (doc.xml's <sensor>).
+  const XmlElement* cov = doc.Child(*cal, "covariance");
+  if (cov == nullptr) cov = doc.Find("covariance");
+  if (cov != nullptr) {
+    if (m.photoscan_form) {
+      throw InvalidInput(where("covariance"), "a covariance with PhotoScan's fx, fy form is not supported");
+    }
+    const XmlElement* names = doc.Child(*cov, "params");
+    const XmlElement* coeffs = doc.Child(*cov, "coeffs");
+    if (names == nullptr || coeffs == nullptr) {
+      throw InvalidInput(where("covariance"), "needs <params> and <coeffs>");
+    }
+    std::vector<int> idx;
+    std::istringstream ns(names->text);
+    for (std::string n; ns >> n;) {
+      const int i = IndexOf(n);
+      if (i < 0) throw InvalidInput(where("covariance") + " <params>", "unknown parameter '" + n.substr(0, 40) + "'");
+      for (int j : idx) {
+        if (j == i) throw InvalidInput(where("covariance") + " <params>", "'" + n + "' named twice");
+      }
+      idx.push_back(i);
+    }
+    std::vector<double> c;
+    std::istringstream cs(coeffs->text);
+    for (std::string n; cs >> n;) {
+      if (c.size() > idx.size() * idx.size()) break;
+      c.push_back(Number(n, where("covariance") + " <coeffs>"));
+    }
+    if (idx.empty() || c.size() != idx.size() * idx.size()) {
+      throw InvalidInput(where("covariance") + " <coeffs>",
+                         fmt::format("needs {} numbers ({} parameters squared)", idx.size() * idx.size(), idx.size()));
+    }
+    m.covariance = Eigen::MatrixXd::Zero(kMetashapeNumParams, kMetashapeNumParams);
+    for (std::size_t a = 0; a < idx.size(); ++a) {
+      for (std::size_t b = 0; b < idx.size(); ++b) m.covariance(idx[a], idx[b]) = c[a * idx.size() + b];
+      if (!(m.covariance(idx[a], idx[a]) > 0)) {
+        throw InvalidInput(where("covariance"), "the variance of " + std::string(kMetashapeNames[idx[a]]) + " must be positive");
+      }
+    }
+  }
+  return m;
+}
+
+std::string MetashapeXml(const MetashapeCalibration& m) {
+  std::string out = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<calibration>\n";
+  out += fmt::format("  <projection>{}</projection>\n  <width>{}</width>\n  <height>{}</height>\n",
+                     m.fisheye ? "fisheye" : "frame", m.width_px, m.height_px);
+  std::vector<int> listed;
+  for (int i = 0; i < kMetashapeNumParams; ++i) {
+    const bool always = i == kMsF || i == kMsCx || i == kMsCy || i == kMsK1 || i == kMsK2 ||
+                        i == kMsK3 || i == kMsP1 || i == kMsP2;
+    const bool has_variance = m.covariance.size() > 0 && m.covariance(i, i) > 0;
+    if (always || m.params[i] != 0 || m.present[i] || has_variance) {
+      out += fmt::format("  <{0}>{1}</{0}>\n", kMetashapeNames[i], Num(m.params[i]));
+    }
+    if (has_variance) listed.push_back(i);
+  }
+  if (!listed.empty()) {
+    std::string names, coeffs;
+    for (int a : listed) {
+      names += (names.empty() ? "" : " ") + std::string(kMetashapeNames[a]);
+      for (int b : listed) coeffs += (coeffs.empty() ? "" : " ") + Num(m.covariance(a, b));
+    }
+    out += fmt::format("  <covariance>\n    <params>{}</params>\n    <coeffs>{}</coeffs>\n  </covariance>\n",
+                       names, coeffs);
+  }
+  out += "</calibration>\n";
+  return out;
+}
+
+}  // namespace porthole::interop
