@@ -1,6 +1,7 @@
 // `porthole compare A B`: two calibrations of one camera (e.g. in air and under water) side by
 // side with σ, the paper's Fig. 14 curves and Fig. 15 maps, and a χ² test of the difference.
-// A and B are calibration JSON files (porthole calibrate --out) or OpenCV YAML (refit to Brown).
+// A and B are calibrations in any format interop reads (porthole JSON, OpenCV YAML, COLMAP, mrcal,
+// Metashape), detected from the file; of two models, the one not Brown is refit to Brown.
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include "porthole/camera/json.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
+#include "porthole/interop/interop.h"
 
 namespace porthole::cli {
 namespace {
@@ -29,10 +31,12 @@ void RegisterCompare(CLI::App& app) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "compare", "Compare two calibrations: parameters with std, distortion curves and maps, chi2");
-  cmd->add_option("A", o->a, "Calibration JSON (porthole calibrate --out) or OpenCV YAML")
+  cmd->add_option("A", o->a,
+                  "Calibration: porthole JSON, OpenCV YAML, COLMAP cameras.txt/.bin, mrcal .cameramodel or "
+                  "Metashape XML (detected from the file)")
       ->required();
-  cmd->add_option("B", o->b, "The second calibration")->required();
-  cmd->add_option("--pixel-pitch-mm", o->pitch_mm, "Pixel pitch for OpenCV YAML inputs, mm")
+  cmd->add_option("B", o->b, "The second calibration (any of those formats)")->required();
+  cmd->add_option("--pixel-pitch-mm", o->pitch_mm, "Pixel pitch for inputs without one (all but porthole JSON), mm")
       ->capture_default_str();
   cmd->add_option("--alpha", o->compare.alpha, "Significance level of the chi2 test")
       ->capture_default_str();
@@ -45,9 +49,19 @@ void RegisterCompare(CLI::App& app) {
     if (!(o->compare.alpha > 0 && o->compare.alpha < 1)) throw InvalidInput("--alpha", "in (0, 1)");
     if (!o->csv_dir.empty()) EnsureOutputDirectory(o->csv_dir, "--csv-dir");
     if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
-    camera::ConversionFit fit_a, fit_b;
-    const auto a = calib::LoadCalibration(o->a, o->pitch_mm, "A", &fit_a);
-    const auto b = calib::LoadCalibration(o->b, o->pitch_mm, "B", &fit_b);
+    auto ra = interop::ReadCalibrationFile(o->a, o->pitch_mm, "A");
+    auto rb = interop::ReadCalibrationFile(o->b, o->pitch_mm, "B");
+    // One model for both: Brown (the paper's) when either is Brown, else A's; the other is refit.
+    const auto model = ra.camera().model == camera::CameraModelId::kBrown ||
+                               rb.camera().model == camera::CameraModelId::kBrown
+                           ? camera::CameraModelId::kBrown
+                           : ra.camera().model;
+    ra = interop::ConvertRead(std::move(ra), model, "A");
+    rb = interop::ConvertRead(std::move(rb), model, "B");
+    const auto& a = ra.calibration;
+    const auto& b = rb.calibration;
+    const camera::ConversionFit fit_a = ra.exact ? camera::ConversionFit{} : ra.fit;
+    const camera::ConversionFit fit_b = rb.exact ? camera::ConversionFit{} : rb.fit;
     const auto r = calib::Compare(a, b, o->compare);
 
     std::string curves_csv = "r_mm,radial_a_um,radial_b_um,decentring_a_um,decentring_b_um\n";
@@ -88,8 +102,8 @@ void RegisterCompare(CLI::App& app) {
       }
       return fmt::print("{}\n", j.dump(2));
     }
-    auto cell = [](bool adj, double v, double s) {
-      return adj ? fmt::format("{:>12.5g} {:>9.2g}", v, s)
+    auto cell = [](bool adj, double v, double s) {  // σ "?": unknown (the format holds none)
+      return adj ? fmt::format("{:>12.5g} {:>9}", v, std::isfinite(s) ? fmt::format("{:.2g}", s) : "?")
                  : fmt::format("{:>12} {:>9}", v != 0 ? fmt::format("{:.5g}", v) : "-", "-");
     };
     std::string t = fmt::format("A = {}   B = {}\n{:<8} {:>22} {:>22} {:>12} {:>7}\n", o->a, o->b,
@@ -111,8 +125,8 @@ void RegisterCompare(CLI::App& app) {
     t += fmt::format("distortion maps (Fig. 15): max |D| A {:.1f} um, B {:.1f} um, A-B {:.1f} um\n",
                      r.max_a_um, r.max_b_um, r.max_diff_um);
     if (a.camera.sensor.pixel_pitch_mm == 1.0) t += "pitch 1: millimetres are pixels, um are 1e-3 px\n";
-    if (fit_a.num_points > 0) t += fmt::format("A refit from OpenCV: RMS {:.4f} px\n", fit_a.rms_px);
-    if (fit_b.num_points > 0) t += fmt::format("B refit from OpenCV: RMS {:.4f} px\n", fit_b.rms_px);
+    if (fit_a.num_points > 0) t += "A " + interop::DescribeRead(ra, o->a) + "\n";
+    if (fit_b.num_points > 0) t += "B " + interop::DescribeRead(rb, o->b) + "\n";
     fmt::print("{}{}\n", t, verdict);
   });
 }

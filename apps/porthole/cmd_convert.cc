@@ -1,5 +1,6 @@
 // `porthole convert IN OUT [--to FORMAT]`: a calibration from one tool's file format to another's
-// (porthole JSON, OpenCV YAML, COLMAP cameras.txt/.bin, mrcal .cameramodel; docs/interop.md).
+// (porthole JSON, OpenCV YAML, COLMAP cameras.txt/.bin, mrcal .cameramodel, Metashape XML;
+// docs/interop.md).
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -22,7 +23,7 @@ void RegisterConvert(CLI::App& app) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "convert",
-      "Convert a calibration between porthole JSON, OpenCV YAML, COLMAP and mrcal files");
+      "Convert a calibration between porthole JSON, OpenCV YAML, COLMAP, mrcal and Metashape files");
   cmd->footer(
       "Formats (read: detected from the extension, else the content; write: from OUT's extension or "
       "--to):\n"
@@ -32,9 +33,13 @@ void RegisterConvert(CLI::App& app) {
       "               PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE\n"
       "  colmap-bin   COLMAP cameras.bin, the same models\n"
       "  mrcal        mrcal .cameramodel: LENSMODEL_PINHOLE, OPENCV4, OPENCV5, OPENCV8\n"
+      "  metashape    Agisoft Metashape / PhotoScan calibration XML (.xml): frame, fisheye;\n"
+      "               its <covariance> is read and written\n"
       "Same-family conversions are exact (COLMAP's principal point is shifted by 0.5 px: its\n"
       "top-left pixel centre is (0.5, 0.5)). A Brown calibration written to a pixel format is refit\n"
-      "to OpenCV's model over the image and the refit's RMS is printed. See docs/interop.md.\n"
+      "to OpenCV's model over the image and the refit's RMS is printed; so is a Metashape camera\n"
+      "with terms OpenCV lacks (b2, k4, p3, p4). sigma is carried where both formats hold it\n"
+      "(porthole JSON, Metashape) and unknown where the input has none. See docs/interop.md.\n"
       "Example: porthole convert calib.json sparse/0/cameras.txt");
   cmd->add_option("IN", o->in, "Calibration to read (file, or a COLMAP sparse-model directory)")
       ->required();
@@ -66,10 +71,14 @@ void RegisterConvert(CLI::App& app) {
     const auto w = interop::WriteCalibration(in.calibration, format, "OUT '" + out.string() + "'");
     WriteFileAtomically(out, w.content, "OUT");
 
-    const std::string how = w.exact ? "exact"
-                                    : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px "
-                                                  "({} points)", w.fit.rms_px, w.fit.max_px,
-                                                  w.fit.num_points);
+    // Reading (a Metashape model with terms porthole's lacks) or writing (Brown to a pixel format)
+    // may be a refit: report the one that is, the larger if both are.
+    const bool exact = in.exact && w.exact;
+    const camera::ConversionFit fit =
+        w.exact ? in.fit : (in.exact || w.fit.rms_px >= in.fit.rms_px ? w.fit : in.fit);
+    const std::string how = exact ? "exact"
+                                  : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px "
+                                                "({} points)", fit.rms_px, fit.max_px, fit.num_points);
     if (o->json) {
       Json j = {{"in", o->in},
                 {"in_format", std::string(interop::FormatName(in.format))},
@@ -78,9 +87,11 @@ void RegisterConvert(CLI::App& app) {
                 {"out", out.string()},
                 {"out_format", std::string(interop::FormatName(format))},
                 {"out_model", w.format_model},
-                {"exact", w.exact},
-                {"refit_rms_px", w.exact ? Json(0.0) : Json(w.fit.rms_px)},
-                {"refit_max_px", w.exact ? Json(0.0) : Json(w.fit.max_px)},
+                {"exact", exact},
+                {"refit_rms_px", exact ? Json(0.0) : Json(fit.rms_px)},
+                {"refit_max_px", exact ? Json(0.0) : Json(fit.max_px)},
+                {"sigma", w.sigma_written ? "written" : in.calibration.has_covariance ? "dropped: the format holds none"
+                                                                                       : "unknown"},
                 {"width_px", in.camera().sensor.width_px},
                 {"height_px", in.camera().sensor.height_px}};
       return fmt::print("{}\n", j.dump(2));

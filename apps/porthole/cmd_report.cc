@@ -7,6 +7,7 @@
 #include "commands.h"
 #include "common.h"
 #include "porthole/calib/result_json.h"
+#include "porthole/interop/interop.h"
 #include "porthole/io/presets.h"
 #include "porthole/report/report.h"
 
@@ -42,7 +43,8 @@ void RegisterReport(CLI::App& app) {
   cmd->add_option("--aperture", o->aperture, "f-number N")->capture_default_str();
   cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
   cmd->add_option("--air-calibration", o->air_calibration,
-                  "In-air calibration of the camera in its housing (porthole calibrate JSON or OpenCV YAML)")
+                  "In-air calibration of the camera in its housing: porthole JSON, OpenCV YAML, COLMAP, mrcal or "
+                  "Metashape XML (a pixel model is refit to Brown)")
       ->group("Calibrations");
   cmd->add_option("--water-calibration", o->water_calibration,
                   "Underwater calibration (needs --air-calibration): adds the comparison, Figs. 14 and 15")
@@ -60,10 +62,14 @@ void RegisterReport(CLI::App& app) {
     in.coc_mm = o->coc_mm;
     const double pitch = in.setup.camera.sensor.pixel_pitch_mm;
     if (!o->air_calibration.empty()) {
-      in.air_calibration = calib::LoadCalibration(o->air_calibration, pitch, "--air-calibration", nullptr);
+      in.air_calibration =
+          interop::ReadCalibrationFileAs(o->air_calibration, pitch, camera::CameraModelId::kBrown, "--air-calibration")
+              .calibration;
     }
     if (!o->water_calibration.empty()) {
-      in.water_calibration = calib::LoadCalibration(o->water_calibration, pitch, "--water-calibration", nullptr);
+      in.water_calibration = interop::ReadCalibrationFileAs(o->water_calibration, pitch, camera::CameraModelId::kBrown,
+                                                            "--water-calibration")
+                                 .calibration;
     }
     for (const CLI::Option* opt : cmd->get_options()) {
       if (opt->count() == 0 || opt->get_name() == "--help" || opt->get_name() == "--out" || opt->get_name() == "--force" ||

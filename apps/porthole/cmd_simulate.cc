@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "commands.h"
 #include "common.h"
@@ -13,6 +14,8 @@
 #include "porthole/camera/projection.h"
 #include "porthole/camera/profile.h"
 #include "porthole/core/atomic_file.h"
+#include "porthole/core/input.h"
+#include "porthole/interop/interop.h"
 #include "porthole/io/presets.h"
 #include "porthole/simulate/report.h"
 
@@ -129,8 +132,9 @@ void RegisterSimulate(CLI::App& app) {
       ->delimiter(',')->expected(3);
   cmd->add_option("--c", o->c_mm, "Principal distance, mm (default: thin lens focused on the virtual image)");
   cmd->add_option("--air-calibration", o->air_calibration,
-                  "In-air calibration in the housing: JSON file or text {c_mm, x0_mm, y0_mm, K1, K2, P1, P2}; "
-                  "prints the underwater calibration to expect");
+                  "In-air calibration in the housing: a file (porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape "
+                  "XML; a pixel model is refit to Brown) or text {c_mm, x0_mm, y0_mm, K1, K2, P1, P2}; prints "
+                  "the underwater calibration to expect");
   cmd->add_option("--grid-cols", o->grid_cols, "Image points across")->capture_default_str();
   cmd->add_option("--grid-rows", o->grid_rows, "Image points down")->capture_default_str();
   cmd->add_option("--distances", o->distances,
@@ -170,8 +174,22 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
       if (!spec.ep_offset_mm.allFinite()) throw InvalidInput("--ep-offset", "must be three finite numbers");
     }
     if (o->c_mm) spec.c_mm = RequirePositive("--c", *o->c_mm);
+    // --air-calibration: Brown parameters as inline JSON text, or a file of any format interop
+    // reads (a pixel model refit to Brown over the image; the refit is reported).
+    std::optional<interop::ReadResult> air_read;
     if (!o->air_calibration.empty()) {
-      spec.air_calibration = camera::LoadBrownJson(o->air_calibration, "--air-calibration").value;
+      const auto first = o->air_calibration.find_first_not_of(" \t\r\n");
+      const bool flat_brown_file =  // {c_mm, x0_mm, …} in a file, without a calibration's "camera"
+          std::filesystem::path(o->air_calibration).extension() == ".json" &&
+          ReadInputFile(o->air_calibration, "--air-calibration", kMaxJsonFileBytes).find("\"camera\"") ==
+              std::string::npos;
+      if ((first != std::string::npos && o->air_calibration[first] == '{') || flat_brown_file) {
+        spec.air_calibration = camera::LoadBrownJson(o->air_calibration, "--air-calibration").value;
+      } else {
+        air_read = interop::ReadCalibrationFileAs(o->air_calibration, spec.camera.sensor.pixel_pitch_mm,
+                                                  camera::CameraModelId::kBrown, "--air-calibration");
+        spec.air_calibration = camera::ToBrown(air_read->camera(), "--air-calibration");
+      }
     }
     simulate::FitOptions fo;
     fo.grid_cols = o->grid_cols;
@@ -233,10 +251,15 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
       for (const auto& [k, v] : prediction.items()) out[k] = v;
       if (!fisheye) out["distance_errors"] = simulate::DistanceErrorsJson(errors);
       if (axis >= 0) out["sweep"] = simulate::SweepJson(sweep, axis, radii);
+      if (air_read) {
+        out["air_calibration_read"] = interop::DescribeRead(*air_read, o->air_calibration);
+        out["air_calibration_refit_rms_px"] = air_read->exact ? 0.0 : air_read->fit.rms_px;
+      }
       fmt::print("{}\n", out.dump(2));
       return;
     }
     std::string t = fisheye ? FisheyeText(spec, p) : BrownText(spec, p, errors, radii);
+    if (air_read) t += "in-air calibration read from " + interop::DescribeRead(*air_read, o->air_calibration) + "\n";
     if (axis >= 0) {
       t += fmt::format("\npupil offset along {} (mm) vs water - air change ({}):\n{:>9} {:>10} {:>10} {:>12} {:>9}\n",
                        o->sweep, p.water_view().model_name(), "offset", "dc mm", "c ratio", "dr@10mm um", "rms um");

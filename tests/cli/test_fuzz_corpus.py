@@ -23,7 +23,7 @@ def command(kind, path, out):
         return ["plan", "--lens", path]
     if kind in ("ply", "stl", "obj", "xyz"):
         return ["fit", "sphere", path, "--residuals", os.path.join(out, "residuals.ply")]
-    if kind in ("calib_json", "yaml"):
+    if kind in ("calib_json", "yaml", "metashape"):
         return ["compare", path, VALID_CAL, "--pixel-pitch-mm", "0.0055", "--csv-dir", out]
     if kind == "detections":
         return ["calibrate", "--detections", path, "--pixel-pitch-mm", "0.0055", "--quiet",
@@ -36,15 +36,16 @@ def command(kind, path, out):
     raise AssertionError(kind)
 
 
-KINDS = ("port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "detections", "images")
+KINDS = ("port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "metashape", "detections",
+         "images")
 CASES = sorted((kind, name) for kind in KINDS
                for name in os.listdir(os.path.join(FUZZ, kind)))
 
 
 def test_corpus_is_there():
     kinds = {k for k, _ in CASES}
-    assert kinds >= {"port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "detections",
-                     "images"}
+    assert kinds >= {"port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "metashape",
+                     "detections", "images"}
     assert len(CASES) > 250
 
 

@@ -156,3 +156,50 @@ def test_malformed_files_one_line_naming_file_and_field(tmp_path):
     assert "mrcal" in run_bad("convert", src, tmp_path / "out.cameramodel")
     assert "--to" in run_bad("convert", src, tmp_path / "out.xyz")
     assert not (tmp_path / "out.cameramodel").exists() and not (tmp_path / "out.xyz").exists()
+
+
+METASHAPE_P1 = ("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<calibration>\n  <projection>frame</projection>\n"
+                "  <width>4000</width>\n  <height>3000</height>\n  <f>3000</f>\n  <cx>10</cx>\n  <cy>-20</cy>\n"
+                "  <k1>0</k1>\n  <k2>0</k2>\n  <p1>0.001</p1>\n  <p2>0</p2>\n</calibration>\n")
+
+
+def test_metashape_conventions_checked_by_opencv(tmp_path):
+    """Metashape's frame model (manual 1.5, Appendix C): for f = 3000, cx = 10, cy = -20, P1 = 1e-3 the
+    point (0.2, 0.1, 1) lands at (2610.39, 1780.12) in Metashape's pixels (top-left pixel centre 0.5,
+    0.5), by hand (interop_test). Converted to OpenCV YAML, cv2.projectPoints puts it 0.5 px less on both
+    axes: the half-pixel shift and Metashape's P1 = OpenCV's p2, checked by OpenCV itself."""
+    cv2 = pytest.importorskip("cv2")
+    src = tmp_path / "cal.xml"
+    src.write_text(METASHAPE_P1)
+    res = run("convert", src, tmp_path / "cam.yml", "--json").json()
+    assert res["in_format"] == "metashape" and res["in_model"] == "frame" and res["exact"]
+    fs = cv2.FileStorage(str(tmp_path / "cam.yml"), cv2.FILE_STORAGE_READ)
+    k, d = fs.getNode("camera_matrix").mat(), fs.getNode("distortion_coefficients").mat()
+    uv, _ = cv2.projectPoints(np.array([[[0.2, 0.1, 1.0]]]), np.zeros(3), np.zeros(3), k, d)
+    assert uv.ravel() == pytest.approx([2610.39 - 0.5, 1780.12 - 0.5], abs=1e-9)
+    # And back to Metashape: the same file numbers.
+    run("convert", tmp_path / "cam.yml", tmp_path / "back.xml")
+    back = (tmp_path / "back.xml").read_text()
+    for tag, value in (("f", 3000), ("cx", 10), ("cy", -20), ("p1", 0.001), ("p2", 0)):
+        text = back.split(f"<{tag}>")[1].split(f"</{tag}>")[0]
+        assert float(text) == pytest.approx(value, abs=1e-9)
+
+
+def test_every_command_reads_every_format(tmp_path):
+    """compare, simulate --air-calibration and report read a calibration of any format (one loader,
+    interop::ReadCalibrationFile): here the paper's Table 6 in-air calibration written as Metashape XML,
+    COLMAP and OpenCV YAML (refits of the Brown camera, RMS < 0.01 px) and read back as Brown."""
+    src = write_calib(tmp_path / "air.json", "brown", TABLE6_AIR)
+    for out in ("air.xml", "cameras.txt", "air.yml"):
+        assert run("convert", src, tmp_path / out, "--json").json()["refit_rms_px"] < 0.01
+    base = run("simulate", "--air-calibration", src, "--json").json()
+    for out in ("air.xml", "cameras.txt", "air.yml"):
+        j = run("simulate", "--air-calibration", tmp_path / out, "--json").json()
+        assert 0 < j["air_calibration_refit_rms_px"] < 0.01, out
+        # The prediction from the refit calibration: c within 1e-4 mm of the one from the JSON.
+        assert j["predicted_water"]["c_mm"] == pytest.approx(base["predicted_water"]["c_mm"], abs=1e-4), out
+        c = run("compare", src, tmp_path / out, "--pixel-pitch-mm", "0.0055", "--json").json()
+        assert c["b_refit_rms_px"] < 0.01 and c["max_diff_um"] < 1.0, out  # < 0.2 px of 5.5 µm
+        # The file holds no σ: unknown, not 0 -- no z and no chi2.
+        assert all(r["sigma_b"] is None and r["z"] is None for r in c["parameters"] if r["b"] is not None), out
+        assert c["chi2"] is None and "no significance test" in c["covariance"], out

@@ -188,3 +188,32 @@ put("images", "bmp-huge.bmp", b"BM" + b"\0" * 16 + struct.pack("<ii", 60000, -60
 put("images", "tiff-huge.tif", b"II*\0" + struct.pack("<I", 8) + struct.pack("<H", 2)
     + struct.pack("<HHII", 256, 4, 1, 100000) + struct.pack("<HHII", 257, 4, 1, 100000) + b"\0" * 8)
 mutants("images", "board", ".png", png(120, 100, board), 10)
+
+# --- Metashape calibration XML (interop/metashape.cc over Expat) ---------------------------------------
+ms = (b'<?xml version="1.0" encoding="UTF-8"?>\n<calibration>\n  <projection>frame</projection>\n'
+      b"  <width>4288</width>\n  <height>2848</height>\n  <f>4690.5</f>\n  <cx>-3.2</cx>\n  <cy>5.1</cy>\n"
+      b"  <b1>0.4</b1>\n  <k1>-0.1</k1>\n  <k2>0.05</k2>\n  <k3>0.01</k3>\n  <p1>1e-4</p1>\n  <p2>-2e-4</p2>\n"
+      b"  <date>2024-05-26T08:27:27Z</date>\n  <covariance>\n    <params>f cx cy k1</params>\n"
+      b"    <coeffs>4 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1e-6</coeffs>\n  </covariance>\n</calibration>\n")
+put("metashape", "valid-frame.xml", ms)
+put("metashape", "valid-fisheye.xml", ms.replace(b"frame", b"fisheye").replace(b"<b1>0.4</b1>", b""))
+put("metashape", "valid-photoscan.xml",
+    b"<calibration><projection>frame</projection><width>4288</width><height>2848</height><fx>4691</fx>"
+    b"<fy>4690</fy><cx>2141</cx><cy>1429</cy><skew>2.2</skew><k1>-0.1</k1><k4>0.001</k4><p1>1e-4</p1></calibration>")
+put("metashape", "valid-refit-k4-b2.xml", ms.replace(b"<b1>0.4</b1>", b"<b2>1.5</b2><k4>0.002</k4><p3>0.1</p3>"))
+put("metashape", "billion-laughs.xml",
+    b'<?xml version="1.0"?>\n<!DOCTYPE lolz [<!ENTITY lol "lol">'
+    + b"".join(b'<!ENTITY lol%d "%s">' % (i, (b"&lol%d;" % (i - 1) if i > 1 else b"&lol;") * 10) for i in range(1, 10))
+    + b"]>\n<calibration><f>&lol9;</f></calibration>\n")
+put("metashape", "external-entity.xml",
+    b'<?xml version="1.0"?>\n<!DOCTYPE c [<!ENTITY x SYSTEM "file:///etc/passwd">]>\n<calibration><f>&x;</f></calibration>\n')
+put("metashape", "deep-nesting.xml", b"<a>" * 20000 + b"</a>" * 20000)
+put("metashape", "many-elements.xml", b"<calibration>" + b"<k1>0</k1>" * 20000 + b"</calibration>")
+put("metashape", "covariance-huge.xml", ms.replace(b"4 0 0 0 0 1", b"1 " * 100000 + b"4 0 0 0 0 1"))
+put("metashape", "covariance-negative.xml", ms.replace(b"<coeffs>4 ", b"<coeffs>-4 "))
+put("metashape", "width-overflow.xml", ms.replace(b"4288", b"99999999999999999999"))
+put("metashape", "f-zero.xml", ms.replace(b"4690.5", b"0"))
+put("metashape", "f-nan.xml", ms.replace(b"4690.5", b"nan"))
+put("metashape", "not-xml.xml", b"\xff\xfe<calibration")
+put("metashape", "unclosed.xml", ms[:-15])
+mutants("metashape", "frame", ".xml", ms, 25)

@@ -40,6 +40,16 @@ double UpperIncompleteGammaQ(double s, double x) {
   return std::exp(log_prefix) * h;
 }
 
+namespace {
+
+// The variance of parameter i when the record knows it (positive and finite), else NaN.
+double KnownVariance(const CalibrationRecord& c, int i) {
+  const double v = c.covariance.rows() > i ? c.covariance(i, i) : NAN;
+  return v > 0 && std::isfinite(v) ? v : NAN;
+}
+
+}  // namespace
+
 CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
                       const CompareOptions& o) {
   const camera::Sensor& s = a.camera.sensor;
@@ -62,6 +72,7 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
   const std::vector<double>& va = a.camera.params;
   const std::vector<double>& vb = b.camera.params;
   std::vector<int> tested;
+  bool untested_sigma = false;
   for (int i = 0; i < a.camera.info().num_params; ++i) {
     CompareRow row;
     row.index = i;
@@ -70,23 +81,32 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
     row.a = va[i];
     row.b = vb[i];
     row.diff = vb[i] - va[i];
-    if (a.free[i]) row.sigma_a = std::sqrt(a.covariance(i, i));
-    if (b.free[i]) row.sigma_b = std::sqrt(b.covariance(i, i));
-    const double var = (a.free[i] ? a.covariance(i, i) : 0) + (b.free[i] ? b.covariance(i, i) : 0);
+    // σ of an adjusted parameter is known only as a positive finite variance: a format without σ
+    // (OpenCV YAML, COLMAP, mrcal) leaves it unknown (NaN), never 0, so it cannot make z large.
+    const double var_a = a.free[i] ? KnownVariance(a, i) : 0;
+    const double var_b = b.free[i] ? KnownVariance(b, i) : 0;
+    if (a.free[i]) row.sigma_a = std::sqrt(var_a);
+    if (b.free[i]) row.sigma_b = std::sqrt(var_b);
     if (a.free[i] || b.free[i]) {
-      row.sigma_diff = std::sqrt(var);
+      row.sigma_diff = std::sqrt(var_a + var_b);  // NaN when either σ is unknown
       row.z = row.diff / row.sigma_diff;
       tested.push_back(i);
+      if (!std::isfinite(row.sigma_diff)) untested_sigma = true;
     }
     r.rows.push_back(row);
   }
 
   // χ² on the parameters adjusted in either calibration.
   const auto any = [](const FreeMask& f) { return std::find(f.begin(), f.end(), true) != f.end(); };
+  const auto why = [](const CalibrationRecord& c, const char* name) {
+    return std::string(name) + (c.covariance_note.empty() ? " has no covariance" : ": " + c.covariance_note);
+  };
   if (!a.has_covariance && any(a.free)) {
-    r.covariance_note = "A has no covariance";
+    r.covariance_note = why(a, "A") + "; no significance test";
   } else if (!b.has_covariance && any(b.free)) {
-    r.covariance_note = "B has no covariance";
+    r.covariance_note = why(b, "B") + "; no significance test";
+  } else if (untested_sigma) {
+    r.covariance_note = "a σ is unknown; no significance test";
   } else {
     const int n = static_cast<int>(tested.size());
     Eigen::MatrixXd sum(n, n);

@@ -46,6 +46,31 @@ std::pair<CalibrationRecord, CalibrationRecord> Table6() {
   return {CalibrationFromJson(air, "air"), CalibrationFromJson(water, "water")};
 }
 
+// A calibration whose format holds no σ (OpenCV YAML, COLMAP, mrcal: covariance NaN, unknown):
+// the table shows no σ and no z for it, and no χ² is computed. (Before, its σ counted as 0, so
+// z = Δ/σ_other alone looked significant.)
+TEST(CompareTest, UnknownSigmaIsNotZero) {
+  auto [air, water] = Table6();
+  water.covariance.setConstant(NAN);
+  water.has_covariance = false;
+  water.covariance_note = "σ unknown: opencv-yaml holds none";
+  const auto r = Compare(air, water);
+  const auto& c = r.rows[camera::kBrownC];
+  EXPECT_NEAR(c.sigma_a, 0.006, 1e-12);  // Table 6, in air
+  EXPECT_TRUE(std::isnan(c.sigma_b));
+  EXPECT_TRUE(std::isnan(c.sigma_diff));
+  EXPECT_TRUE(std::isnan(c.z));
+  EXPECT_TRUE(std::isnan(r.chi2));
+  EXPECT_FALSE(r.significant);
+  EXPECT_NE(r.covariance_note.find("opencv-yaml holds none"), std::string::npos) << r.covariance_note;
+  // A record that says it has a covariance but leaves an adjusted σ at 0: unknown too.
+  auto [a2, b2] = Table6();
+  b2.covariance(camera::kBrownK1, camera::kBrownK1) = 0;
+  const auto r2 = Compare(a2, b2);
+  EXPECT_TRUE(std::isnan(r2.rows[camera::kBrownK1].z));
+  EXPECT_TRUE(std::isnan(r2.chi2));
+}
+
 TEST(CompareTest, PaperTable6AirVersusWater) {
   const auto [air, water] = Table6();
   ASSERT_TRUE(air.has_covariance && water.has_covariance);

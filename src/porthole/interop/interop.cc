@@ -284,6 +284,7 @@ std::vector<double> NumberList(const std::string& text, const std::string& field
       throw InvalidInput(field, "'" + s + "' is not a finite number");
     }
     out.push_back(v);
+    if (out.size() > 20) throw InvalidInput(field, "more than 20 numbers");
   }
   return out;
 }
@@ -329,6 +330,11 @@ ReadResult ReadOpenCVYaml(const std::string& y, double pitch_mm, const std::stri
   int w = 0, h = 0;
   if (const auto size = YamlNumbers(y, {"image_size", "imageSize"}, field)) {
     if (size->size() != 2) throw InvalidInput(field + ": image_size", "must be [ width, height ]");
+    for (double v : *size) {
+      if (!(v >= 1 && v <= 1e6 && v == std::floor(v))) {
+        throw InvalidInput(field + ": image_size", "must be whole numbers of pixels from 1 to 1000000");
+      }
+    }
     w = static_cast<int>((*size)[0]);
     h = static_cast<int>((*size)[1]);
   } else {
@@ -336,8 +342,8 @@ ReadResult ReadOpenCVYaml(const std::string& y, double pitch_mm, const std::stri
       const auto e = YamlEntry(y, key);
       if (!e) throw InvalidInput(field + ": " + std::string(key), "missing (or image_size: [ w, h ])");
       const auto v = NumberList(*e, field + ": " + std::string(key));
-      if (v.size() != 1 || v[0] != std::floor(v[0])) {
-        throw InvalidInput(field + ": " + std::string(key), "must be a whole number of pixels");
+      if (v.size() != 1 || !(v[0] >= 1 && v[0] <= 1e6 && v[0] == std::floor(v[0]))) {
+        throw InvalidInput(field + ": " + std::string(key), "must be a whole number of pixels from 1 to 1000000");
       }
       *out = static_cast<int>(v[0]);
     }
@@ -948,6 +954,34 @@ ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, c
   ReadResult r = ReadCalibration(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where);
   r.calibration.label = std::filesystem::path(path).stem().string();
   return r;
+}
+
+ReadResult ConvertRead(ReadResult r, CameraModelId model, const std::string& field) {
+  camera::ConversionFit fit;
+  const CameraModelId from = r.camera().model;
+  r.calibration = ConvertCalibration(r.calibration, model, field, &fit);
+  if (from != model && fit.num_points > 0) {
+    r.exact = false;
+    r.fit = fit;
+  }
+  return r;
+}
+
+ReadResult ReadCalibrationFileAs(const std::string& path, double pixel_pitch_mm, CameraModelId model,
+                                 const std::string& field) {
+  ReadResult r = ReadCalibrationFile(path, pixel_pitch_mm, field);
+  const std::string label = r.calibration.label;
+  r = ConvertRead(std::move(r), model, field + " '" + path + "'");
+  r.calibration.label = label;
+  return r;
+}
+
+std::string DescribeRead(const ReadResult& r, const std::string& path) {
+  const std::string what = fmt::format("{} ({} {}) as {}", path, FormatName(r.format), r.format_model,
+                                       r.camera().model_name());
+  if (r.exact) return what + ": exact";
+  return fmt::format("{}: refit over the image, RMS {:.4f} px, max {:.4f} px", what, r.fit.rms_px,
+                     r.fit.max_px);
 }
 
 WriteResult WriteCamera(const Camera& cam, Format format, const std::string& field) {

@@ -88,6 +88,17 @@ ReadResult ReadCalibration(const std::string& content, Format format, double pix
 // report).
 ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field);
 
+// `r` with its calibration converted to `model` (ConvertCalibration); exact and fit then describe
+// the conversion when it was a refit (else what reading did).
+ReadResult ConvertRead(ReadResult r, camera::CameraModelId model, const std::string& field);
+// ReadCalibrationFile, then ConvertRead: a calibration of any format as the model a command needs
+// (simulate and the report: Brown).
+ReadResult ReadCalibrationFileAs(const std::string& path, double pixel_pitch_mm, camera::CameraModelId model,
+                                 const std::string& field);
+// One line saying how a calibration was read: "<file> (<format> <model>): exact" or "…: refit to
+// <model> over the image, RMS … px, max … px".
+std::string DescribeRead(const ReadResult& r, const std::string& path);
+
 // Writes the calibration in `format`, with its covariance where the format holds one. Throws
 // InvalidInput(field, …) when the model has no representation in the format (e.g. kannala-brandt
 // in mrcal, which has no such model).

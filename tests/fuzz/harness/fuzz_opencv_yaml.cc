@@ -1,15 +1,15 @@
-// OpenCV calibration YAML (calib/result_json.cc ImportOpenCVYaml).
+// OpenCV calibration YAML (interop/interop.cc, the reader of every command).
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
-#include "porthole/calib/result_json.h"
 #include "porthole/core/error.h"
+#include "porthole/interop/interop.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
-    porthole::calib::ImportOpenCVYaml(text, 0.0055, "A", nullptr);
+    porthole::interop::ReadCalibration(text, porthole::interop::Format::kOpenCVYaml, 0.0055, "A");
   } catch (const porthole::InvalidInput&) {
   }
   return 0;
