@@ -203,3 +203,45 @@ def test_every_command_reads_every_format(tmp_path):
         # The file holds no σ: unknown, not 0 -- no z and no chi2.
         assert all(r["sigma_b"] is None and r["z"] is None for r in c["parameters"] if r["b"] is not None), out
         assert c["chi2"] is None and "no significance test" in c["covariance"], out
+
+
+CALIBMAR_DOME = """model: OPENCV
+# fx, fy, cx, cy, k1, k2, p1, p2
+parameters: [1500.5, 1501.25, 960.5, 540.5, -0.1, 0.05, 0.0001, -0.0002]
+# params_est_std_dev: 0.8, 0.7, 0.5, 0.4, 0.001, 0.002, 1e-05, 2e-05
+non_svp_model: DOMEPORT
+# Cx, Cy, Cz, int_radius, int_thick, na, ng, nw
+non_svp_parameters: [0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334]
+width: 1920
+height: 1080
+# overall_rms: 0.21
+# target: chessboard, 10, 7, 0.04
+"""
+
+
+def test_calibmar_housing_to_port_and_back(tmp_path):
+    """calibmar's calibration.yaml: the camera with its sigma, and its DOMEPORT as a porthole port TOML that
+    `plan` reads (cam frame, mm); the port back into calibmar's file gives the same housing."""
+    src = tmp_path / "calibration.yaml"
+    src.write_text(CALIBMAR_DOME)
+    res = run("convert", src, tmp_path / "cal.json", "--port-out", tmp_path / "dome.toml", "--json").json()
+    assert res["in_format"] == "calibmar" and res["housing"] == "DOMEPORT" and res["water_index"] == 1.334
+    assert res["in_rms_px"] == 0.21 and res["exact"]
+    cal = json.loads((tmp_path / "cal.json").read_text())
+    assert cal["camera"]["cx_px"] == 960.0 and cal["sigma"]["cx_px"] == pytest.approx(0.5)
+    toml = (tmp_path / "dome.toml").read_text()
+    assert 'frame = "cam"' in toml and "radius_mm = 100" in toml and "center_mm = [2, -1, 3]" in toml
+    plan = run("plan", "--port", tmp_path / "dome.toml", "--water-index", "1.334", "--json").json()
+    assert plan is not None
+    run("convert", tmp_path / "cal.json", tmp_path / "back.yaml", "--to", "calibmar", "--port",
+        tmp_path / "dome.toml", "--water-index", "1.334")
+    back = (tmp_path / "back.yaml").read_text()
+    housing = [float(x) for x in back.split("non_svp_parameters: [")[1].split("]")[0].split(",")]
+    assert housing == pytest.approx([0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334], rel=1e-12)
+    assert "DOMEPORT is concentric" in run_bad("convert", tmp_path / "cal.json", tmp_path / "x.yaml", "--to",
+                                               "calibmar", "--port", "nimar-ni320")
+    assert not (tmp_path / "x.yaml").exists()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(CALIBMAR_DOME.replace("DOMEPORT", "SPHEREPORT"))
+    line = run_bad("convert", bad, tmp_path / "y.json")
+    assert "bad.yaml" in line and "non_svp_model" in line

@@ -217,3 +217,17 @@ put("metashape", "f-nan.xml", ms.replace(b"4690.5", b"nan"))
 put("metashape", "not-xml.xml", b"\xff\xfe<calibration")
 put("metashape", "unclosed.xml", ms[:-15])
 mutants("metashape", "frame", ".xml", ms, 25)
+
+# --- calibmar calibration.yaml (interop/refractive.cc), read by the yaml corpus's command -----------
+cm = (b"model: OPENCV\n# fx, fy, cx, cy, k1, k2, p1, p2\n"
+      b"parameters: [1500.5, 1501.25, 960.5, 540.5, -0.1, 0.05, 0.0001, -0.0002]\n"
+      b"# params_est_std_dev: 0.8, 0.7, 0.5, 0.4, 0.001, 0.002, 1e-05, 2e-05\n"
+      b"non_svp_model: DOMEPORT\n# Cx, Cy, Cz, int_radius, int_thick, na, ng, nw\n"
+      b"non_svp_parameters: [0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334]\n"
+      b"# non_svp_est_std_dev: 0.0001, 0.0001, 0.0002\nwidth: 1920\nheight: 1080\n# overall_rms: 0.21\n"
+      b"# target: chessboard, 10, 7, 0.04\n")
+put("yaml", "calibmar-valid.yaml", cm)
+put("yaml", "calibmar-long-list.yaml", cm.replace(b"[1500.5", b"[" + b"1.5, " * 20000 + b"1500.5"))
+put("yaml", "calibmar-long-line.yaml", cm.replace(b"# target", b"#" + b" " * 100000 + b"target"))
+put("yaml", "calibmar-width-overflow.yaml", cm.replace(b"1920", b"99999999999999999999"))
+mutants("yaml", "calibmar", ".yaml", cm, 15)

@@ -17,6 +17,7 @@
 #include "porthole/interop/metashape.h"
 #include "porthole/interop/pyliteral.h"
 #include "porthole/interop/refit.h"
+#include "porthole/interop/refractive.h"
 
 namespace porthole::interop {
 namespace {
@@ -26,13 +27,14 @@ using camera::CameraModelId;
 using OpenCV = camera::OpenCVModel;
 using KB = camera::KannalaBrandtModel;
 
-constexpr std::array<std::pair<Format, std::string_view>, 6> kFormatNames = {{
+constexpr std::array<std::pair<Format, std::string_view>, 7> kFormatNames = {{
     {Format::kJson, "json"},
     {Format::kOpenCVYaml, "opencv-yaml"},
     {Format::kColmapText, "colmap"},
     {Format::kColmapBinary, "colmap-bin"},
     {Format::kMrcal, "mrcal"},
     {Format::kMetashape, "metashape"},
+    {Format::kCalibmar, "calibmar"},
 }};
 
 // COLMAP's models as it numbers and names them (colmap/src/base/camera_models.h), with their
@@ -698,6 +700,10 @@ Format FormatFromName(std::string_view name, const std::string& field) {
 Format DetectInputFormat(const std::string& path, const std::string& content, const std::string& field) {
   const std::string ext = Ext(path);
   if (ext == ".json") return Format::kJson;
+  // calibmar's calibration.yaml: no %YAML header, "non_svp_model:" and "parameters: [".
+  if (content.find("non_svp_model:") != std::string::npos && content.find("%YAML") == std::string::npos) {
+    return Format::kCalibmar;
+  }
   if (ext == ".yml" || ext == ".yaml") return Format::kOpenCVYaml;
   if (ext == ".cameramodel") return Format::kMrcal;
   if (ext == ".bin") return Format::kColmapBinary;
@@ -928,8 +934,29 @@ ReadResult ReadCalibration(const std::string& content, Format format, double pix
       break;
     case Format::kMrcal: r = ReadMrcal(content, pixel_pitch_mm, field); break;
     case Format::kMetashape: r = ReadMetashape(content, pixel_pitch_mm, field); break;
+    case Format::kCalibmar: {
+      const CalibmarFile f = ParseCalibmarYaml(content, field);
+      r.format = format;
+      r.format_model = f.camera.model;
+      r.housing = f.housing;
+      r.file_rms_px = f.overall_rms_px;
+      const Camera cam = FromColmap(f.camera, pixel_pitch_mm, field);
+      if (f.camera_sigma.empty()) {
+        r.calibration = WithoutSigma(cam, "σ unknown: the calibmar file has no # params_est_std_dev");
+      } else {
+        r.calibration.camera = cam;
+        r.calibration.covariance = ColmapSigmaToCovariance(f.camera, f.camera_sigma);
+        r.calibration.free.assign(cam.params.size(), false);
+        for (std::size_t i = 0; i < cam.params.size(); ++i) {
+          r.calibration.free[i] = r.calibration.covariance(i, i) > 0;
+        }
+        r.calibration.has_covariance = true;
+        r.calibration.covariance_note = "diagonal from sigma";
+      }
+      break;
+    }
   }
-  if (format != Format::kJson && format != Format::kMetashape) {
+  if (format != Format::kJson && format != Format::kMetashape && format != Format::kCalibmar) {
     r.calibration = WithoutSigma(r.camera(), fmt::format("σ unknown: {} holds none", FormatName(format)));
   }
   camera::ValidateCamera(r.camera(), field);
@@ -988,7 +1015,8 @@ WriteResult WriteCamera(const Camera& cam, Format format, const std::string& fie
   return WriteCalibration(WithoutSigma(cam, ""), format, field);
 }
 
-WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field) {
+WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field,
+                             const RefractiveHousing* housing) {
   const Camera& cam = cal.camera;
   camera::ValidateCamera(cam, field);
   WriteResult w;
@@ -1025,6 +1053,16 @@ WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format,
       const ColmapCamera c = ToColmap(pcam, field);
       w.content = format == Format::kColmapText ? ColmapText(c) : ColmapBinary(c);
       w.format_model = c.model;
+      break;
+    }
+    case Format::kCalibmar: {
+      CalibmarFile f;
+      f.camera = ToColmap(pcam, field);
+      if (pc.cal.has_covariance) f.camera_sigma = CovarianceToColmapSigma(f.camera, pc.cal.covariance);
+      if (housing != nullptr) f.housing = *housing;
+      w.content = CalibmarYaml(f);
+      w.format_model = f.camera.model;
+      w.sigma_written = !f.camera_sigma.empty();
       break;
     }
     case Format::kMrcal: {

@@ -10,6 +10,7 @@
 //                                              RADIAL, OPENCV, FULL_OPENCV;
 //                                              kannala-brandt ↔ OPENCV_FISHEYE
 //   mrcal         mrcal .cameramodel           opencv ↔ LENSMODEL_PINHOLE, OPENCV4, OPENCV5, OPENCV8
+//   calibmar      calibmar calibration.yaml    as colmap, with σ and the FLATPORT/DOMEPORT housing
 //   metashape     Agisoft Metashape / PhotoScan  opencv ↔ frame, kannala-brandt ↔ fisheye (exact
 //                 calibration XML              without b2, k4, p3, p4; a refit with them)
 //
@@ -24,6 +25,8 @@
 // covariance of the adjusted parameters is NaN — unknown, never 0 — and has_covariance false.
 #pragma once
 
+#include <array>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -35,9 +38,9 @@
 
 namespace porthole::interop {
 
-enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal, kMetashape };
+enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal, kMetashape, kCalibmar };
 
-// "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal", "metashape" (what --to takes).
+// "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal", "metashape", "calibmar" (what --to takes).
 std::string_view FormatName(Format f);
 // Throws InvalidInput(field, "unknown format … (known: …)").
 Format FormatFromName(std::string_view name, const std::string& field);
@@ -56,6 +59,16 @@ Format DetectInputFormat(const std::string& path, const std::string& content,
 Format OutputFormat(const std::string& path, const std::optional<std::string>& to,
                     const std::string& field);
 
+// A refractive housing of refractive COLMAP / calibmar (interop/refractive.h has its conventions
+// and the conversion to and from porthole's port).
+struct RefractiveHousing {
+  std::string model;               // "FLATPORT" or "DOMEPORT"
+  std::array<double, 8> params{};  // FLATPORT Nx Ny Nz int_dist int_thick na ng nw;
+                                   // DOMEPORT Cx Cy Cz int_radius int_thick na ng nw (metres)
+  std::array<double, 8> sigma;     // 1σ of each; NaN: unknown
+  RefractiveHousing() { sigma.fill(NAN); }
+};
+
 // A calibration read from a file, with what the reader knows of it.
 struct ReadResult {
   // camera, adjusted parameters, covariance in porthole's order (NaN where unknown), label
@@ -65,6 +78,8 @@ struct ReadResult {
   bool pitch_known = false;  // the file gave the pixel pitch (only porthole JSON does)
   bool exact = true;         // false: the file's model was refit into porthole's (fit: its quality)
   camera::ConversionFit fit;
+  std::optional<RefractiveHousing> housing;  // calibmar: its FLATPORT / DOMEPORT
+  double file_rms_px = NAN;                  // calibmar: its "# overall_rms"
 
   const camera::Camera& camera() const { return calibration.camera; }
 };
@@ -102,7 +117,9 @@ std::string DescribeRead(const ReadResult& r, const std::string& path);
 // Writes the calibration in `format`, with its covariance where the format holds one. Throws
 // InvalidInput(field, …) when the model has no representation in the format (e.g. kannala-brandt
 // in mrcal, which has no such model).
-WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field);
+// `housing`: calibmar's non_svp_model and parameters (else NONE); other formats ignore it.
+WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field,
+                             const RefractiveHousing* housing = nullptr);
 // A camera without σ.
 WriteResult WriteCamera(const camera::Camera& cam, Format format, const std::string& field);
 

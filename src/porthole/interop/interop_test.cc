@@ -12,8 +12,14 @@
 //    covariance carried to porthole's parameters by the hand-derived Jacobian, and a refit for
 //    the terms OpenCV lacks (b2, k4, p3, p4);
 //  - σ through a refit (Brown → OpenCV) agrees with a Monte Carlo of the refit;
+//  - calibmar's calibration.yaml (its layout from calibmar's report.cpp) with σ and RMS from its
+//    comments, and its DOMEPORT / FLATPORT housing as a porthole port: a ray traced by porthole
+//    through the converted port leaves the glass where refractive COLMAP's equations (written out
+//    here: ray–sphere / ray–plane, vector Snell, metres) put it;
 //  - malformed files give InvalidInput naming the file and the field.
 #include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
 
 #include <fmt/format.h>
 
@@ -25,6 +31,9 @@
 #include "porthole/interop/interop.h"
 #include "porthole/interop/metashape.h"
 #include "porthole/interop/pyliteral.h"
+#include "porthole/interop/refractive.h"
+#include "porthole/io/presets.h"
+#include "porthole/optics/trace.h"
 
 namespace porthole::interop {
 namespace {
@@ -445,6 +454,158 @@ TEST(Metashape, MalformedFilesNameTheElement) {
   has("<other/>", "<calibration>");
 }
 
+// calibmar writes (src/calibmar/core/report.cpp, GenerateCalibrationYaml) model, parameters, σ in
+// "# params_est_std_dev", non_svp_model and parameters, width, height, "# overall_rms".
+const char* kCalibmarDome =
+    "model: OPENCV\n"
+    "# fx, fy, cx, cy, k1, k2, p1, p2\n"
+    "parameters: [1500.5, 1501.25, 960.5, 540.5, -0.1, 0.05, 0.0001, -0.0002]\n"
+    "# params_est_std_dev: 0.8, 0.7, 0.5, 0.4, 0.001, 0.002, 1e-05, 2e-05\n"
+    "non_svp_model: DOMEPORT\n"
+    "# Cx, Cy, Cz, int_radius, int_thick, na, ng, nw\n"
+    "non_svp_parameters: [0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334]\n"
+    "# non_svp_est_std_dev: 0.0001, 0.0001, 0.0002\n"
+    "width: 1920\n"
+    "height: 1080\n"
+    "# overall_rms: 0.21\n"
+    "# target: chessboard, 10, 7, 0.04\n";
+
+TEST(Calibmar, CalibrationYamlWithSigmaRmsAndHousing) {
+  const ReadResult r = ReadCalibration(kCalibmarDome, Format::kCalibmar, 0.003, "IN");
+  using M = camera::OpenCVModel;
+  const Camera& c = r.camera();
+  EXPECT_EQ(c.params[M::kCx], 960.0);  // COLMAP's convention: 0.5 less
+  EXPECT_EQ(c.params[M::kFy], 1501.25);
+  EXPECT_EQ(r.file_rms_px, 0.21);
+  ASSERT_TRUE(r.calibration.has_covariance);
+  EXPECT_NEAR(std::sqrt(r.calibration.covariance(M::kCx, M::kCx)), 0.5, 1e-15);
+  EXPECT_NEAR(std::sqrt(r.calibration.covariance(M::kP2, M::kP2)), 2e-5, 1e-20);
+  ASSERT_TRUE(r.housing);
+  EXPECT_EQ(r.housing->model, "DOMEPORT");
+  EXPECT_EQ(r.housing->sigma[2], 0.0002);
+  EXPECT_TRUE(std::isnan(r.housing->sigma[3]));
+  // Written back: the same file content (numbers in shortest round-trip form).
+  const WriteResult w = WriteCalibration(r.calibration, Format::kCalibmar, "OUT", &*r.housing);
+  const CalibmarFile back = ParseCalibmarYaml(w.content, "back");
+  const CalibmarFile orig = ParseCalibmarYaml(kCalibmarDome, "orig");
+  EXPECT_EQ(back.camera.model, "OPENCV");
+  EXPECT_EQ(back.camera.params, orig.camera.params);
+  for (std::size_t i = 0; i < orig.camera_sigma.size(); ++i) EXPECT_NEAR(back.camera_sigma[i], orig.camera_sigma[i], 1e-15);
+  EXPECT_EQ(back.housing->params, orig.housing->params);
+  // A SIMPLE_RADIAL's f is both fx and fy: fully correlated.
+  const ReadResult sr = ReadCalibration("model: SIMPLE_RADIAL\nparameters: [1000, 320, 240, -0.1]\n"
+                                        "# params_est_std_dev: 2, 1, 1, 0.01\nnon_svp_model: NONE\n"
+                                        "non_svp_parameters: []\nwidth: 640\nheight: 480\n",
+                                        Format::kCalibmar, 1, "IN");
+  EXPECT_EQ(sr.calibration.covariance(M::kFx, M::kFy), 4.0);
+  EXPECT_FALSE(sr.housing);
+}
+
+// Refractive COLMAP's DomePort::CamFromImg and FlatPort::CamFromImg (models_refrac.h) written out:
+// the ray from the projection centre meets the inner interface, refracts na → ng, meets the outer
+// one, refracts ng → nw (vector Snell). Returns the point on the outer surface (m) and direction.
+Eigen::Vector3d Refract(const Eigen::Vector3d& d, Eigen::Vector3d n, double n1, double n2) {
+  n.normalize();
+  if (n.dot(d) < 0) n = -n;  // the normal along the ray
+  const double r = n1 / n2, c = n.dot(d);
+  const double k = 1 - r * r * (1 - c * c);
+  return (r * d + (std::sqrt(k) - r * c) * n).normalized();
+}
+std::pair<Eigen::Vector3d, Eigen::Vector3d> ColmapRefractive(const RefractiveHousing& h, Eigen::Vector3d dir) {
+  const auto& p = h.params;
+  const Eigen::Vector3d v(p[0], p[1], p[2]);
+  Eigen::Vector3d o = Eigen::Vector3d::Zero();
+  dir.normalize();
+  auto sphere = [&](double radius) {  // far intersection of o + t·dir with |x − v| = radius
+    const Eigen::Vector3d oc = o - v;
+    const double b = oc.dot(dir), c = oc.squaredNorm() - radius * radius;
+    return -b + std::sqrt(b * b - c);
+  };
+  if (h.model == "DOMEPORT") {
+    o += sphere(p[3]) * dir;
+    dir = Refract(dir, o - v, p[5], p[6]);
+    o += sphere(p[3] + p[4]) * dir;
+    dir = Refract(dir, o - v, p[6], p[7]);
+  } else {
+    o += (p[3] - v.dot(o)) / v.dot(dir) * dir;
+    dir = Refract(dir, v, p[5], p[6]);
+    o += (p[3] + p[4] - v.dot(o)) / v.dot(dir) * dir;
+    dir = Refract(dir, v, p[6], p[7]);
+  }
+  return {o, dir};
+}
+
+TEST(Calibmar, HousingAsAPortTracesAsRefractiveColmap) {
+  RefractiveHousing dome;
+  dome.model = "DOMEPORT";
+  dome.params = {0.002, -0.001, 0.003, 0.1, 0.008, 1.0, 1.5, 1.334};
+  RefractiveHousing flat;
+  flat.model = "FLATPORT";
+  const Eigen::Vector3d n = Eigen::Vector3d(0.05, -0.03, 1).normalized();
+  flat.params = {n.x(), n.y(), n.z(), 0.025, 0.012, 1.0, 1.49, 1.341};
+  for (const RefractiveHousing& h : {dome, flat}) {
+    SCOPED_TRACE(h.model);
+    double n_water = 0;
+    const ports::PortSpec port = PortFromRefractive(h, "IN", &n_water);
+    EXPECT_EQ(n_water, h.params[7]);
+    // Through the port TOML and back: exact.
+    const ports::PortSpec read = io::ParsePortToml(io::PortToToml(port), "port.toml");
+    const RefractiveHousing back = RefractiveFromPort(read, std::stod(read.material()), n_water, "port");
+    EXPECT_EQ(back.model, h.model);
+    for (int i = 0; i < 8; ++i) EXPECT_NEAR(back.params[i], h.params[i], 1e-15) << i;
+    // porthole's tracer through the port (cam frame: the pupil at the origin) against the
+    // equations above, over a fan of rays up to 40° off axis.
+    const ports::PortSystem sys = ports::Place(read, Eigen::Vector3d::Zero(), std::stod(read.material()), n_water);
+    double worst_mm = 0, worst_dir = 0;
+    for (double ax : {-0.8, -0.3, 0.0, 0.4, 0.8}) {
+      for (double ay : {-0.6, 0.0, 0.5}) {
+        const Eigen::Vector3d d = Eigen::Vector3d(ax, ay, 1).normalized();
+        optics::Ray out;
+        ASSERT_EQ(optics::TraceSequence(sys.Outward(), optics::Ray{Eigen::Vector3d::Zero(), d}, &out),
+                  optics::RayStatus::kOk);
+        const auto [o, dir] = ColmapRefractive(h, d);
+        worst_mm = std::max(worst_mm, (out.origin - 1000.0 * o).norm());
+        const double dd = (out.dir - dir).norm();
+        worst_dir = std::isnan(dd) ? INFINITY : std::max(worst_dir, dd);
+      }
+    }
+    EXPECT_LT(worst_mm, 1e-9);
+    EXPECT_LT(worst_dir, 1e-12);
+    std::printf("%s: porthole vs refractive COLMAP equations: %.2g mm, %.2g in direction\n", h.model.c_str(),
+                worst_mm, worst_dir);
+  }
+  // A dome that is not concentric has no DOMEPORT.
+  EXPECT_THROW(RefractiveFromPort(io::LoadPort("nimar-ni320"), 1.5, 1.34, "port"), InvalidInput);
+}
+
+TEST(Calibmar, MalformedFilesNameTheKey) {
+  auto message = [](const std::string& content) {
+    try {
+      ReadCalibration(content, Format::kCalibmar, 1.0, "IN 'x'");
+    } catch (const InvalidInput& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string ok = kCalibmarDome;
+  auto replace = [&](const std::string& a, const std::string& b) {
+    std::string s = ok;
+    s.replace(s.find(a), a.size(), b);
+    return s;
+  };
+  EXPECT_NE(message(replace("model: OPENCV", "")).find("model"), std::string::npos);
+  EXPECT_NE(message(replace("[1500.5", "[abc")).find("parameters"), std::string::npos);
+  EXPECT_NE(message(replace("0.8, 0.7, ", "")).find("params_est_std_dev"), std::string::npos);
+  EXPECT_NE(message(replace("DOMEPORT", "SPHEREPORT")).find("non_svp_model"), std::string::npos);
+  EXPECT_NE(message(replace(", 1.334]", "]")).find("non_svp_parameters"), std::string::npos);
+  EXPECT_NE(message(replace("width: 1920", "width: 1e12")).find("width"), std::string::npos);
+  double nw = 0;
+  RefractiveHousing bad;
+  bad.model = "DOMEPORT";
+  bad.params = {0, 0, 0, 0.1, 0.008, 1, 0.5, 1.33};
+  EXPECT_THROW(PortFromRefractive(bad, "IN", &nw), InvalidInput);
+}
+
 TEST(Interop, FormatDetection) {
   EXPECT_EQ(DetectInputFormat("a/cameras.txt", "", "f"), Format::kColmapText);
   EXPECT_EQ(DetectInputFormat("a/cameras.bin", "", "f"), Format::kColmapBinary);
@@ -458,6 +619,7 @@ TEST(Interop, FormatDetection) {
   EXPECT_EQ(DetectInputFormat("cal.xml", "", "f"), Format::kMetashape);
   EXPECT_EQ(DetectInputFormat("c", "<?xml version=\"1.0\"?>\n<calibration>", "f"), Format::kMetashape);
   EXPECT_THROW(DetectInputFormat("c.xml", "<opencv_storage>", "f"), InvalidInput);
+  EXPECT_EQ(DetectInputFormat("calibration.yaml", kCalibmarDome, "f"), Format::kCalibmar);
   EXPECT_EQ(OutputFormat("x.anything", std::string("mrcal"), "f"), Format::kMrcal);
   EXPECT_THROW(OutputFormat("x.anything", std::nullopt, "f"), InvalidInput);
 }

@@ -379,8 +379,10 @@ lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin) {
   return l;
 }
 
+// Numbers as the shortest text that reads back to the same double (a port converted from another
+// tool's file round-trips exactly).
 std::string PortToToml(const ports::PortSpec& p) {
-  auto vec = [](const Vec3& v) { return fmt::format("[{:.6g}, {:.6g}, {:.6g}]", v.x(), v.y(), v.z()); };
+  auto vec = [](const Vec3& v) { return fmt::format("[{}, {}, {}]", v.x(), v.y(), v.z()); };
   auto str = [](const std::string& s) {
     std::string out = "\"";
     for (char c : s) out += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
@@ -392,12 +394,12 @@ std::string PortToToml(const ports::PortSpec& p) {
                    p.frame == ports::PortFrame::kCam ? "cam" : "housing", str(p.material()));
   s += fmt::format("entrance_pupil_mm = {}\n", vec(p.default_ep_in_housing_mm));
   if (const auto* d = std::get_if<ports::DomePort>(&p.shape)) {
-    if (d->rim_z_mm) s += fmt::format("rim_z_mm = {:.6g}\n", *d->rim_z_mm);
-    s += fmt::format("\n[outer]\ncenter_mm = {}\nradius_mm = {:.6g}\n", vec(d->outer.center_mm), d->outer.radius_mm);
-    s += fmt::format("\n[inner]\ncenter_mm = {}\nradius_mm = {:.6g}\n", vec(d->inner.center_mm), d->inner.radius_mm);
+    if (d->rim_z_mm) s += fmt::format("rim_z_mm = {}\n", *d->rim_z_mm);
+    s += fmt::format("\n[outer]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->outer.center_mm), d->outer.radius_mm);
+    s += fmt::format("\n[inner]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->inner.center_mm), d->inner.radius_mm);
   } else {
     const auto& f = std::get<ports::FlatPort>(p.shape);
-    s += fmt::format("thickness_mm = {:.6g}\ninner_point_mm = {}\nnormal = {}\n", f.thickness_mm,
+    s += fmt::format("thickness_mm = {}\ninner_point_mm = {}\nnormal = {}\n", f.thickness_mm,
                      vec(f.inner_point_mm), vec(f.normal));
   }
   return s;
