@@ -21,6 +21,7 @@ void RegisterConvert(CLI::App& app) {
   struct Options {
     std::string in, out, to, port_out, port;
     std::optional<double> pitch_mm, water_index;
+    int camera_id = 0;
     bool json = false;
   };
   auto o = std::make_shared<Options>();
@@ -57,6 +58,7 @@ void RegisterConvert(CLI::App& app) {
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch for inputs that have none (all but porthole JSON), mm; without it "
                   "pitch 1 (pixels are mm)");
+  cmd->add_option("--camera-id", o->camera_id, "The camera of a COLMAP file holding several (its CAMERA_ID)");
   cmd->add_option("--port-out", o->port_out,
                   "calibmar input: write its FLATPORT/DOMEPORT housing as a porthole port TOML (cam frame, mm)");
   cmd->add_option("--port", o->port,
@@ -70,7 +72,7 @@ void RegisterConvert(CLI::App& app) {
       RequirePositive("--pixel-pitch-mm", *o->pitch_mm);
       WarnIfImplausible("--pixel-pitch-mm", *o->pitch_mm, kPixelPitchRange);
     }
-    const auto in = interop::ReadCalibrationFile(o->in, o->pitch_mm.value_or(1.0), "IN");
+    const auto in = interop::ReadCalibrationFile(o->in, o->pitch_mm.value_or(1.0), "IN", o->camera_id);
     std::filesystem::path out = o->out;
     const std::optional<std::string> to = o->to.empty() ? std::nullopt : std::optional(o->to);
     if (std::filesystem::is_directory(out)) {
@@ -82,7 +84,8 @@ void RegisterConvert(CLI::App& app) {
     }
     const auto format = interop::OutputFormat(out.string(), to, "OUT");
     // The refractive housing: calibmar's, or a porthole port given with --port.
-    std::optional<interop::RefractiveHousing> housing = in.housing;
+    interop::WriteExtras extras{in.housing, in.rt_fromref};  // carried where the output holds them
+    auto& housing = extras.housing;
     if (!o->port.empty()) {
       if (format != interop::Format::kCalibmar) throw InvalidInput("--port", "only calibmar output holds a housing");
       const ports::PortSpec port = io::LoadPort(o->port);
@@ -98,8 +101,7 @@ void RegisterConvert(CLI::App& app) {
       port_toml = io::PortToToml(port);
       io::ParsePortToml(port_toml, "--port-out");  // porthole reads what it writes
     }
-    const auto w = interop::WriteCalibration(in.calibration, format, "OUT '" + out.string() + "'",
-                                             housing ? &*housing : nullptr);
+    const auto w = interop::WriteCalibration(in.calibration, format, "OUT '" + out.string() + "'", extras);
     if (!port_toml.empty()) CheckOutputFile(o->port_out, "--port-out");
     WriteFileAtomically(out, w.content, "OUT");
     if (!port_toml.empty()) WriteFileAtomically(o->port_out, port_toml, "--port-out");

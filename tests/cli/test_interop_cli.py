@@ -245,3 +245,22 @@ def test_calibmar_housing_to_port_and_back(tmp_path):
     bad.write_text(CALIBMAR_DOME.replace("DOMEPORT", "SPHEREPORT"))
     line = run_bad("convert", bad, tmp_path / "y.json")
     assert "bad.yaml" in line and "non_svp_model" in line
+
+
+def test_mrcal_extrinsics_survive_a_round_trip_through_porthole(tmp_path):
+    """A .cameramodel written by mrcal itself, with extrinsics rt_fromref, read and written by porthole: mrcal
+    loads the result with the same rt_fromref and intrinsics; a COLMAP file with two cameras gives one by id."""
+    mrcal = pytest.importorskip("mrcal")
+    rt = np.array([0.1, -0.2, 0.3, 10.0, 20.0, -30.0])
+    intr = np.array([500.0, 501.0, 320.0, 240.0, -0.1, 0.01, 1e-4, -2e-4])
+    mrcal.cameramodel(intrinsics=("LENSMODEL_OPENCV4", intr), imagersize=(640, 480),
+                      extrinsics_rt_fromref=rt).write(str(tmp_path / "in.cameramodel"))
+    run("convert", tmp_path / "in.cameramodel", tmp_path / "out.cameramodel")
+    back = mrcal.cameramodel(str(tmp_path / "out.cameramodel"))
+    assert np.array_equal(back.extrinsics_rt_fromref(), rt)
+    assert np.array_equal(back.intrinsics()[1], intr)
+    two = tmp_path / "cameras.txt"
+    two.write_text("1 PINHOLE 640 480 500 501 320.5 240.5\n7 SIMPLE_PINHOLE 800 600 700 400.5 300.5\n")
+    assert "--camera-id" in run_bad("convert", two, tmp_path / "c.json")
+    run("convert", two, tmp_path / "c.json", "--camera-id", "7")
+    assert json.loads((tmp_path / "c.json").read_text())["sensor"]["width_px"] == 800

@@ -480,16 +480,24 @@ std::vector<ColmapCamera> ParseColmapBinary(const std::string& bin, const std::s
   return out;
 }
 
+// The camera `camera_id` of the list (0: the only one).
 ReadResult FromColmapList(const std::vector<ColmapCamera>& list, Format format, double pitch_mm,
-                          const std::string& field) {
-  if (list.size() != 1) {
-    throw InvalidInput(field, fmt::format("holds {} cameras; porthole convert reads a file with one",
-                                          list.size()));
+                          const std::string& field, int camera_id) {
+  std::string ids;
+  for (const auto& c : list) ids += (ids.empty() ? "" : ", ") + std::to_string(c.camera_id);
+  const ColmapCamera* chosen = nullptr;
+  for (const auto& c : list) {
+    if (camera_id == 0 ? list.size() == 1 : c.camera_id == camera_id) chosen = &c;
+  }
+  if (chosen == nullptr) {
+    throw InvalidInput(field, camera_id == 0 ? fmt::format("holds {} cameras (ids {}): choose one with --camera-id",
+                                                           list.size(), ids)
+                                             : fmt::format("has no camera {} (ids {})", camera_id, ids));
   }
   ReadResult r;
-  r.calibration.camera = FromColmap(list[0], pitch_mm, field);
+  r.calibration.camera = FromColmap(*chosen, pitch_mm, field);
   r.format = format;
-  r.format_model = list[0].model;
+  r.format_model = chosen->model;
   return r;
 }
 
@@ -514,9 +522,25 @@ ReadResult ReadMrcal(const std::string& text, double pitch_mm, const std::string
       !j["imagersize"][0].is_number_integer() || !j["imagersize"][1].is_number_integer()) {
     throw InvalidInput(field + ": imagersize", "must be [ width, height ] in whole pixels");
   }
+  for (int k : {0, 1}) {
+    const auto v = j["imagersize"][k].get<std::int64_t>();
+    if (v < 1 || v > 1000000) throw InvalidInput(field + ": imagersize", "must be whole pixels from 1 to 1000000");
+  }
   m.width_px = j["imagersize"][0].get<int>();
   m.height_px = j["imagersize"][1].get<int>();
   ReadResult r;
+  if (j.contains("extrinsics")) {  // rt_fromref: 3 rotation-vector components, then the translation
+    const auto& e = j["extrinsics"];
+    if (!e.is_array() || e.size() != 6) throw InvalidInput(field + ": extrinsics", "must be 6 numbers (rt_fromref)");
+    std::array<double, 6> rt{};
+    for (int k = 0; k < 6; ++k) {
+      if (!e[k].is_number() || !std::isfinite(e[k].get<double>())) {
+        throw InvalidInput(field + ": extrinsics", "must be 6 finite numbers (rt_fromref)");
+      }
+      rt[k] = e[k].get<double>();
+    }
+    r.rt_fromref = rt;
+  }
   r.calibration.camera = FromMrcal(m, pitch_mm, field);
   r.format = Format::kMrcal;
   r.format_model = m.lensmodel;
@@ -524,19 +548,20 @@ ReadResult ReadMrcal(const std::string& text, double pitch_mm, const std::string
 }
 
 std::string MrcalText(const MrcalModel& m, std::string_view source) {
-  std::string intr;
+  std::string intr, extr;
   for (double v : m.intrinsics) intr += " " + Num(v) + ",";
+  for (double v : m.rt_fromref) extr += " " + Num(v) + ",";
   return fmt::format(
       "# mrcal camera model written by porthole convert ({})\n"
       "{{\n"
       "    'lensmodel': '{}',\n"
       "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,....\n"
       "    'intrinsics': [{} ],\n"
-      "    # extrinsics are rt_fromref (porthole writes the identity: the camera is the reference)\n"
-      "    'extrinsics': [ 0, 0, 0, 0, 0, 0 ],\n"
+      "    # extrinsics are rt_fromref (the identity unless the input held them)\n"
+      "    'extrinsics': [{} ],\n"
       "    'imagersize': [ {}, {} ],\n"
       "}}\n",
-      source, m.lensmodel, intr, m.width_px, m.height_px);
+      source, m.lensmodel, intr, extr, m.width_px, m.height_px);
 }
 
 // ---- porthole JSON ----
@@ -906,7 +931,7 @@ calib::CalibrationRecord ConvertCalibration(const calib::CalibrationRecord& cal,
 }
 
 ReadResult ReadCalibration(const std::string& content, Format format, double pixel_pitch_mm,
-                           const std::string& field) {
+                           const std::string& field, int camera_id) {
   RequirePositive("--pixel-pitch-mm", pixel_pitch_mm);
   ReadResult r;
   switch (format) {
@@ -927,10 +952,10 @@ ReadResult ReadCalibration(const std::string& content, Format format, double pix
     }
     case Format::kOpenCVYaml: r = ReadOpenCVYaml(content, pixel_pitch_mm, field); break;
     case Format::kColmapText:
-      r = FromColmapList(ParseColmapText(content, field), format, pixel_pitch_mm, field);
+      r = FromColmapList(ParseColmapText(content, field), format, pixel_pitch_mm, field, camera_id);
       break;
     case Format::kColmapBinary:
-      r = FromColmapList(ParseColmapBinary(content, field), format, pixel_pitch_mm, field);
+      r = FromColmapList(ParseColmapBinary(content, field), format, pixel_pitch_mm, field, camera_id);
       break;
     case Format::kMrcal: r = ReadMrcal(content, pixel_pitch_mm, field); break;
     case Format::kMetashape: r = ReadMetashape(content, pixel_pitch_mm, field); break;
@@ -963,7 +988,8 @@ ReadResult ReadCalibration(const std::string& content, Format format, double pix
   return r;
 }
 
-ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field) {
+ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field,
+                               int camera_id) {
   std::string file = path;
   if (std::filesystem::is_directory(path)) {
     const auto txt = std::filesystem::path(path) / "cameras.txt";
@@ -978,7 +1004,7 @@ ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, c
   }
   const std::string content = ReadInputFile(file, field, kMaxJsonFileBytes);
   const std::string where = field + " '" + file + "'";
-  ReadResult r = ReadCalibration(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where);
+  ReadResult r = ReadCalibration(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where, camera_id);
   r.calibration.label = std::filesystem::path(path).stem().string();
   return r;
 }
@@ -1016,7 +1042,7 @@ WriteResult WriteCamera(const Camera& cam, Format format, const std::string& fie
 }
 
 WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field,
-                             const RefractiveHousing* housing) {
+                             const WriteExtras& extras) {
   const Camera& cam = cal.camera;
   camera::ValidateCamera(cam, field);
   WriteResult w;
@@ -1059,14 +1085,15 @@ WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format,
       CalibmarFile f;
       f.camera = ToColmap(pcam, field);
       if (pc.cal.has_covariance) f.camera_sigma = CovarianceToColmapSigma(f.camera, pc.cal.covariance);
-      if (housing != nullptr) f.housing = *housing;
+      f.housing = extras.housing;
       w.content = CalibmarYaml(f);
       w.format_model = f.camera.model;
       w.sigma_written = !f.camera_sigma.empty();
       break;
     }
     case Format::kMrcal: {
-      const MrcalModel m = ToMrcal(pcam, field);
+      MrcalModel m = ToMrcal(pcam, field);
+      if (extras.rt_fromref) m.rt_fromref = *extras.rt_fromref;
       w.content = MrcalText(m, pc.exact ? "exact" : fmt::format("refit from {}, RMS {:.6f} px",
                                                                 cam.model_name(), pc.fit.rms_px));
       w.format_model = m.lensmodel;

@@ -80,6 +80,7 @@ struct ReadResult {
   camera::ConversionFit fit;
   std::optional<RefractiveHousing> housing;  // calibmar: its FLATPORT / DOMEPORT
   double file_rms_px = NAN;                  // calibmar: its "# overall_rms"
+  std::optional<std::array<double, 6>> rt_fromref;  // mrcal: its extrinsics (rotation vector, translation)
 
   const camera::Camera& camera() const { return calibration.camera; }
 };
@@ -96,12 +97,14 @@ struct WriteResult {
 // Reads a camera from `content` in `format`. Pixel formats carry no pitch: the sensor gets
 // `pixel_pitch_mm` (> 0; callers without one pass 1 and say "pixels are mm"). `field` names the
 // file in errors: InvalidInput("<field>: <format key>", rule).
+// `camera_id`: the camera of a COLMAP file holding several (0: the file must hold one).
 ReadResult ReadCalibration(const std::string& content, Format format, double pixel_pitch_mm,
-                           const std::string& field);
+                           const std::string& field, int camera_id = 0);
 // Reads a file (or a COLMAP sparse-model directory), detecting its format; the label is the file's
 // stem. The one loader of every command that reads a calibration (convert, compare, simulate,
 // report).
-ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field);
+ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field,
+                               int camera_id = 0);
 
 // `r` with its calibration converted to `model` (ConvertCalibration); exact and fit then describe
 // the conversion when it was a refit (else what reading did).
@@ -117,9 +120,13 @@ std::string DescribeRead(const ReadResult& r, const std::string& path);
 // Writes the calibration in `format`, with its covariance where the format holds one. Throws
 // InvalidInput(field, …) when the model has no representation in the format (e.g. kannala-brandt
 // in mrcal, which has no such model).
-// `housing`: calibmar's non_svp_model and parameters (else NONE); other formats ignore it.
+// What some formats hold besides the camera; the others ignore it.
+struct WriteExtras {
+  std::optional<RefractiveHousing> housing;          // calibmar's non_svp_model (else NONE)
+  std::optional<std::array<double, 6>> rt_fromref;  // mrcal's extrinsics (else the identity)
+};
 WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field,
-                             const RefractiveHousing* housing = nullptr);
+                             const WriteExtras& extras = {});
 // A camera without σ.
 WriteResult WriteCamera(const camera::Camera& cam, Format format, const std::string& field);
 
@@ -153,6 +160,7 @@ struct MrcalModel {
   std::string lensmodel;
   std::vector<double> intrinsics;
   int width_px = 0, height_px = 0;
+  std::array<double, 6> rt_fromref{};  // extrinsics: rotation vector (rad), translation
 };
 MrcalModel ToMrcal(const camera::Camera& cam, const std::string& field);
 camera::Camera FromMrcal(const MrcalModel& m, double pixel_pitch_mm, const std::string& field);

@@ -185,6 +185,23 @@ TEST(Interop, BrownToPixelFormatsIsARefitBelow1e2PxForThePapersTable6) {
   }
 }
 
+// A COLMAP file with several cameras: one chosen by id; mrcal's extrinsics carried to mrcal.
+TEST(Interop, CameraIdAndMrcalExtrinsics) {
+  const std::string two = "1 PINHOLE 640 480 500 501 320.5 240.5\n7 SIMPLE_PINHOLE 800 600 700 400.5 300.5\n";
+  const ReadResult r = ReadCalibration(two, Format::kColmapText, 1, "IN", 7);
+  EXPECT_EQ(r.camera().sensor.width_px, 800);
+  EXPECT_EQ(r.camera().params[camera::OpenCVModel::kCx], 400);
+  EXPECT_THROW(ReadCalibration(two, Format::kColmapText, 1, "IN", 3), InvalidInput);
+  const std::string model =
+      "{ 'lensmodel': 'LENSMODEL_OPENCV4', 'intrinsics': [500, 501, 320, 240, -0.1, 0.01, 0, 0],\n"
+      "  'extrinsics': [0.1, -0.2, 0.3, 10, 20, -30], 'imagersize': [640, 480] }\n";
+  const ReadResult m = ReadCalibration(model, Format::kMrcal, 1, "IN");
+  ASSERT_TRUE(m.rt_fromref);
+  EXPECT_EQ((*m.rt_fromref)[5], -30);
+  const auto back = ParsePythonLiteral(WriteCalibration(m.calibration, Format::kMrcal, "OUT", {std::nullopt, m.rt_fromref}).content, "back");
+  for (int k = 0; k < 6; ++k) EXPECT_EQ(back["extrinsics"][k].get<double>(), (*m.rt_fromref)[k]);
+}
+
 TEST(Interop, PythonLiteralReaderTakesWhatMrcalWritesAndNothingElse) {
   const auto j = ParsePythonLiteral(
       "# comment\n{\n  'lensmodel': 'LENSMODEL_OPENCV4', # trailing\n"
@@ -223,7 +240,7 @@ TEST(Interop, MalformedFilesNameTheFileAndTheField) {
   EXPECT_TRUE(has(message("1 THIN_PRISM_FISHEYE 640 480 1 2 3", Format::kColmapText), "MODEL"));
   EXPECT_TRUE(has(message("1 PINHOLE 640 480 500 500 x 240", Format::kColmapText), "'x'"));
   EXPECT_TRUE(has(message("1 PINHOLE 640 480 500 500 320 240\n2 PINHOLE 640 480 500 500 320 240\n",
-                          Format::kColmapText), "2 cameras"));
+                          Format::kColmapText), "2 cameras (ids 1, 2)"));
   EXPECT_TRUE(has(message(std::string("\x01\0\0\0\0\0\0\0", 8), Format::kColmapBinary), "camera"));
   EXPECT_TRUE(has(message("{'lensmodel': 'LENSMODEL_CAHVOR', 'intrinsics': [1,2,3,4], 'imagersize': [1, 1]}",
                           Format::kMrcal), "lensmodel"));
@@ -485,7 +502,7 @@ TEST(Calibmar, CalibrationYamlWithSigmaRmsAndHousing) {
   EXPECT_EQ(r.housing->sigma[2], 0.0002);
   EXPECT_TRUE(std::isnan(r.housing->sigma[3]));
   // Written back: the same file content (numbers in shortest round-trip form).
-  const WriteResult w = WriteCalibration(r.calibration, Format::kCalibmar, "OUT", &*r.housing);
+  const WriteResult w = WriteCalibration(r.calibration, Format::kCalibmar, "OUT", {r.housing, std::nullopt});
   const CalibmarFile back = ParseCalibmarYaml(w.content, "back");
   const CalibmarFile orig = ParseCalibmarYaml(kCalibmarDome, "orig");
   EXPECT_EQ(back.camera.model, "OPENCV");
