@@ -27,7 +27,7 @@ void RegisterConvert(CLI::App& app) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "convert",
-      "Convert a calibration between porthole JSON, OpenCV YAML, COLMAP, mrcal and Metashape files");
+      "Convert a calibration between porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape and calibmar files");
   cmd->footer(
       "Formats (read: detected from the extension, else the content; write: from OUT's extension or "
       "--to):\n"
@@ -84,6 +84,7 @@ void RegisterConvert(CLI::App& app) {
     }
     const auto format = interop::OutputFormat(out.string(), to, "OUT");
     // The refractive housing: calibmar's, or a porthole port given with --port.
+    if (o->water_index && o->port.empty()) throw InvalidInput("--water-index", "goes with --port");
     interop::WriteExtras extras{in.housing, in.rt_fromref};  // carried where the output holds them
     auto& housing = extras.housing;
     if (!o->port.empty()) {
