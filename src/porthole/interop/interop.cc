@@ -930,13 +930,17 @@ calib::CalibrationRecord ConvertCalibration(const calib::CalibrationRecord& cal,
                                         c.model_name(), camera::Info(model).name));
 }
 
-ReadResult ReadCalibration(const std::string& content, Format format, double pixel_pitch_mm,
-                           const std::string& field, int camera_id) {
+namespace {
+
+// ReadCalibration, with `origin` (the file) naming the line of a bad JSON value ("file:N:").
+ReadResult ReadCalibrationFrom(const std::string& content, Format format, double pixel_pitch_mm,
+                               const std::string& field, int camera_id, const std::string& origin) {
   RequirePositive("--pixel-pitch-mm", pixel_pitch_mm);
   ReadResult r;
   switch (format) {
     case Format::kJson: {
-      r.calibration = calib::CalibrationFromJson(ParseJsonText(content, field, "JSON"), field);
+      const nlohmann::json j = ParseJsonText(content, field, origin);
+      r.calibration = WithJsonLines(content, field, origin, [&] { return calib::CalibrationFromJson(j, field); });
       r.format = format;
       r.format_model = std::string(r.camera().model_name());
       r.pitch_known = true;
@@ -988,6 +992,13 @@ ReadResult ReadCalibration(const std::string& content, Format format, double pix
   return r;
 }
 
+}  // namespace
+
+ReadResult ReadCalibration(const std::string& content, Format format, double pixel_pitch_mm,
+                           const std::string& field, int camera_id) {
+  return ReadCalibrationFrom(content, format, pixel_pitch_mm, field, camera_id, "JSON");
+}
+
 ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field,
                                int camera_id) {
   std::string file = path;
@@ -1004,7 +1015,8 @@ ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, c
   }
   const std::string content = ReadInputFile(file, field, kMaxJsonFileBytes);
   const std::string where = field + " '" + file + "'";
-  ReadResult r = ReadCalibration(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where, camera_id);
+  ReadResult r =
+      ReadCalibrationFrom(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where, camera_id, file);
   r.calibration.label = std::filesystem::path(path).stem().string();
   return r;
 }
