@@ -168,7 +168,9 @@ FieldCut FieldCutByPort(const ports::PortSystem& sys, const lens::CameraBody& ca
   // Along each half diagonal: the last passing radius (bisection; the blocked part is outside).
   const double half_diag = std::hypot(hw, hh);
   cut.clear_radius_mm = half_diag;
-  for (const auto& [sx, sy] : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
+  for (const auto& corner : std::array<std::pair<double, double>, 4>{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}}) {
+    // (a structured binding cannot be captured by a lambda in clang 14, which builds `make fuzz`)
+    const double sx = corner.first, sy = corner.second;
     auto at = [&](double r) { return passes(sx * hw * r / half_diag, sy * hh * r / half_diag); };
     if (at(half_diag)) continue;
     double lo = 0, hi = half_diag;
