@@ -51,7 +51,7 @@ struct Levels {
   double dot = 0, gap = 0;
 };
 
-enum class Outcome { kOk, kPartial, kNoRing, kUnclear, kImpossible, kRefineFailed };
+enum class Outcome { kOk, kPartial, kNoRing, kUnclear, kImpossible, kRefineFailed, kNotElliptic };
 
 // Mean level inside the dot (ρ ≤ 0.45) and median level of the gap between dot and ring.
 std::optional<Levels> MeasureLevels(const cv::Mat& g, const Frame& f, double gap_lo, double gap_hi, bool* partial) {
@@ -82,8 +82,6 @@ Outcome Refine(const cv::Mat& g, Frame* f, Levels* lv, double gap_lo, double gap
     if (!levels) return Outcome::kPartial;
     *lv = *levels;
     if (std::abs(lv->dot - lv->gap) < min_contrast) return Outcome::kNoRing;
-    const double mid = 0.5 * (lv->dot + lv->gap);
-    const double sign = lv->dot < lv->gap ? 1 : -1;  // (v − mid)·sign < 0 inside the dot
     const int rays = std::clamp(static_cast<int>(std::lround(2 * kTwoPi * f->Major())), 48, 720);
     std::vector<cv::Point2f> edge;
     edge.reserve(rays);
@@ -91,27 +89,36 @@ Outcome Refine(const cv::Mat& g, Frame* f, Levels* lv, double gap_lo, double gap
       const double t = kTwoPi * (k + 0.5) / rays;
       const Eigen::Vector2d u(std::cos(t), std::sin(t));
       const double len = (f->a * u).norm();
-      const double step = 0.2 / len;
-      std::optional<double> prev;
-      double prev_rho = 0;
-      for (double rho = 0.5; rho <= 1.5; rho += step) {
-        const auto v = Sample(g, f->c + f->a * u * rho);
+      // The edge by the profile's integral: for a step blurred by any symmetric kernel (pixel
+      // area, bilinear interpolation, defocus) the area under the normalised profile from ρ0 to
+      // ρ1 is the step's distance from ρ0, whatever the blur and the pixel phase.
+      const double r0 = 0.55, r1 = 1.45;
+      const int n = std::max(8, static_cast<int>(std::ceil((r1 - r0) * len / 0.2)));
+      double area = 0;
+      for (int i = 0; i <= n; ++i) {
+        const auto v = Sample(g, f->c + f->a * u * (r0 + (r1 - r0) * i / n));
         if (!v) return Outcome::kPartial;
-        const double d = (*v - mid) * sign;
-        if (prev && *prev < 0 && d >= 0) {
-          const double re = prev_rho + (rho - prev_rho) * (-*prev) / (d - *prev);
-          const Eigen::Vector2d p = f->a * u * re;  // relative to the frame's centre
-          edge.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-          break;
-        }
-        prev = d;
-        prev_rho = rho;
+        const double w = (i == 0 || i == n) ? 0.5 : 1.0;
+        area += w * (*v - lv->gap) / (lv->dot - lv->gap);
       }
+      const double re = r0 + area * (r1 - r0) / n;
+      if (!(re > r0 + 0.05 && re < r1 - 0.05)) continue;  // no edge in the window
+      const Eigen::Vector2d p = f->a * u * re;  // relative to the frame's centre
+      edge.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
     }
     if (edge.size() < 0.8 * rays) return Outcome::kRefineFailed;
     const cv::RotatedRect r = cv::fitEllipseDirect(edge);
     if (!(r.size.width > 0 && r.size.height > 0)) return Outcome::kRefineFailed;
     const Frame next = FromRect(r, f->c);
+    // A dot's edge is an ellipse: points off it by more than 5 % of the radius (a ring segment,
+    // a blot, two touching dots) end the candidate.
+    const Eigen::Matrix2d inv = next.a.inverse();
+    double ss = 0;
+    for (const auto& p : edge) {
+      const double d = (inv * (Eigen::Vector2d(p.x, p.y) + f->c - next.c)).norm() - 1;
+      ss += d * d;
+    }
+    if (std::sqrt(ss / edge.size()) > 0.05) return Outcome::kNotElliptic;
     if ((next.c - f->c).norm() > 0.5 * f->Minor() || next.Minor() < 0.5 * f->Minor()) return Outcome::kRefineFailed;
     *f = next;
   }
@@ -168,8 +175,8 @@ Outcome ReadRing(const cv::Mat& g, const Frame& f, const Levels& lv, const Coded
 
 std::string DetectionCounts::ToString() const {
   return fmt::format("{} candidates: {} decoded; skipped {} partial, {} without a ring, {} unclear, {} impossible "
-                     "codes, {} duplicate IDs, {} refinement failures",
-                     candidates, decoded, partial, no_ring, unclear, impossible, duplicate, refine_failed);
+                     "codes, {} duplicate IDs, {} not elliptic, {} refinement failures",
+                     candidates, decoded, partial, no_ring, unclear, impossible, duplicate, not_elliptic, refine_failed);
 }
 
 CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptions& o) {
@@ -196,10 +203,11 @@ CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptio
     for (const auto& ct : contours) {
       if (ct.size() < 8) continue;
       const double area = cv::contourArea(ct);
-      if (area < 0.5 * std::numbers::pi * std::pow(o.min_dot_diameter_px / 2, 2)) continue;
+      const double min_area = std::numbers::pi * std::pow(o.min_dot_diameter_px / 2, 2) / o.max_axis_ratio;
+      if (area < 0.5 * min_area) continue;
       const cv::RotatedRect r = cv::fitEllipseDirect(ct);
       const double a = std::max(r.size.width, r.size.height) / 2, b = std::min(r.size.width, r.size.height) / 2;
-      if (!(b > 0) || 2 * b < o.min_dot_diameter_px || a / b > o.max_axis_ratio) continue;
+      if (!(b > 0) || 2 * a < o.min_dot_diameter_px || a / b > o.max_axis_ratio) continue;
       const double fill = area / (std::numbers::pi * a * b);
       if (fill < 0.7 || fill > 1.2) continue;
       const Frame f = FromRect(r, Eigen::Vector2d::Zero());
@@ -233,6 +241,7 @@ CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptio
       case Outcome::kUnclear: ++out.counts.unclear; continue;
       case Outcome::kImpossible: ++out.counts.impossible; continue;
       case Outcome::kRefineFailed: ++out.counts.refine_failed; continue;
+      case Outcome::kNotElliptic: ++out.counts.not_elliptic; continue;
     }
     CodedTarget t;
     t.id = id;

@@ -32,7 +32,7 @@ namespace porthole::coded {
 struct CodedDetectOptions {
   int bits = 14;
   Profile profile = Profile::kAicon;
-  double min_dot_diameter_px = 6;     // smaller dots are not tried (the ring's bits get < 1 px)
+  double min_dot_diameter_px = 6;     // dots whose image is shorter (long axis) are not tried
   double max_axis_ratio = 4;          // long/short axis of the dot's image (tilt up to ~75°)
   double min_contrast = 0.04;         // |dot − gap| as a fraction of the image type's full range
   double min_bit_clarity = 0.25;      // each bit's level at most this far from 0 or 1 (of dot − gap)
@@ -55,6 +55,7 @@ struct DetectionCounts {
   int unclear = 0;           // some bit between the levels (blur, damage, wrong scale)
   int impossible = 0;        // a clear ring whose code the profile does not have
   int duplicate = 0;         // an ID seen on two separate targets: both dropped
+  int not_elliptic = 0;      // the blob's edge is not an ellipse (ring segments, blots)
   int refine_failed = 0;     // the sub-pixel edge fit did not converge
   std::string ToString() const;
 };
