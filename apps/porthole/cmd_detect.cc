@@ -20,12 +20,13 @@ void RegisterDetect(CLI::App& app) {
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
-      "detect", "Detect a calibration target (chessboard, ChArUco, circle grid) in images");
+      "detect", "Detect a calibration target (chessboard, ChArUco, circle grid, coded targets) in images");
   cmd->add_option("--images", o->images, "Directory of images (jpg, png, tif, bmp, pgm)")
       ->required();
   cmd->add_option("--target", o->target,
                   "chessboard:COLSxROWS:SQUARE_MM (inner corners) | charuco:SQXxSQY:SQUARE_MM:"
-                  "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM")
+                  "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM | "
+                  "coded:BITS:DOT_RADIUS_MM[:aicon|metashape]")
       ->required();
   cmd->add_option("--out-dir", o->out_dir, "Write <image>.json detections into this directory (created if missing)");
   cmd->add_flag("--json", o->json, "Print all detections as one JSON set");

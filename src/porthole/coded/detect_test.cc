@@ -25,35 +25,11 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-// A pinhole view of the sheet: focal length f px, principal point at the image centre, the
-// sheet point `look_at_mm` on the optical axis at `distance_mm`, the sheet tilted by `tilt_deg`
-// about an in-plane axis at `axis_deg` from X, and turned by `roll_deg` about its normal.
-struct View {
-  int width = 1200, height = 900;
-  double f_px = 2400;
-  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();  // cam_from_sheet rotation
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();        // sheet origin in cam, mm
-  Eigen::Matrix3d K() const {
-    Eigen::Matrix3d k;
-    k << f_px, 0, (width - 1) / 2.0, 0, f_px, (height - 1) / 2.0, 0, 0, 1;
-    return k;
-  }
-  Eigen::Matrix3d H() const {  // pixels from sheet mm
-    Eigen::Matrix3d h;
-    h << rot.col(0), rot.col(1), t;
-    return K() * h;
-  }
-};
+using View = SheetView;
 
 View MakeView(const Eigen::Vector2d& look_at_mm, double distance_mm, double tilt_deg, double axis_deg,
-              double roll_deg, double f_px = 2400) {
-  View v;
-  v.f_px = f_px;
-  const double ax = axis_deg * kPi / 180;
-  v.rot = Eigen::AngleAxisd(tilt_deg * kPi / 180, Eigen::Vector3d(std::cos(ax), std::sin(ax), 0)).toRotationMatrix() *
-          Eigen::AngleAxisd(roll_deg * kPi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  v.t = Eigen::Vector3d(0, 0, distance_mm) - v.rot * Eigen::Vector3d(look_at_mm.x(), look_at_mm.y(), 0);
-  return v;
+              double roll_deg) {
+  return LookAtSheet(look_at_mm, distance_mm, tilt_deg, axis_deg, roll_deg);
 }
 
 struct Look {
@@ -260,13 +236,8 @@ TEST(CodedDetect, NoWrongIdInTenThousandDecodedTargets) {
     SheetOptions so = Sheet(p, bits, 2.0, view % 3 == 0);
     so.paper = "A2";
     so.first_id = 1 + view % 7;
-    const View v = MakeView(Eigen::Vector2d(210, 297), 1100 + 500 * uni(rng), 60 * uni(rng), 360 * uni(rng),
-                            360 * uni(rng), 3000);
-    View big = v;
-    big.width = 1600;
-    big.height = 1200;
-    big.rot = v.rot;
-    big.t = v.t;
+    const View big = LookAtSheet(Eigen::Vector2d(210, 297), 1100 + 500 * uni(rng), 60 * uni(rng), 360 * uni(rng),
+                                 360 * uni(rng), 3000, 1600, 1200);
     const Look look{.white_on_black = so.white_on_black, .noise = 0.02 * uni(rng), .defocus_px = 1.2 * uni(rng), .depth = CV_8U};
     const Score sc = Evaluate(Render(so, big, look, view, 4), Options(so));
     found += sc.found;

@@ -118,4 +118,29 @@ std::vector<double> RasterizeTargets(int width, int height, const Eigen::Matrix3
   return RasterizeRaw(width, height, image_from_sheet, raw, o);
 }
 
+Eigen::Matrix3d SheetView::K() const {
+  Eigen::Matrix3d k;
+  k << f_px, 0, (width - 1) / 2.0, 0, f_px, (height - 1) / 2.0, 0, 0, 1;
+  return k;
+}
+
+Eigen::Matrix3d SheetView::H() const {
+  Eigen::Matrix3d h;
+  h << rot.col(0), rot.col(1), t;
+  return K() * h;
+}
+
+SheetView LookAtSheet(const Eigen::Vector2d& look_at_mm, double distance_mm, double tilt_deg, double axis_deg,
+                      double roll_deg, double f_px, int width, int height) {
+  SheetView v;
+  v.f_px = f_px;
+  v.width = width;
+  v.height = height;
+  const double ax = axis_deg * std::numbers::pi / 180;
+  v.rot = Eigen::AngleAxisd(tilt_deg * std::numbers::pi / 180, Eigen::Vector3d(std::cos(ax), std::sin(ax), 0)).toRotationMatrix() *
+          Eigen::AngleAxisd(roll_deg * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  v.t = Eigen::Vector3d(0, 0, distance_mm) - v.rot * Eigen::Vector3d(look_at_mm.x(), look_at_mm.y(), 0);
+  return v;
+}
+
 }  // namespace porthole::coded

@@ -38,4 +38,22 @@ struct RawTarget {
 std::vector<double> RasterizeRaw(int width, int height, const Eigen::Matrix3d& image_from_sheet,
                                  const std::vector<RawTarget>& targets, const RasterOptions& options);
 
+// A pinhole view of a sheet for tests: focal length f px, principal point at the image centre
+// ((W−1)/2, (H−1)/2), no distortion; `rot`/`t` take sheet mm to the camera frame (X right, Y down,
+// Z forward).
+struct SheetView {
+  int width = 1200, height = 900;
+  double f_px = 2400;
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();  // cam_from_sheet rotation
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();        // sheet origin in the camera frame, mm
+  Eigen::Matrix3d K() const;
+  Eigen::Matrix3d H() const;                           // pixels from sheet mm (plane Z = 0)
+};
+
+// The sheet point `look_at_mm` on the optical axis at `distance_mm`, the sheet tilted by
+// `tilt_deg` about the in-plane axis at `axis_deg` from X, and turned by `roll_deg` about its
+// normal.
+SheetView LookAtSheet(const Eigen::Vector2d& look_at_mm, double distance_mm, double tilt_deg, double axis_deg,
+                      double roll_deg, double f_px = 2400, int width = 1200, int height = 900);
+
 }  // namespace porthole::coded
