@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <array>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <numbers>
@@ -165,10 +167,10 @@ TEST(Sheet, SvgArcsLieOnTheRingCircles) {
     }
     const double radii[4] = {ro, ro, ri, ri};
     for (int k = 0; k < 4; ++k) {
-      EXPECT_NEAR((p[k] - c).norm(), radii[k], 2e-4);  // 4 decimals written
+      EXPECT_NEAR((p[k] - c).norm(), radii[k], 2e-6);  // 6 decimals written
       double ang = std::atan2(p[k].y() - c.y(), p[k].x() - c.x());
       const double seg = ang / (2 * kPi / 14);
-      EXPECT_NEAR(seg, std::round(seg), 1e-4);
+      EXPECT_NEAR(seg, std::round(seg), 1e-6);
     }
     ++arcs;
   }
@@ -195,6 +197,51 @@ TEST(Sheet, PdfCrossReferenceOffsetsPointAtTheirObjects) {
     if (i == 0) continue;
     EXPECT_EQ(pdf.compare(std::stoul(off), std::to_string(i).size() + 6, std::to_string(i) + " 0 obj"), 0) << i;
   }
+}
+
+TEST(Sheet, PdfDotsAreCirclesToAMillionthOfTheRadius) {
+  // The first dot of the content stream: "x y m" then Bézier pieces "x1 y1 x2 y2 x3 y3 c" up to
+  // "h f". Every piece evaluated at 64 parameters lies on the circle about the target's centre.
+  SheetOptions o;
+  o.count = 1;
+  o.radius_mm = 4;
+  const SheetLayout l = LayoutSheet(o);
+  const std::string pdf = SheetPdf(l);
+  std::istringstream in(pdf.substr(pdf.find("stream\n") + 7));
+  std::vector<double> nums;
+  Eigen::Vector2d start;
+  std::vector<std::array<Eigen::Vector2d, 3>> pieces;
+  for (std::string w; in >> w && w != "h";) {
+    if (w == "m") {
+      start = {nums[nums.size() - 2], nums.back()};
+      nums.clear();
+    } else if (w == "c") {
+      const auto n = nums.size();
+      pieces.push_back({Eigen::Vector2d(nums[n - 6], nums[n - 5]), Eigen::Vector2d(nums[n - 4], nums[n - 3]),
+                        Eigen::Vector2d(nums[n - 2], nums[n - 1])});
+      nums.clear();
+    } else {
+      try {
+        nums.push_back(std::stod(w));
+      } catch (const std::exception&) {
+        nums.clear();
+      }
+    }
+  }
+  ASSERT_EQ(pieces.size(), 16u);
+  const Eigen::Vector2d c = l.targets[0].xyz_mm.head<2>();
+  double worst = 0;
+  Eigen::Vector2d p0 = start;
+  for (const auto& pc : pieces) {
+    for (int k = 0; k <= 64; ++k) {
+      const double t = k / 64.0, u = 1 - t;
+      const Eigen::Vector2d b = u * u * u * p0 + 3 * u * u * t * pc[0] + 3 * u * t * t * pc[1] + t * t * t * pc[2];
+      worst = std::max(worst, std::abs((b - c).norm() - o.radius_mm) / o.radius_mm);
+    }
+    p0 = pc[2];
+  }
+  std::printf("PDF circle: worst radial error %.2e of the radius\n", worst);
+  EXPECT_LT(worst, 1e-6);
 }
 
 TEST(Sheet, FieldRoundTripsAndBadFieldsAreRejected) {

@@ -20,8 +20,8 @@ constexpr double kStripMm = 16;       // bottom strip: scale bar and caption
 constexpr double kScaleBarMm = 100;   // length of the scale bar
 constexpr double kBarHeightMm = 2;
 
-std::string Num(double v) {  // shortest fixed text to 1e-4 mm
-  std::string s = fmt::format("{:.4f}", v);
+std::string Num(double v) {  // shortest fixed text to 1e-6 mm
+  std::string s = fmt::format("{:.6f}", v);
   while (s.back() == '0') s.pop_back();
   if (s.back() == '.') s.pop_back();
   return s == "-0" ? "0" : s;
