@@ -52,8 +52,11 @@ void RegisterDetect(CLI::App& app) {
     if (o->json) {
       return fmt::print("{}\n", calib::DetectionSetToJson(run.detections, run.skipped, target).dump(1, ' ', false, kReplace));
     }
-    std::string text = fmt::format("target {} ({} points)\n{:<28} {:>7}  {}\n", target.ToString(),
-                                   target.NumPoints(), "image", "points", "status");
+    // Coded targets: ids are target IDs 1…N (id 0 is no point).
+    const bool coded = target.kind == calib::TargetKind::kCoded;
+    std::string text = fmt::format("target {} ({} {})\n{:<28} {:>7}  {}\n", target.ToString(),
+                                   coded ? target.NumPoints() - 1 : target.NumPoints(), coded ? "targets" : "points",
+                                   "image", "points", "status");
     for (const auto& d : run.detections) {
       text += fmt::format("{:<28} {:>7}  ok\n", d.image, d.ids.size());
     }
