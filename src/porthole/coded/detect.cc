@@ -27,6 +27,19 @@ struct Frame {
   double Major() const { return Eigen::JacobiSVD<Eigen::Matrix2d>(a).singularValues()(0); }
 };
 
+// cv::fitEllipseDirect, or nullopt when OpenCV refuses the points or returns no ellipse.
+std::optional<cv::RotatedRect> FitEllipse(const cv::Mat& points) {
+  try {
+    const cv::RotatedRect r = cv::fitEllipseDirect(points);
+    if (std::isfinite(r.center.x) && std::isfinite(r.center.y) && r.size.width > 0 && r.size.height > 0 &&
+        std::isfinite(r.size.width) && std::isfinite(r.size.height) && std::isfinite(r.angle)) {
+      return r;
+    }
+  } catch (const cv::Exception&) {
+  }
+  return std::nullopt;
+}
+
 Frame FromRect(const cv::RotatedRect& r, const Eigen::Vector2d& offset) {
   const double th = r.angle * std::numbers::pi / 180;
   Eigen::Matrix2d rot;
@@ -107,9 +120,9 @@ Outcome Refine(const cv::Mat& g, Frame* f, Levels* lv, double gap_lo, double gap
       edge.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
     }
     if (edge.size() < 0.8 * rays) return Outcome::kRefineFailed;
-    const cv::RotatedRect r = cv::fitEllipseDirect(edge);
-    if (!(r.size.width > 0 && r.size.height > 0)) return Outcome::kRefineFailed;
-    const Frame next = FromRect(r, f->c);
+    const auto r = FitEllipse(cv::Mat(edge));
+    if (!r) return Outcome::kRefineFailed;
+    const Frame next = FromRect(*r, f->c);
     // A dot's edge is an ellipse: points off it by more than 5 % of the radius (a ring segment,
     // a blot, two touching dots) end the candidate.
     const Eigen::Matrix2d inv = next.a.inverse();
@@ -205,7 +218,9 @@ CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptio
       const double area = cv::contourArea(ct);
       const double min_area = std::numbers::pi * std::pow(o.min_dot_diameter_px / 2, 2) / o.max_axis_ratio;
       if (area < 0.5 * min_area) continue;
-      const cv::RotatedRect r = cv::fitEllipseDirect(ct);
+      const auto fit = FitEllipse(cv::Mat(ct));
+      if (!fit) continue;
+      const cv::RotatedRect& r = *fit;
       const double a = std::max(r.size.width, r.size.height) / 2, b = std::min(r.size.width, r.size.height) / 2;
       if (!(b > 0) || 2 * a < o.min_dot_diameter_px || a / b > o.max_axis_ratio) continue;
       const double fill = area / (std::numbers::pi * a * b);

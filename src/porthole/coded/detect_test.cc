@@ -314,6 +314,21 @@ TEST(CodedDetect, DamagedPartialAndLookAlikeTargetsAreSkippedAndCounted) {
   EXPECT_TRUE(DetectCodedTargets(noise, o).targets.empty());
   EXPECT_TRUE(DetectCodedTargets(cv::Mat(50, 60, CV_16U, cv::Scalar(1000)), o).targets.empty());
   EXPECT_TRUE(DetectCodedTargets(cv::Mat(3, 3, CV_8U, cv::Scalar(0)), o).targets.empty());
+  // Lines, thin bars, single pixels and filled shapes: degenerate outlines for the ellipse fit.
+  cv::Mat shapes(400, 500, CV_8U, cv::Scalar(200));
+  std::mt19937 rng(7);
+  for (int k = 0; k < 300; ++k) {
+    const cv::Point a(rng() % 500, rng() % 400), b(rng() % 500, rng() % 400);
+    switch (k % 4) {
+      case 0: cv::line(shapes, a, b, cv::Scalar(rng() % 60), 1 + k % 3); break;
+      case 1: cv::rectangle(shapes, a, a + cv::Point(1 + rng() % 30, 1 + rng() % 3), cv::Scalar(20), cv::FILLED); break;
+      case 2: shapes.at<uint8_t>(a) = 0; break;
+      case 3: cv::circle(shapes, a, 2 + rng() % 20, cv::Scalar(rng() % 80), k % 8 == 3 ? cv::FILLED : 2); break;
+    }
+  }
+  const CodedDetection junk = DetectCodedTargets(shapes, o);
+  std::printf("random shapes: %s\n", junk.counts.ToString().c_str());
+  EXPECT_TRUE(junk.targets.empty());
 }
 
 // The centre measured without correction is the image ellipse's centre, which is not the image of
