@@ -196,7 +196,7 @@ void RegisterCalibrate(CLI::App& app) {
                               "Detections from 'porthole detect' (set file, file or directory)");
   img->excludes(det);
   cmd->add_option("--target", o->target,
-                  "Target spec (required with --images), e.g. chessboard:9x6:25");
+                  "Target spec (required with --images), e.g. chessboard:9x6:25 or coded:14:2.5 (porthole detect --help)");
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch, mm; without it millimetres are pixels")
       ->capture_default_str();

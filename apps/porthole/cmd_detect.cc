@@ -20,12 +20,13 @@ void RegisterDetect(CLI::App& app) {
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
-      "detect", "Detect a calibration target (chessboard, ChArUco, circle grid) in images");
+      "detect", "Detect a calibration target (chessboard, ChArUco, circle grid, coded targets) in images");
   cmd->add_option("--images", o->images, "Directory of images (jpg, png, tif, bmp, pgm)")
       ->required();
   cmd->add_option("--target", o->target,
                   "chessboard:COLSxROWS:SQUARE_MM (inner corners) | charuco:SQXxSQY:SQUARE_MM:"
-                  "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM")
+                  "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM | "
+                  "coded:BITS:DOT_RADIUS_MM[:aicon|metashape]")
       ->required();
   cmd->add_option("--out-dir", o->out_dir, "Write <image>.json detections into this directory (created if missing)");
   cmd->add_flag("--json", o->json, "Print all detections as one JSON set");
@@ -51,8 +52,11 @@ void RegisterDetect(CLI::App& app) {
     if (o->json) {
       return fmt::print("{}\n", calib::DetectionSetToJson(run.detections, run.skipped, target).dump(1, ' ', false, kReplace));
     }
-    std::string text = fmt::format("target {} ({} points)\n{:<28} {:>7}  {}\n", target.ToString(),
-                                   target.NumPoints(), "image", "points", "status");
+    // Coded targets: ids are target IDs 1…N (id 0 is no point).
+    const bool coded = target.kind == calib::TargetKind::kCoded;
+    std::string text = fmt::format("target {} ({} {})\n{:<28} {:>7}  {}\n", target.ToString(),
+                                   coded ? target.NumPoints() - 1 : target.NumPoints(), coded ? "targets" : "points",
+                                   "image", "points", "status");
     for (const auto& d : run.detections) {
       text += fmt::format("{:<28} {:>7}  ok\n", d.image, d.ids.size());
     }

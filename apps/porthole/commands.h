@@ -17,6 +17,7 @@ void RegisterSimulate(CLI::App& app);
 void RegisterFit(CLI::App& app);
 void RegisterSynthScan(CLI::App& app);
 void RegisterAssemble(CLI::App& app);
+void RegisterTargetSheet(CLI::App& app);
 void RegisterDetect(CLI::App& app);
 void RegisterCalibrate(CLI::App& app);
 void RegisterCompare(CLI::App& app);

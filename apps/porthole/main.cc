@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterFit(app);
   porthole::cli::RegisterSynthScan(app);
   porthole::cli::RegisterAssemble(app);
+  porthole::cli::RegisterTargetSheet(app);
   porthole::cli::RegisterDetect(app);
   porthole::cli::RegisterCalibrate(app);
   porthole::cli::RegisterCompare(app);

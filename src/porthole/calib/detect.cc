@@ -16,6 +16,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "porthole/coded/detect.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
@@ -94,6 +95,18 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
     case TargetKind::kAsymmetricCircles:
       found = cv::findCirclesGrid(gray, size, *pts, cv::CALIB_CB_ASYMMETRIC_GRID);
       break;
+    case TargetKind::kCoded: {  // target IDs on the default sheet (target.h)
+      coded::CodedDetectOptions o;
+      o.bits = t.code_bits;
+      o.profile = coded::ParseProfile(t.code_profile, "--target");
+      const int n = t.NumPoints();
+      for (const auto& c : coded::DetectCodedTargets(gray, o).targets) {
+        if (c.id >= n) continue;  // not on the sheet
+        ids->push_back(c.id);
+        pts->emplace_back(static_cast<float>(c.centre_px.x()), static_cast<float>(c.centre_px.y()));
+      }
+      return ids->size() >= 4;
+    }
     case TargetKind::kCharuco: {
       const auto dict = ArucoDictionary(t.dictionary);
       const auto board = cv::aruco::CharucoBoard::create(

@@ -2,7 +2,8 @@
 //  - chessboard: cv::findChessboardCornersSB (sector-based, sub-pixel by its own refinement with
 //    CALIB_CB_ACCURACY on the up-sampled image), inner corners row-major;
 //  - ChArUco: contrib aruco detectMarkers + interpolateCornersCharuco (ids = OpenCV's corner ids);
-//  - circle grids: cv::findCirclesGrid, symmetric or asymmetric.
+//  - circle grids: cv::findCirclesGrid, symmetric or asymmetric;
+//  - coded circular targets: coded::DetectCodedTargets (coded/detect.h), ids = target IDs.
 // Pixel convention of OpenCV = porthole's: (0, 0) is the centre of the top-left pixel.
 // An unreadable image or one without the target is not an error: it is returned as skipped.
 // Images are untrusted (docs/robustness.md): the dimensions in the file's header are read first and

@@ -4,6 +4,7 @@
 
 #include <charconv>
 
+#include "porthole/coded/sheet.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
@@ -30,11 +31,44 @@ double ParseNumber(const std::string& s, const std::string& field, const std::st
   return v;
 }
 
+coded::SheetLayout CodedSheet(const TargetSpec& t) {
+  coded::SheetOptions o;
+  o.bits = t.code_bits;
+  o.profile = coded::ParseProfile(t.code_profile, "--target");
+  o.radius_mm = t.dot_radius_mm;
+  return coded::LayoutSheet(o);
+}
+
+TargetSpec ParseCoded(const std::vector<std::string>& parts, const std::string& field) {
+  if (parts.size() < 3 || parts.size() > 4) {
+    throw InvalidInput(field, "expected coded:BITS:RADIUS_MM[:PROFILE] (BITS 12 or 14, PROFILE aicon or metashape)");
+  }
+  TargetSpec t;
+  t.kind = TargetKind::kCoded;
+  const double bits = ParseNumber(parts[1], field, "BITS");
+  if (bits != 12 && bits != 14) throw InvalidInput(field, "BITS must be 12 or 14, got '" + parts[1] + "'");
+  t.code_bits = static_cast<int>(bits);
+  t.dot_radius_mm = ParseNumber(parts[2], field, "RADIUS_MM (the dot's radius)");
+  t.code_profile = coded::ProfileName(coded::ParseProfile(parts.size() == 4 ? parts[3] : "aicon", field));
+  try {
+    const coded::SheetLayout l = CodedSheet(t);
+    t.cols = l.cols;
+    t.rows = l.rows;
+    t.spacing_mm = l.pitch_mm;
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(field, std::string("no default sheet for it: ") + e.what());
+  }
+  return t;
+}
+
 }  // namespace
 
 int TargetSpec::PointCols() const { return kind == TargetKind::kCharuco ? cols - 1 : cols; }
 int TargetSpec::PointRows() const { return kind == TargetKind::kCharuco ? rows - 1 : rows; }
-int TargetSpec::NumPoints() const { return PointCols() * PointRows(); }
+int TargetSpec::NumPoints() const {
+  if (kind == TargetKind::kCoded) return CodedSheet(*this).targets.back().id + 1;
+  return PointCols() * PointRows();
+}
 
 std::string TargetSpec::ToString() const {
   switch (kind) {
@@ -47,6 +81,8 @@ std::string TargetSpec::ToString() const {
       return fmt::format("circles:{}x{}:{:g}", cols, rows, spacing_mm);
     case TargetKind::kAsymmetricCircles:
       return fmt::format("acircles:{}x{}:{:g}", cols, rows, spacing_mm);
+    case TargetKind::kCoded:
+      return fmt::format("coded:{}:{:g}:{}", code_bits, dot_radius_mm, code_profile);
   }
   return "";
 }
@@ -55,7 +91,8 @@ TargetSpec ParseTarget(const std::string& spec, const std::string& field) {
   const auto parts = Split(spec, ':');
   const std::string usage =
       "expected chessboard:COLSxROWS:SQUARE_MM, charuco:SQXxSQY:SQUARE_MM:MARKER_MM[:DICT], "
-      "circles:COLSxROWS:SPACING_MM or acircles:COLSxROWS:SPACING_MM";
+      "circles:COLSxROWS:SPACING_MM, acircles:COLSxROWS:SPACING_MM or coded:BITS:RADIUS_MM[:PROFILE]";
+  if (!parts.empty() && parts[0] == "coded") return ParseCoded(parts, field);
   if (parts.size() < 3) throw InvalidInput(field, usage + ", got '" + spec + "'");
   TargetSpec t;
   const std::string& kind = parts[0];
@@ -96,6 +133,12 @@ TargetSpec ParseTarget(const std::string& spec, const std::string& field) {
 
 std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& t) {
   std::vector<Eigen::Vector3d> pts;
+  if (t.kind == TargetKind::kCoded) {  // indexed by target ID; id 0 (no target) at the origin
+    const coded::SheetLayout l = CodedSheet(t);
+    pts.assign(l.targets.back().id + 1, Eigen::Vector3d::Zero());
+    for (const auto& p : l.targets) pts[p.id] = p.xyz_mm;
+    return pts;
+  }
   pts.reserve(t.NumPoints());
   const double s = t.spacing_mm;
   for (int i = 0; i < t.PointRows(); ++i) {

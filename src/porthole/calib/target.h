@@ -10,6 +10,11 @@
 //   circles:COLSxROWS:SPACING            symmetric circle grid (centre spacing)
 //   acircles:COLSxROWS:SPACING           asymmetric circle grid (OpenCV's layout: row i, col j at
 //                                        ((2j + i mod 2)·s, i·s); SPACING = s)
+//   coded:BITS:RADIUS[:PROFILE]          circular coded targets (coded/codes.h: BITS 12 or 14, PROFILE
+//                                        aicon (default) or metashape, RADIUS = the dot's radius) on
+//                                        the sheet `porthole target-sheet` prints with its defaults
+//                                        (A4 portrait, IDs from 1): point id = target ID, so id 0
+//                                        is no target; X, Y from the paper's top-left corner
 #pragma once
 
 #include <Eigen/Core>
@@ -18,7 +23,7 @@
 
 namespace porthole::calib {
 
-enum class TargetKind { kChessboard, kCharuco, kCircles, kAsymmetricCircles };
+enum class TargetKind { kChessboard, kCharuco, kCircles, kAsymmetricCircles, kCoded };
 
 struct TargetSpec {
   TargetKind kind = TargetKind::kChessboard;
@@ -27,8 +32,12 @@ struct TargetSpec {
   double spacing_mm = 0;     // square size or circle spacing, mm
   double marker_mm = 0;      // ChArUco marker side, mm
   std::string dictionary;    // ChArUco ArUco dictionary name (default DICT_4X4_50)
+  int code_bits = 0;         // coded: 12 or 14
+  std::string code_profile;  // coded: aicon or metashape
+  double dot_radius_mm = 0;  // coded: radius of the central dot, mm
 
-  // Number of points the target carries (ChArUco: the (cols−1)·(rows−1) inner corners).
+  // Number of points the target carries (ChArUco: the (cols−1)·(rows−1) inner corners; coded:
+  // the last ID + 1, ids being target IDs).
   int NumPoints() const;
   // Columns and rows of the point lattice (ChArUco: squares − 1).
   int PointCols() const;
