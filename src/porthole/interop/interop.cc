@@ -162,15 +162,8 @@ calib::CalibrationRecord ConvertTo(const Src& src, const std::vector<double>& p,
   out.camera = start;
   const refit::ListProjector<M> dst{start.sensor};
   if (refit_q) {
-    std::vector<Eigen::Vector3d> used;
-    std::vector<Eigen::Vector2d> px;
-    for (const auto& r : rays) {
-      if (const auto uv = src(p.data(), camera::Vec3<double>(r))) {
-        used.push_back(r);
-        px.push_back(*uv);
-      }
-    }
-    const camera::ConversionFit f = refit::Fit(dst, &out.camera.params, free_q, used, px);
+    const refit::ProjectedRays data = refit::ProjectRays(src, p, rays);
+    const camera::ConversionFit f = refit::Fit(dst, &out.camera.params, free_q, data.rays, data.px);
     if (fit != nullptr) *fit = f;
     camera::ValidateCamera(out.camera, "refit");
   } else if (fit != nullptr) {
@@ -678,15 +671,8 @@ MetashapeCalibration ToMetashape(const calib::CalibrationRecord& in, const std::
     if constexpr (S::kId == CameraModelId::kOpenCV || S::kId == CameraModelId::kKannalaBrandt) {
       const refit::ListProjector<S> src{c.sensor};
       if (refit_q) {
-        std::vector<Eigen::Vector3d> used;
-        std::vector<Eigen::Vector2d> px;
-        for (const auto& r : rays) {
-          if (const auto uv = src(p.data(), camera::Vec3<double>(r))) {
-            used.push_back(r);
-            px.push_back(*uv);
-          }
-        }
-        const camera::ConversionFit f = refit::Fit(dst, &q, free_q, used, px);
+        const refit::ProjectedRays data = refit::ProjectRays(src, p, rays);
+        const camera::ConversionFit f = refit::Fit(dst, &q, free_q, data.rays, data.px);
         *exact = false;
         *fit = f;
       }

@@ -40,6 +40,23 @@ std::vector<Eigen::Vector3d> GridRays(const camera::Sensor& s, const Unproject& 
   return rays;
 }
 
+// The rays `proj` (parameters p) can project and their pixels: the data a refit fits to.
+struct ProjectedRays {
+  std::vector<Eigen::Vector3d> rays;
+  std::vector<Eigen::Vector2d> px;
+};
+template <typename Proj>
+ProjectedRays ProjectRays(const Proj& proj, const std::vector<double>& p, const std::vector<Eigen::Vector3d>& rays) {
+  ProjectedRays out;
+  for (const Eigen::Vector3d& r : rays) {
+    if (const auto uv = proj(p.data(), camera::Vec3<double>(r))) {
+      out.rays.push_back(r);
+      out.px.push_back(*uv);
+    }
+  }
+  return out;
+}
+
 // d pixel / d params, two rows a ray (u then v), by forward-mode automatic differentiation; a ray
 // the projector cannot project gives zero rows.
 template <typename Proj>
