@@ -21,6 +21,17 @@ COMPARE_FIGURES = ["compare-curves", "compare-maps"]
 SENSOR = {"width_px": 4288, "height_px": 2848, "pixel_pitch_mm": 0.0055}
 
 
+def table6_calibrations():
+    """The paper's Table 6 (value, sigma) as the air and water calibration dictionaries."""
+    cals = {k: {"camera": {}, "sigma": {}, "sensor": SENSOR} for k in ("air", "water")}
+    for row in read_table("menna2016_table6.csv"):
+        for k in cals:
+            if row[f"{k}_value"]:
+                cals[k]["camera"][row["parameter"]] = float(row[f"{k}_value"])
+                cals[k]["sigma"][row["parameter"]] = float(row[f"{k}_std"])
+    return cals
+
+
 @pytest.fixture(scope="module")
 def default_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("rep") / "report"
@@ -33,12 +44,7 @@ def default_report(tmp_path_factory):
 def table6_files(tmp_path_factory):
     """The paper's Table 6 as two calibration JSON files (in air, under water)."""
     d = tmp_path_factory.mktemp("t6")
-    cals = {k: {"camera": {}, "sigma": {}, "sensor": SENSOR} for k in ("air", "water")}
-    for row in read_table("menna2016_table6.csv"):
-        for k in cals:
-            if row[f"{k}_value"]:
-                cals[k]["camera"][row["parameter"]] = float(row[f"{k}_value"])
-                cals[k]["sigma"][row["parameter"]] = float(row[f"{k}_std"])
+    cals = table6_calibrations()
     paths = {}
     for k, v in cals.items():
         paths[k] = d / f"{k}.json"
@@ -337,12 +343,7 @@ def sigma_files(d, air_cov):
     """Two calibrations with the paper's Table 6 values: the air one with `air_cov` ("full": a full
     covariance over K1 K2 K3 P1 P2 with strong K correlations; "none": no sigma at all), the water
     one with sigma only (a diagonal covariance)."""
-    cals = {k: {"camera": {}, "sigma": {}, "sensor": SENSOR} for k in ("air", "water")}
-    for row in read_table("menna2016_table6.csv"):
-        for k in cals:
-            if row[f"{k}_value"]:
-                cals[k]["camera"][row["parameter"]] = float(row[f"{k}_value"])
-                cals[k]["sigma"][row["parameter"]] = float(row[f"{k}_std"])
+    cals = table6_calibrations()
     air = cals["air"]
     # The paper did not adjust K3, P1, P2 in air; values of the size it found under water (test data).
     for k, v, sg in (("K3", 2.0e-10, 3.0e-11), ("P1", 8.0e-6, 1.0e-6), ("P2", 1.5e-5, 8.0e-7)):
