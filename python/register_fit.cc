@@ -68,13 +68,6 @@ fit::PlaneWithCenter Plane(const std::array<double, 6>& p) {
   return {{p[0], p[1], p[2]}, {p[3], p[4], p[5]}};
 }
 
-py::dict TransformDict(const fit::RigidTransform& t) {
-  py::dict d;
-  d["rotation"] = Eigen::Matrix3d(t.rotation);
-  d["translation_mm"] = Eigen::Vector3d(t.translation);
-  return d;
-}
-
 }  // namespace
 
 void RegisterFit(py::module_& m) {
@@ -177,26 +170,7 @@ void RegisterFit(py::module_& m) {
                 in.pupil_to_flange_mm = *pupil_to_flange_mm;
               }
               const fit::HousingAssembly a = fit::AssembleHousing(in);
-              py::dict d;
-              d["frame"] = "housing";
-              d["camera_flange_center_mm"] = Eigen::Vector3d(a.camera_flange_center_mm);
-              d["dome_outer_center_mm"] = Eigen::Vector3d(a.outer.center_mm);
-              d["dome_inner_center_mm"] = Eigen::Vector3d(a.inner.center_mm);
-              d["entrance_pupil_mm"] = Eigen::Vector3d(a.entrance_pupil_mm);
-              d["housing_flange_center_mm"] = Eigen::Vector3d(a.housing_flange_center_mm);
-              d["housing_flange_normal"] = Eigen::Vector3d(a.housing_flange_normal);
-              d["housing_flange_tilt_deg"] = a.housing_flange_tilt_rad * 180 / M_PI;
-              d["outer_radius_mm"] = a.outer.radius_mm;
-              d["inner_radius_mm"] = a.inner.radius_mm;
-              d["thickness_mm"] = a.thickness_mm;
-              d["center_distance_mm"] = a.center_distance_mm;
-              d["pupil_to_flange_mm"] = in.pupil_to_flange_mm;
-              d["pupil_ahead_of_outer_mm"] = a.pupil_ahead_of_outer_mm;
-              d["pupil_off_axis_outer_mm"] = a.pupil_off_axis_outer_mm;
-              d["pupil_ahead_of_inner_mm"] = a.pupil_ahead_of_inner_mm;
-              d["pupil_off_axis_inner_mm"] = a.pupil_off_axis_inner_mm;
-              d["housing_from_survey"] = TransformDict(a.housing_from_survey);
-              d["housing_from_scan"] = TransformDict(a.housing_from_scan);
+              py::dict d = JsonToPython(fit::AssemblyToJson(a, in.pupil_to_flange_mm)).cast<py::dict>();
               d["report"] = a.Report();
               d["port"] = py::cast(fit::AsBuiltPort(a, name, material));
               return d;

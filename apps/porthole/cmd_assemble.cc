@@ -15,12 +15,6 @@ namespace {
 
 Eigen::Vector3d Hint(const std::vector<double>& v) { return {v[0], v[1], v[2]}; }
 
-Json TransformJson(const fit::RigidTransform& t) {
-  Json rows = Json::array();
-  for (int r = 0; r < 3; ++r) rows.push_back(Vec3Json(t.rotation.row(r).transpose()));
-  return {{"rotation", rows}, {"translation_mm", Vec3Json(t.translation)}};
-}
-
 }  // namespace
 
 void RegisterAssemble(CLI::App& app) {
@@ -110,28 +104,10 @@ void RegisterAssemble(CLI::App& app) {
     const fit::HousingAssembly a = fit::AssembleHousing(in);
     const std::string toml = io::PortToToml(fit::AsBuiltPort(a, o->name, o->material));
 
-    Json j{{"frame", "housing"},
-           {"camera_flange_center_mm", Vec3Json(a.camera_flange_center_mm)},
-           {"dome_outer_center_mm", Vec3Json(a.outer.center_mm)},
-           {"dome_inner_center_mm", Vec3Json(a.inner.center_mm)},
-           {"entrance_pupil_mm", Vec3Json(a.entrance_pupil_mm)},
-           {"housing_flange_center_mm", Vec3Json(a.housing_flange_center_mm)},
-           {"housing_flange_normal", Vec3Json(a.housing_flange_normal)},
-           {"housing_flange_tilt_deg", a.housing_flange_tilt_rad * 180 / M_PI},
-           {"outer_radius_mm", a.outer.radius_mm},
-           {"inner_radius_mm", a.inner.radius_mm},
-           {"thickness_mm", a.thickness_mm},
-           {"center_distance_mm", a.center_distance_mm},
-           {"pupil_to_flange_mm", in.pupil_to_flange_mm},
-           {"lens", o->lens.empty() ? Json(nullptr) : Json(o->lens)},
-           {"focus_mm", Length(focus_mm)},
-           {"pupil_ahead_of_outer_mm", a.pupil_ahead_of_outer_mm},
-           {"pupil_off_axis_outer_mm", a.pupil_off_axis_outer_mm},
-           {"pupil_ahead_of_inner_mm", a.pupil_ahead_of_inner_mm},
-           {"pupil_off_axis_inner_mm", a.pupil_off_axis_inner_mm},
-           {"housing_from_survey", TransformJson(a.housing_from_survey)},
-           {"housing_from_scan", TransformJson(a.housing_from_scan)},
-           {"port_file", o->output.empty() ? Json(nullptr) : Json(o->output)}};
+    Json j = fit::AssemblyToJson(a, in.pupil_to_flange_mm);
+    j["lens"] = o->lens.empty() ? Json(nullptr) : Json(o->lens);
+    j["focus_mm"] = Length(focus_mm);
+    j["port_file"] = o->output.empty() ? Json(nullptr) : Json(o->output);
     std::string text = o->json ? j.dump(2) + "\n" : a.Report();
     if (!o->json && !o->output.empty()) text += "as-built port written to " + o->output + "\n";
     if (!o->output.empty()) WriteFileAtomically(o->output, toml, "--output");

@@ -312,9 +312,7 @@ def assemble(**kwargs) -> HousingAssembly:
             kwargs[key] = (*fit.center_mm.tolist(), fit.radius_mm)
     d = _porthole.assemble(**kwargs)
     port = d.pop("port")
-    out = HousingAssembly({k: (v.tolist() if isinstance(v, np.ndarray) else
-                               {kk: vv.tolist() for kk, vv in v.items()} if isinstance(v, dict) else v)
-                           for k, v in d.items()})
+    out = HousingAssembly(d)
     object.__setattr__(out, "port", port)
     return out
 

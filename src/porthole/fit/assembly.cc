@@ -256,4 +256,33 @@ Sphere ParseSphereSpec(const std::string& spec, const std::string& field) {
   return {JsonVec3(f, "center_mm", field), JsonNumber(f, "radius_mm", field)};
 }
 
+nlohmann::ordered_json AssemblyToJson(const HousingAssembly& a, double pupil_to_flange_mm) {
+  using Json = nlohmann::ordered_json;
+  const auto vec = [](const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); };
+  const auto transform = [&](const RigidTransform& t) {
+    Json rows = Json::array();
+    for (int r = 0; r < 3; ++r) rows.push_back(vec(t.rotation.row(r).transpose()));
+    return Json{{"rotation", rows}, {"translation_mm", vec(t.translation)}};
+  };
+  return Json{{"frame", "housing"},
+              {"camera_flange_center_mm", vec(a.camera_flange_center_mm)},
+              {"dome_outer_center_mm", vec(a.outer.center_mm)},
+              {"dome_inner_center_mm", vec(a.inner.center_mm)},
+              {"entrance_pupil_mm", vec(a.entrance_pupil_mm)},
+              {"housing_flange_center_mm", vec(a.housing_flange_center_mm)},
+              {"housing_flange_normal", vec(a.housing_flange_normal)},
+              {"housing_flange_tilt_deg", a.housing_flange_tilt_rad * 180 / M_PI},
+              {"outer_radius_mm", a.outer.radius_mm},
+              {"inner_radius_mm", a.inner.radius_mm},
+              {"thickness_mm", a.thickness_mm},
+              {"center_distance_mm", a.center_distance_mm},
+              {"pupil_to_flange_mm", pupil_to_flange_mm},
+              {"pupil_ahead_of_outer_mm", a.pupil_ahead_of_outer_mm},
+              {"pupil_off_axis_outer_mm", a.pupil_off_axis_outer_mm},
+              {"pupil_ahead_of_inner_mm", a.pupil_ahead_of_inner_mm},
+              {"pupil_off_axis_inner_mm", a.pupil_off_axis_inner_mm},
+              {"housing_from_survey", transform(a.housing_from_survey)},
+              {"housing_from_scan", transform(a.housing_from_scan)}};
+}
+
 }  // namespace porthole::fit

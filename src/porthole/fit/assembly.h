@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
@@ -75,6 +76,11 @@ HousingAssembly AssembleHousing(const AssemblyInput& in);
 // housing flange (rim_z_mm = its centre's z), and the entrance pupil as its default pupil.
 ports::PortSpec AsBuiltPort(const HousingAssembly& a, const std::string& name,
                             const std::string& material = "n-bk7");
+
+// The assembly as `porthole assemble --json` and Python's assemble() give it: frame, flanges, dome
+// centres and radii, thickness, pupil and its offsets from both centres, the survey and scan
+// transforms (rotation rows, translation_mm); units in the keys.
+nlohmann::ordered_json AssemblyToJson(const HousingAssembly& a, double pupil_to_flange_mm);
 
 // Inputs as a user types them: `spec` is either comma-separated numbers or the path of a JSON
 // file written by `porthole fit ... --json`. `field` (the CLI flag) names errors.
