@@ -4,10 +4,22 @@
 // findChessboardCornersSB alone at full resolution (the peer; what porthole did before issue 10).
 // Counters: max_err_px = largest distance to the true corners; max_vs_full_px = largest distance to
 // the full-resolution detection's corners (acceptance: <= 0.02 px); the time per image.
-// Peak memory is measured apart (docs/robustness.md: /usr/bin/time -v porthole detect).
+// BM_Detect12MP_Cli runs the `porthole detect` CLI as a child process on 1 and on 4 copies of the
+// same image (PNG) and reports its wall time per image and its peak resident memory (wait4's
+// ru_maxrss), with OpenCV's findChessboardCornersSB from Python (python3-opencv) as the peer on the
+// same file in the same run (acceptance of issue 10: <= 1 s and <= 500 MB per 12 MP image).
 #include <benchmark/benchmark.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
+#include <filesystem>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
 
 #include "porthole/calib/detect.h"
 #include "porthole/calib/render_board.h"
@@ -66,5 +78,79 @@ void BM_Detect12MP_OpenCVSBFullResolution(benchmark::State& state) {
   state.counters["max_err_px"] = MaxDistance(pts, Board().corners_px);
 }
 BENCHMARK(BM_Detect12MP_OpenCVSBFullResolution)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+#ifdef PORTHOLE_CLI
+extern "C" char** environ;
+
+struct ChildRun {
+  bool ok = false;
+  double wall_s = 0, peak_mb = 0;
+};
+
+// Runs argv as a child (stdout and stderr to /dev/null) and returns its wall time and peak RSS.
+ChildRun RunChild(std::vector<std::string> args) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+  ChildRun r;
+  const auto t0 = std::chrono::steady_clock::now();
+  pid_t pid = 0;
+  if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) == 0) {
+    int status = 0;
+    rusage ru{};
+    if (wait4(pid, &status, 0, &ru) == pid) {
+      r.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      r.peak_mb = ru.ru_maxrss / 1024.0;  // Linux: kilobytes
+    }
+  }
+  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  posix_spawn_file_actions_destroy(&fa);
+  return r;
+}
+
+// A folder of `copies` PNG copies of the rendered 12 MP board (written once per run).
+std::filesystem::path ImageDir(int copies) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("porthole-bench-detect-" + std::to_string(getpid()) + "-" +
+                                                   std::to_string(copies));
+  if (!fs::exists(dir)) {
+    fs::create_directories(dir);
+    for (int i = 0; i < copies; ++i) cv::imwrite((dir / ("board" + std::to_string(i) + ".png")).string(), Board().gray);
+  }
+  return dir;
+}
+
+// Arg: the number of images in one `porthole detect` run (1, or 4 spread over the cores).
+void BM_Detect12MP_Cli(benchmark::State& state) {
+  const int copies = int(state.range(0));
+  const auto dir = ImageDir(copies);
+  ChildRun r;
+  for (auto _ : state) {
+    r = RunChild({PORTHOLE_CLI, "detect", "--images", dir.string(), "--target", "chessboard:9x6:25", "--json", "--quiet"});
+  }
+  state.counters["images"] = copies;
+  state.counters["wall_s_per_image"] = r.wall_s / copies;
+  state.counters["peak_rss_MB"] = r.peak_mb;
+  state.counters["exit_ok"] = r.ok;
+  // The peer on the first image: OpenCV's detector at full resolution, from Python.
+  const ChildRun peer = RunChild(
+      {"/usr/bin/python3", "-c",
+       "import sys, cv2\n"
+       "g = cv2.imread(sys.argv[1], cv2.IMREAD_GRAYSCALE)\n"
+       "ok, c = cv2.findChessboardCornersSB(g, (9, 6), flags=cv2.CALIB_CB_NORMALIZE_IMAGE | "
+       "cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY)\n"
+       "sys.exit(0 if ok else 1)\n",
+       (dir / "board0.png").string()});
+  state.counters["opencv_py_wall_s"] = peer.wall_s;
+  state.counters["opencv_py_peak_rss_MB"] = peer.peak_mb;
+  std::filesystem::remove_all(dir);
+  if (!r.ok) state.SkipWithError("porthole detect failed");
+}
+BENCHMARK(BM_Detect12MP_Cli)->Arg(1)->Arg(4)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+#endif
 
 }  // namespace
