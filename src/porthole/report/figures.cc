@@ -309,7 +309,7 @@ std::string UnreachableWd(const planning::Plan& p, double x0, double label_y = 0
   return fmt::format(
       "set object 1 rect from {0},graph 0 to {1},graph 1 fc rgb \"#e9e9e9\" fillstyle solid 1.0 noborder behind\n"
       "{2}", N(x0), N(x1),
-      label_y > 0 ? fmt::format("set label 1 \"lens cannot focus\" at {},graph {} left offset 0.6,0 textcolor rgb "
+      label_y > 0 ? fmt::format("set label 1 \"lens cannot focus\" at {},graph {} left offset 1.2,0 textcolor rgb "
                                 "\"#777777\"\n", N(x0), N(label_y))
                   : "");
 }
@@ -349,8 +349,8 @@ Figure VirtualImage(const Results& r) {
     asymptotes = fmt::format(
         "set arrow 2 from graph 0, first {0} to graph 1, first {0} nohead ls 5 lc rgb \"#1f5fa8\"\n"
         "set arrow 3 from graph 0, first {1} to graph 1, first {1} nohead ls 5 lc rgb \"#2a9d5c\"\n"
-        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.99, first {0} right offset 0,0.7 textcolor rgb \"#1f5fa8\"\n"
-        "set label 3 \"WD = ∞: {1:.1f} mm\" at graph 0.99, first {1} right offset 0,0.7 textcolor rgb \"#2a9d5c\"\n",
+        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.96, first {0} right offset 0,0.7 textcolor rgb \"#1f5fa8\"\n"
+        "set label 3 \"WD = ∞: {1:.1f} mm\" at graph 0.96, first {1} right offset 0,0.7 textcolor rgb \"#2a9d5c\"\n",
         inf.d_s2ep_mm, inf.vwd_mm);
   }
   std::string fd_inf;
@@ -361,7 +361,7 @@ Figure VirtualImage(const Results& r) {
   if (inf.fd_mm && std::isfinite(*inf.fd_mm)) {
     fd_inf = fmt::format(
         "set arrow 2 from graph 0, first {0} to graph 1, first {0} nohead ls 5 lc rgb \"#8e44ad\"\n"
-        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.99, first {0} right offset 0,0.7 textcolor rgb \"#8e44ad\"\n"
+        "set label 2 \"WD = ∞: {0:.1f} mm\" at graph 0.96, first {0} right offset 0,0.7 textcolor rgb \"#8e44ad\"\n"
         "set yrange [*:{1}]\n",
         *inf.fd_mm, N(*inf.fd_mm + 0.15 * (*inf.fd_mm - fd_min)));
   }
