@@ -58,10 +58,13 @@ struct SimulateCliOptions {
 std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Prediction& p) {
   std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
   t += fmt::format("{} + {} ({} fisheye) focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
-                   "focus scale {:.1f} mm; c = {:.3f} mm\n\nKannala-Brandt (OpenCV fisheye) fitted, pixels:\n",
+                   "focus scale {:.1f} mm; c = {:.3f} mm\n\n{} fitted, pixels:\n",
                    spec.camera.name, spec.lens.name, camera::ProjectionName(spec.lens.projection),
                    p.object_distance_mm, p.focus.d_s2ep_mm, p.focus.focus_distance_mm.value_or(NAN),
-                   p.camera.lens.c_mm);
+                   p.camera.lens.c_mm,
+                   p.water_fisheye->camera.model == camera::CameraModelId::kKannalaBrandt
+                       ? std::string("Kannala-Brandt (OpenCV fisheye)")
+                       : std::string(p.water_fisheye->camera.model_name()));
   const camera::ModelInfo& info = p.water_fisheye->camera.info();
   t += fmt::format("{:<16}", "");
   for (int i = 0; i < info.num_params; ++i) t += fmt::format(" {:>11}", info.params[i].name);
@@ -70,6 +73,14 @@ std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Predic
     t += fmt::format("{:<16}", label);
     for (double v : fit->camera.params) t += fmt::format(" {:>11.5g}", v);
     t += fmt::format(" {:>9.4f}\n", fit->rms_px);
+  }
+  if (p.predicted_water_fisheye) {
+    for (const auto& [label, cam] : {std::pair{"in-air calib.", &*p.air_fisheye_calibration},
+                                     {"water predicted", &*p.predicted_water_fisheye}}) {
+      t += fmt::format("{:<16}", label);
+      for (double v : cam->params) t += fmt::format(" {:>11.5g}", v);
+      t += "\n";
+    }
   }
   const simulate::FitView water = p.water_view(), air = p.air_view();
   t += fmt::format("\nfocal length water/air = {:.5f}; radial change against the {} projection (water - air):",
@@ -133,8 +144,8 @@ void RegisterSimulate(CLI::App& app) {
   cmd->add_option("--c", o->c_mm, "Principal distance, mm (default: thin lens focused on the virtual image)");
   cmd->add_option("--air-calibration", o->air_calibration,
                   "In-air calibration in the housing: a file (porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape "
-                  "XML; a pixel model is refit to Brown) or text {c_mm, x0_mm, y0_mm, K1, K2, P1, P2}; prints "
-                  "the underwater calibration to expect");
+                  "XML; a pixel model is refit to Brown; a fisheye lens keeps its Kannala-Brandt calibration) or "
+                  "text {c_mm, x0_mm, y0_mm, K1, K2, P1, P2}; prints the underwater calibration to expect");
   cmd->add_option("--grid-cols", o->grid_cols, "Image points across")->capture_default_str();
   cmd->add_option("--grid-rows", o->grid_rows, "Image points down")->capture_default_str();
   cmd->add_option("--distances", o->distances,
@@ -183,8 +194,30 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
           std::filesystem::path(o->air_calibration).extension() == ".json" &&
           ReadInputFile(o->air_calibration, "--air-calibration", kMaxJsonFileBytes).find("\"camera\"") ==
               std::string::npos;
+      const bool fisheye_lens = camera::IsFisheye(spec.lens.projection);
       if ((first != std::string::npos && o->air_calibration[first] == '{') || flat_brown_file) {
+        if (fisheye_lens) {
+          throw InvalidInput("--air-calibration", "Brown parameters cannot describe the " + spec.lens.name +
+                                                      " (a fisheye): give a Kannala-Brandt calibration file");
+        }
         spec.air_calibration = camera::LoadBrownJson(o->air_calibration, "--air-calibration").value;
+      } else if (fisheye_lens) {
+        // A fisheye keeps the calibration's own model (Kannala-Brandt, or a projection of the list).
+        air_read = interop::ReadCalibrationFile(o->air_calibration, spec.camera.sensor.pixel_pitch_mm,
+                                                "--air-calibration");
+        if (!air_read->camera().info().caps.fisheye) {
+          throw InvalidInput("--air-calibration", "is a " + std::string(air_read->camera().model_name()) +
+                                                      " calibration; the " + spec.lens.name +
+                                                      " is a fisheye (give a Kannala-Brandt calibration)");
+        }
+        const camera::Sensor& s = air_read->camera().sensor;
+        if (s.width_px != spec.camera.sensor.width_px || s.height_px != spec.camera.sensor.height_px) {
+          throw InvalidInput("--air-calibration", fmt::format("is for {} x {} px; the {} has {} x {} px", s.width_px,
+                                                              s.height_px, spec.camera.name,
+                                                              spec.camera.sensor.width_px,
+                                                              spec.camera.sensor.height_px));
+        }
+        spec.air_fisheye_calibration = air_read->camera();
       } else {
         air_read = interop::ReadCalibrationFileAs(o->air_calibration, spec.camera.sensor.pixel_pitch_mm,
                                                   camera::CameraModelId::kBrown, "--air-calibration");

@@ -121,6 +121,32 @@ def test_fisheye_sweep_and_map(tmp_path):
     assert max(abs(float(r.split(",")[12])) for r in rows) < 0.05  # difference water - air, um
 
 
+def test_fisheye_air_calibration_is_the_base_of_the_prediction(tmp_path):
+    # A Kannala-Brandt calibration in air (COLMAP OPENCV_FISHEYE: its pixel centres sit at +0.5, so
+    # porthole's cx, cy are 0.5 less), decentred and distorted. Behind a dome centred on the pupil the
+    # rays pass undeviated: the predicted underwater calibration is the calibration itself.
+    cal = tmp_path / "cameras.txt"
+    cal.write_text("1 OPENCV_FISHEYE 4288 2848 2010.0 2012.0 2156.3 1416.9 -0.0377 0.0003 0.0001 -0.00002\n")
+    want = {"fx_px": 2010.0, "fy_px": 2012.0, "cx_px": 2155.8, "cy_px": 1416.4, "k1": -0.0377, "k2": 0.0003, "k3": 0.0001,
+            "k4": -0.00002}
+    lens = ("--lens", "nikkor-10.5mm-f2.8g-fisheye")
+    out = run("simulate", *lens, "--port", "nimar-ni320-nominal", "--air-calibration", cal, "--json").json()
+    assert out["air_calibration"]["model"] == "kannala-brandt"
+    for k, v in want.items():
+        assert out["air_calibration"][k] == pytest.approx(v, abs=1e-12), k
+        assert out["predicted_water"][k] == pytest.approx(v, abs=1e-4 if k[0] in "fc" else 1e-7), k
+    # Behind the as-built NI320 (pupil 5.4 mm off the centre) the focal length changes under water
+    # as the Kannala-Brandt fit of the lens's own projection says (the same within 1e-3).
+    built = run("simulate", *lens, "--air-calibration", cal, "--json").json()
+    plain = run("simulate", *lens, "--json").json()
+    ratio = built["predicted_water"]["fx_px"] / built["air_calibration"]["fx_px"]
+    assert abs(ratio - 1) > 0.01
+    assert ratio == pytest.approx(plain["water"]["fx_px"] / plain["air"]["fx_px"], abs=1e-3)
+    # A Brown calibration cannot describe a fisheye; a fisheye calibration is no rectilinear lens's.
+    assert "Kannala-Brandt" in run_bad("simulate", *lens, "--air-calibration", '{"c_mm": 10.5}')
+    assert "--air-calibration" in run_bad("simulate", "--air-calibration", cal)
+
+
 def test_same_camera_and_lens_names_as_plan():
     # A lensfun lens name and a fixed-lens camera work as in `porthole plan`.
     out = run("simulate", "--lens", "Nikon AF DX Fisheye-Nikkor 10.5mm f/2.8G ED", "--json").json()

@@ -70,17 +70,21 @@ bool Solve(const std::vector<PixelObservation>& obs, const camera::Sensor& senso
 }  // namespace
 
 CameraFit SimulateCameraFit(const ports::PortSystem& sys, const lens::LensSpec& lens, const camera::Sensor& sensor,
-                            double c_mm, camera::CameraModelId model, const FitOptions& options) {
+                            double c_mm, camera::CameraModelId model, const FitOptions& options,
+                            const camera::Camera* lens_camera) {
   Validate(options);
   camera::ValidateSensor(sensor);
   RequirePositive("c_mm", c_mm);
+  if (lens_camera) camera::ValidateCamera(*lens_camera, "air_fisheye_calibration");
   const Vec3& ep = sys.ep_in_housing_mm;
-  // Trace the grid's chief rays (the lens's projection at principal distance c) out through the port.
+  // Trace the grid's chief rays (the lens's projection at principal distance c, or the calibrated
+  // lens's rays) out through the port.
   const auto grid = ImageGrid(sensor, options.grid_cols, options.grid_rows);
   CameraFit fit;
   std::vector<std::optional<optics::Ray>> rays(grid.size());
   for (std::size_t i = 0; i < grid.size(); ++i) {
-    const auto dir = housing::ChiefRay(lens, c_mm, grid[i](0), grid[i](1));
+    const auto dir = lens_camera ? lens_camera->Unproject(camera::ImageMmToPixel(sensor, grid[i](0), grid[i](1)))
+                                 : housing::ChiefRay(lens, c_mm, grid[i](0), grid[i](1));
     optics::Ray out;
     if (dir && optics::TraceSequence<double>(sys.Outward(), {ep, *dir}, &out) == optics::RayStatus::kOk) {
       rays[i] = optics::Ray{out.origin, out.dir.normalized()};
@@ -107,7 +111,9 @@ CameraFit SimulateCameraFit(const ports::PortSystem& sys, const lens::LensSpec& 
       obs.push_back({static_cast<int>(i), uv, rays[i]->origin + t * u});
     }
   }
-  fit.camera = camera::Camera::Ideal(model, sensor, c_mm / sensor.pixel_pitch_mm);
+  fit.camera = lens_camera && lens_camera->model == model ? *lens_camera
+                                                         : camera::Camera::Ideal(model, sensor, c_mm / sensor.pixel_pitch_mm);
+  fit.camera.sensor = sensor;
   double rotation[3] = {0, 0, 0}, centre[3] = {ep.x(), ep.y(), ep.z()};
   camera::VisitModel(model, [&](auto m) {
     using M = decltype(m);

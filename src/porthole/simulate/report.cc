@@ -63,10 +63,18 @@ std::vector<double> ProfileRadiiMm(const camera::Sensor& s) {
   return r;
 }
 
-Json CameraFitJson(const CameraFit& f) {
+namespace {
+// A camera's parameters under their JSON keys (units: camera::Info(model)).
+Json CameraParamsJson(const camera::Camera& c) {
   Json j;
-  const camera::ModelInfo& info = f.camera.info();
-  for (int i = 0; i < info.num_params; ++i) j[std::string(info.params[i].json_key)] = f.camera.params[i];
+  const camera::ModelInfo& info = c.info();
+  for (int i = 0; i < info.num_params; ++i) j[std::string(info.params[i].json_key)] = c.params[i];
+  return j;
+}
+}  // namespace
+
+Json CameraFitJson(const CameraFit& f) {
+  Json j = CameraParamsJson(f.camera);
   j["rms_px"] = f.rms_px;
   j["max_px"] = f.max_px;
   j["num_points"] = f.num_points;
@@ -106,6 +114,14 @@ Json PredictionJson(const Prediction& p) {
     j["lens_projection"] = camera::ProjectionName(p.lens_projection);
     j["water"] = CameraFitJson(*p.water_fisheye);
     j["air"] = CameraFitJson(*p.air_fisheye);
+    if (p.predicted_water_fisheye) {
+      // The in-air calibration + (water − air), parameter by parameter (units: camera::Info(model)).
+      for (const auto& [key, cam] : {std::pair{"air_calibration", &*p.air_fisheye_calibration},
+                                     {"predicted_water", &*p.predicted_water_fisheye}}) {
+        j[key] = CameraParamsJson(*cam);
+        j[key]["model"] = cam->model_name();
+      }
+    }
     return j;
   }
   j["water"] = FitJson(p.water);

@@ -107,9 +107,13 @@ struct CameraFit {
 // `sys`) traced out through the port; object points on spheres about the pupil at
 // Distances(options) (a fisheye sees beyond 90°); `model` fitted with its pose by Ceres automatic
 // differentiation through the model's Project<T> (camera pose free as FitOptions says; the
-// model's parameters all free). Throws InvalidInput as SimulateFit.
+// model's parameters all free). With `lens_camera` (an in-air calibration of the lens, its
+// sensor = `sensor`), the grid's chief rays are that camera's unprojected rays instead of the
+// ideal projection's (c_mm then only names the start), and the fit starts from it when the models
+// match. Throws InvalidInput as SimulateFit.
 CameraFit SimulateCameraFit(const ports::PortSystem& sys, const lens::LensSpec& lens, const camera::Sensor& sensor,
-                            double c_mm, camera::CameraModelId model, const FitOptions& options = {});
+                            double c_mm, camera::CameraModelId model, const FitOptions& options = {},
+                            const camera::Camera* lens_camera = nullptr);
 
 // One fit as the sweeps, the maps and the report read it, whatever its model: the Brown fit of a
 // rectilinear lens or the fitted model (Kannala–Brandt) of a fisheye. The correction is image mm
@@ -174,8 +178,13 @@ struct SystemSpec : housing::HousedCamera {
   double object_distance_mm = 1000;
   std::optional<double> c_mm;  // principal distance; default: thin lens focused on the image
   // The in-air calibration of the camera in its housing (c, x0, y0, K, P): the lens model, and
-  // the base of the prediction. Its c overrides c_mm.
+  // the base of the prediction. Its c overrides c_mm. For a rectilinear lens.
   std::optional<camera::BrownParams> air_calibration;
+  // The in-air calibration of a fisheye lens in its housing, in a fisheye model of the camera list
+  // (Kannala–Brandt, or the lens's own projection: camera::Camera, pixels; its sensor is the
+  // body's): the lens model the rays leave by, and the base of the prediction; the water and air
+  // fits are then of its model. Its focal length overrides c_mm.
+  std::optional<camera::Camera> air_fisheye_calibration;
 };
 
 // The focus under water on spec.object_distance_mm (housing::FocusOnSubject). Throws
@@ -200,6 +209,9 @@ struct Prediction {
   // The in-air calibration + change: the underwater calibration to expect (only with
   // air_calibration).
   std::optional<camera::BrownParams> predicted_water;
+  // A fisheye with air_fisheye_calibration: that calibration, and it + (water − air fit),
+  // parameter by parameter, the underwater calibration to expect.
+  std::optional<camera::Camera> air_fisheye_calibration, predicted_water_fisheye;
 
   // The water and air fits, whichever model they are (they refer to this prediction).
   FitView water_view() const { return water_fisheye ? FitView(*water_fisheye, lens_projection) : FitView(water); }

@@ -342,6 +342,74 @@ TEST(Simulate, FisheyeSweepIsOddAboutTheDomeCentre) {
   EXPECT_NEAR(dr(rows[0]) / dr(rows[2]), -1.0, 0.1);
 }
 
+// A fisheye's in-air calibration (Kannala–Brandt, decentred, with its own distortion) as the base
+// of the prediction: the rays leave by the calibrated lens. Behind a dome concentric with the pupil
+// they pass undeviated, so the water and air fits are the calibration itself and the predicted
+// underwater calibration equals it.
+camera::Camera DecentredFisheyeCalibration(const camera::Sensor& sensor, double f_mm) {
+  camera::Camera cal = camera::Camera::Ideal(camera::CameraModelId::kKannalaBrandt, sensor, f_mm / sensor.pixel_pitch_mm);
+  cal.params[1] *= 1.002;  // fy
+  cal.params[2] += 12.3;   // cx, px
+  cal.params[3] -= 7.1;    // cy
+  cal.params[4] = -1.0 / 24 + 0.004;  // k1..k4 about the equisolid series
+  cal.params[5] = 1.0 / 1920 - 0.0005;
+  cal.params[6] = 1e-4;
+  cal.params[7] = -2e-5;
+  return cal;
+}
+
+TEST(Simulate, FisheyeAirCalibrationBehindAConcentricDomeIsPredictedUnchanged) {
+  SystemSpec spec = PaperSystem("nimar-ni320-nominal");
+  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  const camera::Camera cal = DecentredFisheyeCalibration(spec.camera.sensor, 10.5);
+  spec.air_fisheye_calibration = cal;
+  const Prediction p = Predict(spec);
+  ASSERT_TRUE(p.water_fisheye && p.air_fisheye && p.predicted_water_fisheye);
+  EXPECT_NEAR(p.camera.lens.c_mm, 10.5 * (1 + 1.002) / 2, 1e-9);  // the calibration's mean focal length
+  for (const CameraFit* f : {&*p.water_fisheye, &*p.air_fisheye}) {
+    EXPECT_EQ(f->camera.model, camera::CameraModelId::kKannalaBrandt);
+    EXPECT_LT(f->rms_px, 1e-4);
+    for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(f->camera.params[i], cal.params[i], 1e-5) << i;
+    for (std::size_t i = 4; i < 8; ++i) EXPECT_NEAR(f->camera.params[i], cal.params[i], 1e-7) << i;
+  }
+  for (std::size_t i = 0; i < 8; ++i) {
+    EXPECT_NEAR(p.predicted_water_fisheye->params[i], cal.params[i], i < 4 ? 1e-5 : 1e-7) << i;
+  }
+  // A Brown calibration for the fisheye, and a fisheye calibration for a rectilinear lens: refused.
+  SystemSpec wrong = spec;
+  wrong.air_fisheye_calibration->model = camera::CameraModelId::kBrown;
+  EXPECT_THROW(Predict(wrong), InvalidInput);
+  wrong = PaperSystem("nimar-ni320-nominal");
+  wrong.air_fisheye_calibration = cal;
+  EXPECT_THROW(Predict(wrong), InvalidInput);
+}
+
+// The same calibration behind a thin flat port at the pupil: the focal length grows by the water
+// index (paraxially) and the principal point stays where the calibration put it (the flat port is
+// square to the axis through the pupil; the chief ray of the principal point is bent only by the
+// small tilt its decentring gives it, which the free pose absorbs).
+TEST(Simulate, FisheyeAirCalibrationBehindAThinFlatPortScalesByTheWaterIndex) {
+  SystemSpec spec = PaperSystem();
+  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  ports::FlatPort flat;
+  flat.inner_point_mm = Vec3(0, 0, 1e-4);
+  flat.thickness_mm = 1e-3;
+  spec.port.name = "thin-flat";
+  spec.port.frame = ports::PortFrame::kCam;
+  spec.port.shape = flat;
+  // 20 mm as in FisheyeBehindAThinFlatPortFollowsSnellsLaw: a field Kannala–Brandt can follow.
+  camera::Camera cal = DecentredFisheyeCalibration(spec.camera.sensor, 20);
+  spec.air_fisheye_calibration = cal;
+  const Prediction p = Predict(spec);
+  ASSERT_TRUE(p.predicted_water_fisheye);
+  const double n = p.water_system.n_water;
+  EXPECT_LT(p.water_fisheye->rms_px, 0.02);
+  EXPECT_NEAR(p.predicted_water_fisheye->params[0] / (n * cal.params[0]), 1.0, 2e-3);
+  EXPECT_NEAR(p.predicted_water_fisheye->params[1] / (n * cal.params[1]), 1.0, 2e-3);
+  // In air the thin plate changes nothing: the air fit is the calibration.
+  EXPECT_NEAR(p.air_fisheye->camera.params[0], cal.params[0], 1e-3 * cal.params[0]);
+}
+
 TEST(CameraJson, RoundTripAndTyposAreRejected) {
   camera::BrownEstimate e;
   e.value = PaperAirLens();

@@ -50,7 +50,21 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
                                               std::string(camera::ProjectionName(spec.lens.projection)) +
                                               " fisheye, which Brown cannot describe");
   }
-  if (spec.air_calibration) {
+  if (spec.air_fisheye_calibration && !fisheye) {
+    throw InvalidInput("air_calibration", "is a " + std::string(spec.air_fisheye_calibration->model_name()) +
+                                              " calibration; the " + spec.lens.name +
+                                              " is rectilinear (give a Brown calibration)");
+  }
+  if (spec.air_fisheye_calibration) {
+    camera::ValidateCamera(*spec.air_fisheye_calibration, "air_calibration");
+    if (spec.air_fisheye_calibration->model == camera::CameraModelId::kBrown) {
+      throw InvalidInput("air_calibration", "is a Brown calibration; the " + spec.lens.name +
+                                                " is a fisheye (give a Kannala-Brandt calibration)");
+    }
+    p.air_fisheye_calibration = *spec.air_fisheye_calibration;
+    p.air_fisheye_calibration->sensor = spec.camera.sensor;
+    p.camera.lens.c_mm = p.air_fisheye_calibration->FocalLengthPx() * spec.camera.sensor.pixel_pitch_mm;
+  } else if (spec.air_calibration) {
     p.camera.lens = *spec.air_calibration;
   } else {
     p.camera.lens.c_mm =
@@ -61,11 +75,21 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
   p.water_system = focused.sys;
   p.air_system = WithAirOutside(p.water_system);
   if (fisheye) {
-    // The lens's own projection in air; the fisheye model of the list fitted in water and in air.
-    p.water_fisheye = SimulateCameraFit(p.water_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm,
-                                        camera::CameraModelId::kKannalaBrandt, p.options);
-    p.air_fisheye = SimulateCameraFit(p.air_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm,
-                                      camera::CameraModelId::kKannalaBrandt, p.options);
+    // The lens's own projection in air (or its in-air calibration); the fisheye model of the list
+    // (or the calibration's) fitted in water and in air.
+    const camera::Camera* cal = p.air_fisheye_calibration ? &*p.air_fisheye_calibration : nullptr;
+    const camera::CameraModelId model = cal ? cal->model : camera::CameraModelId::kKannalaBrandt;
+    p.water_fisheye =
+        SimulateCameraFit(p.water_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm, model, p.options, cal);
+    p.air_fisheye =
+        SimulateCameraFit(p.air_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm, model, p.options, cal);
+    if (cal) {
+      camera::Camera predicted = *cal;
+      for (std::size_t i = 0; i < predicted.params.size(); ++i) {
+        predicted.params[i] += p.water_fisheye->camera.params[i] - p.air_fisheye->camera.params[i];
+      }
+      p.predicted_water_fisheye = predicted;
+    }
     return p;
   }
   p.water = SimulateFit(p.water_system, p.camera, p.options);
@@ -91,9 +115,10 @@ std::vector<SweepRow> SweepPupilOffset(const Prediction& prediction, int axis,
     if (prediction.water_fisheye) {
       const camera::CameraModelId model = prediction.water_fisheye->camera.model;
       const double c = prediction.camera.lens.c_mm;
-      row.water_fisheye = SimulateCameraFit(water, prediction.lens, cam.sensor, c, model, prediction.options);
+      const camera::Camera* cal = prediction.air_fisheye_calibration ? &*prediction.air_fisheye_calibration : nullptr;
+      row.water_fisheye = SimulateCameraFit(water, prediction.lens, cam.sensor, c, model, prediction.options, cal);
       row.air_fisheye =
-          SimulateCameraFit(WithAirOutside(water), prediction.lens, cam.sensor, c, model, prediction.options);
+          SimulateCameraFit(WithAirOutside(water), prediction.lens, cam.sensor, c, model, prediction.options, cal);
     } else {
       row.water = SimulateFit(water, cam, prediction.options);
       row.air = SimulateFit(WithAirOutside(water), cam, prediction.options);
