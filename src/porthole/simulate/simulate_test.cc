@@ -286,11 +286,8 @@ TEST(Simulate, FisheyeBehindAConcentricDomeFitsTheProjectionsSeries) {
   EXPECT_THROW(Predict(spec), InvalidInput);  // a Brown calibration cannot describe a fisheye
 }
 
-// A fisheye behind a thin flat port at its pupil: every chief ray is bent by Snell's law alone,
-// sin θa = n sin θw, and the bundle stays central. Paraxially the focal length grows by n; an image
-// point at radius r (θa = g⁻¹(r/c) through the equisolid lens) must move to n·c·g(θw) to obey the
-// lens's projection in water: the correction the view reports, in closed form.
-TEST(Simulate, FisheyeBehindAThinFlatPortFollowsSnellsLaw) {
+// The 10.5 mm fisheye behind a thin flat port (1 µm of glass) 0.1 µm ahead of its pupil.
+SystemSpec FisheyeBehindAThinFlatPort() {
   SystemSpec spec = PaperSystem();
   spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
   ports::FlatPort flat;
@@ -299,6 +296,15 @@ TEST(Simulate, FisheyeBehindAThinFlatPortFollowsSnellsLaw) {
   spec.port.name = "thin-flat";
   spec.port.frame = ports::PortFrame::kCam;
   spec.port.shape = flat;
+  return spec;
+}
+
+// A fisheye behind a thin flat port at its pupil: every chief ray is bent by Snell's law alone,
+// sin θa = n sin θw, and the bundle stays central. Paraxially the focal length grows by n; an image
+// point at radius r (θa = g⁻¹(r/c) through the equisolid lens) must move to n·c·g(θw) to obey the
+// lens's projection in water: the correction the view reports, in closed form.
+TEST(Simulate, FisheyeBehindAThinFlatPortFollowsSnellsLaw) {
+  SystemSpec spec = FisheyeBehindAThinFlatPort();
   // c = 20 mm keeps the field within 42° in air (29.5° in water), where Kannala–Brandt's series
   // follows the Snell mapping; at the lens's 10.5 mm the field reaches 85° in air, near grazing
   // in the glass, and no polynomial in θw follows it (the fit's RMS is then 4 px).
@@ -384,19 +390,10 @@ TEST(Simulate, FisheyeAirCalibrationBehindAConcentricDomeIsPredictedUnchanged) {
   EXPECT_THROW(Predict(wrong), InvalidInput);
 }
 
-// The same calibration behind a thin flat port at the pupil: the focal length grows by the water
-// index (paraxially) and the principal point stays where the calibration put it (the flat port is
-// square to the axis through the pupil; the chief ray of the principal point is bent only by the
-// small tilt its decentring gives it, which the free pose absorbs).
+// The same calibration behind a thin flat port at the pupil: the focal lengths grow by the water
+// index (paraxially).
 TEST(Simulate, FisheyeAirCalibrationBehindAThinFlatPortScalesByTheWaterIndex) {
-  SystemSpec spec = PaperSystem();
-  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
-  ports::FlatPort flat;
-  flat.inner_point_mm = Vec3(0, 0, 1e-4);
-  flat.thickness_mm = 1e-3;
-  spec.port.name = "thin-flat";
-  spec.port.frame = ports::PortFrame::kCam;
-  spec.port.shape = flat;
+  SystemSpec spec = FisheyeBehindAThinFlatPort();
   // 20 mm as in FisheyeBehindAThinFlatPortFollowsSnellsLaw: a field Kannala–Brandt can follow.
   camera::Camera cal = DecentredFisheyeCalibration(spec.camera.sensor, 20);
   spec.air_fisheye_calibration = cal;
