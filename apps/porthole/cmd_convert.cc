@@ -19,7 +19,8 @@ namespace porthole::cli {
 
 void RegisterConvert(CLI::App& app) {
   struct Options {
-    std::string in, out, to, port_out, port;
+    std::vector<std::string> files;  // IN [IN …] OUT
+    std::string to, port_out, port;
     std::optional<double> pitch_mm, water_index;
     int camera_id = 0;
     bool json = false;
@@ -27,14 +28,19 @@ void RegisterConvert(CLI::App& app) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "convert",
-      "Convert a calibration between porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape and calibmar files");
+      "Convert a calibration between porthole JSON, OpenCV YAML/XML, COLMAP, mrcal, Metashape and calibmar files");
   cmd->footer(
       "Formats (read: detected from the extension, else the content; write: from OUT's extension or "
       "--to):\n"
       "  json         porthole calibration JSON (.json), every camera model\n"
-      "  opencv-yaml  OpenCV FileStorage (.yml/.yaml): camera_matrix, distortion_coefficients\n"
+      "  opencv-yaml  OpenCV FileStorage (.yml/.yaml): camera_matrix, distortion_coefficients (or\n"
+      "               cameraMatrix, distCoeffs); kannala-brandt as cv::fisheye's 4 coefficients\n"
+      "               with fisheye_model: 1 (read too: K, D with 4 coefficients)\n"
+      "  opencv-xml   the same as OpenCV FileStorage XML (read: detected; write: --to opencv-xml)\n"
       "  colmap       COLMAP cameras.txt (or a sparse-model directory holding it): SIMPLE_PINHOLE,\n"
-      "               PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE\n"
+      "               PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE; refractive\n"
+      "               COLMAP's FLATPORT / DOMEPORT housing after the parameters (read, and written\n"
+      "               when the input holds one or --port gives it)\n"
       "  colmap-bin   COLMAP cameras.bin, the same models\n"
       "  mrcal        mrcal .cameramodel: LENSMODEL_PINHOLE, OPENCV4, OPENCV5, OPENCV8\n"
       "  metashape    Agisoft Metashape / PhotoScan calibration XML (.xml): frame, fisheye;\n"
@@ -47,79 +53,120 @@ void RegisterConvert(CLI::App& app) {
       "to OpenCV's model over the image and the refit's RMS is printed; so is a Metashape camera\n"
       "with terms OpenCV lacks (b2, k4, p3, p4). sigma is carried where both formats hold it\n"
       "(porthole JSON, Metashape) and unknown where the input has none. See docs/interop.md.\n"
-      "Example: porthole convert calib.json sparse/0/cameras.txt");
-  cmd->add_option("IN", o->in, "Calibration to read (file, or a COLMAP sparse-model directory)")
-      ->required();
-  cmd->add_option("OUT", o->out,
-                  "File to write (an existing directory: its cameras.txt / cameras.bin)")
-      ->required();
+      "Several INs write one COLMAP cameras.txt/.bin with CAMERA_ID 1, 2, ... in their order.\n"
+      "Examples: porthole convert calib.json sparse/0/cameras.txt\n"
+      "          porthole convert left.json right.yml sparse/0/cameras.txt   # two cameras");
+  cmd->add_option("IN...OUT", o->files,
+                  "IN [IN ...] OUT: the calibration(s) to read (a file, or a COLMAP sparse-model directory), "
+                  "then the file to write (an existing directory: its cameras.txt / cameras.bin)")
+      ->required()
+      ->expected(2, -1);
   cmd->add_option("--to", o->to, "Output format: " + interop::FormatNames() +
                                      " (default: from OUT's extension)");
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch for inputs that have none (all but porthole JSON), mm; without it "
                   "pitch 1 (pixels are mm)");
-  cmd->add_option("--camera-id", o->camera_id, "The camera of a COLMAP file holding several (its CAMERA_ID)");
+  cmd->add_option("--camera-id", o->camera_id, "The camera to read from a COLMAP file holding several (its CAMERA_ID)");
   cmd->add_option("--port-out", o->port_out,
-                  "calibmar input: write its FLATPORT/DOMEPORT housing as a porthole port TOML (cam frame, mm)");
+                  "calibmar or refractive COLMAP input: write its FLATPORT/DOMEPORT housing as a porthole port "
+                  "TOML (cam frame, mm, with the housing's sigma where the file gives it)");
   cmd->add_option("--port", o->port,
-                  "calibmar output: the housing to write (a port preset or TOML; a dome must be concentric)");
+                  "calibmar or COLMAP cameras.txt output: the housing to write (a port preset or TOML; a dome "
+                  "must be concentric)");
   cmd->add_option("--water-index", o->water_index,
-                  "calibmar output with --port: the water index nw (default: seawater, Quan-Fry at 20 C, 35 PSU, "
-                  "546.07 nm)");
+                  "With --port: the water index nw (default: seawater, Quan-Fry at 20 C, 35 PSU, 546.07 nm)");
   cmd->add_flag("--json", o->json, "JSON summary for scripts");
   cmd->callback([o] {
     if (o->pitch_mm) {
       RequirePositive("--pixel-pitch-mm", *o->pitch_mm);
       WarnIfImplausible("--pixel-pitch-mm", *o->pitch_mm, kPixelPitchRange);
     }
-    const auto in = interop::ReadCalibrationFile(o->in, o->pitch_mm.value_or(1.0), "IN", o->camera_id);
-    std::filesystem::path out = o->out;
+    const std::vector<std::string> ins(o->files.begin(), o->files.end() - 1);
+    const std::string out_arg = o->files.back();
+    std::vector<interop::ReadResult> reads;
+    for (const auto& path : ins) reads.push_back(interop::ReadCalibrationFile(path, o->pitch_mm.value_or(1.0), "IN", o->camera_id));
+    std::filesystem::path out = out_arg;
     const std::optional<std::string> to = o->to.empty() ? std::nullopt : std::optional(o->to);
     if (std::filesystem::is_directory(out)) {
       const auto dir_format = to ? interop::FormatFromName(*to, "--to") : interop::Format::kColmapText;
       if (dir_format != interop::Format::kColmapText && dir_format != interop::Format::kColmapBinary) {
-        throw InvalidInput("OUT", "'" + o->out + "' is a directory: only COLMAP writes into one");
+        throw InvalidInput("OUT", "'" + out_arg + "' is a directory: only COLMAP writes into one");
       }
       out /= dir_format == interop::Format::kColmapText ? "cameras.txt" : "cameras.bin";
     }
     const auto format = interop::OutputFormat(out.string(), to, "OUT");
-    // The refractive housing: calibmar's, or a porthole port given with --port.
+    const bool several = reads.size() > 1;
+    if (several && format != interop::Format::kColmapText && format != interop::Format::kColmapBinary) {
+      throw InvalidInput("OUT", fmt::format("{} INs: only COLMAP's cameras.txt / cameras.bin hold several cameras, "
+                                            "not {}", reads.size(), interop::FormatName(format)));
+    }
+    // The refractive housing: the input's, or a porthole port given with --port (for every camera).
     if (o->water_index && o->port.empty()) throw InvalidInput("--water-index", "goes with --port");
-    interop::WriteExtras extras{in.housing, in.rt_fromref};  // carried where the output holds them
-    auto& housing = extras.housing;
+    std::optional<interop::RefractiveHousing> port_housing;
     if (!o->port.empty()) {
-      if (format != interop::Format::kCalibmar) throw InvalidInput("--port", "only calibmar output holds a housing");
+      if (format != interop::Format::kCalibmar && format != interop::Format::kColmapText) {
+        throw InvalidInput("--port", "only calibmar and COLMAP cameras.txt (refractive COLMAP) outputs hold a housing");
+      }
       const ports::PortSpec port = io::LoadPort(o->port);
       const double n_water = o->water_index ? *o->water_index : materials::Index("seawater");
-      housing = interop::RefractiveFromPort(port, materials::Index(port.material()), n_water, "--port");
+      port_housing = interop::RefractiveFromPort(port, materials::Index(port.material()), n_water, "--port");
     }
+    const interop::ReadResult& in = reads.front();
     std::string port_toml;
     double port_water_index = NAN;
     if (!o->port_out.empty()) {
-      if (!in.housing) throw InvalidInput("--port-out", "IN has no housing (only calibmar files hold one)");
-      ports::PortSpec port = interop::PortFromRefractive(*in.housing, "IN '" + o->in + "'", &port_water_index);
+      if (several) throw InvalidInput("--port-out", "goes with one IN");
+      if (!in.housing) {
+        throw InvalidInput("--port-out", "IN has no housing (only calibmar files and refractive COLMAP cameras.txt hold one)");
+      }
+      ports::PortSpec port = interop::PortFromRefractive(*in.housing, "IN '" + ins.front() + "'", &port_water_index);
       port.description += fmt::format("; water index {:g} (give --water-index)", port_water_index);
-      port_toml = io::PortToToml(port);
+      port_toml = io::PortToToml(port) + interop::HousingSigmaToml(*in.housing);
       io::ParsePortToml(port_toml, "--port-out");  // porthole reads what it writes
     }
-    const auto w = interop::WriteCalibration(in.calibration, format, "OUT '" + out.string() + "'", extras);
+    const std::string out_field = "OUT '" + out.string() + "'";
+    interop::WriteResult w;
+    if (several) {
+      std::vector<interop::ColmapEntry> entries;
+      for (std::size_t i = 0; i < reads.size(); ++i) {
+        entries.push_back({reads[i].calibration, static_cast<int>(i) + 1,
+                           port_housing ? port_housing : reads[i].housing});
+        if (format == interop::Format::kColmapBinary) entries.back().housing.reset();  // cameras.txt only
+      }
+      w = interop::WriteColmapCameras(entries, format, out_field);
+    } else {
+      interop::WriteExtras extras{port_housing ? port_housing : in.housing, in.rt_fromref};  // where the output holds them
+      w = interop::WriteCalibration(in.calibration, format, out_field, extras);
+    }
     if (!port_toml.empty()) CheckOutputFile(o->port_out, "--port-out");
     WriteFileAtomically(out, w.content, "OUT");
     if (!port_toml.empty()) WriteFileAtomically(o->port_out, port_toml, "--port-out");
 
     // Reading (a Metashape model with terms porthole's lacks) or writing (Brown to a pixel format)
-    // may be a refit: report the one that is, the larger if both are.
-    const bool exact = in.exact && w.exact;
-    const camera::ConversionFit fit =
-        w.exact ? in.fit : (in.exact || w.fit.rms_px >= in.fit.rms_px ? w.fit : in.fit);
+    // may be a refit: report the one that is, the largest if several are.
+    bool exact = w.exact;
+    camera::ConversionFit fit = w.fit;
+    for (const auto& r : reads) {
+      if (!r.exact && (exact || r.fit.rms_px > fit.rms_px)) fit = r.fit;
+      exact = exact && r.exact;
+    }
     const std::string how = exact ? "exact"
                                   : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px "
                                                 "({} points)", fit.rms_px, fit.max_px, fit.num_points);
+    const bool housing_written = format == interop::Format::kCalibmar || format == interop::Format::kColmapText;
     if (o->json) {
-      Json j = {{"in", o->in},
+      Json cameras = Json::array();
+      for (std::size_t i = 0; i < reads.size(); ++i) {
+        cameras.push_back({{"in", ins[i]},
+                           {"in_format", std::string(interop::FormatName(reads[i].format))},
+                           {"in_model", reads[i].format_model},
+                           {"camera_id", several ? Json(i + 1) : Json(nullptr)}});
+      }
+      Json j = {{"in", ins.front()},
                 {"in_format", std::string(interop::FormatName(in.format))},
                 {"in_model", in.format_model},
                 {"camera_model", std::string(in.camera().model_name())},
+                {"cameras", cameras},
                 {"out", out.string()},
                 {"out_format", std::string(interop::FormatName(format))},
                 {"out_model", w.format_model},
@@ -129,6 +176,7 @@ void RegisterConvert(CLI::App& app) {
                 {"sigma", w.sigma_written ? "written" : in.calibration.has_covariance ? "dropped: the format holds none"
                                                                                        : "unknown"},
                 {"housing", in.housing ? Json(in.housing->model) : Json(nullptr)},
+                {"housing_written", housing_written && (in.housing || port_housing)},
                 {"port_out", o->port_out.empty() ? Json(nullptr) : Json(o->port_out)},
                 {"water_index", std::isfinite(port_water_index) ? Json(port_water_index) : Json(nullptr)},
                 {"in_rms_px", std::isfinite(in.file_rms_px) ? Json(in.file_rms_px) : Json(nullptr)},
@@ -141,10 +189,21 @@ void RegisterConvert(CLI::App& app) {
       extra = fmt::format("\nhousing {} -> {} (porthole port, cam frame, mm); water index {:g}: give "
                           "--water-index {:g} to commands using it", in.housing->model, o->port_out,
                           port_water_index, port_water_index);
-    } else if (in.housing) {
+    } else if (in.housing && !housing_written) {
       extra = fmt::format("\nhousing {} not converted: give --port-out FILE.toml", in.housing->model);
     }
-    fmt::print("{} ({} {}) -> {} ({} {}): {}{}\n", o->in, interop::FormatName(in.format),
+    if (format == interop::Format::kColmapText && w.format_model.find("PORT") != std::string::npos) {
+      extra += "\nthe housing is refractive COLMAP's (COLMAP-Underwater reads it; stock COLMAP does not)";
+    }
+    if (several) {
+      for (std::size_t i = 0; i < reads.size(); ++i) {
+        fmt::print("{} ({} {}) -> camera {}\n", ins[i], interop::FormatName(reads[i].format), reads[i].format_model,
+                   i + 1);
+      }
+      return fmt::print("{} cameras -> {} ({} {}): {}{}\n", reads.size(), out.string(), interop::FormatName(format),
+                        w.format_model, how, extra);
+    }
+    fmt::print("{} ({} {}) -> {} ({} {}): {}{}\n", ins.front(), interop::FormatName(in.format),
                in.format_model, out.string(), interop::FormatName(format), w.format_model, how, extra);
   });
 }

@@ -264,3 +264,154 @@ def test_mrcal_extrinsics_survive_a_round_trip_through_porthole(tmp_path):
     assert "--camera-id" in run_bad("convert", two, tmp_path / "c.json")
     run("convert", two, tmp_path / "c.json", "--camera-id", "7")
     assert json.loads((tmp_path / "c.json").read_text())["sensor"]["width_px"] == 800
+
+
+def cv_read(path, k_key="camera_matrix", d_key="distortion_coefficients"):
+    import cv2
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    assert fs.isOpened(), path
+    k, d = fs.getNode(k_key).mat(), fs.getNode(d_key).mat()
+    size = [int(fs.getNode("image_width").real()), int(fs.getNode("image_height").real())]
+    fisheye = int(fs.getNode("fisheye_model").real())
+    fs.release()
+    return k, d, size, fisheye
+
+
+@pytest.mark.parametrize("ext,to", [("yml", None), ("xml", "opencv-xml")])
+def test_opencv_filestorage_pinhole_and_fisheye_read_by_cv2(tmp_path, ext, to):
+    """porthole writes OpenCV FileStorage YAML and XML; cv2.FileStorage reads it, and cv2.projectPoints
+    (opencv model) and cv2.fisheye.projectPoints (kannala-brandt) agree with porthole's projection to
+    <= 1e-6 px over a 21 x 15 grid of rays through the image; porthole reads its file back exactly."""
+    cv2 = pytest.importorskip("cv2")
+    porthole = pytest.importorskip("porthole")
+    extra = ["--to", to] if to else []
+    for model, params in (("opencv", OPENCV), ("kannala-brandt", KB)):
+        src = write_calib(tmp_path / f"{model}.json", model, params)
+        out = tmp_path / f"{model}.{ext}"
+        res = run("convert", src, out, *extra, "--json").json()
+        assert res["exact"] and res["out_format"] == (to or "opencv-yaml")
+        k, d, size, fisheye = cv_read(out)
+        assert size == [SENSOR["width_px"], SENSOR["height_px"]] and fisheye == (model == "kannala-brandt")
+        cam = dict(params, model=model)
+        pts = rays_over_image(cam)
+        ours = porthole.project(cam, pts, **SENSOR)
+        if model == "opencv":
+            theirs, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+        else:
+            theirs, _ = cv2.fisheye.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+        assert np.max(np.abs(theirs.reshape(-1, 2) - ours)) <= 1e-6, model
+        back = run("convert", out, tmp_path / "back.json", "--json").json()
+        assert back["in_format"] == (to or "opencv-yaml")
+        got = json.loads((tmp_path / "back.json").read_text())
+        assert got["model"] == model and got["camera"] == pytest.approx(params, rel=1e-15)
+
+
+@pytest.mark.parametrize("ext", ["xml", "yml"])
+def test_porthole_reads_what_cv2_filestorage_writes(tmp_path, ext):
+    """Files written by cv2.FileStorage itself, in both key spellings (camera_matrix /
+    distortion_coefficients / image_width, image_height and cameraMatrix / distCoeffs / imageSize), and
+    cv::fisheye's K, D: porthole reads the same numbers, and picks the fisheye model for K, D."""
+    cv2 = pytest.importorskip("cv2")
+    k = np.array([[4690.25, 0, 2150.3], [0, 4692.5, 1420.7], [0, 0, 1]])
+    d5 = np.array([[-0.1, 0.05, 1e-4, -2e-4, -0.01]])
+    kf = np.array([[1909.0, 0, 2150], [0, 1911, 1418], [0, 0, 1]])
+    d4 = np.array([[-0.0405], [0.0006], [-0.0001], [0.00002]])
+    layouts = {
+        "snake": (lambda fs: (fs.write("image_width", 4288), fs.write("image_height", 2848),
+                              fs.write("camera_matrix", k), fs.write("distortion_coefficients", d5)), "opencv"),
+        "camel": (lambda fs: (fs.write("imageSize", (4288, 2848)), fs.write("cameraMatrix", k),
+                              fs.write("distCoeffs", d5)), "opencv"),
+        "fisheye": (lambda fs: (fs.write("image_width", 4288), fs.write("image_height", 2848),
+                                fs.write("K", kf), fs.write("D", d4)), "kannala-brandt"),
+    }
+    for name, (fill, model) in layouts.items():
+        path = tmp_path / f"{name}.{ext}"
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+        fill(fs)
+        fs.release()
+        res = run("convert", path, tmp_path / "out.json", "--json").json()
+        assert res["in_format"] == ("opencv-xml" if ext == "xml" else "opencv-yaml"), name
+        got = json.loads((tmp_path / "out.json").read_text())
+        assert got["model"] == model and got["sensor"]["width_px"] == 4288, name
+        kk, dd = (k, d5) if model == "opencv" else (kf, d4)
+        c = got["camera"]
+        assert [c["fx_px"], c["fy_px"], c["cx_px"], c["cy_px"]] == [kk[0, 0], kk[1, 1], kk[0, 2], kk[1, 2]], name
+        names = ["k1", "k2", "p1", "p2", "k3"] if model == "opencv" else ["k1", "k2", "k3", "k4"]
+        assert [c[n] for n in names] == list(dd.ravel()), name
+
+
+@pytest.mark.skipif(shutil.which("colmap") is None, reason="colmap not installed (scripts/install-deps)")
+def test_several_cameras_into_one_cameras_txt_read_by_colmap(tmp_path):
+    """`convert A B C cameras.txt` writes CAMERA_ID 1, 2, 3; colmap model_converter reads it and writes
+    every line back unchanged; porthole reads each back by --camera-id, exactly."""
+    pinhole = {"fx_px": 700.0, "fy_px": 700.0, "cx_px": 399.5, "cy_px": 299.5}
+    srcs = [write_calib(tmp_path / "a.json", "opencv", OPENCV), write_calib(tmp_path / "b.json", "kannala-brandt", KB),
+            write_calib(tmp_path / "c.json", "opencv", pinhole)]
+    sparse = tmp_path / "sparse"
+    sparse.mkdir()
+    res = run("convert", *srcs, sparse / "cameras.txt", "--json").json()
+    assert res["exact"] and res["out_model"] == "FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_PINHOLE"
+    assert [c["camera_id"] for c in res["cameras"]] == [1, 2, 3]
+    (sparse / "images.txt").write_text("")
+    (sparse / "points3D.txt").write_text("")
+    out = tmp_path / "TXT"
+    out.mkdir()
+    subprocess.run(["colmap", "model_converter", "--input_path", sparse, "--output_path", out, "--output_type", "TXT"],
+                   check=True, capture_output=True, env=dict(os.environ, QT_QPA_PLATFORM="offscreen"), timeout=120)
+
+    def lines(p):
+        return sorted(l.split() for l in p.read_text().splitlines() if l.strip() and not l.startswith("#"))
+    ours, theirs = lines(sparse / "cameras.txt"), lines(out / "cameras.txt")
+    assert len(ours) == 3 and [[float(x) for x in l[2:]] for l in theirs] == [[float(x) for x in l[2:]] for l in ours]
+    assert [l[:2] for l in theirs] == [l[:2] for l in ours]
+    for cid, (model, params) in enumerate((("opencv", OPENCV), ("kannala-brandt", KB), ("opencv", pinhole)), 1):
+        run("convert", out / "cameras.txt", tmp_path / "back.json", "--camera-id", cid)
+        got = json.loads((tmp_path / "back.json").read_text())
+        assert got["model"] == model
+        assert {k: got["camera"][k] for k in params} == pytest.approx(params, rel=1e-15)
+    assert "only COLMAP" in run_bad("convert", *srcs[:2], tmp_path / "x.yml")
+    assert not (tmp_path / "x.yml").exists()
+
+
+def test_refractive_colmap_cameras_txt_with_the_housing(tmp_path):
+    """calibmar's DOMEPORT into a refractive COLMAP cameras.txt ("... PARAMS[] DOMEPORT p1..p8", the
+    COLMAP-Underwater fork's WriteCamerasText), back to a port TOML with the housing's sigma as a
+    [sigma] table that `plan` reads; the later "REFRAC DOMEPORT ..." form reads the same; --port puts a
+    porthole port into cameras.txt."""
+    src = tmp_path / "calibration.yaml"
+    src.write_text(CALIBMAR_DOME.replace("non_svp_model: DOMEPORT",
+                                         "non_svp_model: DOMEPORT\n# non_svp_est_std_dev: 0.0002, 0.0001, 0.0003"))
+    res = run("convert", src, tmp_path / "cameras.txt", "--json").json()
+    assert res["housing_written"] and res["out_model"] == "OPENCV + DOMEPORT"
+    line = [l for l in (tmp_path / "cameras.txt").read_text().splitlines() if not l.startswith("#")][0].split()
+    assert line[1] == "OPENCV" and line[12] == "DOMEPORT"
+    assert [float(x) for x in line[13:]] == [0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334]
+    res = run("convert", tmp_path / "cameras.txt", tmp_path / "cal.json", "--port-out", tmp_path / "dome.toml",
+              "--json").json()
+    assert res["housing"] == "DOMEPORT" and res["water_index"] == 1.334
+    refrac = tmp_path / "refrac.txt"
+    refrac.write_text((tmp_path / "cameras.txt").read_text().replace(" DOMEPORT ", " REFRAC DOMEPORT "))
+    run("convert", refrac, tmp_path / "cal2.json", "--port-out", tmp_path / "dome2.toml")
+    assert (tmp_path / "dome2.toml").read_text() == (tmp_path / "dome.toml").read_text()
+    assert "[sigma]" not in (tmp_path / "dome.toml").read_text()  # cameras.txt holds no sigma
+    # The housing's sigma from calibmar's comment (metres), in the port's units (mm).
+    run("convert", src, tmp_path / "cal0.json", "--port-out", tmp_path / "sigma.toml")
+    toml = (tmp_path / "sigma.toml").read_text()
+    assert "[sigma]\ncenter_mm = [0.2, 0.1, 0.3]\n" in toml, toml
+    run("plan", "--port", tmp_path / "sigma.toml", "--water-index", "1.334", "--json")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(toml.replace("center_mm = [0.2,", "center_mm = [-0.2,"))
+    assert "sigma.center_mm" in run_bad("plan", "--port", bad, "--water-index", "1.334")
+    # A porthole port into cameras.txt.
+    run("convert", tmp_path / "cal.json", tmp_path / "again.txt", "--port", tmp_path / "dome.toml",
+        "--water-index", "1.334")
+    again = [l for l in (tmp_path / "again.txt").read_text().splitlines() if not l.startswith("#")][0].split()
+    assert [float(x) for x in again[13:]] == pytest.approx([0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334],
+                                                           rel=1e-12)
+    # Malformed housing tokens: one line naming the file and the field.
+    broken = tmp_path / "broken.txt"
+    broken.write_text("1 PINHOLE 640 480 500 500 320 240 DOMEPORT 0 0 0 0.1\n")
+    assert "broken.txt" in (l := run_bad("convert", broken, tmp_path / "y.json")) and "REFRAC_PARAMS" in l
+    broken.write_text("1 PINHOLE 640 480 500 500 320 240 SPHEREPORT 0 0 0 0.1 0.01 1 1.5 1.33\n")
+    assert "REFRAC_MODEL" in run_bad("convert", broken, tmp_path / "y.json")
+    assert not (tmp_path / "y.json").exists()

@@ -15,6 +15,7 @@
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
 #include "porthole/interop/metashape.h"
+#include "porthole/interop/opencv_storage.h"
 #include "porthole/interop/pyliteral.h"
 #include "porthole/interop/refit.h"
 #include "porthole/interop/refractive.h"
@@ -27,9 +28,10 @@ using camera::CameraModelId;
 using OpenCV = camera::OpenCVModel;
 using KB = camera::KannalaBrandtModel;
 
-constexpr std::array<std::pair<Format, std::string_view>, 7> kFormatNames = {{
+constexpr std::array<std::pair<Format, std::string_view>, 8> kFormatNames = {{
     {Format::kJson, "json"},
     {Format::kOpenCVYaml, "opencv-yaml"},
+    {Format::kOpenCVXml, "opencv-xml"},
     {Format::kColmapText, "colmap"},
     {Format::kColmapBinary, "colmap-bin"},
     {Format::kMrcal, "mrcal"},
@@ -241,120 +243,62 @@ PixelCalibration ToPixelFamily(const calib::CalibrationRecord& in) {
 
 std::string Num(double v) { return fmt::format("{:.17g}", v); }
 
-// ---- OpenCV FileStorage YAML ----
+// ---- OpenCV FileStorage YAML and XML (interop/opencv_storage.h) ----
 
-// The text after "<key>:" at the start of a line, up to the next top-level key; nullopt if absent.
-std::optional<std::string> YamlEntry(const std::string& y, std::string_view key) {
-  std::size_t pos = 0;
-  while (pos < y.size()) {
-    const std::size_t eol = std::min(y.find('\n', pos), y.size());
-    const std::string_view line(y.data() + pos, eol - pos);
-    if (line.substr(0, key.size()) == key && line.size() > key.size() && line[key.size()] == ':') {
-      std::size_t end = eol;
-      while (end < y.size()) {
-        const std::size_t next = std::min(y.find('\n', end + 1), y.size());
-        const char first = end + 1 < y.size() ? y[end + 1] : '\n';
-        if (first != ' ' && first != '\t' && first != '\n' && first != '#') break;
-        end = next;
-      }
-      return y.substr(pos + key.size() + 1, end - pos - key.size() - 1);
-    }
-    pos = eol + 1;
-  }
-  return std::nullopt;
-}
-
-std::vector<double> NumberList(const std::string& text, const std::string& field) {
-  std::vector<double> out;
-  std::string item;
-  std::stringstream ss(text);
-  while (std::getline(ss, item, ',')) {
-    const auto a = item.find_first_not_of(" \t\r\n");
-    if (a == std::string::npos) continue;
-    const auto b = item.find_last_not_of(" \t\r\n");
-    const std::string s = item.substr(a, b - a + 1);
-    char* end = nullptr;
-    const double v = std::strtod(s.c_str(), &end);
-    if (end != s.c_str() + s.size() || !std::isfinite(v)) {
-      throw InvalidInput(field, "'" + s + "' is not a finite number");
-    }
-    out.push_back(v);
-    if (out.size() > 20) throw InvalidInput(field, "more than 20 numbers");
-  }
-  return out;
-}
-
-// The first of `keys` present: its flow sequence [a, b, …] (an !!opencv-matrix's data, or a
-// cv::Size); nullopt when none is present.
-std::optional<std::vector<double>> YamlNumbers(const std::string& y,
-                                               std::initializer_list<std::string_view> keys,
-                                               const std::string& field) {
-  for (const auto key : keys) {
-    const auto entry = YamlEntry(y, key);
-    if (!entry) continue;
-    const std::string f = field + ": " + std::string(key);
-    const auto open = entry->find('[');
-    const auto close = entry->find(']', open == std::string::npos ? 0 : open);
-    if (open == std::string::npos || close == std::string::npos) {
-      throw InvalidInput(f, "expected a matrix with data: [ … ]");
-    }
-    return NumberList(entry->substr(open + 1, close - open - 1), f);
-  }
-  return std::nullopt;
-}
-
-ReadResult ReadOpenCVYaml(const std::string& y, double pitch_mm, const std::string& field) {
-  const auto k = YamlNumbers(y, {"camera_matrix", "cameraMatrix", "K"}, field);
-  if (!k) throw InvalidInput(field + ": camera_matrix", "missing (also looked for cameraMatrix, K)");
-  if (k->size() != 9 || (*k)[1] != 0 || (*k)[3] != 0 || (*k)[6] != 0 || (*k)[7] != 0 || (*k)[8] != 1) {
-    throw InvalidInput(field + ": camera_matrix", "must be 3x3 [fx 0 cx; 0 fy cy; 0 0 1] (no skew)");
-  }
-  const auto d = YamlNumbers(y, {"distortion_coefficients", "distCoeffs", "dist_coeffs", "D"}, field);
-  if (!d) throw InvalidInput(field + ": distortion_coefficients", "missing (also looked for distCoeffs, D)");
-  const std::size_t n = d->size();
-  if (n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
-    throw InvalidInput(field + ": distortion_coefficients",
-                       fmt::format("has {} entries; OpenCV has 4, 5, 8, 12 or 14", n));
-  }
-  for (std::size_t i = 8; i < n; ++i) {
-    if ((*d)[i] != 0) {
-      throw InvalidInput(field + ": distortion_coefficients",
-                         "thin-prism s1-s4 and tilt tau_x, tau_y must be 0 (porthole's opencv model has k1-k6, p1, p2)");
-    }
-  }
-  int w = 0, h = 0;
-  if (const auto size = YamlNumbers(y, {"image_size", "imageSize"}, field)) {
-    if (size->size() != 2) throw InvalidInput(field + ": image_size", "must be [ width, height ]");
-    for (double v : *size) {
-      if (!(v >= 1 && v <= 1e6 && v == std::floor(v))) {
-        throw InvalidInput(field + ": image_size", "must be whole numbers of pixels from 1 to 1000000");
-      }
-    }
-    w = static_cast<int>((*size)[0]);
-    h = static_cast<int>((*size)[1]);
-  } else {
-    for (auto [key, out] : {std::pair<std::string_view, int*>{"image_width", &w}, {"image_height", &h}}) {
-      const auto e = YamlEntry(y, key);
-      if (!e) throw InvalidInput(field + ": " + std::string(key), "missing (or image_size: [ w, h ])");
-      const auto v = NumberList(*e, field + ": " + std::string(key));
-      if (v.size() != 1 || !(v[0] >= 1 && v[0] <= 1e6 && v[0] == std::floor(v[0]))) {
-        throw InvalidInput(field + ": " + std::string(key), "must be a whole number of pixels from 1 to 1000000");
-      }
-      *out = static_cast<int>(v[0]);
-    }
-  }
-  const auto& dd = *d;
-  auto at = [&](std::size_t i) { return i < n ? dd[i] : 0.0; };
+ReadResult ReadOpenCVStorage(const std::string& text, Format format, double pitch_mm, const std::string& field) {
+  const OpenCVStorageCalibration c = ParseOpenCVStorage(text, format == Format::kOpenCVXml, field);
+  const auto& k = c.camera_matrix;
+  const auto& d = c.distortion;
+  const auto s = PixelSensor(c.width_px, c.height_px, pitch_mm);
   ReadResult r;
-  r.calibration.camera = OpenCVCamera(PixelSensor(w, h, pitch_mm),
-                                      {(*k)[0], (*k)[4], (*k)[2], (*k)[5], at(0), at(1), at(2), at(3),
-                                       at(4), at(5), at(6), at(7)});
-  r.format = Format::kOpenCVYaml;
-  r.format_model = fmt::format("{} coefficients", n);
+  if (c.fisheye) {
+    r.calibration.camera = Camera{CameraModelId::kKannalaBrandt, s, {k[0], k[4], k[2], k[5], d[0], d[1], d[2], d[3]}};
+    r.format_model = "fisheye, 4 coefficients";
+  } else {
+    const auto at = [&](std::size_t i) { return i < d.size() ? d[i] : 0.0; };
+    r.calibration.camera = OpenCVCamera(s, {k[0], k[4], k[2], k[5], at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)});
+    r.format_model = fmt::format("{} coefficients", d.size());
+  }
+  r.format = format;
   return r;
 }
 
+// The camera as a FileStorage calibration: opencv with the fewest of 4, 5, 8 coefficients that hold
+// it exactly, kannala-brandt as cv::fisheye's 4.
+OpenCVStorageCalibration ToOpenCVStorage(const Camera& cam, const std::string& field) {
+  OpenCVStorageCalibration c;
+  c.width_px = cam.sensor.width_px;
+  c.height_px = cam.sensor.height_px;
+  const auto& p = cam.params;
+  const auto matrix = [&](double fx, double fy, double cx, double cy) {
+    c.camera_matrix = {fx, 0, cx, 0, fy, cy, 0, 0, 1};
+  };
+  if (cam.model == CameraModelId::kKannalaBrandt) {
+    c.fisheye = true;
+    matrix(p[KB::kFx], p[KB::kFy], p[KB::kCx], p[KB::kCy]);
+    c.distortion = {p[KB::kK1], p[KB::kK2], p[KB::kK3], p[KB::kK4]};
+    return c;
+  }
+  if (cam.model != CameraModelId::kOpenCV) {
+    NoRepresentation(cam, "OpenCV FileStorage", field, "write opencv, brown (refit) or kannala-brandt (cv::fisheye)");
+  }
+  matrix(p[OpenCV::kFx], p[OpenCV::kFy], p[OpenCV::kCx], p[OpenCV::kCy]);
+  const bool rational = p[OpenCV::kK4] != 0 || p[OpenCV::kK5] != 0 || p[OpenCV::kK6] != 0;
+  const int n = rational ? 8 : p[OpenCV::kK3] != 0 ? 5 : 4;
+  c.distortion.assign(p.begin() + OpenCV::kK1, p.begin() + OpenCV::kK1 + n);
+  return c;
+}
+
 // ---- COLMAP ----
+
+double ColmapNumber(const std::string& tok, const std::string& where) {
+  char* end = nullptr;
+  const double v = std::strtod(tok.c_str(), &end);
+  if (end != tok.c_str() + tok.size() || !std::isfinite(v)) {
+    throw InvalidInput(where, "'" + tok.substr(0, 40) + "' is not a finite number");
+  }
+  return v;
+}
 
 std::vector<ColmapCamera> ParseColmapText(const std::string& text, const std::string& field) {
   std::vector<ColmapCamera> out;
@@ -380,18 +324,37 @@ std::vector<ColmapCamera> ParseColmapText(const std::string& text, const std::st
     if (w < 1 || h < 1 || w > 1000000 || h > 1000000) {
       throw InvalidInput(where + ": WIDTH/HEIGHT", "must be positive whole pixels");
     }
-    std::string tok;
-    while (ls >> tok) {
+    std::vector<std::string> toks;
+    for (std::string tok; ls >> tok;) toks.push_back(tok);
+    // PARAMS: the numbers up to the end, or to refractive COLMAP's housing ([REFRAC] MODEL p1 … p8).
+    const auto is_number = [](const std::string& t) {
       char* end = nullptr;
-      const double v = std::strtod(tok.c_str(), &end);
-      if (end != tok.c_str() + tok.size() || !std::isfinite(v)) {
-        throw InvalidInput(where + ": PARAMS", "'" + tok + "' is not a finite number");
-      }
-      c.params.push_back(v);
+      std::strtod(t.c_str(), &end);
+      return !t.empty() && end == t.c_str() + t.size();
+    };
+    std::size_t i = 0;
+    for (; i < toks.size() && static_cast<int>(c.params.size()) < m->num_params; ++i) {
+      c.params.push_back(ColmapNumber(toks[i], where + ": PARAMS"));
     }
-    if (static_cast<int>(c.params.size()) != m->num_params) {
+    std::size_t count = c.params.size();
+    while (count < toks.size() && is_number(toks[count])) ++count;
+    if (static_cast<int>(count) != m->num_params) {
       throw InvalidInput(where + ": PARAMS", fmt::format("{} has {} parameters, the line has {}",
-                                                         c.model, m->num_params, c.params.size()));
+                                                         c.model, m->num_params, count));
+    }
+    if (i < toks.size()) {
+      if (toks[i] == "REFRAC") ++i;
+      if (i == toks.size() || (toks[i] != "FLATPORT" && toks[i] != "DOMEPORT")) {
+        throw InvalidInput(where + ": REFRAC_MODEL", "expected FLATPORT or DOMEPORT (refractive COLMAP's housing)");
+      }
+      RefractiveHousing h;
+      h.model = toks[i++];
+      if (toks.size() - i != h.params.size()) {
+        throw InvalidInput(where + ": REFRAC_PARAMS", fmt::format("{} has {} parameters, the line has {}", h.model,
+                                                                  h.params.size(), toks.size() - i));
+      }
+      for (double& v : h.params) v = ColmapNumber(toks[i++], where + ": REFRAC_PARAMS");
+      c.housing = h;
     }
     c.camera_id = static_cast<int>(id);
     c.width_px = static_cast<int>(w);
@@ -401,16 +364,25 @@ std::vector<ColmapCamera> ParseColmapText(const std::string& text, const std::st
   return out;
 }
 
-std::string ColmapText(const ColmapCamera& c) {
-  std::string params;
-  for (double v : c.params) params += " " + Num(v);
-  return fmt::format(
+std::string ColmapText(const std::vector<ColmapCamera>& cameras) {
+  const bool refractive = std::any_of(cameras.begin(), cameras.end(), [](const auto& c) { return c.housing.has_value(); });
+  std::string out = fmt::format(
       "# Camera list with one line of data per camera:\n"
-      "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
-      "# Number of cameras: 1\n"
-      "# written by porthole convert (COLMAP pixel convention: top-left pixel centre at 0.5, 0.5)\n"
-      "{} {} {} {}{}\n",
-      c.camera_id, c.model, c.width_px, c.height_px, params);
+      "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]{}\n"
+      "# Number of cameras: {}\n"
+      "# written by porthole convert (COLMAP pixel convention: top-left pixel centre at 0.5, 0.5){}\n",
+      refractive ? " OPTIONAL[REFRAC_MODEL REFRAC_PARAMS[]]" : "", cameras.size(),
+      refractive ? "; the housing is refractive COLMAP's (COLMAP-Underwater), metres" : "");
+  for (const auto& c : cameras) {
+    out += fmt::format("{} {} {} {}", c.camera_id, c.model, c.width_px, c.height_px);
+    for (double v : c.params) out += " " + Num(v);
+    if (c.housing) {
+      out += " " + c.housing->model;
+      for (double v : c.housing->params) out += " " + Num(v);
+    }
+    out += "\n";
+  }
+  return out;
 }
 
 // cameras.bin, little-endian (colmap/src/base/reconstruction.cc, WriteCamerasBinary): uint64 count,
@@ -423,14 +395,16 @@ void PutLE(std::string* out, T v) {
 }
 static_assert(std::endian::native == std::endian::little, "cameras.bin I/O assumes little-endian");
 
-std::string ColmapBinary(const ColmapCamera& c) {
+std::string ColmapBinary(const std::vector<ColmapCamera>& cameras) {
   std::string out;
-  PutLE<std::uint64_t>(&out, 1);
-  PutLE<std::uint32_t>(&out, static_cast<std::uint32_t>(c.camera_id));
-  PutLE<std::int32_t>(&out, ColmapModelByName(c.model)->id);
-  PutLE<std::uint64_t>(&out, static_cast<std::uint64_t>(c.width_px));
-  PutLE<std::uint64_t>(&out, static_cast<std::uint64_t>(c.height_px));
-  for (double v : c.params) PutLE<double>(&out, v);
+  PutLE<std::uint64_t>(&out, cameras.size());
+  for (const auto& c : cameras) {
+    PutLE<std::uint32_t>(&out, static_cast<std::uint32_t>(c.camera_id));
+    PutLE<std::int32_t>(&out, ColmapModelByName(c.model)->id);
+    PutLE<std::uint64_t>(&out, static_cast<std::uint64_t>(c.width_px));
+    PutLE<std::uint64_t>(&out, static_cast<std::uint64_t>(c.height_px));
+    for (double v : c.params) PutLE<double>(&out, v);
+  }
   return out;
 }
 
@@ -461,7 +435,7 @@ std::vector<ColmapCamera> ParseColmapBinary(const std::string& bin, const std::s
     if (w < 1 || h < 1 || w > 1000000 || h > 1000000) {
       throw InvalidInput(field + ": width/height", "must be positive whole pixels");
     }
-    ColmapCamera c{static_cast<int>(id), std::string(m->name), static_cast<int>(w), static_cast<int>(h), {}};
+    ColmapCamera c{static_cast<int>(id), std::string(m->name), static_cast<int>(w), static_cast<int>(h), {}, std::nullopt};
     c.params.resize(m->num_params);
     for (auto& v : c.params) {
       get(&v, "params");
@@ -490,7 +464,8 @@ ReadResult FromColmapList(const std::vector<ColmapCamera>& list, Format format, 
   ReadResult r;
   r.calibration.camera = FromColmap(*chosen, pitch_mm, field);
   r.format = format;
-  r.format_model = chosen->model;
+  r.format_model = chosen->model + (chosen->housing ? " + " + chosen->housing->model : "");
+  r.housing = chosen->housing;
   return r;
 }
 
@@ -719,12 +694,8 @@ Format DetectInputFormat(const std::string& path, const std::string& content, co
   if (ext == ".cameramodel") return Format::kMrcal;
   if (ext == ".bin") return Format::kColmapBinary;
   if (ext == ".txt") return Format::kColmapText;
-  if (ext == ".xml" || content.find("<calibration") != std::string::npos) {
-    if (content.find("<opencv_storage") != std::string::npos) {
-      throw InvalidInput(field, "'" + path + "': OpenCV FileStorage XML is not read yet (save it as .yml)");
-    }
-    return Format::kMetashape;
-  }
+  if (content.find("<opencv_storage") != std::string::npos) return Format::kOpenCVXml;
+  if (ext == ".xml" || content.find("<calibration") != std::string::npos) return Format::kMetashape;
   const auto first = content.find_first_not_of(" \t\r\n");
   if (first != std::string::npos) {
     if (content[first] == '{' && content.find("'lensmodel'") != std::string::npos) return Format::kMrcal;
@@ -940,7 +911,8 @@ ReadResult ReadCalibrationFrom(const std::string& content, Format format, double
       }
       break;
     }
-    case Format::kOpenCVYaml: r = ReadOpenCVYaml(content, pixel_pitch_mm, field); break;
+    case Format::kOpenCVYaml:
+    case Format::kOpenCVXml: r = ReadOpenCVStorage(content, format, pixel_pitch_mm, field); break;
     case Format::kColmapText:
       r = FromColmapList(ParseColmapText(content, field), format, pixel_pitch_mm, field, camera_id);
       break;
@@ -1035,6 +1007,37 @@ std::string DescribeRead(const ReadResult& r, const std::string& path) {
                      r.fit.max_px);
 }
 
+WriteResult WriteColmapCameras(const std::vector<ColmapEntry>& cameras, Format format, const std::string& field) {
+  if (format != Format::kColmapText && format != Format::kColmapBinary) {
+    throw InvalidInput(field, fmt::format("only COLMAP's cameras.txt and cameras.bin hold several cameras, not {}",
+                                          FormatName(format)));
+  }
+  if (cameras.empty()) throw InvalidInput(field, "no camera to write");
+  std::vector<ColmapCamera> list;
+  WriteResult w;
+  for (const auto& e : cameras) {
+    const std::string where = fmt::format("{}: camera {}", field, e.camera_id);
+    if (e.camera_id < 1) throw InvalidInput(where, "CAMERA_ID must be >= 1");
+    for (const auto& c : list) {
+      if (c.camera_id == e.camera_id) throw InvalidInput(where, "CAMERA_ID given twice");
+    }
+    if (e.housing && format == Format::kColmapBinary) {
+      throw InvalidInput(where, "a refractive housing goes into cameras.txt only (write colmap, not colmap-bin)");
+    }
+    camera::ValidateCamera(e.calibration.camera, where);
+    const PixelCalibration pc = ToPixelFamily(e.calibration);  // Brown: refit to opencv
+    ColmapCamera c = ToColmap(pc.cal.camera, where);
+    c.camera_id = e.camera_id;
+    c.housing = e.housing;
+    if (!pc.exact && (w.exact || pc.fit.rms_px > w.fit.rms_px)) w.fit = pc.fit;
+    w.exact = w.exact && pc.exact;
+    w.format_model += (w.format_model.empty() ? "" : ", ") + c.model + (c.housing ? " + " + c.housing->model : "");
+    list.push_back(std::move(c));
+  }
+  w.content = format == Format::kColmapText ? ColmapText(list) : ColmapBinary(list);
+  return w;
+}
+
 WriteResult WriteCamera(const Camera& cam, Format format, const std::string& field) {
   return WriteCalibration(WithoutSigma(cam, ""), format, field);
 }
@@ -1050,16 +1053,6 @@ WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format,
     w.sigma_written = cal.has_covariance;
     return w;
   }
-  if (format == Format::kOpenCVYaml) {
-    // calib's exporter: exact for the opencv model, a dense refit for Brown.
-    if (cam.model != CameraModelId::kOpenCV && cam.model != CameraModelId::kBrown) {
-      NoRepresentation(cam, "OpenCV YAML", field, "write brown or opencv; kannala-brandt goes to COLMAP OPENCV_FISHEYE");
-    }
-    w.content = calib::ExportOpenCVYaml(cal, &w.fit);
-    w.exact = cam.model == CameraModelId::kOpenCV;
-    w.format_model = w.exact ? "8 coefficients" : "5 coefficients";
-    return w;
-  }
   if (format == Format::kMetashape) {
     const MetashapeCalibration m = ToMetashape(cal, field, &w.exact, &w.fit);
     w.content = MetashapeXml(m);
@@ -1067,18 +1060,15 @@ WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format,
     w.sigma_written = m.covariance.size() > 0;
     return w;
   }
+  if (format == Format::kColmapText || format == Format::kColmapBinary) {
+    // The housing goes into refractive COLMAP's cameras.txt only.
+    return WriteColmapCameras({{cal, 1, format == Format::kColmapText ? extras.housing : std::nullopt}}, format, field);
+  }
   const PixelCalibration pc = ToPixelFamily(cal);
   const Camera& pcam = pc.cal.camera;
   w.exact = pc.exact;
   w.fit = pc.fit;
   switch (format) {
-    case Format::kColmapText:
-    case Format::kColmapBinary: {
-      const ColmapCamera c = ToColmap(pcam, field);
-      w.content = format == Format::kColmapText ? ColmapText(c) : ColmapBinary(c);
-      w.format_model = c.model;
-      break;
-    }
     case Format::kCalibmar: {
       CalibmarFile f;
       f.camera = ToColmap(pcam, field);
@@ -1087,6 +1077,17 @@ WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format,
       w.content = CalibmarYaml(f);
       w.format_model = f.camera.model;
       w.sigma_written = !f.camera_sigma.empty();
+      break;
+    }
+    case Format::kOpenCVYaml:
+    case Format::kOpenCVXml: {
+      const OpenCVStorageCalibration c = ToOpenCVStorage(pcam, field);
+      const std::string how = pc.exact ? "exact" : fmt::format("refit from {}: RMS {:.4f} px, max {:.4f} px over the image",
+                                                               cam.model_name(), pc.fit.rms_px, pc.fit.max_px);
+      w.content = OpenCVStorageText(c, format == Format::kOpenCVXml,
+                                    fmt::format("porthole calibration, {} ({})",
+                                                c.fisheye ? "cv::fisheye model" : "OpenCV pinhole model", how));
+      w.format_model = c.fisheye ? "fisheye, 4 coefficients" : fmt::format("{} coefficients", c.distortion.size());
       break;
     }
     case Format::kMrcal: {

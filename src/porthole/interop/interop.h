@@ -4,8 +4,9 @@
 //   format        file                         models (porthole ← → format)
 //   json          porthole calibration JSON    every model (calib/result_json.h)
 //   opencv-yaml   OpenCV FileStorage YAML      opencv ↔ camera_matrix + distortion_coefficients
-//                                              (4, 5, 8 entries; 12/14 if the thin-prism and tilt
-//                                              terms are 0)
+//   opencv-xml    OpenCV FileStorage XML       (4, 5, 8 entries; 12/14 if the thin-prism and tilt
+//                                              terms are 0); kannala-brandt ↔ cv::fisheye's K, D
+//                                              (interop/opencv_storage.h)
 //   colmap        COLMAP cameras.txt / .bin    opencv ↔ SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL,
 //                                              RADIAL, OPENCV, FULL_OPENCV;
 //                                              kannala-brandt ↔ OPENCV_FISHEYE
@@ -21,7 +22,7 @@
 //
 // σ: a calibration is read with its covariance where the format holds one (porthole JSON,
 // Metashape's <covariance>), in porthole's parameter order, carried through the conversion by its
-// Jacobian (interop/refit.h); where the format holds none (OpenCV YAML, COLMAP, mrcal) the
+// Jacobian (interop/refit.h); where the format holds none (OpenCV, COLMAP, mrcal) the
 // covariance of the adjusted parameters is NaN — unknown, never 0 — and has_covariance false.
 #pragma once
 
@@ -38,9 +39,10 @@
 
 namespace porthole::interop {
 
-enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal, kMetashape, kCalibmar };
+enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal, kMetashape, kCalibmar, kOpenCVXml };
 
-// "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal", "metashape", "calibmar" (what --to takes).
+// "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal", "metashape", "calibmar", "opencv-xml"
+// (what --to takes).
 std::string_view FormatName(Format f);
 // Throws InvalidInput(field, "unknown format … (known: …)").
 Format FormatFromName(std::string_view name, const std::string& field);
@@ -49,8 +51,8 @@ std::string FormatNames();
 
 // The format of a file to read, from its extension and content: .json / '{' → json; .yml, .yaml,
 // '%YAML' → opencv-yaml; .cameramodel or a Python dict with 'lensmodel' → mrcal; .bin → colmap-bin;
-// .txt or lines "ID MODEL W H params…" → colmap; .xml or '<' with a <calibration> element →
-// metashape. A directory is read as its cameras.txt (or
+// .txt or lines "ID MODEL W H params…" → colmap; an <opencv_storage> document → opencv-xml; .xml or
+// '<' with a <calibration> element → metashape. A directory is read as its cameras.txt (or
 // cameras.bin). Throws InvalidInput(field, …) naming the file when nothing matches.
 Format DetectInputFormat(const std::string& path, const std::string& content,
                          const std::string& field);
@@ -150,10 +152,24 @@ struct ColmapCamera {
   std::string model;
   int width_px = 0, height_px = 0;
   std::vector<double> params;  // COLMAP's order and pixel convention (centre of the first pixel 0.5)
+  // Refractive COLMAP (the COLMAP-Underwater fork) appends the housing to a cameras.txt line:
+  // "… PARAMS[] FLATPORT|DOMEPORT p1 … p8" (its reconstruction.cc, WriteCamerasText); its later form
+  // puts the token REFRAC before the model. Both are read; the first is written.
+  std::optional<RefractiveHousing> housing;
 };
 // The smallest COLMAP model that holds the camera exactly (opencv or kannala-brandt model only).
 ColmapCamera ToColmap(const camera::Camera& cam, const std::string& field);
 camera::Camera FromColmap(const ColmapCamera& c, double pixel_pitch_mm, const std::string& field);
+
+// Several calibrations in one COLMAP cameras.txt or cameras.bin (format colmap or colmap-bin): each
+// with its CAMERA_ID (distinct, ≥ 1) and, in cameras.txt only, its refractive housing. WriteResult
+// gives the worst refit and the models joined by ", ". Throws InvalidInput(field, …).
+struct ColmapEntry {
+  calib::CalibrationRecord calibration;
+  int camera_id = 1;
+  std::optional<RefractiveHousing> housing;
+};
+WriteResult WriteColmapCameras(const std::vector<ColmapEntry>& cameras, Format format, const std::string& field);
 
 // mrcal: the lens model name and intrinsics [fx fy cx cy distortion…] (opencv model only).
 struct MrcalModel {

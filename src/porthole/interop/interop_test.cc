@@ -100,6 +100,11 @@ std::vector<ExactCase> ExactCases() {
       {"opencv -> LENSMODEL_OPENCV4", cv4, Format::kMrcal, "LENSMODEL_OPENCV4"},
       {"opencv no distortion -> LENSMODEL_PINHOLE", pinhole, Format::kMrcal, "LENSMODEL_PINHOLE"},
       {"opencv rational -> OpenCV YAML", full, Format::kOpenCVYaml, "8 coefficients"},
+      {"opencv k3 -> OpenCV XML", cv5, Format::kOpenCVXml, "5 coefficients"},
+      {"opencv -> OpenCV YAML", cv4, Format::kOpenCVYaml, "4 coefficients"},
+      {"kannala-brandt -> cv::fisheye YAML", kb, Format::kOpenCVYaml, "fisheye, 4 coefficients"},
+      {"kannala-brandt -> cv::fisheye XML", kb, Format::kOpenCVXml, "fisheye, 4 coefficients"},
+      {"equidistant -> cv::fisheye XML", equidistant, Format::kOpenCVXml, "fisheye, 4 coefficients"},
       {"opencv k3 -> Metashape frame", cv5, Format::kMetashape, "frame"},
       {"opencv fx=fy -> Metashape frame", radial, Format::kMetashape, "frame"},
       {"kannala-brandt -> Metashape fisheye", kb, Format::kMetashape, "fisheye"},
@@ -202,6 +207,76 @@ TEST(Interop, CameraIdAndMrcalExtrinsics) {
   for (int k = 0; k < 6; ++k) EXPECT_EQ(back["extrinsics"][k].get<double>(), (*m.rt_fromref)[k]);
 }
 
+// Several cameras in one cameras.txt / cameras.bin, each with its CAMERA_ID, and refractive COLMAP's
+// housing after a camera's parameters (COLMAP-Underwater's "… PARAMS[] DOMEPORT p1 … p8", and the later
+// "… REFRAC DOMEPORT …"): each camera read back by id reprojects as written to 1e-9 px, the housing
+// exactly.
+TEST(Interop, SeveralCamerasAndRefractiveColmapCamerasTxt) {
+  const Camera cv4 = OpenCV({4690, 4692, 2150, 1420, -0.1, 0.05, 1e-4, -2e-4});
+  const Camera kb{CameraModelId::kKannalaBrandt, kD300, {1909, 1910, 2144, 1424, 0.02, -0.005, 0.001, -0.0002}};
+  RefractiveHousing dome;
+  dome.model = "DOMEPORT";
+  dome.params = {0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334};
+  const std::vector<ColmapEntry> entries = {{WithoutSigma(cv4, ""), 3, std::nullopt}, {WithoutSigma(kb, ""), 7, dome}};
+  const WriteResult w = WriteColmapCameras(entries, Format::kColmapText, "OUT");
+  EXPECT_TRUE(w.exact);
+  EXPECT_EQ(w.format_model, "OPENCV, OPENCV_FISHEYE + DOMEPORT");
+  EXPECT_NE(w.content.find("# Number of cameras: 2"), std::string::npos);
+  EXPECT_NE(w.content.find("\n7 OPENCV_FISHEYE 4288 2848 1909 1910 2144.5 1424.5 0.02 "), std::string::npos) << w.content;
+  EXPECT_NE(w.content.find(" DOMEPORT 0.002 -0.001 0.003"), std::string::npos) << w.content;
+  const ReadResult a = ReadCalibration(w.content, Format::kColmapText, kD300.pixel_pitch_mm, "IN", 3);
+  EXPECT_LE(MaxReprojectionPx(cv4, a.camera()), 1e-9);
+  EXPECT_FALSE(a.housing);
+  std::string refrac = w.content;
+  refrac.replace(refrac.find(" DOMEPORT "), 10, " REFRAC DOMEPORT ");
+  for (const std::string& text : {w.content, refrac}) {
+    const ReadResult b = ReadCalibration(text, Format::kColmapText, kD300.pixel_pitch_mm, "IN", 7);
+    EXPECT_LE(MaxReprojectionPx(kb, b.camera()), 1e-9);
+    ASSERT_TRUE(b.housing);
+    EXPECT_EQ(b.housing->model, "DOMEPORT");
+    EXPECT_EQ(b.housing->params, dome.params);
+    EXPECT_EQ(b.format_model, "OPENCV_FISHEYE + DOMEPORT");
+  }
+  const WriteResult bin = WriteColmapCameras({entries[0], {WithoutSigma(kb, ""), 7, std::nullopt}},
+                                             Format::kColmapBinary, "OUT");
+  EXPECT_LE(MaxReprojectionPx(kb, ReadCalibration(bin.content, Format::kColmapBinary, kD300.pixel_pitch_mm, "IN", 7)
+                                      .camera()),
+            1e-9);
+  // What cannot be written says so.
+  EXPECT_THROW(WriteColmapCameras(entries, Format::kColmapBinary, "OUT"), InvalidInput);  // housing: text only
+  EXPECT_THROW(WriteColmapCameras({entries[0], entries[0]}, Format::kColmapText, "OUT"), InvalidInput);
+  EXPECT_THROW(WriteColmapCameras(entries, Format::kMrcal, "OUT"), InvalidInput);
+  for (const char* bad : {"1 PINHOLE 640 480 500 500 320 240 DOMEPORT 0 0 0 0.1 0.01 1 1.5\n",
+                          "1 PINHOLE 640 480 500 500 320 240 REFRAC\n",
+                          "1 PINHOLE 640 480 500 500 320 240 DOMEPORT 0 0 0 0.1 0.01 1 1.5 x\n"}) {
+    EXPECT_THROW(ReadCalibration(bad, Format::kColmapText, 1, "IN"), InvalidInput) << bad;
+  }
+}
+
+// The housing's σ (calibmar's # non_svp_est_std_dev, metres) as the port TOML's [sigma] table in mm,
+// which io::ParsePortToml accepts with the port; a negative σ is refused naming the key.
+TEST(Interop, HousingSigmaGoesIntoThePortToml) {
+  RefractiveHousing flat;
+  flat.model = "FLATPORT";
+  flat.params = {0, 0, 1, 0.025, 0.012, 1, 1.49, 1.341};
+  flat.sigma = {0.001, 0.002, 0.0005, 0.0001, NAN, NAN, NAN, NAN};
+  double nw = 0;
+  const std::string sigma = HousingSigmaToml(flat);
+  EXPECT_NE(sigma.find("[sigma]\nnormal = [0.001, 0.002, 0.0005]\ndistance_mm = 0.1\n"), std::string::npos) << sigma;
+  EXPECT_EQ(sigma.find("thickness_mm"), std::string::npos);  // unknown: not written
+  const std::string toml = io::PortToToml(PortFromRefractive(flat, "IN", &nw)) + sigma;
+  EXPECT_NO_THROW(io::ParsePortToml(toml, "port.toml"));
+  std::string bad = toml;
+  bad.replace(bad.find("distance_mm = 0.1"), 17, "distance_mm = -0.1");
+  try {
+    io::ParsePortToml(bad, "port.toml");
+    ADD_FAILURE() << "a negative sigma was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("sigma.distance_mm"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(HousingSigmaToml(RefractiveHousing{}), "");
+}
+
 TEST(Interop, PythonLiteralReaderTakesWhatMrcalWritesAndNothingElse) {
   const auto j = ParsePythonLiteral(
       "# comment\n{\n  'lensmodel': 'LENSMODEL_OPENCV4', # trailing\n"
@@ -258,7 +333,99 @@ TEST(Interop, MalformedFilesNameTheFileAndTheField) {
   // A model without an equivalent in the format says so.
   const Camera kb{CameraModelId::kKannalaBrandt, kD300, {1909, 1910, 2144, 1424, 0.02, -0.005, 0.001, -0.0002}};
   EXPECT_THROW(WriteCamera(kb, Format::kMrcal, "OUT"), InvalidInput);
-  EXPECT_THROW(WriteCamera(kb, Format::kOpenCVYaml, "OUT"), InvalidInput);
+  const Camera equisolid = Camera::Ideal(CameraModelId::kEquisolid, kD300, 3000);
+  EXPECT_THROW(WriteCamera(equisolid, Format::kOpenCVXml, "OUT"), InvalidInput);
+}
+
+// OpenCV FileStorage as OpenCV writes it (the XML below is what cv2.FileStorage wrote for these
+// values, OpenCV 4.6; the YAML the layout of cv::FileStorage's "<<" of a cv::Size and a Mat), both key
+// spellings, and the rules that tell cv::fisheye's K, D from the pinhole model
+// (interop/opencv_storage.h).
+TEST(OpenCVStorage, ReadsBothSpellingsInYamlAndXmlAndTellsFisheyeFromPinhole) {
+  const std::string xml =
+      "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>640</image_width>\n"
+      "<image_height>480</image_height>\n<camera_matrix type_id=\"opencv-matrix\">\n  <rows>3</rows>\n"
+      "  <cols>3</cols>\n  <dt>d</dt>\n  <data>\n    5.0025000000000000e+02 0. 3.2050000000000000e+02 0. 501. 240. "
+      "0. 0.\n    1.</data></camera_matrix>\n<distortion_coefficients type_id=\"opencv-matrix\">\n  <rows>1</rows>\n"
+      "  <cols>5</cols>\n  <dt>d</dt>\n  <data>\n    -1.0000000000000001e-01 1.0000000000000000e-02\n"
+      "    1.0000000000000000e-04 -2.0000000000000001e-04\n    1.0000000000000000e-03</data></distortion_coefficients>\n"
+      "</opencv_storage>\n";
+  const ReadResult a = ReadCalibration(xml, Format::kOpenCVXml, 0.005, "IN");
+  EXPECT_EQ(a.camera().model, CameraModelId::kOpenCV);
+  EXPECT_EQ(a.camera().params, (std::vector<double>{500.25, 501, 320.5, 240, -0.1, 0.01, 1e-4, -2e-4, 1e-3, 0, 0, 0}));
+  EXPECT_EQ(a.camera().sensor.width_px, 640);
+  EXPECT_EQ(a.format_model, "5 coefficients");
+  // cameraMatrix / distCoeffs / imageSize (cv::Size), YAML and XML.
+  const std::string yaml_camel =
+      "%YAML:1.0\n---\nimageSize: [ 640, 480 ]\ncameraMatrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+      "   data: [ 500.25, 0., 320.5, 0., 501., 240., 0., 0., 1. ]\ndistCoeffs: !!opencv-matrix\n   rows: 5\n"
+      "   cols: 1\n   dt: d\n   data: [ -0.1, 0.01, 1.0000000000000000e-04,\n       -2.0000000000000001e-04, 1.0e-03 ]\n";
+  EXPECT_EQ(ReadCalibration(yaml_camel, Format::kOpenCVYaml, 0.005, "IN").camera().params, a.camera().params);
+  const std::string xml_camel =
+      "<?xml version=\"1.0\"?>\n<opencv_storage>\n<imageSize>640 480</imageSize>\n<cameraMatrix type_id=\"opencv-matrix\">"
+      "<rows>3</rows><cols>3</cols><dt>d</dt><data>500.25 0 320.5 0 501 240 0 0 1</data></cameraMatrix>\n"
+      "<distCoeffs type_id=\"opencv-matrix\"><rows>5</rows><cols>1</cols><dt>d</dt>"
+      "<data>-0.1 0.01 1e-4 -2e-4 1e-3</data></distCoeffs>\n</opencv_storage>\n";
+  EXPECT_EQ(ReadCalibration(xml_camel, Format::kOpenCVXml, 0.005, "IN").camera().params, a.camera().params);
+
+  // cv::fisheye: K and D with 4 coefficients, or any spelling with OpenCV's sample's fisheye_model: 1,
+  // or ROS's distortion_model: equidistant. K = [fx 0 cx; 0 fy cy; 0 0 1], D = k1..k4.
+  const std::string kd =
+      "%YAML:1.0\n---\nimage_width: 1920\nimage_height: 1080\nK: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
+      "   dt: d\n   data: [ 700, 0, 960, 0, 701, 540, 0, 0, 1 ]\nD: !!opencv-matrix\n   rows: 4\n   cols: 1\n"
+      "   dt: d\n   data: [ 0.02, -0.005, 0.001, -0.0002 ]\n";
+  const ReadResult f = ReadCalibration(kd, Format::kOpenCVYaml, 0.003, "IN");
+  EXPECT_EQ(f.camera().model, CameraModelId::kKannalaBrandt);
+  EXPECT_EQ(f.camera().params, (std::vector<double>{700, 701, 960, 540, 0.02, -0.005, 0.001, -0.0002}));
+  auto with = [&](const std::string& marker) {
+    return ReadCalibration(kd + marker, Format::kOpenCVYaml, 0.003, "IN").camera().model;
+  };
+  EXPECT_EQ(with("fisheye_model: 0\n"), CameraModelId::kOpenCV);  // k1 k2 p1 p2
+  EXPECT_EQ(with("distortion_model: plumb_bob\n"), CameraModelId::kOpenCV);
+  EXPECT_EQ(with("distortion_model: \"equidistant\"\n"), CameraModelId::kKannalaBrandt);
+  std::string named = kd;
+  named.replace(named.find("K:"), 2, "camera_matrix:");
+  EXPECT_EQ(ReadCalibration(named, Format::kOpenCVYaml, 1, "IN").camera().model, CameraModelId::kOpenCV);
+  EXPECT_EQ(ReadCalibration(named + "fisheye_model: 1\n", Format::kOpenCVYaml, 1, "IN").camera().model,
+            CameraModelId::kKannalaBrandt);
+
+  // Malformed: one message naming the file and the key.
+  auto message = [](const std::string& content, Format fmt) {
+    try {
+      ReadCalibration(content, fmt, 1.0, "IN 'x'");
+    } catch (const InvalidInput& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  auto replaced = [](std::string s, const std::string& from, const std::string& to) {
+    s.replace(s.find(from), from.size(), to);
+    return s;
+  };
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {replaced(xml, "<cols>5</cols>", "<cols>6</cols>"), "IN 'x': distortion_coefficients: rows x cols = 1 x 6"},
+      {replaced(xml, "501.", "501.x"), "IN 'x': camera_matrix: '501.x' is not a finite number"},
+      {replaced(xml, "<image_width>640", "<image_width>-640"), "IN 'x': image_width: must be a whole number"},
+      {replaced(xml, "opencv_storage>\n<image", "calibration>\n<image"), "IN 'x': line"},
+      {replaced(replaced(xml, "<opencv_storage>", "<storage>"), "</opencv_storage>", "</storage>"),
+       "IN 'x': not an OpenCV FileStorage XML"},
+      {replaced(xml, "0. 501.", "7. 501."), "IN 'x': camera_matrix: must be 3x3"},
+      {"<!DOCTYPE a [<!ENTITY x \"y\">]><opencv_storage/>", "IN 'x': line 1: a DOCTYPE is not accepted"},
+  };
+  for (const auto& [content, expected] : bad) {
+    EXPECT_NE(message(content, Format::kOpenCVXml).find(expected), std::string::npos)
+        << message(content, Format::kOpenCVXml);
+  }
+  EXPECT_NE(message(kd + "fisheye_model: 1\ndistortion_model: plumb_bob\n", Format::kOpenCVYaml)
+                .find("IN 'x': distortion_model: contradicts fisheye_model"),
+            std::string::npos);
+  EXPECT_NE(message(replaced(kd, "0.02, ", ""), Format::kOpenCVYaml).find("IN 'x': D: rows x cols = 4 x 1"),
+            std::string::npos);
+  EXPECT_NE(message(replaced(replaced(kd, "0.02, ", ""), "rows: 4", "rows: 3") + "fisheye_model: 1\n", Format::kOpenCVYaml)
+                .find("IN 'x': D: has 3 entries; cv::fisheye has 4"),
+            std::string::npos);
+  EXPECT_NE(message(kd + "distortion_model: kb8\n", Format::kOpenCVYaml).find("IN 'x': distortion_model"),
+            std::string::npos);
 }
 
 // Metashape Professional 1.5 manual, Appendix C (docs/interop.md): u = w/2 + cx + x'(f + B1) + y'B2,
@@ -635,7 +802,9 @@ TEST(Interop, FormatDetection) {
   EXPECT_THROW(DetectInputFormat("c", "hello", "f"), InvalidInput);
   EXPECT_EQ(DetectInputFormat("cal.xml", "", "f"), Format::kMetashape);
   EXPECT_EQ(DetectInputFormat("c", "<?xml version=\"1.0\"?>\n<calibration>", "f"), Format::kMetashape);
-  EXPECT_THROW(DetectInputFormat("c.xml", "<opencv_storage>", "f"), InvalidInput);
+  EXPECT_EQ(DetectInputFormat("c.xml", "<?xml version=\"1.0\"?>\n<opencv_storage>", "f"), Format::kOpenCVXml);
+  EXPECT_EQ(DetectInputFormat("c", "<opencv_storage>", "f"), Format::kOpenCVXml);
+  EXPECT_EQ(OutputFormat("c.xml", std::string("opencv-xml"), "f"), Format::kOpenCVXml);
   EXPECT_EQ(DetectInputFormat("calibration.yaml", kCalibmarDome, "f"), Format::kCalibmar);
   EXPECT_EQ(OutputFormat("x.anything", std::string("mrcal"), "f"), Format::kMrcal);
   EXPECT_THROW(OutputFormat("x.anything", std::nullopt, "f"), InvalidInput);

@@ -129,6 +129,33 @@ RefractiveHousing RefractiveFromPort(const ports::PortSpec& port, double n_glass
   return h;
 }
 
+std::string HousingSigmaToml(const RefractiveHousing& h) {
+  const auto& sg = h.sigma;
+  const double na = h.params[5];
+  std::string out;
+  const auto scalar = [&](std::string_view key, double v) {
+    if (std::isfinite(v)) out += fmt::format("{} = {}\n", key, Num(v));
+  };
+  const auto vector = [&](std::string_view key, double scale) {
+    if (std::isfinite(sg[0]) && std::isfinite(sg[1]) && std::isfinite(sg[2])) {
+      out += fmt::format("{} = [{}, {}, {}]\n", key, Num(scale * sg[0]), Num(scale * sg[1]), Num(scale * sg[2]));
+    }
+  };
+  if (h.model == "DOMEPORT") {
+    vector("center_mm", 1000);
+    scalar("inner_radius_mm", 1000 * sg[3]);
+  } else {
+    vector("normal", 1);
+    scalar("distance_mm", 1000 * sg[3]);
+  }
+  scalar("thickness_mm", 1000 * sg[4]);
+  scalar("n_glass", sg[6] / na);  // na's own σ is not carried: porthole's housing air is n = 1
+  scalar("n_water", sg[7] / na);
+  if (out.empty()) return "";
+  return "\n# 1 sigma of the " + h.model + " housing as the input file gives it (calibmar's # non_svp_est_std_dev),\n"
+         "# in this file's units; porthole's optics do not use it (docs/interop.md)\n[sigma]\n" + out;
+}
+
 CalibmarFile ParseCalibmarYaml(std::string_view text, const std::string& field) {
   CalibmarFile f;
   std::optional<std::vector<double>> params, housing_params, housing_sigma;
@@ -178,7 +205,7 @@ CalibmarFile ParseCalibmarYaml(std::string_view text, const std::string& field) 
   if (!model) throw InvalidInput(field + ": model", "missing (calibmar writes model: OPENCV, …)");
   if (!params) throw InvalidInput(field + ": parameters", "missing");
   if (!width || !height) throw InvalidInput(field + (width ? ": height" : ": width"), "missing");
-  f.camera = {1, *model, *width, *height, *params};
+  f.camera = {1, *model, *width, *height, *params, std::nullopt};
   if (!f.camera_sigma.empty() && f.camera_sigma.size() != params->size()) {
     throw InvalidInput(field + ": params_est_std_dev", fmt::format("has {} values for {} parameters",
                                                                    f.camera_sigma.size(), params->size()));
@@ -197,6 +224,9 @@ CalibmarFile ParseCalibmarYaml(std::string_view text, const std::string& field) 
     if (housing_sigma) {
       // calibmar's σ cover the housing parameters it adjusts (the first 3 or 4); the rest is fixed.
       if (housing_sigma->size() > 8) throw InvalidInput(field + ": non_svp_est_std_dev", "more than 8 values");
+      for (double v : *housing_sigma) {
+        if (v < 0) throw InvalidInput(field + ": non_svp_est_std_dev", "a standard deviation must be >= 0");
+      }
       std::copy(housing_sigma->begin(), housing_sigma->end(), h.sigma.begin());
     }
     f.housing = h;

@@ -38,6 +38,14 @@ ports::PortSpec PortFromRefractive(const RefractiveHousing& h, const std::string
 RefractiveHousing RefractiveFromPort(const ports::PortSpec& port, double n_glass, double n_water,
                                      const std::string& field);
 
+// The housing's 1σ as a port TOML [sigma] table in the port's units (cam frame, mm; indices relative
+// to the housing air), holding the σ the file gives (calibmar's "# non_svp_est_std_dev"): a dome's
+// center_mm = [σCx, σCy, σCz], inner_radius_mm, thickness_mm; a flat port's normal = [σNx, σNy, σNz],
+// distance_mm (of the inner interface from the pupil), thickness_mm; both n_glass (σ of ng/na) and
+// n_water (σ of nw/na). A vector is written when all three of its σ are known. Empty when no σ is
+// known. io::ParsePortToml reads and checks the table; porthole's optics do not use it.
+std::string HousingSigmaToml(const RefractiveHousing& h);
+
 struct CalibmarFile {
   ColmapCamera camera;                // model, width, height, parameters (COLMAP's convention)
   std::vector<double> camera_sigma;  // "# params_est_std_dev" (empty: none)

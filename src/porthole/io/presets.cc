@@ -256,6 +256,18 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
   } else {
     r.Fail("type", "must be \"dome\" or \"flat\"");
   }
+  // [sigma]: the housing's 1σ as the tool that measured it gives it (interop::HousingSigmaToml,
+  // docs/interop.md), in this file's units: checked (finite, >= 0), not used by the optics.
+  if (t.contains("sigma")) {
+    Reader sigma = r.Table("sigma");
+    for (const char* key : {"inner_radius_mm", "distance_mm", "thickness_mm", "n_glass", "n_water"}) {
+      if (const auto v = sigma.OptDouble(key); v && *v < 0) sigma.Fail(key, "a sigma must be >= 0");
+    }
+    for (const char* key : {"center_mm", "normal"}) {
+      if (const auto v = sigma.OptVec3(key); v && v->minCoeff() < 0) sigma.Fail(key, "a sigma must be >= 0");
+    }
+    sigma.RejectUnknown();
+  }
   r.RejectUnknown();
   CheckWithLine(t, origin, "port", [&] { ports::Validate(p, origin + ": port"); });
   return p;
