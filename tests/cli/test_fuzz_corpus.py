@@ -23,7 +23,7 @@ def command(kind, path, out):
         return ["plan", "--lens", path]
     if kind in ("ply", "stl", "obj", "xyz"):
         return ["fit", "sphere", path, "--residuals", os.path.join(out, "residuals.ply")]
-    if kind in ("calib_json", "yaml", "metashape"):
+    if kind in ("calib_json", "yaml", "metashape", "opencv_xml", "colmap"):
         return ["compare", path, VALID_CAL, "--pixel-pitch-mm", "0.0055", "--csv-dir", out]
     if kind == "detections":
         return ["calibrate", "--detections", path, "--pixel-pitch-mm", "0.0055", "--quiet",
@@ -36,8 +36,8 @@ def command(kind, path, out):
     raise AssertionError(kind)
 
 
-KINDS = ("port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "metashape", "detections",
-         "images")
+KINDS = ("port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "metashape", "opencv_xml",
+         "colmap", "detections", "images")
 CASES = sorted((kind, name) for kind in KINDS
                for name in os.listdir(os.path.join(FUZZ, kind)))
 
@@ -45,7 +45,7 @@ CASES = sorted((kind, name) for kind in KINDS
 def test_corpus_is_there():
     kinds = {k for k, _ in CASES}
     assert kinds >= {"port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "metashape",
-                     "detections", "images"}
+                     "opencv_xml", "colmap", "detections", "images"}
     assert len(CASES) > 250
 
 

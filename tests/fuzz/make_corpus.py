@@ -231,3 +231,53 @@ put("yaml", "calibmar-long-list.yaml", cm.replace(b"[1500.5", b"[" + b"1.5, " * 
 put("yaml", "calibmar-long-line.yaml", cm.replace(b"# target", b"#" + b" " * 100000 + b"target"))
 put("yaml", "calibmar-width-overflow.yaml", cm.replace(b"1920", b"99999999999999999999"))
 mutants("yaml", "calibmar", ".yaml", cm, 15)
+
+# --- OpenCV FileStorage XML and cv::fisheye YAML (interop/opencv_storage.cc) ----------------------------
+cvx = (b'<?xml version="1.0"?>\n<opencv_storage>\n<image_width>640</image_width>\n<image_height>480</image_height>\n'
+       b'<camera_matrix type_id="opencv-matrix">\n  <rows>3</rows>\n  <cols>3</cols>\n  <dt>d</dt>\n  <data>\n'
+       b"    5.3591573396163199e+02 0. 3.4228315473308373e+02 0. 5.3591573396163199e+02\n"
+       b"    2.3557082909788173e+02 0. 0. 1.</data></camera_matrix>\n"
+       b'<distortion_coefficients type_id="opencv-matrix">\n  <rows>5</rows>\n  <cols>1</cols>\n  <dt>d</dt>\n'
+       b"  <data>\n    -0.26 -0.038 1.7e-03 -2.8e-04 0.05</data></distortion_coefficients>\n</opencv_storage>\n")
+put("opencv_xml", "valid-pinhole.xml", cvx)
+put("opencv_xml", "valid-camel.xml", cvx.replace(b"camera_matrix", b"cameraMatrix")
+    .replace(b"distortion_coefficients", b"distCoeffs")
+    .replace(b"<image_width>640</image_width>\n<image_height>480</image_height>", b"<imageSize>640 480</imageSize>"))
+put("opencv_xml", "valid-fisheye.xml", cvx.replace(b"<rows>5</rows>", b"<rows>4</rows>")
+    .replace(b" 0.05</data>", b"</data>").replace(b"<opencv_storage>\n", b"<opencv_storage>\n<fisheye_model>1</fisheye_model>\n"))
+put("opencv_xml", "billion-laughs.xml",
+    b'<?xml version="1.0"?>\n<!DOCTYPE lolz [<!ENTITY lol "lol">'
+    + b"".join(b'<!ENTITY lol%d "%s">' % (i, (b"&lol%d;" % (i - 1) if i > 1 else b"&lol;") * 10) for i in range(1, 10))
+    + b"]>\n<opencv_storage><image_width>&lol9;</image_width></opencv_storage>\n")
+put("opencv_xml", "external-entity.xml",
+    b'<?xml version="1.0"?>\n<!DOCTYPE c [<!ENTITY x SYSTEM "file:///etc/passwd">]>\n<opencv_storage>&x;</opencv_storage>\n')
+put("opencv_xml", "deep-nesting.xml", b"<opencv_storage>" + b"<a>" * 20000 + b"</a>" * 20000 + b"</opencv_storage>")
+put("opencv_xml", "long-data.xml", cvx.replace(b"    -0.26", b"    " + b"0 " * 100000 + b"-0.26"))
+put("opencv_xml", "rows-cols-mismatch.xml", cvx.replace(b"<rows>5</rows>", b"<rows>7</rows>"))
+put("opencv_xml", "rows-huge.xml", cvx.replace(b"<rows>5</rows>", b"<rows>99999999999999999999</rows>"))
+put("opencv_xml", "width-overflow.xml", cvx.replace(b"640", b"99999999999999999999"))
+put("opencv_xml", "fx-nan.xml", cvx.replace(b"5.3591573396163199e+02 0.", b"nan 0.", 1))
+put("opencv_xml", "k3-strong.xml", cvx.replace(b" 0.05</data>", b" 2.3839153080878486e-01</data>"))
+put("opencv_xml", "unclosed.xml", cvx[:-20])
+mutants("opencv_xml", "pinhole", ".xml", cvx, 15)
+kd = (b"%YAML:1.0\n---\nimage_width: 1920\nimage_height: 1080\nK: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
+      b"   dt: d\n   data: [ 700., 0., 960., 0., 701., 540., 0., 0., 1. ]\nD: !!opencv-matrix\n   rows: 4\n"
+      b"   cols: 1\n   dt: d\n   data: [ 0.02, -0.005, 0.001, -0.0002 ]\n")
+put("yaml", "fisheye-kd.yml", kd)
+put("yaml", "fisheye-contradiction.yml", kd + b"fisheye_model: 1\ndistortion_model: plumb_bob\n")
+mutants("yaml", "fisheye", ".yml", kd, 10)
+
+# --- COLMAP cameras.txt, several cameras and refractive COLMAP's housing (interop/interop.cc) -----------
+ct = (b"# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+      b"1 OPENCV 1920 1080 1500.5 1501.25 960.5 540.5 -0.1 0.05 0.0001 -0.0002 DOMEPORT 0.002 -0.001 0.003 0.1 "
+      b"0.008 1 1.5 1.334\n")
+put("colmap", "valid-domeport.txt", ct)
+put("colmap", "valid-refrac-token.txt", ct.replace(b" DOMEPORT", b" REFRAC DOMEPORT"))
+put("colmap", "valid-flatport.txt", ct.replace(b"DOMEPORT 0.002 -0.001 0.003", b"FLATPORT 0 0 1"))
+put("colmap", "two-cameras.txt", ct + b"2 SIMPLE_PINHOLE 800 600 700 400.5 300.5\n")
+put("colmap", "housing-short.txt", ct.replace(b" 1.334\n", b"\n"))
+put("colmap", "housing-unknown.txt", ct.replace(b"DOMEPORT", b"SPHEREPORT"))
+put("colmap", "flat-normal-zero.txt", ct.replace(b"DOMEPORT 0.002 -0.001 0.003", b"FLATPORT 0 0 0"))
+put("colmap", "long-line.txt", ct.replace(b" 1.334\n", b" 1.334" + b" 1" * 100000 + b"\n"))
+put("colmap", "width-overflow.txt", ct.replace(b"1920", b"99999999999999999999"))
+mutants("colmap", "domeport", ".txt", ct, 15)
