@@ -415,3 +415,36 @@ def test_refractive_colmap_cameras_txt_with_the_housing(tmp_path):
     broken.write_text("1 PINHOLE 640 480 500 500 320 240 SPHEREPORT 0 0 0 0.1 0.01 1 1.5 1.33\n")
     assert "REFRAC_MODEL" in run_bad("convert", broken, tmp_path / "y.json")
     assert not (tmp_path / "y.json").exists()
+
+
+LEFT_INTRINSICS = """%YAML:1.0
+---
+image_width: 640
+image_height: 480
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ 5.3591573396163199e+02, 0., 3.4228315473308373e+02, 0.,
+       5.3591573396163199e+02, 2.3557082909788173e+02, 0., 0., 1. ]
+distortion_coefficients: !!opencv-matrix
+   rows: 5
+   cols: 1
+   dt: d
+   data: [ -2.6637260909660682e-01, -3.8588898922304653e-02,
+       1.7831947042852964e-03, -2.8122100441115472e-04,
+       2.3839153080878486e-01 ]
+"""
+
+
+def test_strong_k3_opencv_yaml_through_simulate(tmp_path):
+    """OpenCV's sample calibration with k3 = 0.24 (opencv-doc's left_intrinsics.yml, its camera part):
+    simulate refits it to Brown (finite RMS) and fits the underwater camera to convergence, with nothing
+    on stderr (Ceres used to stop at once with an error line where the Brown projection had no inverse)."""
+    src = tmp_path / "left_intrinsics.yml"
+    src.write_text(LEFT_INTRINSICS)
+    res = run("simulate", "--air-calibration", src, "--pixel-pitch-mm", "0.006", "--json")
+    assert res.err == ""
+    j = res.json()
+    assert 0 < j["air_calibration_refit_rms_px"] < 0.2
+    assert j["water"]["converged"] and j["air"]["converged"]

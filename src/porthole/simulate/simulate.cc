@@ -109,6 +109,18 @@ struct ImageResidual {
   }
 };
 
+// What stage 2 minimises: ImageResidual, and where the correction polynomial has no inverse (the
+// corners of a strongly distorted lens while the fit moves, e.g. OpenCV's left_intrinsics.yml, k3 =
+// 0.24) stage 1's correction-space residual in its place, as camera::OpenCVToBrown does, so that
+// Ceres never meets a failed evaluation (it stopped at once, printing an error line).
+struct ImageOrCorrectionResidual {
+  Observation o;
+  template <typename T>
+  bool operator()(const T* cam, const T* rotation, const T* centre, T* r) const {
+    return ImageResidual{o}(cam, rotation, centre, r) || CorrectionResidual{o}(cam, rotation, centre, r);
+  }
+};
+
 // The image-residual length (mm) of each observation under a fitted camera; +inf where Project
 // fails.
 std::vector<double> ResidualLengthsMm(const std::vector<Observation>& obs, const double* cam,
@@ -236,7 +248,7 @@ BrownFit SimulateFit(const ports::PortSystem& sys, const CameraSetup& cam,
   const std::size_t stride = std::max<std::size_t>(1, obs.size() / 1000);
   for (std::size_t k = 0; k < obs.size(); k += stride) coarse.push_back(obs[k]);
   RunStage<CorrectionResidual>(coarse, options, &s);
-  const bool converged = RunStage<ImageResidual>(obs, options, &s);
+  const bool converged = RunStage<ImageOrCorrectionResidual>(obs, options, &s);
 
   BrownFit fit;
   fit.params = BrownParams::FromArray(s.cam.data());
