@@ -1,6 +1,6 @@
-// `porthole convert IN OUT [--to FORMAT]`: a calibration from one tool's file format to another's
-// (porthole JSON, OpenCV YAML, COLMAP cameras.txt/.bin, mrcal .cameramodel, Metashape XML;
-// docs/interop.md).
+// `porthole convert IN [IN …] OUT [--to FORMAT]`: a calibration from one tool's file format to
+// another's (porthole JSON, OpenCV YAML/XML, COLMAP cameras.txt/.bin, mrcal .cameramodel, Metashape
+// XML, calibmar; several INs: one COLMAP file holding them all; docs/interop.md).
 #include <fmt/format.h>
 
 #include <filesystem>
