@@ -59,6 +59,16 @@ double MaxReprojectionPx(const Camera& a, const Camera& b) {
   return worst;
 }
 
+// The message of reading `content` as `f` from a file named "IN 'x'" ("no error" if it reads).
+std::string message(const std::string& content, Format f) {
+  try {
+    ReadCalibration(content, f, 1.0, "IN 'x'");
+  } catch (const InvalidInput& e) {
+    return std::string(e.what());
+  }
+  return std::string("no error");
+}
+
 struct ExactCase {
   const char* name;
   Camera cam;
@@ -300,14 +310,6 @@ TEST(Interop, PythonLiteralReaderTakesWhatMrcalWritesAndNothingElse) {
 
 // Each malformed file: InvalidInput whose message names the file (the field given) and the key.
 TEST(Interop, MalformedFilesNameTheFileAndTheField) {
-  auto message = [](const std::string& content, Format f) {
-    try {
-      ReadCalibration(content, f, 1.0, "IN 'x'");
-    } catch (const InvalidInput& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
   auto has = [](const std::string& msg, const std::string& part) {
     return msg.find("IN 'x'") != std::string::npos && msg.find(part) != std::string::npos;
   };
@@ -390,14 +392,6 @@ TEST(OpenCVStorage, ReadsBothSpellingsInYamlAndXmlAndTellsFisheyeFromPinhole) {
             CameraModelId::kKannalaBrandt);
 
   // Malformed: one message naming the file and the key.
-  auto message = [](const std::string& content, Format fmt) {
-    try {
-      ReadCalibration(content, fmt, 1.0, "IN 'x'");
-    } catch (const InvalidInput& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
   auto replaced = [](std::string s, const std::string& from, const std::string& to) {
     s.replace(s.find(from), from.size(), to);
     return s;
