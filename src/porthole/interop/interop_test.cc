@@ -391,6 +391,22 @@ TEST(OpenCVStorage, ReadsBothSpellingsInYamlAndXmlAndTellsFisheyeFromPinhole) {
   EXPECT_EQ(ReadCalibration(named + "fisheye_model: 1\n", Format::kOpenCVYaml, 1, "IN").camera().model,
             CameraModelId::kKannalaBrandt);
 
+  // ROS camera_info YAML (camera_calibration_parsers' layout: no %YAML header, nested rows/cols/data,
+  // distortion_model): plumb_bob is the pinhole model, equidistant cv::fisheye's.
+  const std::string ros =
+      "image_width: 640\nimage_height: 480\ncamera_name: left\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
+      "  data: [500.25, 0, 320.5, 0, 501, 240, 0, 0, 1]\ndistortion_model: plumb_bob\ndistortion_coefficients:\n"
+      "  rows: 1\n  cols: 5\n  data: [-0.1, 0.01, 0.0001, -0.0002, 0.001]\nrectification_matrix:\n  rows: 3\n"
+      "  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n";
+  EXPECT_EQ(ReadCalibration(ros, Format::kOpenCVYaml, 0.005, "IN").camera().params, a.camera().params);
+  std::string ros_fisheye = ros;
+  ros_fisheye.replace(ros_fisheye.find("plumb_bob"), 9, "equidistant");
+  ros_fisheye.replace(ros_fisheye.find("cols: 5\n  data: [-0.1, 0.01, 0.0001, -0.0002, 0.001]"), 52,
+                      "cols: 4\n  data: [-0.1, 0.01, 0.0001, -0.0002]");
+  const ReadResult rf = ReadCalibration(ros_fisheye, Format::kOpenCVYaml, 0.005, "IN");
+  EXPECT_EQ(rf.camera().model, CameraModelId::kKannalaBrandt);
+  EXPECT_EQ(rf.camera().params, (std::vector<double>{500.25, 501, 320.5, 240, -0.1, 0.01, 1e-4, -2e-4}));
+
   // Malformed: one message naming the file and the key.
   auto replaced = [](std::string s, const std::string& from, const std::string& to) {
     s.replace(s.find(from), from.size(), to);
