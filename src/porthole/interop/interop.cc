@@ -354,6 +354,8 @@ std::vector<ColmapCamera> ParseColmapText(const std::string& text, const std::st
                                                                   h.params.size(), toks.size() - i));
       }
       for (double& v : h.params) v = ColmapNumber(toks[i++], where + ": REFRAC_PARAMS");
+      double n_water = 0;
+      PortFromRefractive(h, where + ": " + h.model, &n_water);  // a housing porthole can use, or an error naming it
       c.housing = h;
     }
     c.camera_id = static_cast<int>(id);

@@ -261,6 +261,13 @@ TEST(Interop, SeveralCamerasAndRefractiveColmapCamerasTxt) {
                           "1 PINHOLE 640 480 500 500 320 240 DOMEPORT 0 0 0 0.1 0.01 1 1.5 x\n"}) {
     EXPECT_THROW(ReadCalibration(bad, Format::kColmapText, 1, "IN"), InvalidInput) << bad;
   }
+  // A housing porthole cannot use is named where it stands.
+  EXPECT_NE(message("1 PINHOLE 640 480 500 500 320 240 FLATPORT 0 0 0 0.02 0.01 1 1.5 1.33\n", Format::kColmapText)
+                .find("IN 'x': line 1: FLATPORT: Nx: the normal Nx, Ny, Nz must be a unit vector"),
+            std::string::npos);
+  EXPECT_NE(message("1 PINHOLE 640 480 500 500 320 240 DOMEPORT 0 0 0 0.1 0.01 1 0.5 1.33\n", Format::kColmapText)
+                .find("IN 'x': line 1: DOMEPORT: ng: a refractive index must be in [1, 5)"),
+            std::string::npos);
 }
 
 // The housing's σ (calibmar's # non_svp_est_std_dev, metres) as the port TOML's [sigma] table in mm,

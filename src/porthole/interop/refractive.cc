@@ -229,6 +229,8 @@ CalibmarFile ParseCalibmarYaml(std::string_view text, const std::string& field) 
       }
       std::copy(housing_sigma->begin(), housing_sigma->end(), h.sigma.begin());
     }
+    double n_water = 0;
+    PortFromRefractive(h, field + ": non_svp_parameters", &n_water);  // usable, or an error naming the parameter
     f.housing = h;
   }
   return f;
