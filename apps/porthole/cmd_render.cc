@@ -33,12 +33,15 @@ struct RenderCliOptions {
   double roll_deg = 0;
   std::string focus = "target";
   std::string f_number = "8";
+  std::string vignetting = "none";
+  std::vector<double> vignetting_pa;
   std::string camera_model;
   std::optional<double> c_mm;
   std::vector<double> bands = render::kDefaultBandsNm;
   std::string color = "grey";
   int bit_depth = 8;
   int spp = 16;
+  int edge_spp = 0;
   std::uint64_t seed = 1;
   double exposure = 1;
   std::vector<double> noise;
@@ -74,13 +77,18 @@ Json RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int 
   WriteFileAtomically(json, truth, "--out");
   WriteFileAtomically(png, bytes, "--out");
   if (!quiet) {
-    fmt::print(stderr, "render: {} {}x{} px, {} spp, {} bands in {:.1f} s; {:.2f} % of rays blocked by the housing\n",
-               label, r.image.width, r.image.height, o.samples_per_pixel, r.setup.bands.size(), r.seconds,
+    const std::string edges = o.edge_samples_per_pixel > o.samples_per_pixel
+                                  ? fmt::format(" ({} near edges: {:.1f} % of the pixels)", o.edge_samples_per_pixel,
+                                                100 * r.refined_fraction)
+                                  : "";
+    fmt::print(stderr, "render: {} {}x{} px, {} spp{}, {} bands in {:.1f} s; {:.2f} % of rays blocked by the housing\n",
+               label, r.image.width, r.image.height, o.samples_per_pixel, edges, r.setup.bands.size(), r.seconds,
                100 * r.blocked_fraction);
   }
   return Json{{"image", png.string()},        {"truth", json.string()},
               {"width_px", r.image.width},    {"height_px", r.image.height},
               {"points", r.truth.size()},     {"blocked_fraction", r.blocked_fraction},
+              {"refined_fraction", r.refined_fraction},
               {"seconds", r.seconds}};
 }
 
@@ -115,11 +123,15 @@ void RunRender(const RenderCliOptions& o) {
   scene.medium = o.medium == "air" ? render::Medium::kAir : render::Medium::kWater;
   if (o.focus != "target") scene.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
   scene.f_number = ParseFNumber(o.f_number);
+  if (o.vignetting != "none" && o.vignetting != "natural") throw InvalidInput("--vignetting", "must be none or natural");
+  scene.natural_vignetting = o.vignetting == "natural";
+  if (!o.vignetting_pa.empty()) scene.vignetting_pa = {o.vignetting_pa[0], o.vignetting_pa[1], o.vignetting_pa[2]};
   if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed.camera.sensor.pixel_pitch_mm);
   scene.c_mm = o.c_mm;
   scene.bands_nm = o.bands;
   render::RenderOptions ro;
   ro.samples_per_pixel = o.spp;
+  ro.edge_samples_per_pixel = o.edge_spp;
   ro.seed = o.seed;
   ro.exposure = o.exposure;
   if (!o.noise.empty()) {
@@ -238,6 +250,14 @@ void RegisterRender(CLI::App& app) {
       ->capture_default_str()->group("Lens");
   cmd->add_option("--f-number", o->f_number, "Aperture (inf: a pinhole, no depth of field)")
       ->capture_default_str()->group("Lens");
+  cmd->add_option("--vignetting", o->vignetting,
+                  "The lens's natural vignetting: none, or natural (cos^4 for a rectilinear lens: the solid angle "
+                  "each pixel sees times the pupil's foreshortening)")
+      ->capture_default_str()->group("Lens");
+  cmd->add_option("--vignetting-pa", o->vignetting_pa,
+                  "The lens's own vignetting K1,K2,K3: lensfun's pa model 1 + K1 r^2 + K2 r^4 + K3 r^6, r = 1 at the "
+                  "frame's corners (default none)")
+      ->delimiter(',')->expected(3)->group("Lens");
   cmd->add_option("--camera-model", o->camera_model,
                   "Calibration JSON or OpenCV YAML of the camera (any model; default: the ideal camera of the lens)")
       ->group("Lens");
@@ -248,6 +268,10 @@ void RegisterRender(CLI::App& app) {
   cmd->add_option("--color", o->color, "grey or rgb")->capture_default_str()->group("Image");
   cmd->add_option("--bit-depth", o->bit_depth, "PNG bits per channel: 8 or 16")->capture_default_str()->group("Image");
   cmd->add_option("--spp", o->spp, "Samples per pixel, a square (1, 4, 9, 16, ...)")->capture_default_str()->group("Image");
+  cmd->add_option("--edge-spp", o->edge_spp,
+                  "Samples per pixel near edges, a square above --spp (adaptive: pixels whose samples or neighbours "
+                  "differ are rendered again with this many; 0: off)")
+      ->capture_default_str()->group("Image");
   cmd->add_option("--seed", o->seed, "Random seed (the same seed gives the same image)")->capture_default_str()->group("Image");
   cmd->add_option("--exposure", o->exposure, "Pixel value = exposure x reflectance (white paper 0.9)")
       ->capture_default_str()->group("Image");
@@ -263,8 +287,8 @@ void RegisterRender(CLI::App& app) {
   cmd->callback([o] {
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
                     {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"}, {"lambda_nm", "--bands"},
-                    {"samples_per_pixel", "--spp"}, {"exposure", "--exposure"},
-                    {"full_well_e", "--noise"}, {"read_noise_e", "--noise"}, {"pose", "pose"}},
+                    {"samples_per_pixel", "--spp"}, {"edge_samples_per_pixel", "--edge-spp"}, {"exposure", "--exposure"},
+                    {"full_well_e", "--noise"}, {"vignetting_pa", "--vignetting-pa"}, {"read_noise_e", "--noise"}, {"pose", "pose"}},
                    [&] { RunRender(*o); });
   });
 }

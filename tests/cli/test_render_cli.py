@@ -33,6 +33,16 @@ def test_render_writes_the_image_and_its_ground_truth(tmp_path):
     assert min(max(err), max(rev)) < 0.3
 
 
+def test_edge_samples_and_vignetting_are_recorded(tmp_path):
+    png = tmp_path / "v.png"
+    summary = run("render", "--out", png, "--distance", "1500", "--edge-spp", "64", "--vignetting", "natural",
+                  "--vignetting-pa", "-0.2,0,0", "--json", *SMALL).json()
+    assert 0 < summary["refined_fraction"] < 0.2
+    truth = json.loads((tmp_path / "v.json").read_text())
+    assert truth["edge_samples_per_pixel"] == 64 and truth["refined_fraction"] == summary["refined_fraction"]
+    assert truth["vignetting"] == {"natural": True, "pa": [-0.2, 0, 0]}
+
+
 def test_a_set_is_ready_for_detect(tmp_path):
     out = tmp_path / "set"
     run("render", "--set", "3", "--out", out, "--target", "chessboard:7x5:40", "--f-number", "inf", *SMALL)
@@ -63,4 +73,7 @@ def test_bad_scenes_fail_cleanly(tmp_path):
     assert "--port" in run_bad("render", "--out", png, "--port", port, "--distance", "1200", "--focus", "1000", *SMALL)
     assert "--distances" in run_bad("render", "--set", "2", "--out", tmp_path / "set", "--distances", "900,500", *SMALL)
     assert "--f-number" in run_bad("render", "--out", png, "--f-number", "0", *SMALL)
+    assert "--edge-spp" in run_bad("render", "--out", png, "--edge-spp", "50", *SMALL)
+    assert "--vignetting" in run_bad("render", "--out", png, "--vignetting", "cos4", *SMALL)
+    assert "--vignetting-pa" in run_bad("render", "--out", png, "--vignetting-pa", "-2,0,0", *SMALL)
     assert list(tmp_path.glob("x.*")) == [] and not (tmp_path / "set").exists()

@@ -28,23 +28,14 @@ uint16_t Be16(const unsigned char* p) { return static_cast<uint16_t>(p[0] << 8 |
 uint32_t Le32(const unsigned char* p) { return uint32_t(p[3]) << 24 | uint32_t(p[2]) << 16 | uint32_t(p[1]) << 8 | p[0]; }
 uint16_t Le16(const unsigned char* p) { return static_cast<uint16_t>(p[1] << 8 | p[0]); }
 
-// Refines chessboard corners on the full-resolution image: cv::cornerSubPix on a Gaussian-smoothed
+// Refines X-junction corners on the full-resolution image: cv::cornerSubPix on a Gaussian-smoothed
 // patch around each corner. Smoothing (sigma 2 px) makes the gradient directions exact enough that a
 // rotated, oblique board comes out within 0.01 px of the truth on rendered images, where
 // cornerSubPix on raw pixels and findChessboardCornersSB each leave up to 0.07 px (detect_test.cc).
 // A point-symmetric X-junction keeps its centre under a symmetric blur, so the blur adds no bias.
-// The window is a third of the smallest square side, at most 20 px: the four squares meeting at a
-// corner, never a neighbouring corner.
-void RefineChessboardCorners(const cv::Mat& gray, const TargetSpec& t, std::vector<cv::Point2f>* pts) {
-  double min_step = 1e30;
-  for (int r = 0; r < t.rows; ++r) {
-    for (int c = 0; c + 1 < t.cols; ++c) {
-      const auto d = (*pts)[r * t.cols + c + 1] - (*pts)[r * t.cols + c];
-      min_step = std::min(min_step, static_cast<double>(std::hypot(d.x, d.y)));
-    }
-  }
-  const int half = std::clamp(static_cast<int>(min_step / 3), 2, 20);
-  const double sigma = half >= 8 ? 2.0 : 1.0;
+// `half` is the window's half-size and `sigma` the blur's (px): the window must see the junction's
+// point-symmetric neighbourhood alone. A corner that moves by more than max_move_px keeps its start.
+void RefineXCorners(const cv::Mat& gray, int half, double sigma, double max_move_px, std::vector<cv::Point2f>* pts) {
   const int margin = half + static_cast<int>(std::ceil(4 * sigma)) + 4;
   const cv::Rect image(0, 0, gray.cols, gray.rows);
   for (auto& p : *pts) {
@@ -58,8 +49,22 @@ void RefineChessboardCorners(const cv::Mat& gray, const TargetSpec& t, std::vect
     cv::cornerSubPix(patch, one, cv::Size(half, half), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 40, 1e-4));
     const cv::Point2f refined = one[0] + cv::Point2f(static_cast<float>(roi.x), static_cast<float>(roi.y));
-    if (std::hypot(refined.x - p.x, refined.y - p.y) < 0.25 * min_step) p = refined;  // else keep the detector's
+    if (std::hypot(refined.x - p.x, refined.y - p.y) < max_move_px) p = refined;  // else keep the detector's
   }
+}
+
+// Chessboard corners: the window is a third of the smallest square side, at most 20 px: the four
+// squares meeting at a corner, never a neighbouring corner.
+void RefineChessboardCorners(const cv::Mat& gray, const TargetSpec& t, std::vector<cv::Point2f>* pts) {
+  double min_step = 1e30;
+  for (int r = 0; r < t.rows; ++r) {
+    for (int c = 0; c + 1 < t.cols; ++c) {
+      const auto d = (*pts)[r * t.cols + c + 1] - (*pts)[r * t.cols + c];
+      min_step = std::min(min_step, static_cast<double>(std::hypot(d.x, d.y)));
+    }
+  }
+  const int half = std::clamp(static_cast<int>(min_step / 3), 2, 20);
+  RefineXCorners(gray, half, half >= 8 ? 2.0 : 1.0, 0.25 * min_step, pts);
 }
 
 // Chessboard search on a reduced copy (`factor` > 1) or the image itself, corners refined on the
@@ -116,7 +121,9 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
       cv::aruco::detectMarkers(gray, dict, marker_corners, marker_ids);
       if (marker_ids.empty()) return false;
       cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, gray, board, *pts, *ids);
-      return ids->size() >= 4;
+      if (ids->size() < 4) return false;
+      RefineCharucoCorners(gray, t, marker_corners, pts);
+      return true;
     }
   }
   if (!found) return false;
@@ -142,6 +149,33 @@ cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const st
   const auto it = kNames.find(name);
   if (it == kNames.end()) throw InvalidInput(field, "unknown ArUco dictionary " + name);
   return cv::aruco::getPredefinedDictionary(it->second);
+}
+
+// ChArUco corners, refined again as the chessboard's: OpenCV's interpolateCornersCharuco returns
+// them refined with a bias of about half a pixel in u and v in OpenCV 4.6 (opencv/opencv#25539);
+// porthole's own refinement starts from them and converges on the junction whatever OpenCV did.
+// Around a ChArUco corner the two white squares hold markers, (square - marker)/2 from the corner,
+// whose black border bit ends R = (square - marker)/2 + marker/(bits + 2) from it: the pattern is
+// point-symmetric only that far (the markers' inner bits differ), and the markers' borders cross
+// the window without passing through the corner. A window of half-size R/2 and a blur of R/5
+// (measured on renders against their ground truth: 0.011 px RMS with R = 14 px, 0.019 px with
+// R = 7 px; render_test.cc) do best. R in px comes from the smallest detected marker (its side
+// times square/marker).
+void RefineCharucoCorners(const cv::Mat& gray, const TargetSpec& t, const std::vector<std::vector<cv::Point2f>>& markers,
+                          std::vector<cv::Point2f>* pts) {
+  const int marker_bits = ArucoDictionary(t.dictionary)->markerSize;
+  double marker_px = 1e30;
+  for (const auto& m : markers) {
+    for (std::size_t k = 0; k < m.size(); ++k) {
+      const auto d = m[(k + 1) % m.size()] - m[k];
+      marker_px = std::min(marker_px, static_cast<double>(std::hypot(d.x, d.y)));
+    }
+  }
+  if (markers.empty() || !(t.marker_mm > 0)) return;
+  const double px_per_mm = marker_px / t.marker_mm;
+  const double r_px = (0.5 * (t.spacing_mm - t.marker_mm) + t.marker_mm / (marker_bits + 2)) * px_per_mm;
+  const int half = std::clamp(static_cast<int>(std::lround(0.5 * r_px)), 2, 20);
+  RefineXCorners(gray, half, std::clamp(0.2 * r_px, 0.7, 4.0), 0.25 * t.spacing_mm * px_per_mm, pts);
 }
 
 std::optional<std::pair<long, long>> ReadImageSize(const std::string& path) {

@@ -1,7 +1,8 @@
 // Target detection in images with OpenCV (the only part of calib that links OpenCV):
 //  - chessboard: cv::findChessboardCornersSB (sector-based, sub-pixel by its own refinement with
 //    CALIB_CB_ACCURACY on the up-sampled image), inner corners row-major;
-//  - ChArUco: contrib aruco detectMarkers + interpolateCornersCharuco (ids = OpenCV's corner ids);
+//  - ChArUco: contrib aruco detectMarkers + interpolateCornersCharuco (ids = OpenCV's corner ids),
+//    the corners then refined again by porthole (RefineCharucoCorners);
 //  - circle grids: cv::findCirclesGrid, symmetric or asymmetric;
 //  - coded circular targets: coded::DetectCodedTargets (coded/detect.h), ids = target IDs.
 // Pixel convention of OpenCV = porthole's: (0, 0) is the centre of the top-left pixel.
@@ -54,6 +55,15 @@ DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
 // Detection on an image already in memory (8-bit grey); `reduce` false forces full resolution.
 bool DetectInImage(const cv::Mat& gray, const TargetSpec& target, std::vector<int>* ids,
                    std::vector<cv::Point2f>* points, const DetectOptions& options = {}, bool reduce = true);
+
+// Refines ChArUco corners (px) in place, from wherever a detector left them (within a quarter of a
+// square): cv::cornerSubPix on a smoothed patch as for the chessboard, with a window that sees only
+// the corner's point-symmetric neighbourhood (up to the markers' inner bits). The scale comes from
+// `marker_corners`, the detected markers (4 corners each). DetectInImage applies it: OpenCV 4.6's
+// interpolateCornersCharuco leaves its corners half a pixel off (opencv/opencv#25539).
+void RefineCharucoCorners(const cv::Mat& gray, const TargetSpec& target,
+                          const std::vector<std::vector<cv::Point2f>>& marker_corners,
+                          std::vector<cv::Point2f>* corners);
 
 // Image files (jpg, jpeg, png, tif, tiff, bmp, pgm, ppm; any case) in a directory, sorted by name.
 // Throws InvalidInput(field) if the directory does not exist or holds none.

@@ -131,6 +131,10 @@ void Validate(const RenderOptions& o) {
   if (o.samples_per_pixel < 1 || m * m != o.samples_per_pixel || m > 64) {
     throw InvalidInput("samples_per_pixel", "must be a square number from 1 to 4096 (1, 4, 9, 16, ...)");
   }
+  const int m2 = static_cast<int>(std::lround(std::sqrt(static_cast<double>(o.edge_samples_per_pixel))));
+  if (o.edge_samples_per_pixel < 0 || m2 * m2 != o.edge_samples_per_pixel || m2 > 64) {
+    throw InvalidInput("edge_samples_per_pixel", "must be 0 (off) or a square number up to 4096 (64, 256, ...)");
+  }
   if (!(std::isfinite(o.exposure) && o.exposure > 0)) throw InvalidInput("exposure", "must be a number > 0");
   if (o.threads < 0) throw InvalidInput("threads", "must be >= 0");
   if (!(std::isfinite(o.full_well_e) && o.full_well_e >= 0)) throw InvalidInput("full_well_e", "must be a number >= 0");
@@ -193,6 +197,18 @@ Setup Resolve(const Scene& scene, ColorMode color) {
     s.camera = camera::Camera::Ideal(model, sensor, c / sensor.pixel_pitch_mm);
   }
 
+  for (double k : scene.vignetting_pa) {
+    if (!std::isfinite(k)) throw InvalidInput("vignetting_pa", "must be three finite numbers k1,k2,k3");
+  }
+  for (int i = 0; i <= 100; ++i) {  // 1 + k1 r² + k2 r⁴ + k3 r⁶ > 0 from the centre to the corners
+    const double r2 = (i / 100.0) * (i / 100.0);
+    const auto& k = scene.vignetting_pa;
+    if (!(1 + r2 * (k[0] + r2 * (k[1] + r2 * k[2])) > 0)) {
+      throw InvalidInput("vignetting_pa", "1 + k1 r^2 + k2 r^4 + k3 r^6 must stay > 0 from the frame's centre (r = 0) "
+                                          "to its corners (r = 1)");
+    }
+  }
+
   bool has[3] = {false, false, false};
   for (double l : scene.bands_nm) {
     ports::Environment env = h.env;
@@ -210,6 +226,41 @@ Setup Resolve(const Scene& scene, ColorMode color) {
     throw InvalidInput("bands_nm", "RGB needs a band in each channel: blue < 500 nm, green 500-590 nm, red >= 590 nm");
   }
   return s;
+}
+
+namespace {
+// Solid angle per pixel area of the camera's unprojection at uv (sr/px²), central differences of
+// the unit rays over ±0.5 px; nullopt where a ray is missing.
+std::optional<double> SolidAnglePerPixel(const camera::Camera& camera, const Vec2& uv, Vec3* ray) {
+  constexpr double kH = 0.5;
+  const auto d0 = camera.Unproject(uv);
+  const auto du0 = camera.Unproject(uv - Vec2(kH, 0)), du1 = camera.Unproject(uv + Vec2(kH, 0));
+  const auto dv0 = camera.Unproject(uv - Vec2(0, kH)), dv1 = camera.Unproject(uv + Vec2(0, kH));
+  if (!d0 || !du0 || !du1 || !dv0 || !dv1) return std::nullopt;
+  *ray = d0->normalized();
+  const Vec3 du = (du1->normalized() - du0->normalized()) / (2 * kH);
+  const Vec3 dv = (dv1->normalized() - dv0->normalized()) / (2 * kH);
+  return std::abs(du.cross(dv).dot(*ray));
+}
+}  // namespace
+
+double VignettingAt(const Scene& scene, const camera::Camera& camera, const Eigen::Vector2d& uv) {
+  double v = 1;
+  if (scene.natural_vignetting) {
+    Vec3 ray, axis;
+    const auto here = SolidAnglePerPixel(camera, uv, &ray);
+    const auto centre = SolidAnglePerPixel(camera, camera.PrincipalPointPx(), &axis);
+    if (!here || !centre || !(*centre > 0)) return 0;
+    v *= std::max(0.0, ray.z()) * *here / *centre;
+  }
+  const auto& k = scene.vignetting_pa;
+  if (k[0] != 0 || k[1] != 0 || k[2] != 0) {
+    const camera::Sensor& s = camera.sensor;
+    const Vec2 mid(0.5 * (s.width_px - 1), 0.5 * (s.height_px - 1));
+    const double r2 = (uv - mid).squaredNorm() / mid.squaredNorm();
+    v *= 1 + r2 * (k[0] + r2 * (k[1] + r2 * k[2]));
+  }
+  return v;
 }
 
 std::optional<Eigen::Vector2d> ProjectThroughPort(const Setup& s, const Band& band, const Pose& pose,
@@ -330,15 +381,15 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
   const Plane plane = TargetPlane(s, scene.pose);
   const int W = s.camera.sensor.width_px, H = s.camera.sensor.height_px;
   const int channels = o.color == ColorMode::kRgb ? 3 : 1;
+  const std::size_t n_pixels = static_cast<std::size_t>(W) * H;
   r.image.width = W;
   r.image.height = H;
   r.image.channels = channels;
-  r.image.data.assign(static_cast<std::size_t>(W) * H * channels, 0.0f);
+  r.image.data.assign(n_pixels * channels, 0.0f);  // first the mean reflectance, then the pixel value
   int bands_in[3] = {0, 0, 0};
   for (const Band& b : s.bands) ++bands_in[b.channel];
+  const std::size_t n_bands = s.bands.size();
 
-  const int n = o.samples_per_pixel;
-  const int m = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
   const double focus_s = s.focus.d_s2ep_mm;
   const bool fisheye = s.camera.info().caps.fisheye;
   const bool pinhole = s.pupil_radius_mm == 0;
@@ -346,33 +397,28 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
   const Vec3 plane_n = plane.normal();
   const Eigen::Matrix3d board_from_housing = plane.rotation.transpose();
 
-  constexpr int kTile = 64;  // pixels of one row per block: ~1000 rays, in cache through the surfaces
-  const int tiles_per_row = (W + kTile - 1) / kTile;
-  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>(tiles_per_row) * H;
-  std::atomic<std::ptrdiff_t> done{0};
-  std::atomic<long long> blocked{0};
-  std::mutex progress_mutex;
-  const std::ptrdiff_t report_every = std::max<std::ptrdiff_t>(1, blocks / 20);
-
-  auto work = [&](std::ptrdiff_t block) {
-    const int v = static_cast<int>(block / tiles_per_row);
-    const int u0 = static_cast<int>(block % tiles_per_row) * kTile;
-    const int u1 = std::min(W, u0 + kTile);
-    const int np = u1 - u0;
+  // Shades the pixels `pixels` (indices v·W + u) with n = m² samples each, writes each pixel's mean
+  // reflectance per channel into the image, and its "mixed" flag (its samples did not all see the
+  // same value) when `mixed` is given; returns the number of blocked rays. `salt` 0 is the first
+  // pass; the refinement draws other samples.
+  auto shade = [&](const std::size_t* pixels, int np, int n, std::uint64_t salt, std::uint8_t* mixed) {
+    const int m = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
     const std::size_t nr = static_cast<std::size_t>(np) * n;
     thread_local optics::RayBatch in, out;
     thread_local std::vector<int> perm;
-    thread_local std::vector<double> sums;
+    thread_local std::vector<double> sums, lo, hi;
     in.resize(nr);
     perm.resize(n);
-    sums.assign(static_cast<std::size_t>(np) * s.bands.size(), 0.0);
-    // Rays of every sample of the block's pixels, in the housing frame.
+    sums.assign(static_cast<std::size_t>(np) * n_bands, 0.0);
+    lo.assign(np, kInf);
+    hi.assign(np, -kInf);
+    // Rays of every sample of the pixels, in the housing frame.
     camera::VisitModel(s.camera.model, [&](auto model) {
       using M = decltype(model);
       const double* params = s.camera.params.data();
       for (int p = 0; p < np; ++p) {
-        const int u = u0 + p;
-        Rng rng{o.seed * 0xD1B54A32D192ED03ull ^ (static_cast<std::uint64_t>(v) * W + u)};
+        const int u = static_cast<int>(pixels[p] % W), v = static_cast<int>(pixels[p] / W);
+        Rng rng{(o.seed * 0xD1B54A32D192ED03ull ^ (static_cast<std::uint64_t>(v) * W + u)) + salt};
         for (int k = 0; k < n; ++k) perm[k] = k;
         for (int k = n - 1; k > 0; --k) std::swap(perm[k], perm[static_cast<int>(rng.Next() % (k + 1))]);
         for (int k = 0; k < n; ++k) {
@@ -411,54 +457,128 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
     optics::BatchOptions bo;
     bo.num_threads = 1;
     long long blocked_here = 0;
-    for (std::size_t bi = 0; bi < s.bands.size(); ++bi) {
+    for (std::size_t bi = 0; bi < n_bands; ++bi) {
       optics::TraceBatch(s.bands[bi].outward, in, &out, bo);
       for (int p = 0; p < np; ++p) {
-        double sum = 0;
+        double sum = 0, low = lo[p], high = hi[p];
         for (int k = 0; k < n; ++k) {
           const std::size_t i = static_cast<std::size_t>(p) * n + k;
+          double value = 0;  // blocked by the housing
           if (out.status[i] != optics::RayStatus::kOk) {
             ++blocked_here;
-            continue;
+          } else {
+            const Vec3 o3(out.ox[i], out.oy[i], out.oz[i]), d3(out.dx[i], out.dy[i], out.dz[i]);
+            const double t = (plane.origin_in_housing - o3).dot(plane_n) / d3.dot(plane_n);
+            if (!(t > 0) || !std::isfinite(t)) {
+              value = scene.style.background;
+            } else {
+              const Vec3 local = board_from_housing * (o3 + t * d3 - plane.origin_in_housing);
+              value = reflect(local.x(), local.y());
+            }
           }
-          const Vec3 o3(out.ox[i], out.oy[i], out.oz[i]), d3(out.dx[i], out.dy[i], out.dz[i]);
-          const double denom = d3.dot(plane_n);
-          const double t = (plane.origin_in_housing - o3).dot(plane_n) / denom;
-          if (!(t > 0) || !std::isfinite(t)) {
-            sum += scene.style.background;
-            continue;
-          }
-          const Vec3 local = board_from_housing * (o3 + t * d3 - plane.origin_in_housing);
-          sum += reflect(local.x(), local.y());
+          sum += value;
+          low = std::min(low, value);
+          high = std::max(high, value);
         }
-        sums[static_cast<std::size_t>(p) * s.bands.size() + bi] = sum / n;
+        sums[static_cast<std::size_t>(p) * n_bands + bi] = sum / n;
+        lo[p] = low;
+        hi[p] = high;
       }
     }
-    float* row = r.image.data.data() + (static_cast<std::size_t>(v) * W + u0) * channels;
     for (int p = 0; p < np; ++p) {
       double c[3] = {0, 0, 0};
-      for (std::size_t bi = 0; bi < s.bands.size(); ++bi) c[s.bands[bi].channel] += sums[p * s.bands.size() + bi];
-      Rng noise{~o.seed * 0xA0761D6478BD642Full ^ (static_cast<std::uint64_t>(v) * W + u0 + p)};
+      for (std::size_t bi = 0; bi < n_bands; ++bi) c[s.bands[bi].channel] += sums[p * n_bands + bi];
+      float* px = r.image.data.data() + pixels[p] * channels;
+      for (int ch = 0; ch < channels; ++ch) px[ch] = static_cast<float>(c[ch] / bands_in[ch]);
+      if (mixed) mixed[pixels[p]] = hi[p] > lo[p];
+    }
+    return blocked_here;
+  };
+
+  // Pass 1: every pixel, rows cut into tiles of kTile pixels (~1000 rays, in cache through the
+  // surfaces). Pass 2 (edge_samples_per_pixel): the pixels near an edge again, with more samples.
+  const bool refine = o.edge_samples_per_pixel > o.samples_per_pixel;
+  std::vector<std::uint8_t> mixed(refine ? n_pixels : 0);
+  std::mutex progress_mutex;
+  std::atomic<std::ptrdiff_t> done{0};
+  auto report = [&](std::ptrdiff_t blocks, double from, double to) {
+    const std::ptrdiff_t d = ++done;
+    if (o.progress && (d % std::max<std::ptrdiff_t>(1, blocks / 20) == 0 || d == blocks)) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      o.progress(from + (to - from) * static_cast<double>(d) / blocks);
+    }
+  };
+  const double pass1_share = refine ? 0.3 : 1.0;  // of the progress reported
+  constexpr int kTile = 64;
+  const int tiles_per_row = (W + kTile - 1) / kTile;
+  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>(tiles_per_row) * H;
+  std::atomic<long long> blocked{0};
+  optics::ParallelBlocks(o.threads, blocks, [&](std::ptrdiff_t block) {
+    const int v = static_cast<int>(block / tiles_per_row);
+    const int u0 = static_cast<int>(block % tiles_per_row) * kTile;
+    const int np = std::min(W, u0 + kTile) - u0;
+    std::size_t pixels[kTile];
+    for (int p = 0; p < np; ++p) pixels[p] = static_cast<std::size_t>(v) * W + u0 + p;
+    blocked += shade(pixels, np, o.samples_per_pixel, 0, refine ? mixed.data() : nullptr);
+    report(blocks, 0, pass1_share);
+  });
+  r.blocked_fraction = static_cast<double>(blocked.load()) / (static_cast<double>(n_pixels) * o.samples_per_pixel * n_bands);
+
+  if (refine) {
+    // A pixel is refined when a pixel of its 3 × 3 neighbourhood (itself included) saw more than
+    // one value, or holds a different value from its own: an edge crosses it or passes within a
+    // pixel, even where the first samples missed a sliver of it.
+    std::vector<std::size_t> todo;
+    for (int v = 0; v < H; ++v) {
+      for (int u = 0; u < W; ++u) {
+        const float* c = r.image.data.data() + (static_cast<std::size_t>(v) * W + u) * channels;
+        bool edge = false;
+        for (int dv = -1; dv <= 1 && !edge; ++dv) {
+          for (int du = -1; du <= 1 && !edge; ++du) {
+            const int uu = u + du, vv = v + dv;
+            if (uu < 0 || vv < 0 || uu >= W || vv >= H) continue;
+            const std::size_t q = static_cast<std::size_t>(vv) * W + uu;
+            edge = mixed[q] != 0;
+            for (int ch = 0; ch < channels && !edge; ++ch) edge = r.image.data[q * channels + ch] != c[ch];
+          }
+        }
+        if (edge) todo.push_back(static_cast<std::size_t>(v) * W + u);
+      }
+    }
+    const int n2 = o.edge_samples_per_pixel;
+    const int per_block = std::max(1, 1024 / n2);
+    const std::ptrdiff_t blocks2 = (static_cast<std::ptrdiff_t>(todo.size()) + per_block - 1) / per_block;
+    done = 0;
+    optics::ParallelBlocks(o.threads, blocks2, [&](std::ptrdiff_t block) {
+      const std::size_t begin = static_cast<std::size_t>(block) * per_block;
+      const int np = static_cast<int>(std::min<std::size_t>(todo.size(), begin + per_block) - begin);
+      shade(todo.data() + begin, np, n2, 0x5851F42D4C957F2Dull, nullptr);
+      report(blocks2, pass1_share, 1);
+    });
+    r.refined_fraction = static_cast<double>(todo.size()) / n_pixels;
+  }
+
+  // Vignetting, exposure and sensor noise, per pixel (seeded by the pixel), a row at a time.
+  const auto& pa = scene.vignetting_pa;
+  const bool vignetting = scene.natural_vignetting || pa[0] != 0 || pa[1] != 0 || pa[2] != 0;
+  optics::ParallelBlocks(o.threads, H, [&](std::ptrdiff_t v) {
+    for (std::size_t i = static_cast<std::size_t>(v) * W; i < static_cast<std::size_t>(v + 1) * W; ++i) {
+      Rng noise{~o.seed * 0xA0761D6478BD642Full ^ i};
+      const double gain =
+          vignetting ? VignettingAt(scene, s.camera, Vec2(static_cast<double>(i % W), static_cast<double>(v))) : 1.0;
       for (int ch = 0; ch < channels; ++ch) {
-        double value = std::min(1.0, o.exposure * c[ch] / bands_in[ch]);
+        float& px = r.image.data[i * channels + ch];
+        double value = std::min(1.0, o.exposure * gain * px);
         if (o.full_well_e > 0) {  // Box–Muller pair: shot, read
           const double a = std::sqrt(-2 * std::log(1 - noise.Uniform())), b = 2 * std::numbers::pi * noise.Uniform();
           const double electrons = value * o.full_well_e;
           value = std::clamp((electrons + std::sqrt(electrons) * a * std::cos(b) + o.read_noise_e * a * std::sin(b)) /
                                  o.full_well_e, 0.0, 1.0);
         }
-        row[p * channels + ch] = static_cast<float>(value);
+        px = static_cast<float>(value);
       }
     }
-    blocked += blocked_here;
-    const std::ptrdiff_t d = ++done;
-    if (o.progress && (d % report_every == 0 || d == blocks)) {
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      o.progress(static_cast<double>(d) / blocks);
-    }
-  };
-  optics::ParallelBlocks(o.threads, blocks, work);
-  r.blocked_fraction = static_cast<double>(blocked.load()) / (static_cast<double>(W) * H * n * s.bands.size());
+  });
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }
@@ -548,10 +668,13 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
   }
   j["bands"] = bands;
   j["samples_per_pixel"] = o.samples_per_pixel;
+  j["edge_samples_per_pixel"] = o.edge_samples_per_pixel > o.samples_per_pixel ? Json(o.edge_samples_per_pixel) : Json(nullptr);
+  j["refined_fraction"] = r.refined_fraction;
   j["seed"] = o.seed;
   j["exposure"] = o.exposure;
   j["noise"] = o.full_well_e > 0 ? Json{{"full_well_e", o.full_well_e}, {"read_noise_e", o.read_noise_e}} : Json(nullptr);
   j["style"] = {{"black", scene.style.black}, {"white", scene.style.white}, {"background", scene.style.background}};
+  j["vignetting"] = {{"natural", scene.natural_vignetting}, {"pa", Json::array({scene.vignetting_pa[0], scene.vignetting_pa[1], scene.vignetting_pa[2]})}};
   j["blocked_fraction"] = r.blocked_fraction;
   Json points = Json::array();
   for (const TruthPoint& tp : r.truth) {
@@ -605,24 +728,58 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
   };
   Rng rng{o.seed * 0x9E3779B97F4A7C15ull + 12345};
   std::vector<Pose> poses;
+  // The target's centre is stratified over the frame too, cut into 3 × 3 cells: pose i aims at cell
+  // kCells[9i / N] (centre and edges for the near poses, whose large targets cannot reach a corner
+  // anyway, the corners for the far ones), so that the frame's corners, where a fitted distortion
+  // is least constrained, see target points. A cell no pose fits falls back to the whole frame.
+  constexpr int kCells[9][2] = {{1, 1}, {1, 0}, {0, 1}, {2, 1}, {1, 2}, {0, 0}, {2, 0}, {0, 2}, {2, 2}};
   for (int i = 0; i < o.count; ++i) {
     bool found = false;
+    const int* cell = kCells[i * 9 / o.count];
     for (int attempt = 0; attempt < 4000 && !found; ++attempt) {
       // Distances stratified over the range (image i in the i-th slice), the rest uniform.
       const double dist = near + (far - near) * ((i % o.count) + rng.Uniform()) / o.count;
-      const Vec2 centre_px(rng.Uniform() * (sensor.width_px - 1), rng.Uniform() * (sensor.height_px - 1));
-      const auto dir = sw.camera.Unproject(centre_px);
-      if (!dir || !(dir->z() > 0.2)) continue;
-      const Vec3 c = *dir * (dist / dir->z());
+      const bool in_cell = attempt < 1000;
+      const double cu = in_cell ? (cell[0] + rng.Uniform()) / 3 : rng.Uniform();
+      const double cv = in_cell ? (cell[1] + rng.Uniform()) / 3 : rng.Uniform();
+      const Vec2 centre_px(cu * (sensor.width_px - 1), cv * (sensor.height_px - 1));
       const double tx = (2 * rng.Uniform() - 1) * o.max_tilt_deg, ty = (2 * rng.Uniform() - 1) * o.max_tilt_deg;
       const double roll = (2 * rng.Uniform() - 1) * o.max_roll_deg;
-      Pose pose = PoseFacing(scene.target, c.z(), c.head<2>(), tx, ty, roll);
-      water.pose = pose;
-      air.pose = pose;
-      if (fits(water, sw) && fits(air, sa)) {
-        poses.push_back(pose);
-        found = true;
+      auto pose_at = [&](const Vec2& px) -> std::optional<Pose> {
+        const auto dir = sw.camera.Unproject(px);
+        if (!dir || !(dir->z() > 0.2)) return std::nullopt;
+        const Vec3 c = *dir * (dist / dir->z());
+        Pose pose = PoseFacing(scene.target, c.z(), c.head<2>(), tx, ty, roll);
+        water.pose = pose;
+        air.pose = pose;
+        if (fits(water, sw) && fits(air, sa)) return pose;
+        return std::nullopt;
+      };
+      std::optional<Pose> pose = pose_at(centre_px);
+      if (!pose) continue;
+      if (in_cell) {
+        // Pushed out toward the cell's side of the frame (for a corner cell: diagonally, then along
+        // u, then along v) as far as the target still fits, by bisection on the shift: the target
+        // reaches the frame's edge or corner.
+        const Vec2 out = Vec2(cell[0] - 1, cell[1] - 1).cwiseProduct(Vec2(sensor.width_px, sensor.height_px)) / 2;
+        Vec2 at = centre_px;
+        for (const Vec2& step : {out, Vec2(out.x(), 0), Vec2(0, out.y())}) {
+          if (step.isZero()) continue;
+          double lo = 0, hi = 1;
+          for (int k = 0; k < 6; ++k) {
+            const double mid = 0.5 * (lo + hi);
+            if (auto p = pose_at(at + mid * step)) {
+              pose = p;
+              lo = mid;
+            } else {
+              hi = mid;
+            }
+          }
+          at += lo * step;
+        }
       }
+      poses.push_back(*pose);
+      found = true;
     }
     if (!found) {
       throw InvalidInput("--count", fmt::format("no pose puts the whole target inside the frame at {:.0f}-{:.0f} mm "

@@ -33,6 +33,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -85,10 +86,29 @@ struct Scene {
   std::optional<double> c_mm;
   std::vector<double> bands_nm = kDefaultBandsNm;
   PatternStyle style;
+  // The lens's own vignetting, off by default (the image is then the target's reflectance). Each
+  // pixel is multiplied, at its centre, by
+  //  - natural_vignetting: the illumination an ideal lens gives a uniform (Lambertian) scene,
+  //    relative to the optical axis: cos θ · (dΩ/dA) / (dΩ/dA at the principal point), θ the
+  //    pixel's chief ray's angle from the axis and dΩ/dA the solid angle per pixel area of the
+  //    camera's unprojection (its distortion included). A rectilinear camera gives cos⁴θ, an
+  //    equisolid fisheye cos θ; barrel distortion brightens the corners. The pupil is in the
+  //    housing's air, so the port changes where the rays go, not this factor.
+  //  - vignetting_pa {k1, k2, k3}: the lens's mechanical and optical vignetting as lensfun's "pa"
+  //    model, 1 + k1 r² + k2 r⁴ + k3 r⁶, r the distance from the frame's centre over its
+  //    half-diagonal (1 at the corners). Must stay > 0 over the frame.
+  bool natural_vignetting = false;
+  std::array<double, 3> vignetting_pa = {0, 0, 0};
 };
 
 struct RenderOptions {
   int samples_per_pixel = 16;  // a square m², m × m strata (and m × m pupil strata)
+  // Adaptive refinement, off while 0 (or not above samples_per_pixel): a pixel near an edge — one
+  // of its 3 × 3 neighbourhood saw more than one value among its samples, or differs from it — is
+  // rendered again with this many samples (a square; fresh strata), which replace its first ones.
+  // Edges (and blur, and the rim) get the samples they need at a fraction of the cost of giving
+  // them to every pixel.
+  int edge_samples_per_pixel = 0;
   ColorMode color = ColorMode::kGrey;
   double exposure = 1.0;       // pixel value = exposure · reflectance (clipped to 1)
   // Sensor noise, off while full_well_e is 0: a pixel value v is v·full_well_e photo-electrons
@@ -125,6 +145,10 @@ struct Setup {
 // band's channel.
 Setup Resolve(const Scene& scene, ColorMode color = ColorMode::kGrey);
 
+// The scene's vignetting factor at pixel uv (Scene::natural_vignetting × vignetting_pa; 1 when both
+// are off); 0 where the camera cannot unproject the pixel.
+double VignettingAt(const Scene& scene, const camera::Camera& camera, const Eigen::Vector2d& uv);
+
 // One target point's image.
 struct TruthPoint {
   int id = 0;
@@ -154,7 +178,8 @@ struct Rendered {
   Image image;
   Setup setup;
   std::vector<TruthPoint> truth;
-  double blocked_fraction = 0;  // of the samples' rays that could not leave the housing
+  double blocked_fraction = 0;  // of the first pass's rays, those that could not leave the housing
+  double refined_fraction = 0;  // of the pixels, those rendered again with edge_samples_per_pixel
   double seconds = 0;
 };
 

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
+#include <opencv2/aruco.hpp>
 #include <opencv2/core.hpp>
 
 #include "porthole/calib/calibrate.h"
@@ -123,33 +125,104 @@ TEST(Render, DetectedCornersMatchTheGroundTruth) {
   EXPECT_LT(r.blocked_fraction, 1e-9);  // the whole frame sees through the dome
 }
 
+TEST(Render, EdgeSamplesTakeTheSamplingNoiseOffTheCorners) {
+  // A pinhole render (sharp edges: the sampling noise at its largest) detected against the truth:
+  // 9 samples in every pixel, then 1 sample per pixel and 144 in the pixels near an edge (a few
+  // percent of the frame). The corners' scatter is mostly the edges' sampling noise at 9 spp; the
+  // refined image leaves the detector's own floor.
+  Scene s = PaperScene("generic-dome-8in");
+  s.housed.port = ConcentricDome();
+  s.f_number = std::numeric_limits<double>::infinity();
+  s.bands_nm = {546.07};
+  s.focus_distance_mm = 1000;
+  s.pose = PoseFacing(s.target, 1200, {0, 0}, 15, -10, 5);
+  double rms[2] = {0, 0};
+  for (const bool edges : {false, true}) {
+    RenderOptions o;
+    o.samples_per_pixel = edges ? 1 : 9;
+    o.edge_samples_per_pixel = edges ? 144 : 0;
+    const Rendered r = Render(s, o);
+    const auto truth = TruthBand(r, 0);
+    const auto found = DetectCorners(r.image, s.target, truth);
+    ASSERT_EQ(found.size(), truth.size());
+    rms[edges] = Rms(found, truth);
+    std::printf("%s: corners %.4f px RMS from the truth; %.1f %% of the pixels refined\n",
+                edges ? "1 spp + 144 near edges" : "9 spp", rms[edges], 100 * r.refined_fraction);
+    if (edges) {
+      EXPECT_LT(r.refined_fraction, 0.1);
+    }
+  }
+  EXPECT_LT(rms[1], 0.03);
+  EXPECT_LT(rms[1], 0.5 * rms[0]);
+}
+
 TEST(Render, OtherTargetsAreFoundWithTheirIds) {
   // ChArUco (markers drawn from OpenCV's own board and dictionary) and circle grids: OpenCV finds
-  // every point, each id at its ground truth. ChArUco corners carry OpenCV 4.6's known +0.5 px
-  // bias in u and v (cv::aruco::interpolateCornersCharuco shifts the points it refines by half a
-  // pixel: opencv/opencv#25539, fixed upstream in 2026), measured here and allowed for.
+  // every point, each id at its ground truth. ChArUco corners are refined again by porthole
+  // (calib/detect.cc), which removes OpenCV 4.6's half-pixel bias of interpolateCornersCharuco
+  // (opencv/opencv#25539): they must match the truth as the chessboard's do.
   for (const char* spec : {"charuco:7x5:40:30", "circles:6x4:50", "acircles:4x7:40"}) {
     Scene s = PaperScene();
     s.target = calib::ParseTarget(spec);
     s.pose = PoseFacing(s.target, 1100, {0, 0}, 10, 5);
     RenderOptions o;
     o.samples_per_pixel = 9;
+    o.edge_samples_per_pixel = 256;
     const Rendered r = Render(s, o);
     std::vector<int> ids;
     std::vector<cv::Point2f> pts;
     ASSERT_TRUE(calib::DetectInImage(Gray8(r.image), s.target, &ids, &pts)) << spec;
     EXPECT_EQ(ids.size(), r.truth.size()) << spec;
-    const bool charuco = s.target.kind == calib::TargetKind::kCharuco;
     Vec2 mean = Vec2::Zero();
     double sum2 = 0;
     for (std::size_t i = 0; i < ids.size(); ++i) {
       const Vec2 e = Vec2(pts[i].x, pts[i].y) - r.truth[ids[i]].pixel_per_band[1];
       mean += e / ids.size();
-      sum2 += (e - (charuco ? Vec2(0.5, 0.5) : Vec2::Zero())).squaredNorm();
+      sum2 += e.squaredNorm();
     }
     const double rms = std::sqrt(sum2 / ids.size());
-    std::printf("%s: mean offset (%.3f, %.3f) px, rms about the expected offset %.3f px\n", spec, mean.x(), mean.y(), rms);
-    EXPECT_LT(rms, charuco ? 0.2 : 0.08) << spec;
+    std::printf("%s: mean offset (%.3f, %.3f) px, rms %.3f px\n", spec, mean.x(), mean.y(), rms);
+    EXPECT_LT(mean.norm(), 0.03) << spec;
+    EXPECT_LT(rms, s.target.kind == calib::TargetKind::kCharuco ? 0.05 : 0.08) << spec;
+  }
+}
+
+TEST(Render, CharucoCornersAreRefinedWhereverTheDetectorLeavesThem) {
+  // porthole's ChArUco refinement converges on the junction from OpenCV 4.6's half-pixel-biased
+  // corners, from the truth itself (an OpenCV with the upstream fix), and from an offset the other
+  // way: the same corners, at the ground truth (a 1440 px frame: squares of 57 px).
+  Scene s = PaperScene("nimar-ni320", 1440);
+  s.target = calib::ParseTarget("charuco:7x5:40:30");
+  s.pose = PoseFacing(s.target, 1100, {0, 0}, 10, 5);
+  RenderOptions o;
+  o.samples_per_pixel = 4;
+  o.edge_samples_per_pixel = 256;
+  const Rendered r = Render(s, o);
+  const cv::Mat gray = Gray8(r.image);
+  const auto dict = calib::ArucoDictionary(s.target.dictionary);
+  std::vector<int> marker_ids;
+  std::vector<std::vector<cv::Point2f>> markers;
+  cv::aruco::detectMarkers(gray, dict, markers, marker_ids);
+  ASSERT_GE(markers.size(), 10u);
+  std::vector<cv::Point2f> reference;
+  for (const Vec2& start_offset : {Vec2(0.48, 0.48), Vec2(0, 0), Vec2(-0.4, 0.3)}) {
+    std::vector<cv::Point2f> pts;
+    for (const TruthPoint& p : r.truth) {
+      const Vec2 q = p.pixel_per_band[1] + start_offset;
+      pts.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
+    }
+    calib::RefineCharucoCorners(gray, s.target, markers, &pts);
+    double sum2 = 0, apart2 = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      sum2 += (Vec2(pts[i].x, pts[i].y) - r.truth[i].pixel_per_band[1]).squaredNorm();
+      if (!reference.empty()) apart2 += std::pow(cv::norm(pts[i] - reference[i]), 2);
+    }
+    if (reference.empty()) reference = pts;
+    const double rms = std::sqrt(sum2 / pts.size()), apart = std::sqrt(apart2 / pts.size());
+    std::printf("ChArUco from (%+.2f, %+.2f) px: rms %.4f px against the truth, %.4f px from the first start\n",
+                start_offset.x(), start_offset.y(), rms, apart);
+    EXPECT_LT(rms, 0.03);
+    EXPECT_LT(apart, 0.01);
   }
 }
 
@@ -252,6 +325,56 @@ TEST(Render, BandsSeparateAsTheWaterDisperses) {
   }
 }
 
+TEST(Render, VignettingFollowsItsClosedForm) {
+  // A uniform scene (the background around a small, distant board), the camera alone (a dome
+  // concentric with the pupil, in air), one sample per pixel: every background pixel must be the
+  // background's value times cos⁴θ for the rectilinear camera, cos θ for an equisolid fisheye (the
+  // natural vignetting of each projection, from the solid angle each pixel sees), times lensfun's
+  // "pa" polynomial in r = distance from the frame's centre / half-diagonal.
+  for (const bool fisheye : {false, true}) {
+    Scene s = PaperScene("generic-dome-8in");
+    s.housed.port = ConcentricDome();
+    s.medium = Medium::kAir;
+    s.f_number = std::numeric_limits<double>::infinity();
+    s.bands_nm = {546.07};
+    s.c_mm = 25;
+    const camera::Sensor& sensor = s.housed.camera.sensor;
+    const Vec2 mid(0.5 * (sensor.width_px - 1), 0.5 * (sensor.height_px - 1));
+    if (fisheye) {  // the frame's corners 75° off the axis
+      s.camera = camera::Camera::Ideal(camera::CameraModelId::kEquisolid, sensor,
+                                       mid.norm() / (2 * std::sin(0.5 * 75 * std::numbers::pi / 180)));
+    }
+    s.pose = PoseFacing(s.target, 5000);
+    s.natural_vignetting = true;
+    s.vignetting_pa = {-0.3, 0.1, -0.05};
+    RenderOptions o;
+    o.samples_per_pixel = 1;
+    const Rendered r = Render(s, o);
+    const Vec2 board = r.truth.front().pixel_per_band[0];
+    double worst = 0, darkest = 1;
+    int n = 0;
+    for (const Vec2& grid : camera::FramePixels(sensor, 37, 25)) {
+      const Vec2 uv = grid.array().round();  // a pixel centre
+      if ((uv - mid).norm() < 100 || (uv - board).norm() < 100) continue;  // the board
+      const Vec3 d = r.setup.camera.Unproject(uv)->normalized();
+      const double r2 = (uv - mid).squaredNorm() / mid.squaredNorm();
+      const double pa = 1 - 0.3 * r2 + 0.1 * r2 * r2 - 0.05 * r2 * r2 * r2;
+      const double natural = fisheye ? d.z() : std::pow(d.z(), 4);
+      const double expected = s.style.background * natural * pa;
+      worst = std::max(worst, std::abs(r.image.at(static_cast<int>(uv.x()), static_cast<int>(uv.y())) / expected - 1));
+      darkest = std::min(darkest, natural * pa);
+      ++n;
+    }
+    std::printf("%s: %d background pixels, V down to %.3f, largest relative error %.1e\n",
+                fisheye ? "equisolid fisheye" : "rectilinear", n, darkest, worst);
+    EXPECT_GT(n, 700);
+    EXPECT_LT(worst, 1e-5);
+  }
+  Scene bad = PaperScene();
+  bad.vignetting_pa = {-1.5, 0, 0};  // negative at the corners
+  EXPECT_THROW(Resolve(bad), InvalidInput);
+}
+
 TEST(Render, SensorNoiseHasTheStatedSigma) {
   // Monte Carlo: on the uniform background (reflectance 0.25) the pixels scatter with
   // σ = √(v·F + r²)/F for full well F and read noise r, about the noise-free value.
@@ -296,12 +419,27 @@ TEST(Render, BadScenesAreRefusedBeforeAnyPixel) {
   EXPECT_THROW(Render(s, bad), InvalidInput);
 }
 
-constexpr int kCalibWidth = 720, kCalibSpp = 9, kCalibImages = 10;
+// The calibration sets (docs/render.md, "End to end"): ten poses of SetPoses (distances, tilts
+// and the target's place stratified; the outer poses pushed to the frame's edges and corners, 2 %
+// margin) on a 1440 × 960 frame of the D300's sensor, pinhole renders (no blur: the corners are as
+// sharp as the frame allows) with 1 sample per pixel and 144 at the pixels near an edge. What limits
+// the calibration is the corner noise: the edge pixels' sampling noise (9 samples everywhere on a
+// 720 px frame: 0.051 px RMS) and the detector's own floor (cornerSubPix on a smoothed patch:
+// about 0.015 px on a 720 px frame, 0.007 px at 1440, where the squares and so its windows are
+// larger); then how far the points reach into the frame's corners, where a fitted distortion is
+// least constrained.
+constexpr int kCalibWidth = 1440, kCalibSpp = 1, kCalibEdgeSpp = 144, kCalibImages = 10;
+constexpr double kCalibMargin = 0.02;
+
 // Detects the target in each render and calibrates the Brown model (c, x0, y0, K1, K2, P1, P2).
 calib::CalibrationResult CalibrateRenders(const Scene& base, const std::vector<Pose>& poses, Medium medium,
-                                          int spp, camera::Camera* truth) {
+                                          camera::Camera* truth) {
   RenderOptions o;
-  o.samples_per_pixel = spp;
+  o.samples_per_pixel = kCalibSpp;
+  o.edge_samples_per_pixel = kCalibEdgeSpp;
+  calib::DetectOptions search;  // the chessboard searched on a half-size copy, refined on the image
+  search.reduce_above_px = 1000;
+  search.reduced_long_side_px = 720;
   std::vector<calib::ImageDetections> dets;
   for (std::size_t i = 0; i < poses.size(); ++i) {
     Scene sc = base;
@@ -315,7 +453,7 @@ calib::CalibrationResult CalibrateRenders(const Scene& base, const std::vector<P
     d.width_px = r.image.width;
     d.height_px = r.image.height;
     std::vector<cv::Point2f> pts;
-    if (!calib::DetectInImage(Gray8(r.image), base.target, &d.ids, &pts)) continue;
+    if (!calib::DetectInImage(Gray8(r.image), base.target, &d.ids, &pts, search)) continue;
     for (const auto& p : pts) d.points_px.emplace_back(p.x, p.y);
     dets.push_back(d);
   }
@@ -324,50 +462,120 @@ calib::CalibrationResult CalibrateRenders(const Scene& base, const std::vector<P
   return calib::Calibrate(dets, base.target, co);
 }
 
-TEST(Render, CalibratingAnAirSetRecoversTheCamera) {
-  // The poses of a set, pinhole renders in air behind a dome concentric with the pupil (the camera
-  // alone), a Brown calibration of OpenCV's detections: c and a distortion-free camera recovered.
-  Scene s = PaperScene("generic-dome-8in", kCalibWidth);
+// The same calibration on the ground truth itself (no image): what the chain gives without the
+// renderer's sampling and the detector.
+calib::CalibrationResult CalibrateTruth(const Scene& base, const std::vector<Pose>& poses, Medium medium) {
+  std::vector<calib::ImageDetections> dets;
+  double pitch = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    Scene sc = base;
+    sc.medium = medium;
+    sc.pose = poses[i];
+    const Setup st = Resolve(sc);
+    pitch = st.camera.sensor.pixel_pitch_mm;
+    calib::ImageDetections d;
+    d.image = std::to_string(i);
+    d.width_px = st.camera.sensor.width_px;
+    d.height_px = st.camera.sensor.height_px;
+    for (const TruthPoint& p : GroundTruth(sc, st)) {
+      d.ids.push_back(p.id);
+      d.points_px.push_back(p.pixel_per_band[0]);
+    }
+    dets.push_back(d);
+  }
+  calib::CalibrationOptions co;
+  co.pixel_pitch_mm = pitch;
+  return calib::Calibrate(dets, base.target, co);
+}
+
+// The largest difference between two Brown cameras' distortion (the correction Δ at each measured
+// point, camera/brown.h) over a 33 × 23 grid spanning the whole frame, corners included, in px.
+double DistortionDifferencePx(const camera::Camera& fit, const camera::Camera& truth) {
+  double worst = 0;
+  for (const Vec2& uv : camera::FramePixels(truth.sensor, 33, 23)) {
+    const auto xy = camera::PixelToImageMm<double>(truth.sensor, uv.x(), uv.y());
+    const Vec2 d = camera::Correction<double>(fit.params.data(), xy.x(), xy.y()) -
+                   camera::Correction<double>(truth.params.data(), xy.x(), xy.y());
+    worst = std::max(worst, d.norm() / truth.sensor.pixel_pitch_mm);
+  }
+  return worst;
+}
+
+// Pinhole renders in air behind a dome concentric with the pupil (the camera alone), the set's poses.
+struct AirSet {
+  Scene scene;
+  std::vector<Pose> poses;
+};
+AirSet MakeAirSet(const std::optional<camera::BrownParams>& lens) {
+  AirSet set;
+  Scene& s = set.scene;
+  s = PaperScene("generic-dome-8in", kCalibWidth);
   s.f_number = std::numeric_limits<double>::infinity();
   s.focus_distance_mm = 1000;
   s.bands_nm = {546.07};
-  s.target = calib::ParseTarget("chessboard:9x6:30");
+  s.target = calib::ParseTarget("chessboard:12x8:25");
   s.housed.port = ConcentricDome();  // in air: the camera alone, whatever the focus
+  if (lens) s.camera = camera::FromBrown(*lens, s.housed.camera.sensor);
   SetOptions so;
   so.count = kCalibImages;
-  const auto poses = SetPoses(s, so);
-  ASSERT_EQ(poses.size(), static_cast<std::size_t>(kCalibImages));
+  so.margin = kCalibMargin;
+  set.poses = SetPoses(s, so);
+  return set;
+}
+
+// Calibrates the renders of the air set and checks the issue's bounds: c within 0.02 %, the
+// distortion within 0.05 px everywhere in the frame.
+void ExpectAirSetRecoversTheCamera(const AirSet& set, const char* what) {
+  ASSERT_EQ(set.poses.size(), static_cast<std::size_t>(kCalibImages));
+  // The ground truth calibrates to the rendering camera itself (to rounding): the renderer and the
+  // calibration agree on c, the principal point, the pixel convention and the distortion's sense.
   camera::Camera truth;
-  const calib::CalibrationResult cal = CalibrateRenders(s, poses, Medium::kAir, kCalibSpp, &truth);
+  const calib::CalibrationResult exact = CalibrateTruth(set.scene, set.poses, Medium::kAir);
+  const calib::CalibrationResult cal = CalibrateRenders(set.scene, set.poses, Medium::kAir, &truth);
   ASSERT_EQ(cal.n_images, kCalibImages);
+  EXPECT_NEAR(exact.camera.params[camera::kBrownC] / truth.params[camera::kBrownC], 1, 1e-12);
+  EXPECT_LT(DistortionDifferencePx(exact.camera, truth), 1e-9);
   const double c_true = truth.params[camera::kBrownC];
-  const double c_fit = cal.camera.params[camera::kBrownC];
-  RecordProperty("c_rel_error", std::to_string(c_fit / c_true - 1));
-  std::printf("c rel error %.2e, rms %.4f px\n", c_fit / c_true - 1, cal.rms_px);
-  // The error lies within the calibration's own uncertainty (3σ), which the corner noise of ten
-  // small frames at 9 spp sets at a few 1e-4 (docs/render.md); a bias of the renderer (a wrong
-  // camera, a port that is not the identity) would stand out of it.
+  const double c_error = cal.camera.params[camera::kBrownC] / c_true - 1;
   const double sigma_rel = cal.sigma[camera::kBrownC] / c_true;
-  std::printf("c sigma %.2e\n", sigma_rel);
-  EXPECT_LT(std::abs(c_fit / c_true - 1), 3 * sigma_rel);
-  EXPECT_LT(sigma_rel, 1e-3);
-  // The calibrated distortion (the rendering camera has none) over the frame: the length of the
-  // Brown correction at each pixel, in px.
-  double worst = 0;
-  const double pitch = truth.sensor.pixel_pitch_mm;
-  for (const Vec2& uv : camera::FramePixels(truth.sensor, 9, 7)) {
-    const auto xy = camera::PixelToImageMm<double>(truth.sensor, uv.x(), uv.y());
-    worst = std::max(worst, camera::Correction<double>(cal.camera.params.data(), xy.x(), xy.y()).norm() / pitch);
-  }
-  std::printf("calibrated distortion over the frame: max %.4f px\n", worst);
-  RecordProperty("distortion_max_px", std::to_string(worst));
-  EXPECT_LT(worst, 0.5);
+  const double distortion = DistortionDifferencePx(cal.camera, truth);
+  std::printf("%s: c rel error %.1e (sigma %.1e), distortion off by at most %.4f px over the frame, rms %.4f px\n",
+              what, c_error, sigma_rel, distortion, cal.rms_px);
+  ::testing::Test::RecordProperty("c_rel_error", std::to_string(c_error));
+  ::testing::Test::RecordProperty("distortion_max_px", std::to_string(distortion));
+  EXPECT_LT(std::abs(c_error), 2e-4);  // the issue: c within 0.02 %
+  EXPECT_LT(distortion, 0.05);         // the issue: the distortion within 0.05 px over the image
+  // The bound is at least 3σ of this calibration: a bias of the renderer, the detector or the
+  // calibration of a third of it would show.
+  EXPECT_LT(sigma_rel, 2e-4 / 3);
+}
+
+TEST(Render, CalibratingAnAirSetRecoversTheCamera) {
+  // The ideal camera of the lens (no distortion): the fitted K1, K2, P1, P2 must stay near zero
+  // up to the frame's corners.
+  ExpectAirSetRecoversTheCamera(MakeAirSet(std::nullopt), "ideal camera");
+}
+
+TEST(Render, CalibratingAnAirSetRecoversABrownLens) {
+  // The paper's in-air calibration of the D300 + 24 mm (Table 6: barrel K1 = +1.842e-4 mm⁻², 22 px
+  // at the frame's corners here, a principal point 9 px off centre, decentring), the render's
+  // camera: its distortion field recovered over the whole frame.
+  camera::BrownParams lens;
+  lens.c_mm = 25.801;
+  lens.x0_mm = -0.026;
+  lens.y0_mm = -0.144;
+  lens.K1 = 1.842e-4;
+  lens.K2 = -3.030e-7;
+  lens.P1 = 6.582e-6;
+  lens.P2 = 1.620e-5;
+  ExpectAirSetRecoversTheCamera(MakeAirSet(lens), "Table 6 lens");
 }
 
 TEST(Render, TheWaterSetGivesTheCRatioSimulatePredicts) {
   // The as-built NI320 focused under water at 1 m: `porthole simulate`'s water/air ratio of c
-  // (Brown without K3 fitted to rays at 0.8-1.3 m) against calibrations of a rendered set at the
-  // same distances, the same camera, pupil and focus, in water and in air.
+  // (Brown without K3 fitted to rays at 0.8-1.3 m over the whole frame, at the design wavelength)
+  // against calibrations of a rendered set at the same distances, with the same camera, pupil,
+  // focus and wavelength, in water and in air.
   Scene s = PaperScene("nimar-ni320", kCalibWidth);
   simulate::SystemSpec spec;
   static_cast<housing::HousedCamera&>(spec) = s.housed;
@@ -380,20 +588,30 @@ TEST(Render, TheWaterSetGivesTheCRatioSimulatePredicts) {
   s.c_mm = p.camera.lens.c_mm;
   s.f_number = std::numeric_limits<double>::infinity();
   s.bands_nm = {spec.env.conditions.lambda_nm};
-  s.target = calib::ParseTarget("chessboard:9x6:60");
+  s.target = calib::ParseTarget("chessboard:12x8:45");
   SetOptions so;
   so.count = kCalibImages;
   so.near_mm = 800;
   so.far_mm = 1300;
+  so.margin = kCalibMargin;
   const auto poses = SetPoses(s, so);
+  // Without the images: the calibrations of the ground truth give simulate's ratio to a few 1e-5
+  // (their points cover the frame and the distances differently from simulate's grid).
+  const double exact = CalibrateTruth(s, poses, Medium::kWater).camera.params[camera::kBrownC] /
+                       CalibrateTruth(s, poses, Medium::kAir).camera.params[camera::kBrownC];
   camera::Camera truth;
-  const auto water = CalibrateRenders(s, poses, Medium::kWater, kCalibSpp, &truth);
-  const auto air = CalibrateRenders(s, poses, Medium::kAir, kCalibSpp, &truth);
+  const auto water = CalibrateRenders(s, poses, Medium::kWater, &truth);
+  const auto air = CalibrateRenders(s, poses, Medium::kAir, &truth);
   const double measured = water.camera.params[camera::kBrownC] / air.camera.params[camera::kBrownC];
-  std::printf("c water/air: calibrated %.6f, simulate %.6f (difference %.1e); rms water %.3f air %.3f px\n", measured,
-              predicted, measured - predicted, water.rms_px, air.rms_px);
+  const double sigma = measured * std::hypot(water.sigma[camera::kBrownC] / water.camera.params[camera::kBrownC],
+                                             air.sigma[camera::kBrownC] / air.camera.params[camera::kBrownC]);
+  std::printf("c water/air: calibrated %.6f (sigma %.1e), simulate %.6f: difference %.1e; from the ground truth %.1e; "
+              "rms water %.4f air %.4f px\n", measured, sigma, predicted, measured - predicted, exact - predicted,
+              water.rms_px, air.rms_px);
   RecordProperty("c_ratio_difference", std::to_string(measured - predicted));
-  EXPECT_NEAR(measured, predicted, 4e-4);  // measured 2.4e-4 (docs/render.md); the issue asks 2e-4
+  EXPECT_NEAR(exact, predicted, 5e-5);
+  EXPECT_NEAR(measured, predicted, 2e-4);  // the issue's bound
+  EXPECT_LT(sigma, 2e-4 / 3);
 }
 
 }  // namespace
