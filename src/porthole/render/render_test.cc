@@ -401,22 +401,52 @@ TEST(Render, SensorNoiseHasTheStatedSigma) {
   EXPECT_NEAR(sigma, expected, 0.05 * expected);  // σ of a σ estimate from 9600 pixels: 0.7 %
 }
 
+// The field of the InvalidInput that rendering `scene` throws ("" when it renders).
+std::string RefusedField(const Scene& scene, const RenderOptions& o) {
+  try {
+    Render(scene, o);
+  } catch (const InvalidInput& e) {
+    return e.field();
+  }
+  return "";
+}
+
 TEST(Render, BadScenesAreRefusedBeforeAnyPixel) {
+  // Each is refused by the checks before the first pixel, naming what to change; the CLI prints
+  // that one line and writes nothing (tests/cli/test_render_cli.py).
   Scene s = PaperScene();
+  s.focus_distance_mm = 1000;  // focused on the target, the focus solver refuses those first
   RenderOptions o;
   o.samples_per_pixel = 1;
   Scene behind = s;
   behind.pose = PoseFacing(s.target, -500);
-  EXPECT_THROW(Render(behind, o), InvalidInput);
+  EXPECT_EQ(RefusedField(behind, o), "pose");
+  Scene edge_on = s;  // the centre in front, one side of the board behind the pupil
+  edge_on.pose = PoseFacing(s.target, 100, {0, 0}, 0, 88);
+  EXPECT_EQ(RefusedField(edge_on, o), "pose");
   Scene outside = s;
   outside.pose = PoseFacing(s.target, 1200, {900, 0});
-  EXPECT_THROW(Render(outside, o), InvalidInput);
+  EXPECT_EQ(RefusedField(outside, o), "pose");
   Scene inside = s;
   inside.pose = PoseFacing(s.target, 60);
-  EXPECT_THROW(Render(inside, o), InvalidInput);
+  EXPECT_EQ(RefusedField(inside, o), "pose");
+  // A dome whose glass starts beyond its inner vertex: no ray can leave the housing.
+  Scene blind = s;
+  ports::PortSpec dome = ConcentricDome();
+  ports::DomePort shape = std::get<ports::DomePort>(dome.shape);
+  shape.outer.radius_mm = 100;
+  shape.inner.radius_mm = 92;
+  shape.rim_z_mm = 95;
+  dome.shape = shape;
+  blind.housed.port = dome;
+  EXPECT_EQ(RefusedField(blind, o), "port");
   RenderOptions bad = o;
   bad.samples_per_pixel = 5;
-  EXPECT_THROW(Render(s, bad), InvalidInput);
+  EXPECT_EQ(RefusedField(s, bad), "samples_per_pixel");
+  bad = o;
+  bad.edge_samples_per_pixel = 50;
+  EXPECT_EQ(RefusedField(s, bad), "edge_samples_per_pixel");
+  EXPECT_EQ(RefusedField(s, o), "");
 }
 
 // The calibration sets (docs/render.md, "End to end"): ten poses of SetPoses (distances, tilts
