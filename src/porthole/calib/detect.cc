@@ -158,8 +158,8 @@ cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const st
 // whose black border bit ends R = (square - marker)/2 + marker/(bits + 2) from it: the pattern is
 // point-symmetric only that far (the markers' inner bits differ), and the markers' borders cross
 // the window without passing through the corner. A window of half-size R/2 and a blur of R/5
-// (measured on renders against their ground truth: 0.011 px RMS with R = 14 px, 0.019 px with
-// R = 7 px; render_test.cc) do best. R in px comes from the smallest detected marker (its side
+// do best (measured on renders against their ground truth: 0.011 px RMS with R = 14 px, 0.021 px
+// with R = 7 px; render_test.cc). R in px comes from the smallest detected marker (its side
 // times square/marker).
 void RefineCharucoCorners(const cv::Mat& gray, const TargetSpec& t, const std::vector<std::vector<cv::Point2f>>& markers,
                           std::vector<cv::Point2f>* pts) {

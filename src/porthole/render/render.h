@@ -5,6 +5,8 @@
 //  - n = m² stratified sample positions inside the pixel (pixel (u, v) covers [u ± 0.5] × [v ± 0.5],
 //    docs/conventions.md); each is unprojected by the camera model (its distortion applied exactly)
 //    to the chief-ray direction d in the cam frame (origin at the entrance pupil, housing axes).
+//    Optionally the pixels near an edge are rendered again with more samples
+//    (RenderOptions::edge_samples_per_pixel).
 //  - Thin lens (depth of field): the lens is focused at D_S2EP = s in front of the pupil (in the
 //    housing's air: on a virtual image under water). Each sample also takes one point A of the
 //    entrance-pupil disc (radius f / 2N; m × m strata, shuffled per pixel); its ray leaves A toward
@@ -18,7 +20,8 @@
 //    reflection). The lens itself is achromatic: bands differ only through the port and the water.
 //  - A pixel is the mean over its samples, per band; grey = mean of the bands, RGB = each channel
 //    the mean of its bands (λ < 500 nm blue, < 590 nm green, else red). Linear, no gamma:
-//    value = exposure · reflectance (exposure 1: white paper at the style's 0.9).
+//    value = exposure · V · reflectance (exposure 1: white paper at the style's 0.9), V the lens's
+//    vignetting (Scene::natural_vignetting, vignetting_pa; 1 by default).
 //
 // Frames (docs/conventions.md): housing (flange origin, +Z to the scene), cam (entrance pupil,
 // housing axes). The pose is cam_from_target: point_in_cam = R · point_in_target + t (mm).
