@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <cstdlib>
@@ -15,6 +16,10 @@
 
 #include "porthole/core/error.h"
 #include "porthole/optics/batch_isa.h"
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
 
 namespace porthole::optics {
 
@@ -107,7 +112,11 @@ Isa Require(Isa isa, const std::string& field) {
 // it takes blocks itself until none is left, then waits only for blocks other threads already
 // hold. On a machine shared with other jobs a helper the system has not scheduled yet costs
 // nothing (an OpenMP parallel loop, whose end waits for every thread of the team, took ~12 ms for
-// a 0.3 ms batch there); helpers sleep between batches, never spin.
+// a 0.3 ms batch there). Between batches a helper first looks for the next one for kSpin without
+// sleeping, then sleeps: waking a sleeping thread takes tens of µs (longer in a virtual machine),
+// as long as a 32 k-ray batch takes on one core, so back-to-back batches (the renderer's, a
+// benchmark's) would otherwise run mostly on the caller alone. The caller likewise waits kSpin
+// for the last blocks other threads hold before it sleeps. A spin is bounded: idle helpers sleep.
 class BlockPool {
  public:
   static BlockPool& Instance() {
@@ -142,6 +151,7 @@ class BlockPool {
     }
     wake_.notify_all();
     Help(job.get());
+    SpinUntil([&] { return job->done.load(std::memory_order_acquire) == blocks; });
     std::unique_lock<std::mutex> lock(mutex_);
     done_.wait(lock, [&] { return job->done.load() == blocks; });
     job_.reset();
@@ -150,7 +160,7 @@ class BlockPool {
   ~BlockPool() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
+      stop_.store(true);
     }
     wake_.notify_all();
     for (auto& t : helpers_) t.join();
@@ -180,9 +190,23 @@ class BlockPool {
     }
   }
 
+  // Returns when ready() or after kSpin, whichever comes first, without sleeping.
+  template <typename Ready>
+  static void SpinUntil(const Ready& ready) {
+    const auto until = std::chrono::steady_clock::now() + kSpin;
+    for (int i = 0; !ready(); ++i) {
+#if defined(__x86_64__) || defined(__i386__)
+      _mm_pause();
+#endif
+      if (i % 64 == 63 && std::chrono::steady_clock::now() > until) return;
+    }
+  }
+
   void HelperLoop() {
     std::uint64_t seen = 0;
     for (;;) {
+      SpinUntil(
+          [&] { return generation_.load(std::memory_order_acquire) != seen || stop_.load(); });
       std::shared_ptr<Job> job;  // shared: a late helper may still look at a finished job
       {
         std::unique_lock<std::mutex> lock(mutex_);
@@ -197,9 +221,10 @@ class BlockPool {
 
   std::mutex mutex_;
   std::condition_variable wake_, done_;
-  std::shared_ptr<Job> job_;  // the running batch, if any
-  std::uint64_t generation_ = 0;
-  bool stop_ = false;
+  static constexpr std::chrono::microseconds kSpin{100};
+  std::shared_ptr<Job> job_;                  // the running batch, if any
+  std::atomic<std::uint64_t> generation_{0};  // written under mutex_, read by spinning helpers too
+  std::atomic<bool> stop_{false};
   std::vector<std::thread> helpers_;
 };
 
