@@ -24,9 +24,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
-#include <ctime>
+#include <map>
 #include <random>
 #include <string>
 
@@ -34,6 +35,10 @@
 #include "porthole/materials/materials.h"
 #include "porthole/optics/batch.h"
 #include "porthole/ports/port.h"
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace {
 
@@ -95,6 +100,128 @@ void SetRates(benchmark::State& state, double rays_per_iteration, std::size_t su
 
 constexpr std::size_t kRays = 1 << 20;
 
+// ---- The memory roofline: STREAM-like loops over the same bytes, on the tracer's own threads ----
+//
+// Bytes are counted as STREAM counts them: what the program reads plus what it writes (the read
+// a cache line's first write may cost, "read for ownership", is not counted). A trace of a batch
+// out of place reads each ray once and writes it once, whatever the number of surfaces:
+// 6 doubles and a status in, as many out, 98 B per ray.
+constexpr double kTraceBytesPerRay = 2 * (6 * sizeof(double) + sizeof(RayStatus));
+constexpr std::ptrdiff_t kMemBlock = 1 << 14;  // elements per block handed to a thread
+
+enum class MemLoop : std::int64_t { kCopy, kCopyNonTemporal, kTriad };
+const char* Name(MemLoop k) {
+  return k == MemLoop::kCopy              ? "copy"
+         : k == MemLoop::kCopyNonTemporal ? "copy, non-temporal stores"
+                                          : "triad";
+}
+
+// The arrays of one memory loop: `copy` the trace's own (1 M rays in, 1 M out: six double arrays
+// and the statuses, 98 MB), `triad` a = b + s·c over three arrays of 4 M doubles (96 MB).
+struct MemArrays {
+  explicit MemArrays(MemLoop k) : kind(k) {
+    if (kind == MemLoop::kTriad) {
+      for (auto* v : {&a, &b, &c}) v->assign(4 * kRays, 1.0);
+    } else {
+      in.resize(kRays);
+      out.resize(kRays);
+      for (auto* v : {&in.ox, &in.oy, &in.oz, &in.dx, &in.dy, &in.dz}) v->assign(kRays, 1.0);
+    }
+  }
+  double Bytes() const {
+    return kind == MemLoop::kTriad ? 3.0 * sizeof(double) * static_cast<double>(a.size())
+                                   : kTraceBytesPerRay * static_cast<double>(kRays);
+  }
+  // One pass on `threads` threads (the pool TraceBatch uses). `one` is 1.0, read at run time so
+  // that the compiler cannot turn the copy into memcpy (whose large copies use non-temporal
+  // stores: the plain copy is the traffic of ordinary stores, the tracer's).
+  void Run(int threads, double one) {
+    const std::ptrdiff_t n = kind == MemLoop::kTriad ? static_cast<std::ptrdiff_t>(a.size())
+                                                     : static_cast<std::ptrdiff_t>(kRays);
+    porthole::optics::ParallelBlocks(
+        threads, (n + kMemBlock - 1) / kMemBlock, [&](std::ptrdiff_t blk) {
+          const std::ptrdiff_t lo = blk * kMemBlock, hi = std::min(n, lo + kMemBlock);
+          if (kind == MemLoop::kTriad) {
+            double *pa = a.data(), *pb = b.data(), *pc = c.data();
+            for (std::ptrdiff_t i = lo; i < hi; ++i) pa[i] = pb[i] + one * pc[i];
+            return;
+          }
+          const std::vector<double>* src[6] = {&in.ox, &in.oy, &in.oz, &in.dx, &in.dy, &in.dz};
+          std::vector<double>* dst[6] = {&out.ox, &out.oy, &out.oz, &out.dx, &out.dy, &out.dz};
+          const auto* ss = reinterpret_cast<const std::uint8_t*>(in.status.data());
+          auto* ds = reinterpret_cast<std::uint8_t*>(out.status.data());
+          if (kind == MemLoop::kCopy) {
+            for (int k = 0; k < 6; ++k) {
+              const double* x = src[k]->data();
+              double* y = dst[k]->data();
+              for (std::ptrdiff_t i = lo; i < hi; ++i) y[i] = one * x[i];
+            }
+            const auto zero = static_cast<std::uint8_t>(one - 1.0);
+            for (std::ptrdiff_t i = lo; i < hi; ++i) ds[i] = ss[i] ^ zero;
+          } else {
+#if defined(__SSE2__)  // streaming stores (x86-64's baseline has them); arrays are 16-byte aligned
+            for (int k = 0; k < 6; ++k) {
+              const double* x = src[k]->data();
+              double* y = dst[k]->data();
+              for (std::ptrdiff_t i = lo; i < hi; i += 2) _mm_stream_pd(y + i, _mm_load_pd(x + i));
+            }
+            for (std::ptrdiff_t i = lo; i < hi; i += 16) {
+              _mm_stream_si128(reinterpret_cast<__m128i*>(ds + i),
+                               _mm_load_si128(reinterpret_cast<const __m128i*>(ss + i)));
+            }
+            _mm_sfence();
+#endif
+          }
+        });
+  }
+  MemLoop kind;
+  RayBatch in, out;
+  std::vector<double> a, b, c;
+};
+
+// Memory bandwidth (bytes/s, as STREAM counts them) on `threads` threads: the best of 10 passes of
+// both copies (ordinary and non-temporal stores) over the trace's own bytes, measured once per
+// thread count in a run. The roofline the 1 M-ray trace is set against.
+double CopyBandwidth(int threads) {
+  static std::map<int, double> measured;
+  auto [it, fresh] = measured.try_emplace(threads, 0.0);
+  if (!fresh) return it->second;
+  for (const MemLoop kind : {MemLoop::kCopy, MemLoop::kCopyNonTemporal}) {
+    MemArrays m(kind);
+    for (int r = 0; r < 10; ++r) {
+      const auto t0 = std::chrono::steady_clock::now();
+      m.Run(threads, 1.0);
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      it->second = std::max(it->second, m.Bytes() / s);
+    }
+  }
+  return it->second;
+}
+
+// Args: {MemLoop, threads}.
+void BM_MemoryBandwidth(benchmark::State& state) {
+  const auto kind = static_cast<MemLoop>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+#if !defined(__SSE2__)
+  if (kind == MemLoop::kCopyNonTemporal) {
+    state.SkipWithError("no streaming stores in this build");
+    return;
+  }
+#endif
+  MemArrays m(kind);
+  double one = 1.0;
+  benchmark::DoNotOptimize(one);
+  m.Run(threads, one);  // first touch of the output pages
+  for (auto _ : state) {
+    m.Run(threads, one);
+    benchmark::ClobberMemory();
+  }
+  state.counters["bytes_per_s"] = benchmark::Counter(
+      m.Bytes() * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["threads"] = threads;
+  state.SetLabel(Name(kind));
+}
+
 void BM_TraceSingleRayLoop(benchmark::State& state) {
   const auto seq = Ni320().Outward();
   const auto rays = FanOfRays(kRays);
@@ -132,14 +259,24 @@ void BM_TraceBatch(benchmark::State& state) {
   porthole::optics::BatchOptions opt;
   opt.num_threads = static_cast<int>(state.range(1));
   opt.isa = isa;
+  porthole::optics::TraceBatch(seq, in, &out, opt);  // first touch of the output pages
   const double cpu0 = ProcessCpuSeconds();
+  const auto wall0 = std::chrono::steady_clock::now();
   for (auto _ : state) {
     porthole::optics::TraceBatch(seq, in, &out, opt);
     benchmark::DoNotOptimize(out.dx.data());
     benchmark::ClobberMemory();
   }
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   SetRates(state, static_cast<double>(n_rays), seq.size(), ProcessCpuSeconds() - cpu0);
   state.counters["threads"] = opt.num_threads;
+  if (n_rays == kRays) {  // streams from memory: the roofline
+    const double bytes_per_s =
+        kTraceBytesPerRay * static_cast<double>(n_rays * state.iterations()) / wall_s;
+    state.counters["bytes_per_s"] = bytes_per_s;
+    state.counters["of_memory_roofline"] = bytes_per_s / CopyBandwidth(opt.num_threads);
+  }
   // Accuracy beside speed: the batch against the single-ray tracer on a sample of the same rays.
   double max_diff = 0;
   for (std::size_t i = 0; i < rays.size(); i += 97) {
@@ -229,6 +366,20 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
     };
     const double one_thread_s = best_seconds(1);
     const double best_s = best_seconds(2);
+    // What 2 cores can give at most, measured here: twice one core's rate in cache (the first
+    // 32 k rays, best of 100) and the memory roofline (CopyBandwidth: 98 B per ray).
+    RayBatch in_cache, in_cache_out;
+    in_cache.resize(std::size_t{1} << 15);
+    for (std::size_t i = 0; i < in_cache.size(); ++i) in_cache.Set(i, rays[i]);
+    double in_cache_s = 1e30;
+    porthole::optics::BatchOptions one_thread;
+    one_thread.num_threads = 1;
+    for (int r = 0; r < 100; ++r) {
+      const auto t0 = std::chrono::steady_clock::now();
+      porthole::optics::TraceBatch(seq, in_cache, &in_cache_out, one_thread);
+      in_cache_s = std::min(
+          in_cache_s, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
     // The NumPy answer against porthole's, ray by ray.
     std::vector<double> np_rays(6 * n);
     std::vector<std::uint8_t> np_status(n);
@@ -250,6 +401,12 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
     state.counters["porthole_ray_surfaces_per_s"] = rs / best_s;
     state.counters["porthole_over_numpy"] = numpy_s / best_s;
     state.counters["porthole_1thread_over_numpy"] = numpy_s / one_thread_s;
+    // Issue 13's 25×, against the two ceilings of 2 cores (ray-surfaces/s).
+    state.counters["for_25x_ray_surfaces_per_s"] = 25 * rs / numpy_s;
+    state.counters["ceiling_2x1core_in_cache"] =
+        2 * static_cast<double>(in_cache.size() * seq.size()) / in_cache_s;
+    state.counters["ceiling_memory_2threads"] =
+        CopyBandwidth(2) / kTraceBytesPerRay * static_cast<double>(seq.size());
     state.counters["max_dir_diff"] = max_diff;
     state.counters["status_mismatches"] = mismatches;
     state.counters["threads"] = 1;
@@ -261,6 +418,14 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
   for (const auto& p : {rays_path, out_path, spec_path}) std::remove(p.c_str());
 }
 
+// {MemLoop, threads}: the memory loops first, so that the trace's roofline is at hand.
+BENCHMARK(BM_MemoryBandwidth)
+    ->ArgsProduct({{static_cast<std::int64_t>(MemLoop::kCopy),
+                    static_cast<std::int64_t>(MemLoop::kCopyNonTemporal),
+                    static_cast<std::int64_t>(MemLoop::kTriad)},
+                   {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_TraceSingleRayLoop)->Unit(benchmark::kMillisecond)->UseRealTime();
 // {isa, threads, rays}: every kernel on 1 and 2 threads, 1 M rays (memory) and 32 k (cache).
 void BatchArgs(benchmark::internal::Benchmark* b) {
