@@ -18,7 +18,7 @@
 #include "porthole/optics/batch_isa.h"
 
 #if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
+#include <immintrin.h>  // _mm_pause; SSE2 streaming stores
 #endif
 
 namespace porthole::optics {
@@ -228,14 +228,76 @@ class BlockPool {
   std::vector<std::thread> helpers_;
 };
 
-// One interface over rays [begin, end) of `in`, written to `out` (which may be `in`).
-void TraceRange(const batch_detail::Kernels& k, const Interface& f, const RayBatch& in,
-                RayBatch* out, std::ptrdiff_t begin, std::ptrdiff_t end) {
-  const batch_detail::SoaView v{in.ox.data(), in.oy.data(), in.oz.data(), in.dx.data(),
-                                in.dy.data(), in.dz.data(), in.status.data()};
-  const batch_detail::SoaOut o{out->ox.data(), out->oy.data(), out->oz.data(), out->dx.data(),
-                               out->dy.data(), out->dz.data(), out->status.data()};
-  (f.surface.kind == Surface::Kind::kSphere ? k.sphere : k.plane)(f, v, o, begin, end);
+// Rays per block: small enough to stay in L1/L2 across the surfaces of the sequence.
+constexpr std::ptrdiff_t kBlock = 1024;
+
+batch_detail::SoaView ViewOf(const RayBatch& b, std::ptrdiff_t at) {
+  return {b.ox.data() + at, b.oy.data() + at, b.oz.data() + at, b.dx.data() + at,
+          b.dy.data() + at, b.dz.data() + at, b.status.data() + at};
+}
+batch_detail::SoaOut OutOf(RayBatch* b, std::ptrdiff_t at) {
+  return {b->ox.data() + at, b->oy.data() + at, b->oz.data() + at, b->dx.data() + at,
+          b->dy.data() + at, b->dz.data() + at, b->status.data() + at};
+}
+batch_detail::SoaView ViewOf(const batch_detail::SoaOut& o) {
+  return {o.ox, o.oy, o.oz, o.dx, o.dy, o.dz, o.status};
+}
+
+// One interface over rays [0, m) of `in`, written to `out` (which may be `in`).
+void TraceRange(const batch_detail::Kernels& k, const Interface& f, const batch_detail::SoaView& in,
+                const batch_detail::SoaOut& out, std::ptrdiff_t m) {
+  (f.surface.kind == Surface::Kind::kSphere ? k.sphere : k.plane)(f, in, out, 0, m);
+}
+
+// Out-of-place batches of BatchOptions::stream_min rays or more write their results with
+// streaming (non-temporal) stores: each block is traced into a small per-thread buffer, then
+// copied to `out` past the cache. An ordinary store first reads the line it writes ("read for
+// ownership"), so a batch streamed from memory would move 49 B more per ray than it reads and
+// writes. Smaller batches (the renderer's: ~1000 rays, read back at once) keep ordinary stores.
+bool StreamStoresWork(const RayBatch& out) {
+#if defined(__SSE2__)
+  for (const void* p : {static_cast<const void*>(out.ox.data()), static_cast<const void*>(out.oy.data()),
+                        static_cast<const void*>(out.oz.data()), static_cast<const void*>(out.dx.data()),
+                        static_cast<const void*>(out.dy.data()), static_cast<const void*>(out.dz.data()),
+                        static_cast<const void*>(out.status.data())}) {
+    if (reinterpret_cast<std::uintptr_t>(p) % 16 != 0) return false;
+  }
+  return true;
+#else
+  (void)out;
+  return false;
+#endif
+}
+
+// Copies m rays from `from` to `to` with streaming stores; `to` 16-byte aligned (StreamStoresWork).
+void StreamCopy(const batch_detail::SoaOut& from, const batch_detail::SoaOut& to, std::ptrdiff_t m) {
+#if defined(__SSE2__)
+  const double* src[6] = {from.ox, from.oy, from.oz, from.dx, from.dy, from.dz};
+  double* dst[6] = {to.ox, to.oy, to.oz, to.dx, to.dy, to.dz};
+  const std::ptrdiff_t m2 = m - m % 2, m16 = m - m % 16;
+  for (int k = 0; k < 6; ++k) {
+    for (std::ptrdiff_t i = 0; i < m2; i += 2) _mm_stream_pd(dst[k] + i, _mm_loadu_pd(src[k] + i));
+    if (m2 < m) dst[k][m2] = src[k][m2];
+  }
+  for (std::ptrdiff_t i = 0; i < m16; i += 16) {
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to.status + i),
+                     _mm_loadu_si128(reinterpret_cast<const __m128i*>(from.status + i)));
+  }
+  for (std::ptrdiff_t i = m16; i < m; ++i) to.status[i] = from.status[i];
+  _mm_sfence();  // streaming stores are weakly ordered: done before the block is reported done
+#else
+  (void)from, (void)to, (void)m;
+#endif
+}
+
+// A per-thread buffer of kBlock rays (on the heap: large thread_local storage does not suit a
+// library the Python module loads).
+batch_detail::SoaOut BlockBuffer() {
+  thread_local std::vector<double> xyz(6 * kBlock);
+  thread_local std::vector<RayStatus> status(kBlock);
+  double* p = xyz.data();
+  return {p, p + kBlock, p + 2 * kBlock, p + 3 * kBlock, p + 4 * kBlock, p + 5 * kBlock,
+          status.data()};
 }
 
 }  // namespace
@@ -276,17 +338,18 @@ void TraceBatch(const std::vector<Interface>& seq, const RayBatch& in, RayBatch*
     if (out != &in) *out = in;
     return;
   }
-  // Blocks small enough to stay in L1/L2 across the surfaces of the sequence.
-  constexpr std::ptrdiff_t kBlock = 1024;
   const std::ptrdiff_t blocks = (n + kBlock - 1) / kBlock;
   const int threads = static_cast<std::size_t>(n) < options.min_parallel ? 1
                       : options.num_threads > 0                        ? options.num_threads
                                                                        : omp_get_max_threads();
+  const bool stream = out != &in && in.size() >= options.stream_min && StreamStoresWork(*out);
   BlockPool::Instance().Run(threads, blocks, [&](std::ptrdiff_t b) {
     const std::ptrdiff_t begin = b * kBlock;
-    const std::ptrdiff_t end = std::min(n, begin + kBlock);
-    TraceRange(kernels, seq.front(), in, out, begin, end);
-    for (std::size_t k = 1; k < seq.size(); ++k) TraceRange(kernels, seq[k], *out, out, begin, end);
+    const std::ptrdiff_t m = std::min(n, begin + kBlock) - begin;
+    const batch_detail::SoaOut o = stream ? BlockBuffer() : OutOf(out, begin);
+    TraceRange(kernels, seq.front(), ViewOf(in, begin), o, m);
+    for (std::size_t k = 1; k < seq.size(); ++k) TraceRange(kernels, seq[k], ViewOf(o), o, m);
+    if (stream) StreamCopy(o, OutOf(out, begin), m);
   });
 }
 

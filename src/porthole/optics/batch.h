@@ -48,6 +48,10 @@ struct BatchOptions {
   int num_threads = 0;  // 0: every core (omp_get_max_threads(), so OMP_NUM_THREADS); 1: this thread
   std::size_t min_parallel = 4096;  // smaller batches run on one thread: threads cost ~10 µs
   Isa isa = Isa::kAuto;            // the kernel's instruction set (see ResolveIsa)
+  // Out-of-place batches of at least this many rays write their results with streaming
+  // (non-temporal) stores, past the cache: for batches larger than the cache, whose results are
+  // not in it when read anyway, this saves the memory read an ordinary store makes first.
+  std::size_t stream_min = std::size_t{1} << 18;
 };
 
 // Traces every ray in `rays` through `seq`, in place: on return each ray with status kOk is the
