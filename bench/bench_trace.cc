@@ -79,6 +79,12 @@ RayBatch ToBatch(const std::vector<Ray>& rays) {
   return b;
 }
 
+double ThreadCpuSeconds() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 double ProcessCpuSeconds() {
   timespec t;
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
@@ -333,7 +339,7 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
   }
   const std::string cmd =
       "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_trace_numpy.py " + spec_path;
-  double numpy_s = 0;
+  double numpy_s = 0, numpy_cpu_s = 0;
   for (auto _ : state) {
     std::string text;
     if (FILE* p = popen(cmd.c_str(), "r")) {
@@ -347,6 +353,8 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
       break;
     }
     numpy_s = std::stod(text.substr(at + 11));
+    const auto cpu_at = text.find("\"cpu_seconds\": ");
+    numpy_cpu_s = cpu_at == std::string::npos ? 0 : std::stod(text.substr(cpu_at + 15));
     state.SetIterationTime(numpy_s);
   }
   if (numpy_s > 0) {
@@ -371,14 +379,25 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
     RayBatch in_cache, in_cache_out;
     in_cache.resize(std::size_t{1} << 15);
     for (std::size_t i = 0; i < in_cache.size(); ++i) in_cache.Set(i, rays[i]);
-    double in_cache_s = 1e30;
+    // Each also per second of CPU time (best of the same runs), which other jobs on the machine
+    // disturb far less than wall-clock time: NumPy runs on one thread, and porthole's one-thread
+    // runs on this one.
+    double in_cache_s = 1e30, in_cache_cpu_s = 1e30;
     porthole::optics::BatchOptions one_thread;
     one_thread.num_threads = 1;
     for (int r = 0; r < 100; ++r) {
       const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = ThreadCpuSeconds();
       porthole::optics::TraceBatch(seq, in_cache, &in_cache_out, one_thread);
+      in_cache_cpu_s = std::min(in_cache_cpu_s, ThreadCpuSeconds() - c0);
       in_cache_s = std::min(
           in_cache_s, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    double one_thread_cpu_s = 1e30;
+    for (int r = 0; r < 4 * kRepeats; ++r) {
+      const double c0 = ThreadCpuSeconds();
+      porthole::optics::TraceBatch(seq, in, &out, one_thread);
+      one_thread_cpu_s = std::min(one_thread_cpu_s, ThreadCpuSeconds() - c0);
     }
     // The NumPy answer against porthole's, ray by ray.
     std::vector<double> np_rays(6 * n);
@@ -407,6 +426,13 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
         2 * static_cast<double>(in_cache.size() * seq.size()) / in_cache_s;
     state.counters["ceiling_memory_2threads"] =
         CopyBandwidth(2) / kTraceBytesPerRay * static_cast<double>(seq.size());
+    if (numpy_cpu_s > 0) {  // the same per CPU-second
+      state.counters["numpy_ray_surfaces_per_cpu_s"] = rs / numpy_cpu_s;
+      state.counters["for_25x_per_cpu_s"] = 25 * rs / numpy_cpu_s;
+      state.counters["porthole_1thread_over_numpy_per_cpu_s"] = numpy_cpu_s / one_thread_cpu_s;
+      state.counters["ceiling_2x1core_in_cache_per_cpu_s"] =
+          2 * static_cast<double>(in_cache.size() * seq.size()) / in_cache_cpu_s;
+    }
     state.counters["max_dir_diff"] = max_diff;
     state.counters["status_mismatches"] = mismatches;
     state.counters["threads"] = 1;
