@@ -113,10 +113,10 @@ Isa Require(Isa isa, const std::string& field) {
 // hold. On a machine shared with other jobs a helper the system has not scheduled yet costs
 // nothing (an OpenMP parallel loop, whose end waits for every thread of the team, took ~12 ms for
 // a 0.3 ms batch there). Between batches a helper first looks for the next one for kSpin without
-// sleeping, then sleeps: waking a sleeping thread takes tens of µs (longer in a virtual machine),
-// as long as a 32 k-ray batch takes on one core, so back-to-back batches (the renderer's, a
-// benchmark's) would otherwise run mostly on the caller alone. The caller likewise waits kSpin
-// for the last blocks other threads hold before it sleeps. A spin is bounded: idle helpers sleep.
+// sleeping, then sleeps, so that back-to-back batches (the renderer's, a benchmark's) find it
+// awake rather than waiting on the system to wake it (a system call and a reschedule, for a batch
+// that may itself take only some 100 µs). The caller likewise waits kSpin for the last blocks
+// other threads hold before it sleeps. A spin is bounded: idle helpers sleep.
 class BlockPool {
  public:
   static BlockPool& Instance() {
