@@ -40,7 +40,10 @@ def test_readme_lists_the_commands_it_should():
 
 def test_every_readme_line_runs(tmp_path):
     script = ["set -euo pipefail"]
+    py_dir = os.environ.get("PORTHOLE_PY_DIR")
     for k, cmd in enumerate(readme_commands()):
+        if not py_dir and "python3" in cmd:
+            continue  # a build without the Python module (make test-sanitize): its lines cannot run
         script.append(f"echo {k}: {shlex_quote(cmd)} >&2")
         script.append(cmd)
     env = dict(os.environ)
@@ -49,7 +52,6 @@ def test_every_readme_line_runs(tmp_path):
     # when it was configured elsewhere.
     bin_dir = os.path.dirname(os.path.abspath(BIN)) if os.sep in BIN else ""
     env["PATH"] = env.get("PATH", "") + (os.pathsep + bin_dir if bin_dir else "")
-    py_dir = os.environ.get("PORTHOLE_PY_DIR")
     if py_dir:
         env["PYTHONPATH"] = py_dir
     proc = subprocess.run(["bash", "-c", "\n".join(script)], cwd=ROOT, env=env, capture_output=True, text=True,
