@@ -50,6 +50,7 @@ struct RenderCliOptions {
   std::vector<std::string> distances;
   double max_tilt_deg = 35;
   bool quiet = false, json = false;
+  bool white_on_black = false;
 };
 
 double ParseLengthOrInf(const std::string& text, const std::string& field) {
@@ -129,6 +130,7 @@ void RunRender(const RenderCliOptions& o) {
   if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed.camera.sensor.pixel_pitch_mm);
   scene.c_mm = o.c_mm;
   scene.bands_nm = o.bands;
+  if (o.white_on_black) std::swap(scene.style.black, scene.style.white);
   render::RenderOptions ro;
   ro.samples_per_pixel = o.spp;
   ro.edge_samples_per_pixel = o.edge_spp;
@@ -230,7 +232,7 @@ void RegisterRender(CLI::App& app) {
       ->required();
   cmd->add_option("--target", o->target,
                   "chessboard:COLSxROWS:SQUARE_MM | charuco:SQXxSQY:SQUARE_MM:MARKER_MM[:DICT] | circles:COLSxROWS:MM | "
-                  "acircles:COLSxROWS:MM")
+                  "acircles:COLSxROWS:MM | coded:BITS:RADIUS_MM[:PROFILE] (the default sheet of 'porthole target-sheet')")
       ->capture_default_str();
   cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
       ->capture_default_str()->group("Port");
@@ -275,6 +277,8 @@ void RegisterRender(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Random seed (the same seed gives the same image)")->capture_default_str()->group("Image");
   cmd->add_option("--exposure", o->exposure, "Pixel value = exposure x reflectance (white paper 0.9)")
       ->capture_default_str()->group("Image");
+  cmd->add_flag("--white-on-black", o->white_on_black, "Print white on black: the ink reflects as the paper and back "
+                "(coded targets under water)")->group("Image");
   cmd->add_option("--noise", o->noise, "Sensor noise FULL_WELL,READ in electrons (shot + read; default none)")
       ->delimiter(',')->expected(2)->group("Image");
   cmd->add_option("--set", o->set, "Render N seeded poses in water and in air into --out/water and --out/air")

@@ -6,6 +6,10 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <vector>
 
 namespace porthole::coded {
 
@@ -41,6 +45,59 @@ inline Eigen::Vector2d EccentricityPx(double f_px, const Eigen::Matrix3d& cam_fr
   const double den = t.z() * t.z() - radius * radius * (r1.z() * r1.z() + r2.z() * r2.z());
   const Eigen::Vector2d ellipse = (t.z() * t.head<2>() - radius * radius * s.head<2>()) / den;
   return f_px * (ellipse - t.head<2>() / t.z());
+}
+
+// Centre of the conic fitted to `points` (pixels) by algebraic least squares (a u² + b uv + c v² +
+// d u + e v + f = 0, unit coefficient norm, the points centred and scaled first): the gradient's
+// zero. Exact for points on a conic; for a closed curve that is nearly one (a circle imaged
+// through distortion or a port), the centre an ellipse-fitting detector measures from edge points
+// spread round the curve. nullopt with fewer than 6 points or when the fit is no ellipse.
+inline std::optional<Eigen::Vector2d> ConicCentreOfPoints(const std::vector<Eigen::Vector2d>& points) {
+  const int n = static_cast<int>(points.size());
+  if (n < 6) return std::nullopt;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& p : points) mean += p;
+  mean /= n;
+  double spread = 0;
+  for (const auto& p : points) spread += (p - mean).norm();
+  spread /= n;
+  if (!(spread > 0)) return std::nullopt;
+  Eigen::MatrixXd design(n, 6);
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector2d q = (points[k] - mean) / spread;
+    design.row(k) << q.x() * q.x(), q.x() * q.y(), q.y() * q.y(), q.x(), q.y(), 1;
+  }
+  const Eigen::Matrix<double, 6, 6> ata = design.transpose() * design;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(ata);
+  const Eigen::Matrix<double, 6, 1> c = es.eigenvectors().col(0);
+  Eigen::Matrix2d m;
+  m << 2 * c(0), c(1), c(1), 2 * c(2);
+  if (!(m.determinant() > 0 || m.determinant() < 0) || 4 * c(0) * c(2) - c(1) * c(1) <= 0) return std::nullopt;
+  const Eigen::Vector2d centre = m.inverse() * Eigen::Vector2d(-c(3), -c(4));
+  if (!centre.allFinite()) return std::nullopt;
+  return Eigen::Vector2d(mean + spread * centre);
+}
+
+// What a perfect ellipse-centre detector measures for a circle of `radius` about `centre` in the
+// plane spanned by the orthonormal `axis1`, `axis2` (any 3-D frame, the units of `project`'s
+// input): the centre of the conic fitted to `n_rim` points of the rim spread evenly round it, each
+// imaged by `project` (a callable Eigen::Vector3d → std::optional<Eigen::Vector2d>: a camera
+// model, or a trace through a port). Exactly ConicCentreOfCircle under a homography; through
+// distortion or a port, where a circle's image is no conic, the centre of the ellipse that best
+// fits it. nullopt when a rim point cannot be imaged.
+template <class Project>
+std::optional<Eigen::Vector2d> ImagedCircleCentre(Project&& project, const Eigen::Vector3d& centre,
+                                                  const Eigen::Vector3d& axis1, const Eigen::Vector3d& axis2,
+                                                  double radius, int n_rim = 32) {
+  std::vector<Eigen::Vector2d> rim;
+  rim.reserve(n_rim);
+  for (int k = 0; k < n_rim; ++k) {
+    const double a = 2 * std::numbers::pi * k / n_rim;
+    const std::optional<Eigen::Vector2d> uv = project(Eigen::Vector3d(centre + radius * (std::cos(a) * axis1 + std::sin(a) * axis2)));
+    if (!uv) return std::nullopt;
+    rim.push_back(*uv);
+  }
+  return ConicCentreOfPoints(rim);
 }
 
 }  // namespace porthole::coded

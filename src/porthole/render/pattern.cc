@@ -5,10 +5,13 @@
 #include <array>
 #include <cmath>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <opencv2/aruco/charuco.hpp>
 
 #include "porthole/calib/detect.h"
+#include "porthole/coded/codes.h"
+#include "porthole/coded/sheet.h"
 #include "porthole/core/error.h"
 
 namespace porthole::render {
@@ -129,6 +132,56 @@ Reflectance CharucoReflectance(const TargetSpec& t, const PatternStyle& st) {
   };
 }
 
+// ---- Coded targets: the sheet `porthole target-sheet` prints with its defaults for the spec's
+// bits, profile and dot radius (calib/target.h): the paper is the board, a target's dot and its
+// ring segments (coded/sheet.h: RingArcs) are the ink. The IDs printed beside the targets, the
+// scale bar and the caption are not drawn. Ink is the style's black, paper its white (swap them
+// for white targets on black).
+coded::SheetLayout CodedLayout(const TargetSpec& t) {
+  coded::SheetOptions o;
+  o.bits = t.code_bits;
+  o.profile = coded::ParseProfile(t.code_profile, "--target");
+  o.radius_mm = t.dot_radius_mm;
+  return coded::LayoutSheet(o);
+}
+Extent CodedExtent(const TargetSpec& t, const PatternStyle&) {
+  const coded::SheetLayout l = CodedLayout(t);
+  return {0, 0, l.width_mm, l.height_mm};
+}
+Reflectance CodedReflectance(const TargetSpec& t, const PatternStyle& st) {
+  const coded::SheetLayout l = CodedLayout(t);
+  const Extent paper{0, 0, l.width_mm, l.height_mm};
+  const coded::RingRadii ring = coded::Ring(l.options.profile);
+  const int bits = l.options.bits;
+  const double r = l.options.radius_mm, pitch = l.pitch_mm;
+  const double r_in = ring.inner * r, r_out = ring.outer * r;
+  // The targets lie on a grid of `pitch` from the first one: (column, row) → its code, or none.
+  const Eigen::Vector2d first = l.targets.front().xyz_mm.head<2>();
+  auto codes = std::make_shared<std::vector<std::optional<uint32_t>>>(static_cast<std::size_t>(l.cols) * l.rows);
+  for (const auto& p : l.targets) {
+    const long i = std::lround((p.xyz_mm.x() - first.x()) / pitch), j = std::lround((p.xyz_mm.y() - first.y()) / pitch);
+    PORTHOLE_CHECK(i >= 0 && j >= 0 && i < l.cols && j < l.rows);
+    (*codes)[j * l.cols + i] = coded::CodeOfId(l.options.profile, bits, p.id);
+  }
+  return [=](double x, double y) {
+    if (!Inside(paper, x, y)) return st.background;
+    const long i = std::lround((x - first.x()) / pitch), j = std::lround((y - first.y()) / pitch);
+    if (i < 0 || j < 0 || i >= l.cols || j >= l.rows) return st.white;
+    const auto& code = (*codes)[j * l.cols + i];
+    if (!code) return st.white;
+    const double dx = x - (first.x() + i * pitch), dy = y - (first.y() + j * pitch);
+    const double d2 = dx * dx + dy * dy;
+    if (d2 <= r * r) return st.black;
+    if (d2 < r_in * r_in || d2 > r_out * r_out) return st.white;
+    // Segment k spans [2πk/bits, 2π(k+1)/bits) clockwise on the sheet from +X toward +Y (y down),
+    // and is bit bits − 1 − k (the first segment read is the most significant).
+    double a = std::atan2(dy, dx);
+    if (a < 0) a += 2 * std::numbers::pi;
+    const int k = std::min(bits - 1, static_cast<int>(a * bits / (2 * std::numbers::pi)));
+    return ((*code >> (bits - 1 - k)) & 1u) ? st.black : st.white;
+  };
+}
+
 }  // namespace
 
 const std::vector<TargetDrawing>& TargetDrawings() {
@@ -137,6 +190,7 @@ const std::vector<TargetDrawing>& TargetDrawings() {
       {TargetKind::kCharuco, "charuco", &CharucoReflectance, &CharucoExtent},
       {TargetKind::kCircles, "circles", &CirclesReflectance, &CirclesExtent},
       {TargetKind::kAsymmetricCircles, "acircles", &CirclesReflectance, &CirclesExtent},
+      {TargetKind::kCoded, "coded", &CodedReflectance, &CodedExtent},
   };
   return list;
 }
@@ -156,6 +210,15 @@ Reflectance MakeReflectance(const TargetSpec& target, const PatternStyle& style)
 
 Extent BoardExtent(const TargetSpec& target, const PatternStyle& style) {
   return DrawingOf(target).extent(target, style);
+}
+
+double DotRadiusMm(const TargetSpec& target) {
+  switch (target.kind) {
+    case TargetKind::kCoded: return target.dot_radius_mm;
+    case TargetKind::kCircles:
+    case TargetKind::kAsymmetricCircles: return CircleRadius(target);
+    default: return 0;
+  }
 }
 
 }  // namespace porthole::render

@@ -52,4 +52,9 @@ Reflectance MakeReflectance(const calib::TargetSpec& target, const PatternStyle&
 // The board's outline (its entry's `extent`).
 Extent BoardExtent(const calib::TargetSpec& target, const PatternStyle& style = {});
 
+// The radius (mm) of the printed dot whose centre is each point of a target of circles: coded
+// targets (the spec's dot radius), circle grids (a quarter of the spacing; asymmetric grids 0.3 of
+// it); 0 for targets whose points are corners (chessboard, ChArUco).
+double DotRadiusMm(const calib::TargetSpec& target);
+
 }  // namespace porthole::render

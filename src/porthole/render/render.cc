@@ -16,6 +16,7 @@
 #include "porthole/core/error.h"
 #include "porthole/io/presets.h"
 #include "porthole/optics/batch.h"
+#include "porthole/render/dots.h"
 
 namespace porthole::render {
 namespace {
@@ -317,7 +318,9 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s) {
   const Extent e = BoardExtent(scene.target, scene.style);
   std::vector<Vec3> check = {Vec3(e.x_min, e.y_min, 0), Vec3(e.x_max, e.y_min, 0), Vec3(e.x_min, e.y_max, 0),
                              Vec3(e.x_max, e.y_max, 0)};
-  for (const Vec3& p : pts) check.push_back(p);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (scene.target.kind != calib::TargetKind::kCoded || i > 0) check.push_back(pts[i]);  // coded: id 0 is no target
+  }
   for (const Vec3& p : check) {
     const Vec3 c = scene.pose.Apply(p);
     if (!(c.z() > 0)) {
@@ -332,6 +335,7 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s) {
   const camera::Sensor& sensor = s.camera.sensor;
   std::vector<TruthPoint> out;
   for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (scene.target.kind == calib::TargetKind::kCoded && i == 0) continue;  // coded ids are target IDs, from 1
     TruthPoint tp;
     tp.id = static_cast<int>(i);
     tp.point_in_target_mm = pts[i];
@@ -687,6 +691,10 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
   }
   j["points_note"] = "px: the point's image per band (the order of bands): its chief ray traced through the port";
   j["points"] = points;
+  if (DotRadiusMm(scene.target) > 0) {  // circular targets: what an ellipse-centre detector measures (render/dots.h)
+    j["dot_centres_note"] = "px: the centre of each dot's image per band (the ellipse fitted to its traced rim)";
+    j["dot_centres"] = DotCentresJson(scene, s);
+  }
   return j;
 }
 

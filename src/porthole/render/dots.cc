@@ -1,0 +1,51 @@
+#include "porthole/render/dots.h"
+
+#include <fmt/format.h>
+
+#include "porthole/calib/target.h"
+#include "porthole/coded/ellipse.h"
+#include "porthole/core/error.h"
+
+namespace porthole::render {
+
+std::optional<Eigen::Vector2d> DotImageCentre(const Setup& setup, const Band& band, const Pose& pose,
+                                              const Eigen::Vector3d& centre_in_target_mm, double radius_mm, int n_rim) {
+  const auto project = [&](const Eigen::Vector3d& p) { return ProjectThroughPort(setup, band, pose, p); };
+  return coded::ImagedCircleCentre(project, centre_in_target_mm, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(),
+                                   radius_mm, n_rim);
+}
+
+std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup) {
+  const double radius = DotRadiusMm(scene.target);
+  std::vector<DotTruth> out;
+  if (!(radius > 0)) return out;
+  const auto pts = calib::TargetPoints(scene.target);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (scene.target.kind == calib::TargetKind::kCoded && i == 0) continue;  // coded ids are target IDs, from 1
+    DotTruth d;
+    d.id = static_cast<int>(i);
+    for (const Band& b : setup.bands) {
+      const auto c = DotImageCentre(setup, b, scene.pose, pts[i], radius);
+      if (!c) {
+        throw InvalidInput("port", fmt::format("the rim of dot {} cannot be imaged through the port at {:g} nm", i,
+                                               b.lambda_nm));
+      }
+      d.centre_px_per_band.push_back(*c);
+    }
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
+nlohmann::ordered_json DotCentresJson(const Scene& scene, const Setup& setup) {
+  using Json = nlohmann::ordered_json;
+  Json a = Json::array();
+  for (const DotTruth& d : DotImageCentres(scene, setup)) {
+    Json px = Json::array();
+    for (const Eigen::Vector2d& uv : d.centre_px_per_band) px.push_back({uv.x(), uv.y()});
+    a.push_back({{"id", d.id}, {"px", px}});
+  }
+  return a;
+}
+
+}  // namespace porthole::render
