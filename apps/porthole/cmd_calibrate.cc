@@ -187,6 +187,7 @@ void RegisterCalibrate(CLI::App& app) {
     std::vector<double> port_sigma;
     bool plan_only = false;
     double plan_sigma_px = 0.3;
+    std::string centre_correction = "auto";
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -218,6 +219,11 @@ void RegisterCalibrate(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--free-target", o->calib.target_free,
                 "Adjust the target points too (self-calibration; datum: 7 coordinates of 3 points)");
+  cmd->add_option("--centre-correction", o->centre_correction,
+                  "Circular targets: compare each centre with the centre of the dot's image through the camera, not the "
+                  "image of the dot's centre: auto (on for coded targets) | on | off")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
   cmd->add_flag("--drop-insignificant", o->calib.drop_insignificant,
                 "Drop additional parameters with |p|/std < --significance-t, stepwise");
   cmd->add_option("--significance-t", o->calib.significance_t, "Significance threshold |p|/std")
@@ -265,6 +271,8 @@ void RegisterCalibrate(CLI::App& app) {
     if (!o->images.empty() && o->target.empty()) {
       throw InvalidInput("--target", "required with --images");
     }
+    using CC = calib::CalibrationOptions::CentreCorrection;
+    o->calib.centre_correction = o->centre_correction == "on" ? CC::kOn : o->centre_correction == "off" ? CC::kOff : CC::kAuto;
     o->calib.model = camera::ModelFromName(o->model, "--model");
     o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
     o->calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o->pitch_mm);

@@ -15,6 +15,7 @@
 
 #include "porthole/calib/residual.h"
 #include "porthole/calib/scales.h"
+#include "porthole/coded/ellipse.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
@@ -28,6 +29,9 @@ struct Observation {
   double u_px = 0, v_px = 0;  // the measurement
   double x_mm = 0, y_mm = 0;  // the same in image mm (the Brown model's analytic residual)
   bool active = true;
+  // The detector's measurement; u_px, v_px (and x_mm, y_mm) are it minus the centre offset of a
+  // circular target (CalibrationOptions::centre_correction), or it unchanged.
+  double measured_u_px = 0, measured_v_px = 0;
 };
 
 template <int N>
@@ -612,7 +616,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     for (std::size_t k = 0; k < d.ids.size(); ++k) {
       const Eigen::Vector2d& uv = d.points_px[k];
       const Eigen::Vector2d xy = camera::PixelToImageMm(sensor, uv.x(), uv.y());
-      obs.push_back({static_cast<int>(i), d.ids[k], uv.x(), uv.y(), xy.x(), xy.y(), true});
+      obs.push_back({static_cast<int>(i), d.ids[k], uv.x(), uv.y(), xy.x(), xy.y(), true, uv.x(), uv.y()});
       used_points.insert(d.ids[k]);
     }
   }
@@ -620,8 +624,42 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
   const int n_point_unknowns = options.target_free ? 3 * static_cast<int>(used_points.size()) - 7 : 0;
 
 
+  // The centre offsets of circular targets from the current estimate (see centre_correction);
+  // returns the largest change of an offset, px.
+  const double dot_r = res.dot_radius_mm;
+  const auto update_offsets = [&]() {
+    if (!(dot_r > 0)) return 0.0;
+    camera::Camera cam = res.camera;
+    cam.params.assign(s.camera.begin(), s.camera.end());
+    double change = 0, largest = 0;
+    for (auto& ob : obs) {
+      Eigen::Matrix3d r;
+      ceres::AngleAxisToRotationMatrix(s.rotation[ob.image].data(), r.data());
+      const Eigen::Vector3d t(s.translation[ob.image].data());
+      const auto project = [&](const Eigen::Vector3d& x) { return cam.Project(r * x + t); };
+      const Eigen::Vector3d& x = s.points[ob.point];
+      const auto projected = project(x);
+      const auto centre = coded::ImagedCircleCentre(project, x, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), dot_r);
+      const Eigen::Vector2d offset = projected && centre ? Eigen::Vector2d(*centre - *projected) : Eigen::Vector2d::Zero();
+      const Eigen::Vector2d uv = Eigen::Vector2d(ob.measured_u_px, ob.measured_v_px) - offset;
+      change = std::max(change, std::hypot(uv.x() - ob.u_px, uv.y() - ob.v_px));
+      largest = std::max(largest, offset.norm());
+      const Eigen::Vector2d xy = camera::PixelToImageMm(sensor, uv.x(), uv.y());
+      ob.u_px = uv.x(), ob.v_px = uv.y(), ob.x_mm = xy.x(), ob.y_mm = xy.y();
+    }
+    res.max_centre_offset_px = largest;
+    return change;
+  };
   Adjustment<M> adj(options, &obs, &s, sensor, used_points);
   if constexpr (M::kCaps.analytic_jacobian) res.iterations += adj.Solve(free_start, Form::kCorrect);
+  update_offsets();
+  // One adjustment in the image residual, repeated while the centre offsets move (at most 10).
+  const auto solve = [&](const FreeMask& f) {
+    for (int k = 0; k < 10; ++k) {
+      res.iterations += adj.Solve(f, Form::kProject);
+      if (update_offsets() < 1e-5) break;
+    }
+  };
   say(fmt::format("{} images, {} points: adjusting {} ({})", n_images, obs.size(),
                   FreeParametersToString(id, free_start), M::kName));
 
@@ -637,7 +675,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     double ss = 0;
     int n_active = 0;
     for (int round = 0;; ++round) {
-      res.iterations += adj.Solve(free, Form::kProject);
+      solve(free);
       ss = 0;
       n_active = 0;
       for (const auto& ob : obs) {
@@ -858,6 +896,11 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
                                                FreeParametersToString(options.model, free)));
   }
   CalibrationResult res;
+  using CC = CalibrationOptions::CentreCorrection;
+  if (options.centre_correction == CC::kOn && target.kind != TargetKind::kCoded) {
+    throw InvalidInput("--centre-correction", "needs circular targets of known dot radius (coded:BITS:RADIUS_MM)");
+  }
+  if (target.kind == TargetKind::kCoded && options.centre_correction != CC::kOff) res.dot_radius_mm = target.dot_radius_mm;
   res.camera.model = options.model;
   res.camera.sensor = {used_images[0]->width_px, used_images[0]->height_px,
                        options.pixel_pitch_mm};

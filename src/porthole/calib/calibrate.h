@@ -78,6 +78,17 @@ struct CalibrationOptions {
   double loss_scale_px = 1.0;
   // Self-calibration: adjust the target points too (with the datum above).
   bool target_free = false;
+  // Circular targets: the centre of a dot's image is not the image of its centre (coded/
+  // ellipse.h). With the correction on, each observation is compared with the centre a perfect
+  // ellipse-centre detector would measure for the dot (radius dot_radius_mm, in a plane parallel
+  // to the target's XY plane) imaged through the current camera — the ellipse fitted to 32 points
+  // of its projected rim, coded::ImagedCircleCentre — not with the projection of its centre.
+  // The offset (dot-image centre − projected centre) is held fixed within each Ceres solve and
+  // recomputed from the new estimate after it, until it moves by less than 1e-5 px (a fixed point
+  // of the full model's normal equations up to ∂offset/∂parameters, a few 1e-3 of the offset).
+  // kAuto: on for coded targets (their dot radius is the spec's), off for every other target.
+  enum class CentreCorrection { kAuto, kOn, kOff };
+  CentreCorrection centre_correction = CentreCorrection::kAuto;
   // Stepwise dropping of distortion parameters with |p|/σp below significance_t. 2 ≈ 95 %
   // two-sided for the large redundancy of a calibration.
   bool drop_insignificant = false;
@@ -143,6 +154,8 @@ struct CalibrationResult {
   std::vector<Significance> significance;  // free distortion parameters, after dropping
   std::vector<DroppedParameter> dropped;   // in the order dropped
   std::vector<Eigen::Vector3d> target_points_mm;  // adjusted if target_free, else nominal
+  double dot_radius_mm = 0;      // the dots' radius the centres were corrected for; 0: no correction
+  double max_centre_offset_px = 0;  // largest |dot-image centre − projected centre| applied
   std::string message;   // "ok" or what went wrong (e.g. singular covariance)
 };
 
