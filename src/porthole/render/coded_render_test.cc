@@ -289,8 +289,7 @@ DecodeTally DecodeViews(int n_views, unsigned seed) {
     Score sc;
     try {
       sc = RenderAndScore(s, ro, 10);
-    } catch (const InvalidInput& e) {
-      std::printf("view %d (tilt %.0f): %s\n", v, tilt, e.what());
+    } catch (const InvalidInput&) {
       continue;  // the sheet does not fit the frame at this pose
     }
     ++tally.views;
@@ -311,10 +310,10 @@ TEST(CodedRender, DotsOf10PxDecodeAt99PercentWithNoWrongId) {
   EXPECT_EQ(t.wrong, 0);
 }
 
-// The "no wrong ID in 10,000 decoded targets" on renders: ~100 views (about a minute on
+// The "no wrong ID in 10,000 decoded targets" on renders: 125 views (~100 fit; 3 CPU-minutes on
 // two cores), run by hand: coded_render_test --gtest_also_run_disabled_tests --gtest_filter=*TenThousand*
 TEST(CodedRender, DISABLED_TenThousandDecodedWithNoWrongId) {
-  const DecodeTally t = DecodeViews(110, 7);
+  const DecodeTally t = DecodeViews(125, 7);
   std::printf("%d views: %d of %d dots >= 10 px decoded (%.2f %%), %d decoded in all, %d wrong IDs\n", t.views,
               t.decoded_big, t.big, 100.0 * t.decoded_big / t.big, t.decoded, t.wrong);
   EXPECT_GE(t.decoded, 10000);
