@@ -2,7 +2,8 @@
 field file says (parsed back), and two real renderers — librsvg (rsvg-convert) for the SVG, poppler
 (pdftoppm) for the PDF — draw sheets on which `porthole detect --target coded:...` finds every
 target with its printed ID, at the field's position to a small fraction of a pixel; both polarities,
-both profiles. Bad options exit 2 with one line and write nothing."""
+both profiles. Bad options exit 2 with one line and write nothing. `porthole render` draws coded
+sheets in both polarities that the detector reads at the JSON's dot_centres (issue 16)."""
 import json
 import math
 import os
@@ -103,3 +104,47 @@ def test_bad_options_write_nothing(tmp_path):
     for spec in ["coded:16:2.5", "coded:14:-1", "coded:14:2.5:gom", "coded:14", "coded:14:90"]:
         line = run_bad("detect", "--images", tmp_path, "--target", spec)
         assert "--target" in line, line
+
+
+SMALL_CAMERA = """name = "small-dx"
+description = "the D300's sensor cut to 720 x 480 px of 32.8 um (tests)"
+mount = "nikon-f"
+width_px = 720
+height_px = 480
+pixel_pitch_mm = 0.032778
+"""
+
+
+@pytest.mark.parametrize("polarity", [[], ["--white-on-black"]])
+def test_render_draws_coded_sheets_with_the_dot_centre_truth(tmp_path, polarity):
+    # `porthole render --target coded:...` draws the default sheet; `porthole detect` reads every
+    # target of it with its ID, at the JSON's dot_centres (the ellipse of each traced rim) within
+    # 0.03 px at 16 spp, and the dot centres differ from the images of the centres (points) by the
+    # eccentricity, tenths of a pixel at this tilt.
+    camera = tmp_path / "small.toml"
+    camera.write_text(SMALL_CAMERA)
+    images = tmp_path / "images"
+    images.mkdir()
+    run("render", "--out", images / "coded.png", "--camera", camera, "--target", "coded:12:7:metashape",
+        "--medium", "air", "--distance", 420, "--tilt", "35,20", "--f-number", "inf", "--bands", 546.07,
+        "--bit-depth", 16, "--quiet", *polarity)
+    truth = json.loads((images / "coded.json").read_text())
+    dots = {d["id"]: d["px"][0] for d in truth["dot_centres"]}
+    points = {p["id"]: p["px"][0] for p in truth["points"]}
+    assert sorted(dots) == sorted(points) and min(dots) == 1
+    det = run("detect", "--images", images, "--target", "coded:12:7:metashape", "--json", "--quiet").json()
+    img = det["images"][0]
+    assert sorted(img["ids"]) == sorted(dots)
+    worst = max(math.dist(p, dots[i]) for i, p in zip(img["ids"], img["points_px"]))
+    bias = max(math.dist(dots[i], points[i]) for i in dots)
+    print(f"render coded {polarity}: {len(dots)} targets, worst centre {worst:.4f} px from dot_centres; "
+          f"largest eccentricity {bias:.3f} px")
+    assert worst < 0.03
+    assert bias > 0.1
+
+
+def test_centre_correction_needs_a_coded_target(tmp_path):
+    det = tmp_path / "d.json"
+    det.write_text(json.dumps({"target": "chessboard:9x6:40", "images": [], "skipped": []}))
+    line = run_bad("calibrate", "--detections", det, "--target", "chessboard:9x6:40", "--centre-correction", "on")
+    assert line.startswith("porthole: error: --centre-correction:"), line

@@ -822,6 +822,9 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
   const auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };
+  if (options.centre_correction == CalibrationOptions::CentreCorrection::kOn && target.kind != TargetKind::kCoded) {
+    throw InvalidInput("--centre-correction", "needs circular targets of known dot radius (coded:BITS:RADIUS_MM)");
+  }
   RequirePositive("--pixel-pitch-mm", options.pixel_pitch_mm);
   RequireNonNegative("--reject-k", options.reject_k);
   RequirePositive("--loss-scale-px", options.loss_scale_px);
@@ -897,9 +900,6 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
   }
   CalibrationResult res;
   using CC = CalibrationOptions::CentreCorrection;
-  if (options.centre_correction == CC::kOn && target.kind != TargetKind::kCoded) {
-    throw InvalidInput("--centre-correction", "needs circular targets of known dot radius (coded:BITS:RADIUS_MM)");
-  }
   if (target.kind == TargetKind::kCoded && options.centre_correction != CC::kOff) res.dot_radius_mm = target.dot_radius_mm;
   res.camera.model = options.model;
   res.camera.sensor = {used_images[0]->width_px, used_images[0]->height_px,
