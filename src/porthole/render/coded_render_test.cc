@@ -242,7 +242,9 @@ TEST(CodedRender, UncorrectedBiasIsTheClosedFormInAir) {
     // Within 1 % where there is a bias; at tilt 0 (none) the render's sampling noise (~0.003 px).
     EXPECT_LE(b.closed_form_px, b.tilt_deg > 0 ? 0.01 * b.uncorrected_px : 0.005) << "tilt " << b.tilt_deg;
     EXPECT_LE(b.corrected_px, 0.02) << "tilt " << b.tilt_deg;
-    if (b.tilt_deg >= 40) EXPECT_GT(b.uncorrected_px, 0.2);  // a real bias to remove
+    if (b.tilt_deg >= 40) {
+      EXPECT_GT(b.uncorrected_px, 0.2);  // a real bias to remove
+    }
   }
 }
 
@@ -254,7 +256,9 @@ TEST(CodedRender, CorrectionThroughTheAsBuiltDomeLeaves002Px) {
   s.focus_distance_mm = 300;
   for (const BiasRow& b : BiasOverTilts(s, 66)) {
     EXPECT_LE(b.corrected_px, 0.02) << "tilt " << b.tilt_deg;
-    if (b.tilt_deg >= 40) EXPECT_GT(b.uncorrected_px, 0.1);
+    if (b.tilt_deg >= 40) {
+      EXPECT_GT(b.uncorrected_px, 0.1);
+    }
   }
 }
 
