@@ -975,8 +975,13 @@ ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, c
   }
   const std::string content = ReadInputFile(file, field, kMaxJsonFileBytes);
   const std::string where = field + " '" + file + "'";
-  ReadResult r =
-      ReadCalibrationFrom(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where, camera_id, file);
+  ReadResult r;
+  try {
+    r = ReadCalibrationFrom(content, DetectInputFormat(file, content, where), pixel_pitch_mm, where, camera_id, file);
+  } catch (const InvalidInput& e) {
+    if (e.field().rfind(where, 0) == 0) throw;
+    throw InvalidInput(where, e.what());  // an inner step's field (e.g. "refit"): name the file too
+  }
   r.calibration.label = std::filesystem::path(path).stem().string();
   return r;
 }

@@ -11,10 +11,12 @@
 #include <Eigen/Core>
 #include <Eigen/Dense>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "porthole/camera/camera.h"
 #include "porthole/camera/opencv_model.h"
+#include "porthole/core/error.h"
 
 namespace porthole::interop::refit {
 
@@ -101,6 +103,13 @@ camera::ConversionFit Fit(const Proj& target, std::vector<double>* q, const std:
                           const std::vector<Eigen::Vector2d>& pixels) {
   constexpr int N = Proj::kNumParams;
   using Residual = FitResidual<Proj>;
+  // Too few rays to fit (a source that projects hardly any of its own image's rays, e.g. a
+  // principal point far outside the frame): no fit, and Ceres must not see a block with no residual.
+  if (static_cast<int>(rays.size()) < N) {
+    throw InvalidInput("refit", "the source calibration maps only " + std::to_string(rays.size()) +
+                                    " of its image's grid rays: too few to refit it (is the principal point "
+                                    "inside the image?)");
+  }
   ceres::Problem problem;
   for (std::size_t k = 0; k < rays.size(); ++k) {
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Residual, 2, N>(
