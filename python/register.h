@@ -7,7 +7,9 @@
 #include <optional>
 #include <string>
 
+#include "porthole/calib/result_json.h"
 #include "porthole/core/field_names.h"
+#include "porthole/interop/interop.h"
 #include "porthole/io/lookup.h"
 #include "porthole/io/presets.h"
 #include "porthole/materials/materials.h"
@@ -24,6 +26,21 @@ pybind11::object JsonToPython(const J& j) {
 }
 inline nlohmann::json PythonToJson(const pybind11::handle& o) {
   return nlohmann::json::parse(pybind11::module_::import("json").attr("dumps")(o).template cast<std::string>());
+}
+
+// A calibration given as a file path (any format of docs/interop.md, read as the CLI reads it:
+// interop::ReadCalibrationFileAs) or as a dict (calibrate()'s JSON), as a camera of `model`;
+// nullopt for None.
+inline std::optional<calib::CalibrationRecord> CalibrationArg(const pybind11::object& arg, double pitch_mm,
+                                                              camera::CameraModelId model,
+                                                              const std::string& field) {
+  if (arg.is_none()) return std::nullopt;
+  if (pybind11::isinstance<pybind11::str>(arg) || pybind11::hasattr(arg, "__fspath__")) {
+    const std::string path = pybind11::str(pybind11::module_::import("os").attr("fspath")(arg));
+    return interop::ReadCalibrationFileAs(path, pitch_mm, model, field).calibration;
+  }
+  if (!pybind11::isinstance<pybind11::dict>(arg)) throw InvalidInput(field, "a file path or a calibration dict");
+  return interop::ConvertCalibration(calib::CalibrationFromJson(PythonToJson(arg), field), model, field);
 }
 
 // The water a port works in, from the keyword arguments every binding accepts (one place, so the

@@ -1,6 +1,7 @@
 // Python bindings of the calib module: calibrate from detections (dicts as `porthole detect --json`
 // writes them), synthetic detection sets with known truth, and the comparison of two
 // calibrations. Inputs and outputs are the JSON objects of the CLI as Python dicts.
+#include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
@@ -11,6 +12,7 @@
 #include "porthole/calib/compare.h"
 #include "porthole/calib/detect.h"
 #include "porthole/calib/detections_json.h"
+#include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/synthetic.h"
 #include "porthole/camera/json.h"
@@ -21,6 +23,8 @@ namespace py = pybind11;
 
 namespace porthole::python {
 namespace {
+
+using ports::Vec3;
 
 
 // A camera from a dict {"model": name (default brown), parameter keys…} and the sensor.
@@ -48,6 +52,33 @@ calib::LossKind Loss(const std::string& name) {
   if (name == "huber") return calib::LossKind::kHuber;
   if (name == "cauchy") return calib::LossKind::kCauchy;
   throw InvalidInput("loss", "none | huber | cauchy");
+}
+
+// Detections as `porthole detect --json` writes them (a list of dicts).
+std::vector<calib::ImageDetections> DetectionsArg(const py::list& detections) {
+  std::vector<calib::ImageDetections> dets;
+  for (std::size_t i = 0; i < detections.size(); ++i) {
+    dets.push_back(calib::DetectionsFromJson(PythonToJson(detections[i]),
+                                             "detections[" + std::to_string(i) + "]"));
+  }
+  return dets;
+}
+
+// The lens options calibrate() and calibrate_refractive() share.
+calib::CalibrationOptions LensOptions(const std::string& model, double pixel_pitch_mm, const std::string& free,
+                                      double reject_k, const std::string& loss, double loss_scale_px,
+                                      bool progress) {
+  calib::CalibrationOptions o;
+  o.pixel_pitch_mm = pixel_pitch_mm;
+  o.model = camera::ModelFromName(model, "model");
+  o.free = calib::ParseFreeParameters(o.model, free, "free");
+  o.reject_k = reject_k;
+  o.loss = Loss(loss);
+  o.loss_scale_px = loss_scale_px;
+  if (progress) {
+    o.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
+  }
+  return o;
 }
 
 }  // namespace
@@ -153,24 +184,12 @@ void RegisterCalib(py::module_& m) {
          double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
          bool target_free, bool drop_insignificant, double significance_t, bool progress) {
         const auto t = calib::ParseTarget(target, "target");
-        std::vector<calib::ImageDetections> dets;
-        for (std::size_t i = 0; i < detections.size(); ++i) {
-          dets.push_back(calib::DetectionsFromJson(PythonToJson(detections[i]),
-                                                   "detections[" + std::to_string(i) + "]"));
-        }
-        calib::CalibrationOptions o;
-        o.pixel_pitch_mm = pixel_pitch_mm;
-        o.model = camera::ModelFromName(model, "model");
-        o.free = calib::ParseFreeParameters(o.model, free, "free");
-        o.reject_k = reject_k;
-        o.loss = Loss(loss);
-        o.loss_scale_px = loss_scale_px;
+        const std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
+        calib::CalibrationOptions o =
+            LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress);
         o.target_free = target_free;
         o.drop_insignificant = drop_insignificant;
         o.significance_t = significance_t;
-        if (progress) {
-          o.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
-        }
         calib::CalibrationResult r;
         WithFieldNames({{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}}, [&] {
           py::gil_scoped_release release;
@@ -186,6 +205,61 @@ void RegisterCalib(py::module_& m) {
       "Self-calibration from detections (list of dicts: image, width_px, height_px, ids, "
       "points_px), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
       "stereographic, orthographic). Returns the calibration dict of `porthole calibrate --json`.");
+
+  m.def(
+      "calibrate_refractive",
+      [](const py::list& detections, const std::string& target, const std::string& port,
+         const std::string& model, double pixel_pitch_mm, const std::string& free, double reject_k,
+         const std::string& loss, double loss_scale_px, const py::object& air_calibration,
+         const std::string& intrinsics, const std::string& free_port,
+         std::optional<std::array<double, 3>> port_sigma, bool free_water_index, bool free_shell,
+         std::optional<Vec3> ep_mm, const std::string& water, std::optional<double> water_index,
+         double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
+         bool compare_central, bool progress) {
+        return WithFieldNames(
+            {{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}, {"--port", "port"},
+             {"--air-calibration", "air_calibration"}, {"--intrinsics", "intrinsics"},
+             {"--free-port", "free_port"}, {"--port-sigma", "port_sigma"},
+             {"--free-shell", "free_shell"}},
+            [&] {
+              const auto t = calib::ParseTarget(target, "target");
+              const std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
+              calib::RefractiveOptions o;
+              o.lens = LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress);
+              const ports::Environment env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm,
+                                                             temperature_c, salinity_psu, pressure_dbar);
+              o.port = ports::MakeSystem(io::LoadPort(port), env, ep_mm);
+              o.air = CalibrationArg(air_calibration, pixel_pitch_mm, o.lens.model, "air_calibration");
+              const std::string mode = !intrinsics.empty() ? intrinsics : o.air ? "prior" : "free";
+              o.intrinsics = calib::ParseIntrinsicsMode(mode, "intrinsics");
+              const auto kind = o.port.IsDome() ? refraction::PortKind::kDome : refraction::PortKind::kFlat;
+              o.port_free = calib::ParsePortFree(kind, free_port, "free_port");
+              o.predicted_sigma = port_sigma;
+              o.free_water_index = free_water_index;
+              o.free_shell = free_shell;
+              o.compare_central = compare_central;
+              calib::RefractiveResult r;
+              {
+                py::gil_scoped_release release;
+                r = calib::CalibrateRefractive(dets, t, o);
+              }
+              return py::make_tuple(JsonToPython(calib::RefractiveToJson(r, t, o)), r.estimated_port);
+            });
+      },
+      py::arg("detections"), py::arg("target"), py::arg("port"), py::kw_only(), py::arg("model") = "brown",
+      py::arg("pixel_pitch_mm") = 1.0, py::arg("free") = "default", py::arg("reject_k") = 5.0,
+      py::arg("loss") = "none", py::arg("loss_scale_px") = 1.0, py::arg("air_calibration") = py::none(),
+      py::arg("intrinsics") = "", py::arg("free_port") = "all", py::arg("port_sigma") = py::none(),
+      py::arg("free_water_index") = false, py::arg("free_shell") = false, py::arg("ep_mm") = py::none(),
+      py::arg("water") = "seawater", py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07,
+      py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,
+      py::arg("compare_central") = true, py::arg("progress") = false,
+      "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
+      "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
+      "images. air_calibration: a file of any format or a calibration dict; intrinsics prior (the "
+      "default with one), fixed or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
+      "of the predicted port for the chi2 test; free_water_index, free_shell as the CLI's flags. "
+      "Returns (the JSON of `porthole calibrate --port --json`, the estimated port).");
 
   m.def(
       "synthetic_detections",

@@ -4,7 +4,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "porthole/calib/result_json.h"
 #include "porthole/core/field_names.h"
 #include "porthole/report/report.h"
 #include "register.h"
@@ -12,21 +11,6 @@
 namespace py = pybind11;
 
 namespace porthole::python {
-namespace {
-
-// A calibration given as a file path (calib JSON or OpenCV YAML) or as a dict (calibrate()'s JSON).
-std::optional<calib::CalibrationRecord> CalibrationArg(const py::object& arg, double pitch_mm,
-                                                       const std::string& field) {
-  if (arg.is_none()) return std::nullopt;
-  if (py::isinstance<py::str>(arg) || py::hasattr(arg, "__fspath__")) {
-    const std::string path = py::str(py::module_::import("os").attr("fspath")(arg));
-    return calib::LoadCalibration(path, pitch_mm, field, nullptr);
-  }
-  if (!py::isinstance<py::dict>(arg)) throw InvalidInput(field, "a file path or a calibration dict");
-  return calib::CalibrationFromJson(PythonToJson(arg), field);
-}
-
-}  // namespace
 
 void RegisterReport(py::module_& m) {
   m.def(
@@ -48,8 +32,9 @@ void RegisterReport(py::module_& m) {
           in.f_number = f_number;
           in.coc_mm = coc_mm;
           const double pitch = in.setup.camera.sensor.pixel_pitch_mm;
-          in.air_calibration = CalibrationArg(air_calibration, pitch, "air_calibration");
-          in.water_calibration = CalibrationArg(water_calibration, pitch, "water_calibration");
+          in.air_calibration = CalibrationArg(air_calibration, pitch, camera::CameraModelId::kBrown, "air_calibration");
+          in.water_calibration =
+              CalibrationArg(water_calibration, pitch, camera::CameraModelId::kBrown, "water_calibration");
           in.echo.emplace_back("(Python)", "porthole.report()");
           report::ReportOptions ro;
           ro.out_dir = out;
@@ -76,8 +61,9 @@ void RegisterReport(py::module_& m) {
       py::arg("water_calibration") = py::none(), py::arg("force") = false, py::arg("pixel_pitch_mm") = py::none(),
       py::arg("focal_mm") = py::none(),
       "Writes the report of a camera-lens-port-water system into the directory `out` (as `porthole "
-      "report`): index.html, report.json and the figures. Calibrations are file paths (calib JSON, "
-      "OpenCV YAML) or calibrate()'s results.");
+      "report`): index.html, report.json and the figures. Calibrations are file paths (any format "
+      "`porthole convert` reads: porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape, calibmar) or "
+      "calibrate()'s results.");
 }
 
 }  // namespace porthole::python

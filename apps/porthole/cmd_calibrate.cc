@@ -16,6 +16,7 @@
 #include "porthole/camera/camera.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
+#include "porthole/interop/interop.h"
 #include "porthole/io/presets.h"
 
 namespace porthole::cli {
@@ -87,6 +88,14 @@ std::string PortTable(const calib::RefractiveResult& r, const calib::RefractiveO
                      r.port_free[i] ? fmt::format("{:.2g}", r.port_sigma[i]) : "fixed",
                      r.predicted[i], r.predicted_sigma[i], names[i].unit);
   }
+  const auto& shell_names = refraction::ShellParams(r.kind);
+  for (int i = 0; i < refraction::kShellNumParams; ++i) {
+    if (!r.shell_free[i]) continue;
+    t += fmt::format("{:<16} {:>11.5f} {:>9.2g} {:>11.5f} {:>9}  {}{}\n", shell_names[i].json_key,
+                     r.shell[i], r.shell_sigma[i], r.shell_predicted[i],
+                     i == 0 ? "" : "file", shell_names[i].unit,
+                     i == 0 ? fmt::format(" (water n = {:.5f})", r.n_water) : "");
+  }
   if (std::isfinite(r.normal_tilt_from_predicted_deg)) {
     t += fmt::format("normal {:.4f} deg from the predicted one\n", r.normal_tilt_from_predicted_deg);
   }
@@ -98,14 +107,13 @@ std::string PortTable(const calib::RefractiveResult& r, const calib::RefractiveO
   }
   const camera::ModelInfo& m = r.lens.camera.info();
   std::string high;
-  for (int i = 0; i < refraction::kPortNumParams; ++i) {
-    for (int k = 0; k < r.correlation.cols(); ++k) {
-      const int n = m.num_params;
-      if (k == n + i || (k >= n && k < n + i)) continue;
-      const double c = r.correlation(n + i, k);
+  const int n = m.num_params;
+  for (int i = n; i < r.correlation.rows(); ++i) {  // port and shell rows
+    for (int k = 0; k < i; ++k) {
+      const double c = r.correlation(i, k);
       if (std::isfinite(c) && std::abs(c) > 0.9) {
-        high += fmt::format(" {}/{} {:+.2f}", names[i].name,
-                            k < n ? std::string(m.params[k].name) : std::string(names[k - n].name), c);
+        high += fmt::format(" {}/{} {:+.2f}", calib::JointParamName(m.id, r.kind, i, false),
+                            calib::JointParamName(m.id, r.kind, k, false), c);
       }
     }
   }
@@ -161,8 +169,8 @@ std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOpt
     for (int k = 0; k < i; ++k) {
       const double c = p.correlation(i, k);
       if (std::isfinite(c) && std::abs(c) > 0.9) {
-        high += fmt::format(" {}/{} {:+.2f}", names[i - n].name,
-                            k < n ? std::string(m.params[k].name) : std::string(names[k - n].name), c);
+        high += fmt::format(" {}/{} {:+.2f}", calib::JointParamName(p.model, p.kind, i, false),
+                            calib::JointParamName(p.model, p.kind, k, false), c);
       }
     }
   }
@@ -185,7 +193,7 @@ void RegisterCalibrate(CLI::App& app) {
     WaterOptions water;
     std::string air, intrinsics, free_port = "all", port_out;
     std::vector<double> port_sigma;
-    bool plan_only = false;
+    bool plan_only = false, free_water_index = false, free_shell = false;
     double plan_sigma_px = 0.3;
     std::string centre_correction = "auto";
   };
@@ -240,7 +248,8 @@ void RegisterCalibrate(CLI::App& app) {
   o->water.Add(cmd);
   const std::string group = "Refractive calibration (with --port)";
   cmd->add_option("--air-calibration", o->air,
-                  "In-air calibration of the lens (JSON from calibrate, or OpenCV YAML)")
+                  "In-air calibration of the lens, any format of 'porthole convert' (porthole JSON, OpenCV "
+                  "YAML, COLMAP, mrcal, Metashape, calibmar); a prior needs its sigma")
       ->group(group);
   cmd->add_option("--intrinsics", o->intrinsics,
                   "Lens under the port: free | fixed (the air calibration) | prior (the air "
@@ -248,13 +257,19 @@ void RegisterCalibrate(CLI::App& app) {
                   "--air-calibration)")
       ->check(CLI::IsMember({"free", "fixed", "prior"}))->group(group);
   cmd->add_option("--free-port", o->free_port,
-                  "Adjusted port parameters: dome ep_x,ep_y,ep_z; flat n_x,n_y,distance; or all")
+                  "Adjusted port parameters: dome ep_x,ep_y,ep_z; flat n_x,n_y,distance; all; or none")
       ->capture_default_str()->group(group);
   cmd->add_option("--port-sigma", o->port_sigma,
                   "1-sigma of the predicted port parameters (dome mm; flat normal, normal, mm) for "
                   "the chi2 test; default dome 0.5,0.5,0.5, flat 0.005,0.005,1")
       ->delimiter(',')->expected(3)->group(group);
   cmd->add_option("--port-out", o->port_out, "Write the estimated port as a port TOML")->group(group);
+  cmd->add_flag("--free-water-index", o->free_water_index,
+                "Adjust a factor on the water index too (no prior; its sigma and correlations "
+                "say whether the images determine it)")->group(group);
+  cmd->add_flag("--free-shell", o->free_shell,
+                "Adjust the shell values the port file gives a sigma for (radius_sigma_mm, "
+                "center_sigma_mm, thickness_sigma_mm), each with that Gaussian prior")->group(group);
   cmd->add_flag("--plan-only", o->plan_only,
                 "Network advice, no adjustment: the sigma these images' poses will give the port "
                 "(and lens) parameters at --plan-sigma-px noise, and a warning for one range")
@@ -284,25 +299,31 @@ void RegisterCalibrate(CLI::App& app) {
       const std::pair<const char*, bool> given[] = {
           {"--air-calibration", !o->air.empty()}, {"--intrinsics", !o->intrinsics.empty()},
           {"--port-sigma", !o->port_sigma.empty()}, {"--port-out", !o->port_out.empty()},
-          {"--ep", !o->port.ep.empty()}, {"--plan-only", o->plan_only}};
+          {"--ep", !o->port.ep.empty()}, {"--plan-only", o->plan_only},
+          {"--free-water-index", o->free_water_index}, {"--free-shell", o->free_shell}};
       for (const auto& [flag, is_given] : given) {
         if (is_given) throw InvalidInput(flag, "only with --port (the refractive calibration)");
       }
     }
     calib::RefractiveOptions ro;
+    std::string air_note;  // how --air-calibration was read (exact, or refit to --model)
     if (refractive) {
       if (!o->port_out.empty()) CheckOutputFile(o->port_out, "--port-out");
       if (!o->yaml.empty()) throw InvalidInput("--opencv-yaml", "not with --port (a refractive camera is not an OpenCV one)");
       if (o->calib.target_free) throw InvalidInput("--free-target", "not with --port");
       const ports::Environment env = o->water.ToEnvironment();
       ro.port = ports::MakeSystem(o->port.Spec(), env, o->port.Ep());
-      if (!o->air.empty()) {
-        ro.air = calib::LoadCalibration(o->air, o->pitch_mm, "--air-calibration", nullptr);
+      if (!o->air.empty()) {  // any format (docs/interop.md), as the lens model of this calibration
+        const auto read = interop::ReadCalibrationFileAs(o->air, o->pitch_mm, o->calib.model, "--air-calibration");
+        ro.air = read.calibration;
+        air_note = interop::DescribeRead(read, o->air);
       }
       const std::string mode = !o->intrinsics.empty() ? o->intrinsics : o->air.empty() ? "free" : "prior";
       ro.intrinsics = calib::ParseIntrinsicsMode(mode, "--intrinsics");
       const auto kind = ro.port.IsDome() ? refraction::PortKind::kDome : refraction::PortKind::kFlat;
       ro.port_free = calib::ParsePortFree(kind, o->free_port, "--free-port");
+      ro.free_water_index = o->free_water_index;
+      ro.free_shell = o->free_shell;
       if (!o->port_sigma.empty()) {
         ro.predicted_sigma = std::array<double, 3>{o->port_sigma[0], o->port_sigma[1], o->port_sigma[2]};
       }
@@ -342,6 +363,7 @@ void RegisterCalibrate(CLI::App& app) {
       for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
       j["skipped"] = skip;
       std::string port_note;
+      if (!air_note.empty()) j["port"]["air_calibration"] = air_note;
       if (!o->port_out.empty()) {
         WriteFileAtomically(o->port_out, io::PortToToml(rr.estimated_port), "--port-out");
         j["port"]["port_out"] = o->port_out;
@@ -350,6 +372,7 @@ void RegisterCalibrate(CLI::App& app) {
       if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
       if (o->json) return fmt::print("{}\n", j.dump(2));
       std::string text = CalibrationTable(rr.lens, o->calib) + PortTable(rr, ro) + port_note;
+      if (!air_note.empty()) text += "air calibration " + air_note + "\n";
       for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
       return fmt::print("{}", text);
     }

@@ -14,6 +14,7 @@
 #include "common.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/core/atomic_file.h"
+#include "porthole/interop/interop.h"
 #include "porthole/render/render.h"
 
 namespace porthole::cli {
@@ -104,7 +105,7 @@ double ParseFNumber(const std::string& text) {
   return v;
 }
 
-// A calibration (JSON or OpenCV YAML), or the camera of a render's ground truth (its "camera").
+// A calibration (any format of docs/interop.md), or the camera of a render's ground truth (its "camera").
 camera::Camera LoadCameraModel(const std::string& path, double pixel_pitch_mm) {
   if (fs::path(path).extension() == ".json") {
     std::ifstream in(path);
@@ -113,7 +114,7 @@ camera::Camera LoadCameraModel(const std::string& path, double pixel_pitch_mm) {
       return calib::CalibrationFromJson(j["camera"], "--camera-model").camera;
     }
   }
-  return calib::LoadCalibration(path, pixel_pitch_mm, "--camera-model", nullptr).camera;
+  return interop::ReadCalibrationFile(path, pixel_pitch_mm, "--camera-model").camera();
 }
 
 void RunRender(const RenderCliOptions& o) {
@@ -261,7 +262,7 @@ void RegisterRender(CLI::App& app) {
                   "frame's corners (default none)")
       ->delimiter(',')->expected(3)->group("Lens");
   cmd->add_option("--camera-model", o->camera_model,
-                  "Calibration JSON or OpenCV YAML of the camera (any model; default: the ideal camera of the lens)")
+                  "Calibration of the camera, any format of porthole convert (any model; default: the ideal camera of the lens)")
       ->group("Lens");
   cmd->add_option("--c", o->c_mm, "Principal distance of the ideal camera, mm (default: thin lens at the focus)")
       ->group("Lens");

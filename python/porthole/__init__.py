@@ -28,7 +28,8 @@ import numpy as np
 from . import _porthole
 from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detections, DomeFit, FlatAnalysis,
                        HousingAssembly,
-                       Medium, Plan, PortFocal, PortType, Preset, RayStatus, Record, ReportSummary, Simulation,
+                       Medium, Plan, PortCalibration, PortFocal, PortType, Preset, RayStatus, RefractiveCalibration,
+                       Record, ReportSummary, Simulation,
                        SkippedImage, SphereFit, Status, Table, TraceResult, VirtualImage, VirtualImageTable)
 
 __version__: str = _porthole.__version__
@@ -258,10 +259,21 @@ def detect(images, target, **kwargs) -> DetectionSet:
 
 
 @_wraps(_porthole.calibrate, "porthole.Calibration",
-        "detections may be detect()'s DetectionSet, a list of Detections or of dicts.")
-def calibrate(detections, target, **kwargs) -> Calibration:
+        "detections may be detect()'s DetectionSet, a list of Detections or of dicts.\n\n"
+        "With port=... (a preset name, a port TOML file or a PortSpec) it is the refractive "
+        "calibration of `porthole calibrate --port` (the lens behind the port, the port measured from "
+        "the images) and returns a RefractiveCalibration; its keywords are calibrate_refractive()'s:\n\n"
+        + _core_doc("calibrate_refractive"))
+def calibrate(detections, target, *, port=None, **kwargs) -> Calibration:
     plain = _plain(detections if isinstance(detections, DetectionSet) else list(detections))
-    return Calibration.from_dict(_porthole.calibrate(plain, target, **kwargs))
+    if port is None:
+        return Calibration.from_dict(_porthole.calibrate(plain, target, **kwargs))
+    if "air_calibration" in kwargs:
+        kwargs["air_calibration"] = _plain(kwargs["air_calibration"])
+    kwargs["port"] = port
+    with _port_files(kwargs, "port"):
+        d, estimated_port = _porthole.calibrate_refractive(plain, target, **kwargs)
+    return RefractiveCalibration.from_dict(d, estimated_port)
 
 
 def calibrate_images(images, target: str, *, threads: int = 0, **calibrate_options) -> Calibration:
@@ -341,6 +353,7 @@ __all__ = [
     "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
     "PortType", "CameraModel",
     "Status", "Record", "Table", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",
-    "Detections", "SkippedImage", "DetectionSet", "Calibration", "VirtualImage", "VirtualImageTable",
+    "Detections", "SkippedImage", "DetectionSet", "Calibration", "PortCalibration", "RefractiveCalibration",
+    "VirtualImage", "VirtualImageTable",
     "PortFocal", "TraceResult", "SphereFit", "DomeFit", "Preset", "Medium", "DEFAULT_WD_MM",
 ]

@@ -20,7 +20,7 @@ import numpy as np
 __all__ = [
     "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "Plan", "FlatAnalysis",
     "Simulation", "Comparison", "HousingAssembly", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
-    "Calibration", "VirtualImage", "VirtualImageTable", "PortFocal", "TraceResult", "SphereFit",
+    "Calibration", "PortCalibration", "RefractiveCalibration", "VirtualImage", "VirtualImageTable", "PortFocal", "TraceResult", "SphereFit",
     "DomeFit", "Preset", "Medium",
 ]
 
@@ -353,6 +353,74 @@ class Calibration:
         """Writes the calibration JSON file that `porthole compare/simulate/report` read."""
         with open(os.fspath(path), "w") as f:
             json.dump(self._json, f, indent=2)
+
+
+def _numbers(block: Optional[Dict[str, Any]]) -> Dict[str, float]:
+    return {k: _float(v) for k, v in (block or {}).items()}
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PortCalibration:
+    """The port measured by a refractive calibration (calibrate(..., port=...), `porthole calibrate
+    --port`; docs/calibration.md). params, sigma, predicted, predicted_sigma and units are keyed by
+    the port's parameters: a dome's ep_in_dome_{x,y,z}_mm (the entrance pupil minus the outer
+    sphere's centre, cam axes), a flat port's normal_x, normal_y, distance_mm; sigma is NaN for a
+    parameter held at its prediction. correlation maps each adjusted port parameter to its
+    correlation with every other adjusted parameter (lens, port, shell). chi2 / dof / p_value test
+    the estimate against the prediction (the port file and pupil). shell holds the water index
+    factor and shell values when adjusted (free_water_index, free_shell); n_water is the index
+    used. estimated_port is the port as calibrated (a PortSpec: .to_toml() is --port-out's file)."""
+    name: str
+    type: PortType
+    intrinsics: str                 #: "prior", "fixed" or "free"
+    n_water: float
+    n_glass: float
+    params: Dict[str, float]
+    sigma: Dict[str, float]
+    units: Dict[str, str]
+    predicted: Dict[str, float]
+    predicted_sigma: Dict[str, float]
+    correlation: Dict[str, Dict[str, float]]
+    chi2: float
+    dof: int
+    p_value: float
+    differs_from_predicted: bool
+    geometry: Record                #: the estimated port in the housing frame
+    shell: Record                   #: free, parameters, sigma, from_port_file, n_water, correlation
+    central_prediction: Record      #: water c, x0, y0: simulate's prediction against the estimate's
+    model_choice: Record            #: BIC of the refractive against the central model
+    estimated_port: Any = dataclasses.field(repr=False)
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any], estimated_port: Any = None) -> "PortCalibration":
+        """From the `port` block of `porthole calibrate --port --json`."""
+        shell = d.get("shell", {})
+        return cls(name=str(d.get("name", "")), type=PortType(d["kind"]), intrinsics=str(d["intrinsics"]),
+                   n_water=_float(shell.get("n_water", d.get("n_water"))), n_glass=_float(d.get("n_glass")),
+                   params=_numbers(d.get("parameters")), sigma=_numbers(d.get("sigma")),
+                   units=dict(d.get("units", {})), predicted=_numbers(d.get("predicted")),
+                   predicted_sigma=_numbers(d.get("predicted_sigma")),
+                   correlation={k: _numbers(v) for k, v in d.get("correlation", {}).items()},
+                   chi2=_float(d.get("chi2")), dof=int(d.get("dof", 0)), p_value=_float(d.get("p_value")),
+                   differs_from_predicted=bool(d.get("differs_from_predicted")),
+                   geometry=Record(d.get("geometry", {})), shell=Record(shell),
+                   central_prediction=Record(d.get("central_prediction", {})),
+                   model_choice=Record(d.get("model_choice", {})), estimated_port=estimated_port)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RefractiveCalibration(Calibration):
+    """calibrate(..., port=...): the lens behind the port (a Calibration: params, sigma, covariance
+    ... of the lens model, in-air sense) and the port measured from the images (`port`, a
+    PortCalibration). to_dict() / save() give the JSON of `porthole calibrate --port --json`."""
+    port: PortCalibration = dataclasses.field(default=None)
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any], estimated_port: Any = None) -> "RefractiveCalibration":
+        """From the JSON of `porthole calibrate --port --json` (and the estimated PortSpec)."""
+        base = Calibration.from_dict(d)
+        fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(Calibration)}
+        return cls(**fields, port=PortCalibration.from_dict(d["port"], estimated_port))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <fmt/format.h>
+#include <glog/logging.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -20,8 +21,24 @@ namespace porthole::calib {
 namespace {
 
 using refraction::kPortNumParams;
+using refraction::kShellNumParams;
 using refraction::PortKind;
+using refraction::ShellArray;
 using PortArray = std::array<double, kPortNumParams>;
+using ShellFree = std::array<bool, kShellNumParams>;
+
+// Raises glog's threshold to ERROR while alive: Ceres warns through glog of what porthole reports
+// itself (Covariance: "Jacobian matrix is rank deficient"), which would be a second line on stderr.
+class QuietGlog {
+ public:
+  QuietGlog() : saved_(FLAGS_minloglevel) { FLAGS_minloglevel = std::max(saved_, google::GLOG_ERROR); }
+  ~QuietGlog() { FLAGS_minloglevel = saved_; }
+  QuietGlog(const QuietGlog&) = delete;
+  QuietGlog& operator=(const QuietGlog&) = delete;
+
+ private:
+  int saved_;
+};
 
 struct Obs {
   int image = 0, point = 0;
@@ -30,7 +47,7 @@ struct Obs {
 };
 
 // The image residual through the port (refraction::Project), px times `weight`. Blocks: scaled
-// lens [N], port [3], rotation [3], translation [3].
+// lens [N], port [3], rotation [3], translation [3]; the shell's values at the shell's own.
 template <typename M>
 struct RefractiveCost {
   double u_px, v_px, weight;
@@ -39,9 +56,10 @@ struct RefractiveCost {
   refraction::Shell shell;
   Eigen::Vector3d point;
 
+  // `shell_values`: nullptr, or the shell's values (refraction::ShellParams).
   template <typename T>
-  bool operator()(const T* scaled, const T* port, const T* rotation, const T* translation,
-                  T* r) const {
+  bool Residual(const T* scaled, const T* port, const T* shell_values, const T* rotation,
+                const T* translation, T* r) const {
     T cam[M::kNumParams];
     for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
     const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
@@ -49,76 +67,106 @@ struct RefractiveCost {
     ceres::AngleAxisRotatePoint(rotation, x, p);
     const refraction::Vec3T<T> pc(p[0] + translation[0], p[1] + translation[1],
                                   p[2] + translation[2]);
-    const auto uv = refraction::Project<M, T>(sensor, cam, shell, port, pc);
+    const auto uv = refraction::Project<M, T>(sensor, cam, shell, port, pc, shell_values);
     if (!uv) return false;
     r[0] = ((*uv)(0) - T(u_px)) * T(weight);
     r[1] = ((*uv)(1) - T(v_px)) * T(weight);
     return true;
   }
+  template <typename T>
+  bool operator()(const T* scaled, const T* port, const T* rotation, const T* translation,
+                  T* r) const {
+    return Residual<T>(scaled, port, nullptr, rotation, translation, r);
+  }
 };
 
-// The in-air calibration as a Gaussian prior on the lens parameters `idx`: r = L⁻¹(p − μ) with
-// Σ = L·Lᵀ over idx, on the scaled lens block (p = scale·scaled).
-class PriorCost final : public ceres::CostFunction {
+// The same with the shell's values as a block between the port and the rotation (only when some
+// are adjusted: the Jets are 6 wider).
+template <typename M>
+struct RefractiveShellCost : RefractiveCost<M> {
+  template <typename T>
+  bool operator()(const T* scaled, const T* port, const T* shell_values, const T* rotation,
+                  const T* translation, T* r) const {
+    return this->template Residual<T>(scaled, port, shell_values, rotation, translation, r);
+  }
+};
+
+// A Gaussian prior on one parameter block x, whitened: r = A·x − b.
+class LinearPriorCost final : public ceres::CostFunction {
  public:
-  PriorCost(std::vector<int> idx, Eigen::VectorXd mean, Eigen::MatrixXd whiten,
-            std::vector<double> scale)
-      : idx_(std::move(idx)), mean_(std::move(mean)), w_(std::move(whiten)),
-        scale_(std::move(scale)) {
-    set_num_residuals(static_cast<int>(idx_.size()));
-    mutable_parameter_block_sizes()->push_back(static_cast<int>(scale_.size()));
+  LinearPriorCost(Eigen::MatrixXd a, Eigen::VectorXd b) : a_(std::move(a)), b_(std::move(b)) {
+    set_num_residuals(static_cast<int>(a_.rows()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(a_.cols()));
   }
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    const int m = static_cast<int>(idx_.size()), n = static_cast<int>(scale_.size());
-    Eigen::VectorXd d(m);
-    for (int a = 0; a < m; ++a) d(a) = params[0][idx_[a]] * scale_[idx_[a]] - mean_(a);
-    Eigen::Map<Eigen::VectorXd>(residuals, m) = w_ * d;
+    const Eigen::Map<const Eigen::VectorXd> x(params[0], a_.cols());
+    Eigen::Map<Eigen::VectorXd>(residuals, a_.rows()) = a_ * x - b_;
     if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> j(
-          jacobians[0], m, n);
-      j.setZero();
-      for (int a = 0; a < m; ++a) j.col(idx_[a]) = w_.col(a) * scale_[idx_[a]];
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+          jacobians[0], a_.rows(), a_.cols()) = a_;
     }
     return true;
   }
 
  private:
-  std::vector<int> idx_;
-  Eigen::VectorXd mean_;
-  Eigen::MatrixXd w_;
-  std::vector<double> scale_;
+  Eigen::MatrixXd a_;
+  Eigen::VectorXd b_;
 };
 
+// The in-air calibration as a Gaussian prior on the lens parameters `idx`: r = L⁻¹(p − μ) with
+// Σ = L·Lᵀ over idx (whiten = L⁻¹).
 struct Prior {
   std::vector<int> idx;
   Eigen::VectorXd mean;
   Eigen::MatrixXd whiten;
 };
 
+// The port file's σ as a prior on the shell values v (refraction::ShellParams): r = A·v − b, one
+// row per stated σ (ShellPriorOf); `free` the values it adjusts.
+struct ShellPrior {
+  Eigen::MatrixXd a;
+  Eigen::VectorXd b;
+  ShellFree free{};
+};
+
 template <typename M>
 class RefractiveAdjustment {
  public:
   static constexpr int N = M::kNumParams;
+  // Rows of the joint covariance: [lens N, port, shell].
+  static constexpr int kT = N + kPortNumParams + kShellNumParams;
 
   RefractiveAdjustment(const RefractiveOptions& o, const camera::Sensor& sensor,
                        const refraction::Shell& shell, std::vector<Obs> obs,
                        std::vector<Eigen::Vector3d> points, int n_images)
       : o_(o), sensor_(sensor), shell_(shell), obs_(std::move(obs)), points_(std::move(points)),
-        scale_(ModelScales<M>(sensor)), rotation_(n_images), translation_(n_images) {}
+        scale_(ModelScales<M>(sensor)), rotation_(n_images), translation_(n_images) {
+    shell_values = refraction::ShellValues(shell);
+  }
 
   std::array<double, N> lens{};
   PortArray port{};
+  ShellArray shell_values{};
   FreeMask lens_free;
   std::array<bool, kPortNumParams> port_free{};
+  ShellFree shell_free{};
   double weight = 1;  // 1/σ of the image residuals (px⁻¹)
   std::optional<Prior> prior;
+  std::optional<ShellPrior> shell_prior;
 
   std::vector<std::array<double, 3>>& rotation() { return rotation_; }
   std::vector<std::array<double, 3>>& translation() { return translation_; }
   std::vector<Obs>& obs() { return obs_; }
 
-  // Adjusts; returns the iterations and the final cost (½Σr², weighted).
+  // Adjusts; returns the iterations and the final cost (½Σr², weighted; infinite when some
+  // point cannot be projected at the start: nothing is adjusted then).
   int Solve(int max_iterations, double* cost = nullptr) {
+    for (const auto& ob : obs_) {
+      if (ob.active && !Residual(ob)) {
+        if (cost) *cost = INFINITY;
+        return 0;
+      }
+    }
     std::array<double, N> scaled;
     ceres::Problem problem;
     Build(&scaled, &problem);
@@ -136,12 +184,12 @@ class RefractiveAdjustment {
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
     for (int i = 0; i < N; ++i) lens[i] = scaled[i] * scale_[i];
-    if (cost) *cost = summary.final_cost;
+    if (cost) *cost = summary.IsSolutionUsable() ? summary.final_cost : INFINITY;
     return static_cast<int>(summary.iterations.size());
   }
 
-  // The σ0²-free covariance (JᵀJ)⁻¹ of [lens (model order), port], marginal over the poses, in
-  // the parameters' own units; false if singular.
+  // The σ0²-free covariance (JᵀJ)⁻¹ of [lens (model order), port, shell] (kT × kT), marginal over
+  // the poses, in the parameters' own units (0 for parameters not adjusted); false if singular.
   bool Covariance(Eigen::MatrixXd* cov) {
     std::array<double, N> scaled;
     ceres::Problem problem;
@@ -149,24 +197,35 @@ class RefractiveAdjustment {
     ceres::Covariance::Options co;
     co.num_threads = o_.lens.num_threads;
     ceres::Covariance covariance(co);
-    const double* a = scaled.data();
-    const double* b = port.data();
-    std::vector<std::pair<const double*, const double*>> blocks = {{a, a}, {a, b}, {b, b}};
-    if (!covariance.Compute(blocks, &problem)) return false;
-    Eigen::Matrix<double, N, N, Eigen::RowMajor> caa;
-    Eigen::Matrix<double, N, kPortNumParams, Eigen::RowMajor> cab;
-    Eigen::Matrix<double, kPortNumParams, kPortNumParams, Eigen::RowMajor> cbb;
-    if (!covariance.GetCovarianceBlock(a, a, caa.data()) ||
-        !covariance.GetCovarianceBlock(a, b, cab.data()) ||
-        !covariance.GetCovarianceBlock(b, b, cbb.data())) {
-      return false;
+    // A rank-deficient Jacobian is reported by the caller (one line, InvalidInput): not by glog too.
+    const QuietGlog quiet;
+    // The blocks and their offsets in the joint matrix; the shell only when in the problem.
+    std::vector<std::pair<const double*, int>> blocks = {{scaled.data(), 0},
+                                                         {port.data(), N}};
+    if (UsesShell()) blocks.push_back({shell_values.data(), N + kPortNumParams});
+    std::vector<std::pair<const double*, const double*>> pairs;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      for (std::size_t j = i; j < blocks.size(); ++j) pairs.push_back({blocks[i].first, blocks[j].first});
     }
-    cov->setZero(N + kPortNumParams, N + kPortNumParams);
-    const Eigen::Map<const Eigen::Matrix<double, N, 1>> sv(scale_.data());
-    cov->topLeftCorner(N, N) = sv.asDiagonal() * caa * sv.asDiagonal();
-    cov->topRightCorner(N, kPortNumParams) = sv.asDiagonal() * cab;
-    cov->bottomLeftCorner(kPortNumParams, N) = cov->topRightCorner(N, kPortNumParams).transpose();
-    cov->bottomRightCorner(kPortNumParams, kPortNumParams) = cbb;
+    if (!covariance.Compute(pairs, &problem)) return false;
+    const auto size = [&](const double* b) {
+      return b == scaled.data() ? N : b == port.data() ? kPortNumParams : kShellNumParams;
+    };
+    cov->setZero(kT, kT);
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      for (std::size_t j = i; j < blocks.size(); ++j) {
+        const auto [bi, oi] = blocks[i];
+        const auto [bj, oj] = blocks[j];
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(size(bi), size(bj));
+        if (!covariance.GetCovarianceBlock(bi, bj, c.data())) return false;
+        cov->block(oi, oj, c.rows(), c.cols()) = c;
+        cov->block(oj, oi, c.cols(), c.rows()) = c.transpose();
+      }
+    }
+    // The lens block was adjusted scaled: back to the parameters' units.
+    Eigen::VectorXd sv = Eigen::VectorXd::Ones(kT);
+    for (int i = 0; i < N; ++i) sv(i) = scale_[i];
+    *cov = sv.asDiagonal() * *cov * sv.asDiagonal();
     return cov->allFinite();
   }
 
@@ -175,7 +234,8 @@ class RefractiveAdjustment {
     Eigen::Matrix3d r;
     ceres::AngleAxisToRotationMatrix(rotation_[ob.image].data(), r.data());
     const Eigen::Vector3d p = r * points_[ob.point] + Eigen::Vector3d(translation_[ob.image].data());
-    const auto uv = refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p);
+    const auto uv = refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p,
+                                                   shell_values.data());
     if (!uv) return std::nullopt;
     return Eigen::Vector2d(*uv - Eigen::Vector2d(ob.u_px, ob.v_px));
   }
@@ -193,50 +253,77 @@ class RefractiveAdjustment {
     return ss;
   }
 
-  // Σ of the prior's squared residuals at the current lens.
+  // Σ of the priors' squared residuals at the current lens and shell.
   double PriorSumSquares() const {
-    if (!prior) return 0;
-    Eigen::VectorXd d(prior->idx.size());
-    for (std::size_t a = 0; a < prior->idx.size(); ++a) d(a) = lens[prior->idx[a]] - prior->mean(a);
-    return (prior->whiten * d).squaredNorm();
+    double ss = 0;
+    if (prior) {
+      Eigen::VectorXd d(prior->idx.size());
+      for (std::size_t a = 0; a < prior->idx.size(); ++a) d(a) = lens[prior->idx[a]] - prior->mean(a);
+      ss += (prior->whiten * d).squaredNorm();
+    }
+    if (shell_prior) {
+      ss += (shell_prior->a * Eigen::Map<const Eigen::VectorXd>(shell_values.data(), kShellNumParams) -
+             shell_prior->b).squaredNorm();
+    }
+    return ss;
+  }
+
+  bool UsesShell() const {
+    return std::find(shell_free.begin(), shell_free.end(), true) != shell_free.end();
   }
 
  private:
+  // Holds the parameters `free[i]` false of a block constant (all: the whole block).
+  template <std::size_t K>
+  static void FixSubset(ceres::Problem* problem, double* block, const std::array<bool, K>& free) {
+    std::vector<int> fixed;
+    for (std::size_t i = 0; i < K; ++i) {
+      if (!free[i]) fixed.push_back(static_cast<int>(i));
+    }
+    if (fixed.size() == K) {
+      problem->SetParameterBlockConstant(block);
+    } else if (!fixed.empty()) {
+      problem->SetManifold(block, new ceres::SubsetManifold(static_cast<int>(K), fixed));
+    }
+  }
+
   void Build(std::array<double, N>* scaled, ceres::Problem* problem) {
     for (int i = 0; i < N; ++i) (*scaled)[i] = lens[i] / scale_[i];
+    const bool with_shell = UsesShell();
     for (const auto& ob : obs_) {
       if (!ob.active) continue;
-      auto* f = new RefractiveCost<M>{ob.u_px, ob.v_px, weight, sensor_, scale_, shell_,
-                                      points_[ob.point]};
-      problem->AddResidualBlock(
-          new ceres::AutoDiffCostFunction<RefractiveCost<M>, 2, N, kPortNumParams, 3, 3>(f),
-          nullptr, scaled->data(), port.data(), rotation_[ob.image].data(),
-          translation_[ob.image].data());
+      const RefractiveCost<M> f{ob.u_px, ob.v_px, weight, sensor_, scale_, shell_, points_[ob.point]};
+      if (with_shell) {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<RefractiveShellCost<M>, 2, N, kPortNumParams,
+                                            kShellNumParams, 3, 3>(new RefractiveShellCost<M>{f}),
+            nullptr, scaled->data(), port.data(), shell_values.data(), rotation_[ob.image].data(),
+            translation_[ob.image].data());
+      } else {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<RefractiveCost<M>, 2, N, kPortNumParams, 3, 3>(
+                new RefractiveCost<M>(f)),
+            nullptr, scaled->data(), port.data(), rotation_[ob.image].data(),
+            translation_[ob.image].data());
+      }
     }
     if (prior) {
-      problem->AddResidualBlock(
-          new PriorCost(prior->idx, prior->mean, prior->whiten,
-                        std::vector<double>(scale_.begin(), scale_.end())),
-          nullptr, scaled->data());
+      // r = W(S·scaled − μ) over idx: A = W·E·S, b = W·μ.
+      const int m = static_cast<int>(prior->idx.size());
+      Eigen::MatrixXd e = Eigen::MatrixXd::Zero(m, N);
+      for (int a = 0; a < m; ++a) e(a, prior->idx[a]) = scale_[prior->idx[a]];
+      problem->AddResidualBlock(new LinearPriorCost(prior->whiten * e, prior->whiten * prior->mean),
+                                nullptr, scaled->data());
     }
-    std::vector<int> fixed;
-    for (int i = 0; i < N; ++i) {
-      if (!lens_free[i]) fixed.push_back(i);
+    if (shell_prior && with_shell) {
+      problem->AddResidualBlock(new LinearPriorCost(shell_prior->a, shell_prior->b), nullptr,
+                                shell_values.data());
     }
-    if (static_cast<int>(fixed.size()) == N) {
-      problem->SetParameterBlockConstant(scaled->data());
-    } else if (!fixed.empty()) {
-      problem->SetManifold(scaled->data(), new ceres::SubsetManifold(N, fixed));
-    }
-    std::vector<int> port_fixed;
-    for (int i = 0; i < kPortNumParams; ++i) {
-      if (!port_free[i]) port_fixed.push_back(i);
-    }
-    if (static_cast<int>(port_fixed.size()) == kPortNumParams) {
-      problem->SetParameterBlockConstant(port.data());
-    } else if (!port_fixed.empty()) {
-      problem->SetManifold(port.data(), new ceres::SubsetManifold(kPortNumParams, port_fixed));
-    }
+    std::array<bool, N> lf;
+    for (int i = 0; i < N; ++i) lf[i] = lens_free[i];
+    FixSubset(problem, scaled->data(), lf);
+    FixSubset(problem, port.data(), port_free);
+    if (with_shell) FixSubset(problem, shell_values.data(), shell_free);
   }
 
   const RefractiveOptions& o_;
@@ -252,25 +339,105 @@ PortArray DefaultPredictedSigma(PortKind kind) {
   return kind == PortKind::kDome ? PortArray{0.5, 0.5, 0.5} : PortArray{0.005, 0.005, 1.0};
 }
 
+// The port file's σ (ports::ShellSigma) as a prior on the shell values of `shell` (refraction::
+// ShellParams), and the values it adjusts (RefractiveOptions::free_shell); nullopt when the file
+// states none. The water index factor has no prior.
+std::optional<ShellPrior> ShellPriorOf(const ports::PortSpec& spec, const refraction::Shell& shell) {
+  const ports::ShellSigma& sg = spec.sigma;
+  const ShellArray v0 = refraction::ShellValues(shell);
+  std::vector<std::pair<Eigen::Matrix<double, 1, kShellNumParams>, double>> rows;  // (a, σ)
+  ShellPrior prior;
+  const auto row = [&](std::initializer_list<std::pair<int, double>> terms, double sigma) {
+    Eigen::Matrix<double, 1, kShellNumParams> a = Eigen::Matrix<double, 1, kShellNumParams>::Zero();
+    for (const auto& [i, c] : terms) a(i) = c;
+    rows.push_back({a, sigma});
+  };
+  if (shell.kind == PortKind::kDome) {
+    if (sg.outer_radius_mm) row({{1, 1.0}}, *sg.outer_radius_mm), prior.free[1] = true;
+    if (sg.inner_radius_mm) row({{2, 1.0}}, *sg.inner_radius_mm), prior.free[2] = true;
+    if (sg.thickness_mm) row({{1, 1.0}, {2, -1.0}}, *sg.thickness_mm), prior.free[2] = true;
+    for (int k = 0; k < 3; ++k) {
+      const double so = sg.outer_center_mm ? (*sg.outer_center_mm)(k) : 0.0;
+      const double si = sg.inner_center_mm ? (*sg.inner_center_mm)(k) : 0.0;
+      if (std::hypot(so, si) > 0) row({{3 + k, 1.0}}, std::hypot(so, si)), prior.free[3 + k] = true;
+    }
+  } else if (sg.thickness_mm) {
+    row({{1, 1.0}}, *sg.thickness_mm), prior.free[1] = true;
+  }
+  if (rows.empty()) return std::nullopt;
+  const Eigen::Map<const Eigen::Matrix<double, kShellNumParams, 1>> x0(v0.data());
+  prior.a.resize(static_cast<int>(rows.size()), kShellNumParams);
+  prior.b.resize(static_cast<int>(rows.size()));
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    const int k = static_cast<int>(r);
+    prior.a.row(k) = rows[r].first / rows[r].second;
+    prior.b(k) = prior.a.row(k).dot(x0);
+  }
+  return prior;
+}
+
+// The prior's covariance of the shell values it adjusts ((AᵀA)⁻¹ over them, 0 elsewhere):
+// what the port file's σ say of its values.
+Eigen::Matrix<double, kShellNumParams, kShellNumParams> ShellPriorCovariance(const ShellPrior& p) {
+  std::vector<int> idx;
+  for (int i = 0; i < kShellNumParams; ++i) {
+    if (p.free[i]) idx.push_back(i);
+  }
+  Eigen::MatrixXd a(p.a.rows(), static_cast<int>(idx.size()));
+  for (std::size_t k = 0; k < idx.size(); ++k) a.col(k) = p.a.col(idx[k]);
+  const Eigen::MatrixXd c = (a.transpose() * a).inverse();
+  Eigen::Matrix<double, kShellNumParams, kShellNumParams> out =
+      Eigen::Matrix<double, kShellNumParams, kShellNumParams>::Zero();
+  for (std::size_t i = 0; i < idx.size(); ++i) {
+    for (std::size_t j = 0; j < idx.size(); ++j) out(idx[i], idx[j]) = c(i, j);
+  }
+  return out;
+}
+
+// The shell prior the options ask for (free_shell: the port file's σ); throws InvalidInput when
+// the file states none.
+std::optional<ShellPrior> ShellPriorFor(const RefractiveOptions& o, const refraction::Shell& shell) {
+  if (!o.free_shell) return std::nullopt;
+  auto prior = ShellPriorOf(o.port.spec, shell);
+  if (!prior) {
+    throw InvalidInput("--free-shell",
+                       fmt::format("the port file '{}' states no sigma of its shell (radius_sigma_mm, "
+                                   "center_sigma_mm, thickness_sigma_mm: docs/presets.md)",
+                                   o.port.spec.name));
+  }
+  return prior;
+}
+
+// The shell values adjusted: the water index factor when asked, the values the prior holds.
+ShellFree ShellFreeOf(const RefractiveOptions& o, const std::optional<ShellPrior>& prior) {
+  ShellFree f = prior ? prior->free : ShellFree{};
+  f[0] = o.free_water_index;
+  return f;
+}
+
 // c, x0, y0 of simulate's water fit (a central Brown model fitted to rays traced through the
-// port) for the Brown lens `lens` behind `base`'s port with the parameters `p`.
+// port) for the Brown lens `lens` behind `base`'s port with the parameters `p` and shell values `v`.
 std::array<double, 3> EquivalentCentral(const ports::PortSystem& base, const PortArray& p,
-                                        const camera::Camera& lens,
+                                        const ShellArray& v, const camera::Camera& lens,
                                         const simulate::FitOptions& fo) {
-  const ports::PortSystem sys = ports::Place(refraction::SpecWithParams(base, p),
-                                             base.ep_in_housing_mm, base.n_glass, base.n_water);
+  const ports::PortSystem sys = ports::Place(refraction::SpecWithParams(base, p, v),
+                                             base.ep_in_housing_mm, base.n_glass, base.n_water * v[0]);
   const simulate::CameraSetup setup{lens.sensor, camera::ToBrown(lens), base.ep_in_housing_mm};
   const simulate::BrownFit fit = simulate::SimulateFit(sys, setup, fo);
   return {fit.params.c_mm, fit.params.x0_mm, fit.params.y0_mm};
 }
 
-// CentralPrediction (refractive.h): `cov` is the σ0-scaled joint covariance [lens, port] of the
-// estimate, `prior` the in-air prior the adjustment used (kPrior), `ranges` the images' target
-// distances (mm).
+// CentralPrediction (refractive.h): `cov` is the σ0-scaled joint covariance [lens, port, shell] of
+// the estimate, `prior` the in-air prior the adjustment used (kPrior), `shell_prior` the port
+// file's (free_shell), `ranges` the images' target distances (mm). The shell values `shell` enter
+// as the lens and port do: the prediction uses the port file's (factor 1) with the prior's
+// covariance, the estimate's cross-covariance with them is its own over the values the prior
+// adjusts (linear model: Cov(x̂, x₀) = Σ_post·AᵀΣ_m⁻¹A·(AᵀΣ_m⁻¹A)⁻¹ = Σ_post).
 CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationResult& central,
                                  const camera::Camera& lens, const PortArray& port,
-                                 const PortArray& predicted_sigma, const Eigen::MatrixXd& cov,
-                                 const std::optional<Prior>& prior,
+                                 const ShellArray& shell, const PortArray& predicted_sigma,
+                                 const Eigen::MatrixXd& cov, const std::optional<Prior>& prior,
+                                 const std::optional<ShellPrior>& shell_prior,
                                  const std::vector<double>& ranges) {
   CentralPrediction cp;
   if (lens.model != camera::CameraModelId::kBrown) {
@@ -282,7 +449,7 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
     cp.why_not = "needs --air-calibration, the in-air lens the prediction puts behind the port";
     return cp;
   }
-  const int N = lens.info().num_params, T = N + kPortNumParams;
+  const int N = lens.info().num_params, S = N + kPortNumParams, T = S + kShellNumParams;
   const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
   // Two planes at one range cannot separate c from the centre's Z (simulate.h): span ≥ 1.3×.
   const double far = std::max(*hi, 1.3 * *lo);
@@ -292,8 +459,9 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
   fo.distances_mm = {*lo, 0.5 * (*lo + far), far};
   cp.distances_mm = fo.distances_mm;
   const PortArray predicted = refraction::ParamsOf(o.port);
-  const auto pred = EquivalentCentral(o.port, predicted, o.air->camera, fo);
-  const auto est = EquivalentCentral(o.port, port, lens, fo);
+  const ShellArray shell_predicted = refraction::ShellValues(refraction::ShellOf(o.port));
+  const auto pred = EquivalentCentral(o.port, predicted, shell_predicted, o.air->camera, fo);
+  const auto est = EquivalentCentral(o.port, port, shell, lens, fo);
   // Covariances, NaN (fixed) → 0.
   const auto clean = [](Eigen::MatrixXd m) { return m.unaryExpr([](double v) { return std::isfinite(v) ? v : 0.0; }).eval(); };
   const Eigen::MatrixXd post = clean(cov);
@@ -315,6 +483,12 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
     }
     cross.leftCols(N) = post_idx * w * air_idx;
   }
+  if (shell_prior) {
+    pred_cov.bottomRightCorner(kShellNumParams, kShellNumParams) = ShellPriorCovariance(*shell_prior);
+    for (int i = 0; i < kShellNumParams; ++i) {
+      if (shell_prior->free[i]) cross.col(S + i) = post.col(S + i);
+    }
+  }
   // J by central differences, one σ steps, over the parameters that carry variance.
   Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(3, T);
   for (int i = 0; i < T; ++i) {
@@ -322,15 +496,19 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
     if (!(h > 0)) continue;
     camera::Camera lp = lens, lm = lens;
     PortArray pp = port, pm = port;
+    ShellArray vp = shell, vm = shell;
     if (i < N) {
       lp.params[i] += h;
       lm.params[i] -= h;
-    } else {
+    } else if (i < S) {
       pp[i - N] += h;
       pm[i - N] -= h;
+    } else {
+      vp[i - S] += h;
+      vm[i - S] -= h;
     }
-    const auto fp = EquivalentCentral(o.port, pp, lp, fo);
-    const auto fm = EquivalentCentral(o.port, pm, lm, fo);
+    const auto fp = EquivalentCentral(o.port, pp, vp, lp, fo);
+    const auto fm = EquivalentCentral(o.port, pm, vm, lm, fo);
     for (int k = 0; k < 3; ++k) jac(k, i) = (fp[k] - fm[k]) / (2 * h);
   }
   const Eigen::Matrix3d s_est = jac * post * jac.transpose();
@@ -456,6 +634,9 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   res.predicted = predicted;
   res.predicted_sigma = o.predicted_sigma ? *o.predicted_sigma : DefaultPredictedSigma(shell.kind);
   res.port_free = o.port_free;
+  res.shell_predicted = refraction::ShellValues(shell);
+  const std::optional<ShellPrior> shell_prior = ShellPriorFor(o, shell);
+  res.shell_free = ShellFreeOf(o, shell_prior);
 
   // The images the central calibration used, with its poses.
   std::map<std::string, const ImageDetections*> by_name;
@@ -520,22 +701,26 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   adj.port[2] = best_axial;
   set_poses();
 
-  // Adjust with outlier rejection (as Calibrate); then, with a prior, weight the images by 1/σ0
-  // and add the prior.
-  int n_port_free = 0, n_lens_free = 0;
+  // Adjust with outlier rejection (as Calibrate), the water index factor free when asked but the
+  // shell geometry fixed; then, with a prior (in-air lens, shell), weight the images by 1/σ0, add
+  // the priors and free the shell values they hold.
+  int n_port_free = 0, n_lens_free = 0, n_shell_free = 0;
   for (bool f : o.port_free) n_port_free += f;
   for (bool f : lens_free) n_lens_free += f;
-  const int n_unknowns = n_lens_free + n_port_free + 6 * n_images;
+  for (bool f : res.shell_free) n_shell_free += f;
+  adj.shell_free[0] = res.shell_free[0];
+  const int n_unknowns_first = n_lens_free + n_port_free + adj.shell_free[0] + 6 * n_images;
+  const int n_unknowns = n_lens_free + n_port_free + n_shell_free + 6 * n_images;
   double ss = 0;
   int n_active = 0;
   for (int round = 0;; ++round) {
     iterations += adj.Solve(o.lens.max_iterations);
     ss = adj.SumSquares(&n_active);
-    const int redundancy = 2 * n_active - n_unknowns;
+    const int redundancy = 2 * n_active - n_unknowns_first;
     if (redundancy <= 0) {
       throw InvalidInput("--images", fmt::format("{} points in {} images give {} observations for "
                                                  "{} unknowns: add images", n_active, n_images,
-                                                 2 * n_active, n_unknowns));
+                                                 2 * n_active, n_unknowns_first));
     }
     const double sigma0 = std::sqrt(ss / redundancy);
     if (o.lens.reject_k <= 0 || round >= o.lens.max_reject_rounds) break;
@@ -550,12 +735,14 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
                     o.lens.reject_k, sigma0));
   }
   int n_prior = 0;
-  std::optional<Prior> used_prior;
-  if (const auto prior = MakePrior(o)) {
-    n_prior = static_cast<int>(prior->idx.size());
-    adj.prior = prior;
-    used_prior = prior;
-    adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns));
+  const std::optional<Prior> used_prior = MakePrior(o);
+  if (used_prior || shell_prior) {
+    adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns_first));
+    if (used_prior) n_prior += static_cast<int>(used_prior->idx.size());
+    if (shell_prior) n_prior += static_cast<int>(shell_prior->a.rows());
+    adj.prior = used_prior;
+    adj.shell_prior = shell_prior;
+    adj.shell_free = res.shell_free;
     iterations += adj.Solve(o.lens.max_iterations);
     ss = adj.SumSquares(&n_active);
   }
@@ -577,7 +764,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   say(fmt::format("adjusted: RMS {:.4f} px, {} iterations; covariance", lr.rms_px, iterations));
   Eigen::MatrixXd cov;
   lr.covariance_ok = adj.Covariance(&cov);
-  const int T = N + kPortNumParams;
+  constexpr int S = N + kPortNumParams, T = S + kShellNumParams;
   if (!lr.covariance_ok) {
     throw InvalidInput("--images", "the port parameters and the lens are not determined by these "
                                    "images (singular covariance): add views at other ranges and "
@@ -587,6 +774,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   std::vector<bool> free_all(T);
   for (int i = 0; i < N; ++i) free_all[i] = lens_free[i];
   for (int i = 0; i < kPortNumParams; ++i) free_all[N + i] = o.port_free[i];
+  for (int i = 0; i < kShellNumParams; ++i) free_all[S + i] = res.shell_free[i];
   res.covariance = cov;
   res.correlation = Correlation(cov, free_all);
   lr.covariance = cov.topLeftCorner(N, N);
@@ -604,6 +792,11 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   for (int i = 0; i < kPortNumParams; ++i) {
     res.port_sigma[i] = o.port_free[i] ? std::sqrt(cov(N + i, N + i)) : NAN;
   }
+  res.shell = adj.shell_values;
+  for (int i = 0; i < kShellNumParams; ++i) {
+    res.shell_sigma[i] = res.shell_free[i] ? std::sqrt(cov(S + i, S + i)) : NAN;
+  }
+  res.n_water = o.port.n_water * res.shell[0];
   // Per image.
   std::vector<double> image_ss(n_images, 0);
   lr.images.resize(n_images);
@@ -664,7 +857,20 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   res.preferred = res.bic < res.central_bic ? "refractive" : "central";
 
   refraction::ValidateParams(shell, res.port.data(), "port");
-  res.estimated_port = refraction::SpecWithParams(o.port, res.port);
+  refraction::ValidateShellValues(shell, res.shell, "port");
+  res.estimated_port = refraction::SpecWithParams(o.port, res.port, res.shell);
+  // The file's σ of a value adjusted here were its prior: the estimate's σ are in the JSON, and a
+  // port file read again must not count that prior twice. σ of values not adjusted stay.
+  ports::ShellSigma& sg = res.estimated_port.sigma;
+  if (res.shell_free[1]) sg.outer_radius_mm.reset();
+  if (res.shell_free[2] || (shell.kind == PortKind::kFlat && res.shell_free[1])) {
+    sg.inner_radius_mm.reset();
+    sg.thickness_mm.reset();
+  }
+  if (res.shell_free[3] || res.shell_free[4] || res.shell_free[5]) {
+    sg.outer_center_mm.reset();
+    sg.inner_center_mm.reset();
+  }
   res.estimated_port.description = fmt::format("{} as calibrated from images ({})",
                                                o.port.spec.name, o.port.spec.description);
   res.estimated_port.source = "porthole calibrate --port: estimated from images";
@@ -672,8 +878,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
 
   if (o.compare_central) {
     say("comparing the simulate prediction of c, x0, y0");
-    res.central_prediction = CompareCentral(o, central, lr.camera, res.port, res.predicted_sigma,
-                                            cov, used_prior, ranges);
+    res.central_prediction = CompareCentral(o, central, lr.camera, res.port, res.shell,
+                                            res.predicted_sigma, cov, used_prior, shell_prior, ranges);
   } else {
     res.central_prediction.why_not = "not asked for";
   }
@@ -700,6 +906,8 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   plan.kind = shell.kind;
   plan.sigma0_px = sigma0_px;
   plan.port_free = o.port_free;
+  const std::optional<ShellPrior> shell_prior = ShellPriorFor(o, shell);
+  plan.shell_free = ShellFreeOf(o, shell_prior);
   const std::vector<Eigen::Vector3d> points = TargetPoints(target);
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const auto& p : points) centre += p / static_cast<double>(points.size());
@@ -740,6 +948,8 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   adj.port_free = o.port_free;
   adj.weight = 1 / sigma0_px;
   adj.prior = MakePrior(o);
+  adj.shell_prior = shell_prior;
+  adj.shell_free = plan.shell_free;
   const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
   plan.min_range_mm = *lo;
   plan.max_range_mm = *hi;
@@ -748,15 +958,18 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   plan.determined = adj.Covariance(&cov);
   plan.lens_sigma.assign(N, NAN);
   plan.port_sigma.fill(NAN);
+  plan.shell_sigma.fill(NAN);
   if (!plan.determined) {
     plan.warning = "the port parameters and the lens are not determined by this network (singular "
                    "covariance): add views at other ranges and angles, or fix parameters" +
                    (plan.warning.empty() ? "" : "; " + plan.warning);
     return plan;
   }
-  std::vector<bool> free_all(N + kPortNumParams);
+  constexpr int S = N + kPortNumParams;
+  std::vector<bool> free_all(S + kShellNumParams);
   for (int i = 0; i < N; ++i) free_all[i] = adj.lens_free[i];
   for (int i = 0; i < kPortNumParams; ++i) free_all[N + i] = o.port_free[i];
+  for (int i = 0; i < kShellNumParams; ++i) free_all[S + i] = plan.shell_free[i];
   plan.covariance = cov;
   plan.correlation = Correlation(cov, free_all);
   for (int i = 0; i < N; ++i) {
@@ -765,11 +978,15 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   for (int i = 0; i < kPortNumParams; ++i) {
     if (o.port_free[i]) plan.port_sigma[i] = std::sqrt(cov(N + i, N + i));
   }
+  for (int i = 0; i < kShellNumParams; ++i) {
+    if (plan.shell_free[i]) plan.shell_sigma[i] = std::sqrt(cov(S + i, S + i));
+  }
   return plan;
 }
 
 // Checks shared by the refractive calibration and its plan.
 void CheckOptions(const RefractiveOptions& o) {
+  ShellPriorFor(o, refraction::ShellOf(o.port));  // --free-shell needs the port file's σ
   if (o.intrinsics != IntrinsicsMode::kFree && !o.air) {
     throw InvalidInput("--intrinsics", ToString(o.intrinsics) + " needs --air-calibration");
   }
@@ -779,9 +996,15 @@ void CheckOptions(const RefractiveOptions& o) {
                          fmt::format("a {} calibration cannot start a {} one",
                                      o.air->camera.model_name(), camera::Info(o.lens.model).name));
     }
+    // A prior needs the in-air covariance; a file without σ (OpenCV YAML, COLMAP, mrcal) is
+    // refused rather than given an invented one.
     if (o.intrinsics == IntrinsicsMode::kPrior && !o.air->has_covariance) {
-      throw InvalidInput("--air-calibration", "has no covariance or sigma for a prior (use "
-                                              "--intrinsics fixed)");
+      throw InvalidInput(
+          "--air-calibration",
+          fmt::format("holds no sigma{}: the prior (--intrinsics prior, the default) needs the "
+                      "in-air covariance; give --intrinsics fixed, or a calibration with sigma "
+                      "(porthole JSON, Metashape, calibmar)",
+                      o.air->covariance_note.empty() ? "" : " (" + o.air->covariance_note + ")"));
     }
   }
 }
@@ -840,21 +1063,31 @@ RefractivePlan PlanRefractiveFromImages(const std::vector<ImageDetections>& dete
   return PlanRefractive(central.images, target, lens, o, sigma0_px);
 }
 
+std::string JointParamName(camera::CameraModelId model, PortKind kind, int k, bool json) {
+  const camera::ModelInfo& m = camera::Info(model);
+  const auto pick = [&](const auto& info) { return std::string(json ? info.json_key : info.name); };
+  if (k < m.num_params) return pick(m.params[k]);
+  k -= m.num_params;
+  if (k < kPortNumParams) return pick(refraction::PortParams(kind)[k]);
+  return pick(refraction::ShellParams(kind)[k - kPortNumParams]);
+}
+
 nlohmann::ordered_json PlanToJson(const RefractivePlan& p) {
   using Json = nlohmann::ordered_json;
   const auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   const auto& names = refraction::PortParams(p.kind);
   const camera::ModelInfo& m = camera::Info(p.model);
-  Json port = Json::object(), lens = Json::object();
+  Json port = Json::object(), lens = Json::object(), shell = Json::object();
   for (int i = 0; i < kPortNumParams; ++i) port[std::string(names[i].json_key)] = num(p.port_sigma[i]);
+  for (int i = 0; i < kShellNumParams; ++i) {
+    if (p.shell_free[i]) shell[std::string(refraction::ShellParams(p.kind)[i].json_key)] = num(p.shell_sigma[i]);
+  }
   for (int i = 0; i < m.num_params; ++i) {
     lens[std::string(m.params[i].json_key)] = i < static_cast<int>(p.lens_sigma.size()) ? num(p.lens_sigma[i]) : Json(nullptr);
   }
   Json high = Json::array();
   const int t = static_cast<int>(p.correlation.rows());
-  const auto name = [&](int k) {
-    return k < m.num_params ? std::string(m.params[k].name) : std::string(names[k - m.num_params].name);
-  };
+  const auto name = [&](int k) { return JointParamName(p.model, p.kind, k, false); };
   for (int i = 0; i < t; ++i) {
     for (int j = i + 1; j < t; ++j) {
       if ((i >= m.num_params || j >= m.num_params) && std::isfinite(p.correlation(i, j)) &&
@@ -871,6 +1104,7 @@ nlohmann::ordered_json PlanToJson(const RefractivePlan& p) {
             {"n_points", p.n_points},
             {"determined", p.determined},
             {"port_sigma", port},
+            {"shell_sigma", shell},
             {"lens_sigma", lens},
             {"port_correlations_beyond_0_9", high},
             {"min_range_mm", p.min_range_mm},
@@ -892,6 +1126,7 @@ std::string ToString(IntrinsicsMode m) {
 std::array<bool, kPortNumParams> ParsePortFree(PortKind kind, const std::string& list,
                                                const std::string& field) {
   if (list == "all") return {true, true, true};
+  if (list == "none") return {false, false, false};
   std::array<bool, kPortNumParams> free{false, false, false};
   const auto& names = refraction::PortParams(kind);
   std::size_t start = 0;
@@ -904,7 +1139,7 @@ std::array<bool, kPortNumParams> ParsePortFree(PortKind kind, const std::string&
       if (names[i].name == name) free[i] = found = true;
     }
     if (!found) {
-      throw InvalidInput(field, fmt::format("unknown {} port parameter '{}' (use {},{},{} or all)",
+      throw InvalidInput(field, fmt::format("unknown {} port parameter '{}' (use {},{},{}, all or none)",
                                             kind == PortKind::kDome ? "dome" : "flat", name,
                                             names[0].name, names[1].name, names[2].name));
     }
@@ -929,6 +1164,21 @@ RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detecti
   return r;
 }
 
+namespace {
+
+// {key: correlation} of row k of the joint correlation with every other adjusted parameter.
+nlohmann::ordered_json CorrelationRow(const RefractiveResult& r, int k) {
+  nlohmann::ordered_json row = nlohmann::ordered_json::object();
+  for (int j = 0; j < r.correlation.cols(); ++j) {
+    const double c = r.correlation(k, j);
+    if (j == k || !std::isfinite(c)) continue;
+    row[JointParamName(r.lens.camera.model, r.kind, j, true)] = c;
+  }
+  return row;
+}
+
+}  // namespace
+
 nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetSpec& target,
                                         const RefractiveOptions& options) {
   using Json = nlohmann::ordered_json;
@@ -947,14 +1197,22 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
     pred_sigma[key] = r.predicted_sigma[i];
     units[key] = std::string(names[i].unit);
     if (!r.port_free[i]) continue;
-    Json row = Json::object();
-    for (int k = 0; k < n + kPortNumParams; ++k) {
-      const double c = r.correlation(n + i, k);
-      if (k == n + i || !std::isfinite(c)) continue;
-      row[k < n ? std::string(m.params[k].json_key) : std::string(names[k - n].json_key)] = c;
-    }
-    corr[key] = row;
+    corr[key] = CorrelationRow(r, n + i);
   }
+  // The shell values (refraction::ShellParams) adjusted, with the port file's.
+  const auto& shell_names = refraction::ShellParams(r.kind);
+  Json shell = {{"free", Json::array()}, {"parameters", Json::object()}, {"sigma", Json::object()},
+                {"from_port_file", Json::object()}, {"correlation", Json::object()}};
+  for (int i = 0; i < kShellNumParams; ++i) {
+    if (!r.shell_free[i]) continue;
+    const std::string key(shell_names[i].json_key);
+    shell["free"].push_back(key);
+    shell["parameters"][key] = r.shell[i];
+    shell["sigma"][key] = num(r.shell_sigma[i]);
+    shell["from_port_file"][key] = r.shell_predicted[i];
+    shell["correlation"][key] = CorrelationRow(r, n + kPortNumParams + i);
+  }
+  shell["n_water"] = num(r.n_water);
   Json geometry = Json::object();
   if (const auto* d = std::get_if<ports::DomePort>(&r.estimated_port.shape)) {
     geometry = {{"frame", "housing"},
@@ -1009,6 +1267,7 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
                {"p_value", num(r.p_value)},
                {"differs_from_predicted", r.port_differs},
                {"geometry", geometry},
+               {"shell", shell},
                {"central_prediction", central},
                {"model_choice",
                 {{"criterion", "BIC = n ln(RSS/n) + k ln(n), n image coordinates"},

@@ -16,8 +16,11 @@
 //      kPrior  `air` as a Gaussian prior with its full covariance on every parameter it adjusted
 //              except the focal length(s), which are free (a refocus on the virtual image changes
 //              them); the image residuals are then weighted by 1/σ0 of a first pass so the prior
-//              and the images have their stated weights.
-//    The shell (radii, inner-centre offset, thickness) and the indices come from the port system.
+//              and the images have their stated weights (so too with shell priors).
+//    The shell (radii, inner-centre offset, thickness) and the indices come from the port system;
+//    optionally adjusted too (refraction::ShellParams): a factor on the water index
+//    (free_water_index, no prior) and the shell values the port file states a σ for (free_shell,
+//    ports::ShellSigma: each a Gaussian prior of that σ about the file's value).
 //  - Start: a central calibration of the same images with the same model (calib::Calibrate) gives
 //    the poses; the lens starts from `air` or, without it, from that calibration with the
 //    distortion zeroed and, behind a flat port, the focal length divided by the water index; then a
@@ -31,7 +34,8 @@
 //    coordinates (k: free lens + port + pose parameters).
 // Bad input throws InvalidInput naming the field: as Calibrate, plus an intrinsics mode that needs
 // `air` without one, an air calibration of another model or sensor, a port the pupil is not in,
-// or a network whose port parameters are not determined (singular covariance).
+// a network whose port parameters are not determined (singular covariance), or --free-shell with
+// a port file that states no σ.
 #pragma once
 
 #include <Eigen/Core>
@@ -51,7 +55,8 @@ enum class IntrinsicsMode { kFree, kFixed, kPrior };
 // "free" | "fixed" | "prior"; throws InvalidInput(field).
 IntrinsicsMode ParseIntrinsicsMode(const std::string& s, const std::string& field);
 std::string ToString(IntrinsicsMode m);
-// "ep_x,ep_z" (names of refraction::PortParams(kind)) or "all" → which port parameters are free.
+// "ep_x,ep_z" (names of refraction::PortParams(kind)), "all" or "none" → which port parameters
+// are free.
 std::array<bool, refraction::kPortNumParams> ParsePortFree(refraction::PortKind kind,
                                                           const std::string& list,
                                                           const std::string& field);
@@ -78,7 +83,20 @@ struct RefractiveOptions {
   // The 1-D search of the axial port parameter at the start (4 iterations per candidate). Off
   // starts from the prediction alone: when it is known to be close (Monte-Carlo runs).
   bool search = true;
+  // Adjust a factor on the water index (refraction::ShellParams[0]; start 1, no prior). Its σ and
+  // correlations (with c and the axial port parameter) say whether the images determine it.
+  bool free_water_index = false;
+  // Adjust the shell values the port file states a σ for (port.spec.sigma): each a Gaussian prior
+  // of that σ about the file's value — a dome's radii (outer.radius_sigma_mm; inner.radius_sigma_mm
+  // or thickness_sigma_mm, the latter on outer − inner radius), its inner centre relative to the
+  // outer one per axis (σ² = outer.center_sigma_mm² + inner.center_sigma_mm²), a flat port's
+  // thickness (thickness_sigma_mm). The others stay fixed at the file's value.
+  bool free_shell = false;
 };
+
+// The name of row k of the joint covariance [lens (model order), port (refraction::PortParams),
+// shell (refraction::ShellParams)]: the JSON key with `json`, else the short name.
+std::string JointParamName(camera::CameraModelId model, refraction::PortKind kind, int k, bool json);
 
 // Prediction vs measurement of the water calibration's central c, x0, y0 (a Brown lens only).
 // The refractive model has no central c in water: its lens is the in-air model behind the port.
@@ -117,8 +135,15 @@ struct RefractiveResult {
   std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, predicted{},
       predicted_sigma{};
   std::array<bool, refraction::kPortNumParams> port_free{};
-  // Joint covariance and correlation of [lens parameters (model order), port parameters]: the
-  // marginal over the poses; NaN/0 for fixed parameters as in CalibrationResult.
+  // The shell's values (refraction::ShellParams: the water index factor, then the geometry) as
+  // adjusted, their σ (NaN where fixed), the port file's values (factor 1) and which were adjusted;
+  // the water index used (factor × the materials model's).
+  refraction::ShellArray shell{}, shell_sigma{}, shell_predicted{};
+  std::array<bool, refraction::kShellNumParams> shell_free{};
+  double n_water = NAN;
+  // Joint covariance and correlation of [lens parameters (model order), port parameters, shell
+  // values] (JointParamName): the marginal over the poses; NaN/0 for fixed parameters as in
+  // CalibrationResult.
   Eigen::MatrixXd covariance, correlation;
   // χ² test of port − predicted over the free port parameters.
   double chi2 = NAN, p_value = NAN;
@@ -156,7 +181,9 @@ struct RefractivePlan {
   std::array<double, refraction::kPortNumParams> port_sigma{};  // NaN for fixed parameters
   std::array<bool, refraction::kPortNumParams> port_free{};
   std::vector<double> lens_sigma;  // model order; NaN for fixed parameters
-  Eigen::MatrixXd covariance, correlation;  // [lens, port] as RefractiveResult
+  refraction::ShellArray shell_sigma{};  // NaN for fixed values
+  std::array<bool, refraction::kShellNumParams> shell_free{};
+  Eigen::MatrixXd covariance, correlation;  // [lens, port, shell] as RefractiveResult
   double min_range_mm = 0, max_range_mm = 0;  // the target centres' distances from the pupil
   std::string warning;  // "" or what is weak (one range; not determined)
 };
@@ -182,7 +209,8 @@ nlohmann::ordered_json PlanToJson(const RefractivePlan& plan);
 // The calibration JSON (CalibrationToJson of the lens) with a `port` block: kind, intrinsics,
 // parameters {key: value}, sigma, predicted, predicted_sigma, correlation with the lens
 // parameters, chi2, dof, p_value, differs, model_choice {central_rms_px, central_bic, bic,
-// preferred}, and the estimated port's geometry in the housing frame.
+// preferred}, the estimated port's geometry in the housing frame, and `shell` {free, parameters,
+// sigma, from_port_file, n_water, correlation} of the shell values.
 nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetSpec& target,
                                         const RefractiveOptions& options);
 

@@ -2,10 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <filesystem>
-#include <fstream>
-#include <charconv>
-#include <sstream>
 
 #include "porthole/camera/json.h"
 #include "porthole/core/error.h"
@@ -261,94 +257,6 @@ std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit
       "   data: [ {:.17g}, {:.17g}, {:.17g}, {:.17g}, {:.17g} ]\n",
       conv.fit.rms_px, conv.fit.max_px, sensor.width_px, sensor.height_px, o.fx, o.cx,
       o.fy, o.cy, o.k1, o.k2, o.p1, o.p2, o.k3);
-}
-
-namespace {
-
-// OpenCV YAML is read by a linear scan for the few keys porthole needs (no regex: std::regex
-// recursed per character and overflowed the stack on a 100 kB file; no YAML library: its parsers
-// recurse on nesting). A key counts only at the start of a line.
-std::size_t YamlKey(const std::string& y, const std::string& key, const std::string& field) {
-  const std::string needle = key + ":";
-  for (std::size_t pos = y.find(needle); pos != std::string::npos; pos = y.find(needle, pos + 1)) {
-    if (pos == 0 || y[pos - 1] == '\n') return pos + needle.size();
-  }
-  throw InvalidInput(field, "OpenCV YAML: no " + key);
-}
-
-int YamlInt(const std::string& y, const std::string& key, const std::string& field) {
-  std::size_t p = YamlKey(y, key, field);
-  while (p < y.size() && (y[p] == ' ' || y[p] == '\t')) ++p;
-  long v = 0;
-  const auto [end, ec] = std::from_chars(y.data() + p, y.data() + y.size(), v);
-  if (ec != std::errc() || end == y.data() + p || v < 1 || v > 1000000) {
-    throw InvalidInput(field, "OpenCV YAML: " + key + " must be a whole number from 1 to 1000000");
-  }
-  return static_cast<int>(v);
-}
-
-std::vector<double> YamlMatrix(const std::string& y, const std::string& key,
-                               const std::string& field) {
-  const std::size_t start = YamlKey(y, key, field);
-  const std::size_t open = y.find('[', start), close = open == std::string::npos ? open : y.find(']', open);
-  if (close == std::string::npos) throw InvalidInput(field, "OpenCV YAML: no " + key + " data [ ... ]");
-  std::vector<double> out;
-  std::size_t p = open + 1;
-  while (p < close) {
-    const std::size_t comma = std::min(y.find(',', p), close);
-    std::string item = y.substr(p, comma - p);
-    item.erase(0, item.find_first_not_of(" \t\r\n"));
-    item.erase(item.find_last_not_of(" \t\r\n") + 1);
-    double v = 0;
-    const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
-    if (item.empty() || ec != std::errc() || end != item.data() + item.size() || !std::isfinite(v)) {
-      throw InvalidInput(field, "OpenCV YAML: " + key + ": '" + item.substr(0, 40) + "' is not a finite number");
-    }
-    out.push_back(v);
-    if (out.size() > 20) throw InvalidInput(field, "OpenCV YAML: " + key + " has more than 20 entries");
-    p = comma + 1;
-  }
-  return out;
-}
-
-}  // namespace
-
-CalibrationRecord ImportOpenCVYaml(const std::string& yaml, double pixel_pitch_mm,
-                                   const std::string& field, camera::ConversionFit* fit) {
-  RequirePositive("--pixel-pitch-mm", pixel_pitch_mm);
-  const auto k = YamlMatrix(yaml, "camera_matrix", field);
-  const auto d = YamlMatrix(yaml, "distortion_coefficients", field);
-  if (k.size() != 9) throw InvalidInput(field, "camera_matrix must have 9 entries");
-  if (d.size() < 4) throw InvalidInput(field, "distortion_coefficients: at least k1 k2 p1 p2");
-  for (std::size_t i = 5; i < d.size(); ++i) {
-    if (d[i] != 0) throw InvalidInput(field, "distortion beyond k3 (rational/thin prism) is not "
-                                             "representable in the Brown model");
-  }
-  camera::OpenCVParams o{k[0], k[4], k[2], k[5], d[0], d[1], d[2], d[3], d.size() > 4 ? d[4] : 0};
-  CalibrationRecord rec;
-  const camera::Sensor sensor{YamlInt(yaml, "image_width", field),
-                              YamlInt(yaml, "image_height", field), pixel_pitch_mm};
-  const auto conv = camera::OpenCVToBrown(o, sensor);
-  if (fit != nullptr) *fit = conv.fit;
-  rec.camera = camera::FromBrown(conv.brown, sensor);
-  rec.free.assign(camera::kBrownNumParams, true);
-  rec.covariance = Eigen::MatrixXd::Zero(camera::kBrownNumParams, camera::kBrownNumParams);
-  return rec;
-}
-
-CalibrationRecord LoadCalibration(const std::string& path, double pixel_pitch_mm,
-                                  const std::string& field, camera::ConversionFit* fit) {
-  const std::string text = ReadInputFile(path, field, kMaxJsonFileBytes);
-  const std::string ext = std::filesystem::path(path).extension().string();
-  CalibrationRecord rec;
-  if (ext == ".yml" || ext == ".yaml") {
-    rec = ImportOpenCVYaml(text, pixel_pitch_mm, field, fit);
-  } else {
-    const nlohmann::json j = ParseJsonText(text, field, path);
-    rec = WithJsonLines(text, field, path, [&] { return CalibrationFromJson(j, field); });
-  }
-  rec.label = std::filesystem::path(path).stem().string();
-  return rec;
 }
 
 }  // namespace porthole::calib

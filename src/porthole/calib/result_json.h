@@ -1,5 +1,6 @@
 // A calibration as JSON (the output of `porthole calibrate --json`, the input of
-// `porthole compare`), and OpenCV YAML export/import.
+// `porthole compare`), and OpenCV YAML export. Every command reads calibration files through
+// interop::ReadCalibrationFile (every format, docs/interop.md), which uses CalibrationFromJson.
 //
 // JSON keys (units per docs/conventions.md; the `units` object repeats them):
 //   model: the camera model's name (camera/models.h; absent = "brown", as files before the list);
@@ -53,16 +54,5 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
 // of an OpenCV-model calibration it is exact (k1 k2 p1 p2 k3 k4 k5 k6). Other models throw
 // InvalidInput("--opencv-yaml").
 std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit* fit);
-// Import: reads the YAML (image_width/height, camera_matrix, distortion_coefficients with 4, 5 or
-// more entries — beyond k3 must be 0), refits Brown with the given pitch (camera::OpenCVToBrown);
-// the record has no covariance. Throws InvalidInput(field) on a malformed file.
-CalibrationRecord ImportOpenCVYaml(const std::string& yaml, double pixel_pitch_mm,
-                                   const std::string& field, camera::ConversionFit* fit);
-
-// Loads a calibration from a .json (CalibrationFromJson) or .yml/.yaml (ImportOpenCVYaml) file.
-// (calibrate --port --air-calibration; every other command reads every format through
-// interop::ReadCalibrationFile, docs/interop.md.)
-CalibrationRecord LoadCalibration(const std::string& path, double pixel_pitch_mm,
-                                  const std::string& field, camera::ConversionFit* fit);
 
 }  // namespace porthole::calib

@@ -88,6 +88,33 @@ TEST(PortToml, WriteThenReadIsLossless) {
   }
 }
 
+// The shell σ fields (ports::ShellSigma; calibrate --port --free-shell): read where docs/presets.md
+// puts them, written back unchanged, refused with file, line and key when not positive.
+TEST(PortToml, ShellSigmaFieldsRoundTrip) {
+  const std::string dome =
+      "type = \"dome\"\nthickness_sigma_mm = 0.05\n[outer]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 83.4\n"
+      "radius_sigma_mm = 0.02\ncenter_sigma_mm = [0.01, 0.01, 0.03]\n"
+      "[inner]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 75.7\nradius_sigma_mm = 0.03\n";
+  const auto p = ParsePortToml(dome, "dome.toml");
+  EXPECT_EQ(p.sigma.thickness_mm, 0.05);
+  EXPECT_EQ(p.sigma.outer_radius_mm, 0.02);
+  EXPECT_EQ(p.sigma.inner_radius_mm, 0.03);
+  EXPECT_EQ(p.sigma.outer_center_mm, ports::Vec3(0.01, 0.01, 0.03));
+  EXPECT_FALSE(p.sigma.inner_center_mm.has_value());
+  const auto q = ParsePortToml(PortToToml(p), "roundtrip.toml");
+  EXPECT_EQ(PortToToml(q), PortToToml(p));
+  EXPECT_EQ(q.sigma.outer_center_mm, p.sigma.outer_center_mm);
+  const auto flat = ParsePortToml(
+      "type = \"flat\"\nthickness_mm = 10\nthickness_sigma_mm = 0.1\ninner_point_mm = [0,0,40]\n", "f.toml");
+  EXPECT_EQ(flat.sigma.thickness_mm, 0.1);
+  EXPECT_EQ(ParsePortToml(PortToToml(flat), "f2.toml").sigma.thickness_mm, 0.1);
+  std::string bad = dome;
+  bad.replace(bad.find("0.02"), 4, "-0.1");
+  EXPECT_NE(ErrorOf(bad).find("my-dome.toml:6: outer.radius_sigma_mm: must be > 0"), std::string::npos)
+      << ErrorOf(bad);
+  EXPECT_TRUE(LoadPort("nimar-ni320").sigma.Empty());
+}
+
 TEST(Presets, CameraAndLensPresetsCarryThePapersValues) {
   const auto d300 = LoadCamera("nikon-d300");
   EXPECT_EQ(d300.sensor.width_px, 4288);

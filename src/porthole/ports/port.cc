@@ -51,6 +51,19 @@ void Validate(const PortSpec& spec, const std::string& where) {
     RequirePositive(where + ".thickness_mm", f.thickness_mm);
   }
   RequireFiniteVec(where + ".entrance_pupil_mm", spec.default_ep_in_housing_mm);
+  const ShellSigma& sg = spec.sigma;
+  if (!spec.IsDome() && (sg.outer_radius_mm || sg.inner_radius_mm || sg.outer_center_mm || sg.inner_center_mm)) {
+    throw InvalidInput(where + ".sigma", "a flat port's shell has a thickness only (thickness_sigma_mm)");
+  }
+  if (sg.outer_radius_mm) RequirePositive(where + ".outer.radius_sigma_mm", *sg.outer_radius_mm);
+  if (sg.inner_radius_mm) RequirePositive(where + ".inner.radius_sigma_mm", *sg.inner_radius_mm);
+  if (sg.thickness_mm) RequirePositive(where + ".thickness_sigma_mm", *sg.thickness_mm);
+  for (const auto& [key, v] : {std::pair{".outer.center_sigma_mm", sg.outer_center_mm},
+                               std::pair{".inner.center_sigma_mm", sg.inner_center_mm}}) {
+    if (!v) continue;
+    RequireFiniteVec(where + key, *v);
+    if (!(v->minCoeff() >= 0)) throw InvalidInput(where + key, "must be >= 0 on every axis");
+  }
 }
 
 PortSystem Place(const PortSpec& spec_in, const Vec3& ep, double n_glass, double n_water) {

@@ -42,6 +42,20 @@ struct FlatPort {
 
 enum class PortFrame { kHousing, kCam };
 
+// 1σ of a port's shell values where the port file states them (a scan's sphere fits, a datasheet's
+// tolerances), mm; unset: not stated. `porthole calibrate --port --free-shell` adjusts the values
+// that have one, each with a Gaussian prior of that σ (docs/calibration.md); nothing else reads
+// them. Dome: the two radii, the two centres (per axis; what enters is the inner centre relative
+// to the outer one), the thickness outer − inner radius. Flat: the glass thickness.
+struct ShellSigma {
+  std::optional<double> outer_radius_mm, inner_radius_mm, thickness_mm;
+  std::optional<Vec3> outer_center_mm, inner_center_mm;
+
+  bool Empty() const {
+    return !outer_radius_mm && !inner_radius_mm && !thickness_mm && !outer_center_mm && !inner_center_mm;
+  }
+};
+
 struct PortSpec {
   std::string name;
   std::string description;
@@ -50,6 +64,8 @@ struct PortSpec {
   std::variant<DomePort, FlatPort> shape;
   // The entrance pupil to use when no lens says otherwise (housing frame).
   Vec3 default_ep_in_housing_mm = Vec3(0, 0, 26.9);
+  // σ of the shell's values, where the file states them (flat: thickness_mm only).
+  ShellSigma sigma;
 
   bool IsDome() const { return std::holds_alternative<DomePort>(shape); }
   const std::string& material() const;
@@ -81,7 +97,7 @@ struct PortSystem {
 };
 
 // Checks `spec` (finite numbers, radii and thickness positive, inner sphere inside the outer one,
-// unit-length normal) and throws InvalidInput naming the field; `where` prefixes field names
+// unit-length normal, σ positive and finite where given, a flat port's σ only on its thickness) and throws InvalidInput naming the field; `where` prefixes field names
 // (e.g. "port.outer.radius_mm").
 void Validate(const PortSpec& spec, const std::string& where = "port");
 

@@ -144,6 +144,66 @@ const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind) {
   return kind == PortKind::kDome ? kDome : kFlat;
 }
 
+const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind) {
+  static constexpr std::array<PortParamInfo, kShellNumParams> kDome = {{
+      {"n_water", "water_index_factor", "1"},
+      {"r_outer", "outer_radius_mm", "mm"},
+      {"r_inner", "inner_radius_mm", "mm"},
+      {"off_x", "inner_from_outer_x_mm", "mm"},
+      {"off_y", "inner_from_outer_y_mm", "mm"},
+      {"off_z", "inner_from_outer_z_mm", "mm"},
+  }};
+  static constexpr std::array<PortParamInfo, kShellNumParams> kFlat = {{
+      {"n_water", "water_index_factor", "1"},
+      {"thickness", "thickness_mm", "mm"},
+      {"", "", ""},
+      {"", "", ""},
+      {"", "", ""},
+      {"", "", ""},
+  }};
+  return kind == PortKind::kDome ? kDome : kFlat;
+}
+
+ShellArray ShellValues(const Shell& s) {
+  if (s.kind == PortKind::kDome) {
+    return {1.0, s.outer_radius_mm, s.inner_radius_mm, s.inner_from_outer_mm.x(),
+            s.inner_from_outer_mm.y(), s.inner_from_outer_mm.z()};
+  }
+  return {1.0, s.thickness_mm, 0, 0, 0, 0};
+}
+
+Shell WithShellValues(const Shell& s, const ShellArray& v) {
+  Shell out = s;
+  out.n_water = s.n_water * v[0];
+  if (s.kind == PortKind::kDome) {
+    out.outer_radius_mm = v[1];
+    out.inner_radius_mm = v[2];
+    out.inner_from_outer_mm = Vec3(v[3], v[4], v[5]);
+  } else {
+    out.thickness_mm = v[1];
+  }
+  return out;
+}
+
+void ValidateShellValues(const Shell& s, const ShellArray& v, const std::string& field) {
+  for (double x : v) {
+    if (!std::isfinite(x)) throw InvalidInput(field, "shell values must be finite numbers");
+  }
+  if (!(v[0] > 0) || !(s.n_water * v[0] >= 1)) {
+    throw InvalidInput(field, fmt::format("the water index factor {:.6g} gives a water index {:.6g} "
+                                          "below 1", v[0], s.n_water * v[0]));
+  }
+  if (s.kind == PortKind::kDome) {
+    if (!(v[2] > 0) || !(Vec3(v[3], v[4], v[5]).norm() < v[1] - v[2])) {
+      throw InvalidInput(field, fmt::format("the inner sphere (radius {:.4g} mm, {:.4g} mm from the "
+                                            "outer centre) is not inside the outer one (radius {:.4g} mm)",
+                                            v[2], Vec3(v[3], v[4], v[5]).norm(), v[1]));
+    }
+  } else if (!(v[1] > 0)) {
+    throw InvalidInput(field, fmt::format("the glass thickness {:.4g} mm is not positive", v[1]));
+  }
+}
+
 bool InWater(const Geometry<double>& g, const Vec3& x) {
   if (g.kind == PortKind::kDome) {
     return (x - g.outer_center).norm() > g.outer_radius && x.z() > g.rim_z;
@@ -244,20 +304,28 @@ std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys) {
 
 ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
                                const std::array<double, kPortNumParams>& p) {
+  return SpecWithParams(sys, p, ShellValues(ShellOf(sys)));
+}
+
+ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
+                               const std::array<double, kPortNumParams>& p, const ShellArray& v) {
   ports::PortSpec spec = sys.spec;
   spec.frame = ports::PortFrame::kHousing;
   spec.default_ep_in_housing_mm = sys.ep_in_housing_mm;
   const Shell shell = ShellOf(sys);
-  const Geometry<double> g = MakeGeometry<double>(shell, p.data());
+  const Geometry<double> g = MakeGeometry<double>(shell, p.data(), v.data());
   const Vec3& ep = sys.ep_in_housing_mm;
   if (auto* d = std::get_if<ports::DomePort>(&spec.shape)) {
     d->outer.center_mm = ep + g.outer_center;
     d->inner.center_mm = ep + g.inner_center;
+    d->outer.radius_mm = g.outer_radius;
+    d->inner.radius_mm = g.inner_radius;
     if (d->rim_z_mm) *d->rim_z_mm = ep.z() + g.rim_z;
   } else {
     auto& f = std::get<ports::FlatPort>(spec.shape);
     f.normal = g.normal;
     f.inner_point_mm = ep + g.distance * g.normal;
+    f.thickness_mm = g.thickness;
   }
   ports::Validate(spec);
   return spec;

@@ -86,7 +86,26 @@ struct PortParamInfo {
 // The three parameters' names of a port kind, in order.
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind);
 
-// A port's surfaces in the cam frame for parameters p (see the file comment), in scalar T.
+// ---- The shell's values as parameters ----
+// What a calibration may adjust beside the three port parameters (kShellNumParams values, in this
+// order; ShellParams(kind) names them), each fixed at the Shell's value unless adjusted:
+//   0     water_index_factor: the water index is factor × Shell::n_water (1: the materials model);
+//   dome  1 outer_radius_mm, 2 inner_radius_mm, 3–5 inner_from_outer_{x,y,z}_mm (cam axes);
+//   flat  1 thickness_mm; 2–5 unused (0).
+inline constexpr int kShellNumParams = 6;
+using ShellArray = std::array<double, kShellNumParams>;
+const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind);
+// The Shell's own values (factor 1).
+ShellArray ShellValues(const Shell& s);
+// The Shell with the values `v` in place of its own (n_water scaled by v[0]).
+Shell WithShellValues(const Shell& s, const ShellArray& v);
+// Throws InvalidInput(field) unless `v` describes a shell: a positive water index factor; a dome's
+// inner sphere inside the outer one (positive radii, |offset| < outer − inner radius); a flat
+// port's positive thickness.
+void ValidateShellValues(const Shell& s, const ShellArray& v, const std::string& field);
+
+// A port's surfaces in the cam frame for parameters p (see the file comment), in scalar T; the
+// shell's values from `shell_values` (kShellNumParams, see above) when given, else from `s`.
 template <typename T>
 struct Geometry {
   PortKind kind = PortKind::kDome;
@@ -99,22 +118,23 @@ struct Geometry {
 };
 
 template <typename T>
-Geometry<T> MakeGeometry(const Shell& s, const T* p) {
+Geometry<T> MakeGeometry(const Shell& s, const T* p, const T* shell_values = nullptr) {
+  const T* v = shell_values;
   Geometry<T> g;
   g.kind = s.kind;
   g.n_glass = T(s.n_glass);
-  g.n_water = T(s.n_water);
+  g.n_water = v ? T(s.n_water) * v[0] : T(s.n_water);
   if (s.kind == PortKind::kDome) {
     g.outer_center = Vec3T<T>(-p[0], -p[1], -p[2]);
-    g.inner_center = g.outer_center + s.inner_from_outer_mm.cast<T>();
-    g.outer_radius = T(s.outer_radius_mm);
-    g.inner_radius = T(s.inner_radius_mm);
+    g.inner_center = g.outer_center + (v ? Vec3T<T>(v[3], v[4], v[5]) : s.inner_from_outer_mm.cast<T>());
+    g.outer_radius = v ? v[1] : T(s.outer_radius_mm);
+    g.inner_radius = v ? v[2] : T(s.inner_radius_mm);
     g.rim_z = -camera::ScalarValue(p[2]) + s.rim_from_outer_z_mm;
   } else {
     using std::sqrt;
     g.normal = Vec3T<T>(p[0], p[1], sqrt(T(1) - p[0] * p[0] - p[1] * p[1]));
     g.distance = p[2];
-    g.thickness = T(s.thickness_mm);
+    g.thickness = v ? v[1] : T(s.thickness_mm);
   }
   return g;
 }
@@ -202,16 +222,21 @@ bool DirectionResidual(const Geometry<S>& g, const Vec3T<S>& point, const Vec3T<
 bool FillJacobian(const Geometry<double>& g, const Vec3& point_in_cam, Solution* s);
 
 // The unit direction (cam frame) from the pupil whose ray the port bends through `point_in_cam`
-// (mm), for the port `shell` with parameters `port` (kPortNumParams values). With T a Jet the
-// derivatives with respect to the port parameters and the point are exact (the implicit-function
-// step above). nullopt: see the file comment.
+// (mm), for the port `shell` with parameters `port` (kPortNumParams values) and, when given, the
+// shell's values `shell_values` (kShellNumParams, see ShellParams). With T a Jet the derivatives
+// with respect to the port parameters, the shell values and the point are exact (the
+// implicit-function step above). nullopt: see the file comment.
 template <typename T>
 std::optional<Vec3T<T>> ForwardDirection(const Shell& shell, const T* port,
-                                         const Vec3T<T>& point_in_cam) {
+                                         const Vec3T<T>& point_in_cam,
+                                         const T* shell_values = nullptr) {
   using camera::ScalarValue;
-  double pd[kPortNumParams];
+  double pd[kPortNumParams], vd[kShellNumParams];
   for (int i = 0; i < kPortNumParams; ++i) pd[i] = ScalarValue(port[i]);
-  const Geometry<double> gd = MakeGeometry<double>(shell, pd);
+  if (shell_values) {
+    for (int i = 0; i < kShellNumParams; ++i) vd[i] = ScalarValue(shell_values[i]);
+  }
+  const Geometry<double> gd = MakeGeometry<double>(shell, pd, shell_values ? vd : nullptr);
   const Vec3 xd(ScalarValue(point_in_cam(0)), ScalarValue(point_in_cam(1)),
                 ScalarValue(point_in_cam(2)));
   auto sol = SolveDirection(gd, xd);
@@ -220,7 +245,7 @@ std::optional<Vec3T<T>> ForwardDirection(const Shell& shell, const T* port,
     return sol->dir;
   } else {
     if (!sol->has_jacobian && !FillJacobian(gd, xd, &*sol)) return std::nullopt;
-    const Geometry<T> g = MakeGeometry<T>(shell, port);
+    const Geometry<T> g = MakeGeometry<T>(shell, port, shell_values);
     Vec2T<T> r;
     if (!DirectionResidual<T>(g, point_in_cam, sol->dir.cast<T>(), sol->f1, sol->f2, &r)) {
       return std::nullopt;
@@ -234,12 +259,13 @@ std::optional<Vec3T<T>> ForwardDirection(const Shell& shell, const T* port,
 }
 
 // The pixel of `point_in_cam` (mm, in the water) seen by the camera model M (camera/models.h) with
-// parameters `cam` behind the port: M::Project of the forward direction. nullopt where either
-// fails.
+// parameters `cam` behind the port (shell values as ForwardDirection): M::Project of the forward
+// direction. nullopt where either fails.
 template <typename M, typename T>
 std::optional<Vec2T<T>> Project(const camera::Sensor& sensor, const T* cam, const Shell& shell,
-                                const T* port, const Vec3T<T>& point_in_cam) {
-  const auto d = ForwardDirection<T>(shell, port, point_in_cam);
+                                const T* port, const Vec3T<T>& point_in_cam,
+                                const T* shell_values = nullptr) {
+  const auto d = ForwardDirection<T>(shell, port, point_in_cam, shell_values);
   if (!d) return std::nullopt;
   return M::template Project<T>(sensor, cam, *d);
 }
@@ -257,6 +283,10 @@ std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys);
 // radii are kept. Throws InvalidInput when the result is not a valid port (ports::Validate).
 ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
                                const std::array<double, kPortNumParams>& p);
+// The same with the shell's geometry values `v` (ShellParams: radii and inner-centre offset, or
+// thickness) in place of the system's; the water index factor v[0] is not part of a port.
+ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
+                               const std::array<double, kPortNumParams>& p, const ShellArray& v);
 // The interfaces met by a ray leaving the pupil, in the CAM frame (the optics tracer's input):
 // the backward projection through optics::TraceSequence.
 std::vector<optics::Interface> Interfaces(const Shell& shell, const double* port);

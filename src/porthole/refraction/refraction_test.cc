@@ -163,10 +163,12 @@ TEST(ForwardProjection, PointsNotInTheWaterHaveNoProjection) {
 }
 
 // Jets (the implicit-function step) against central differences of the double projection, for
-// the port parameters, the point and the lens parameters: ≤ 1e-6 relative per column.
+// the port parameters, the point, the lens parameters and the shell's values (water index factor,
+// radii and inner-centre offset or thickness): ≤ 1e-6 relative per column.
 TEST(ForwardProjection, JacobiansEqualCentralDifferences) {
   using camera::BrownModel;
-  constexpr int kN = 3 + 3 + camera::kBrownNumParams;
+  constexpr int kLens = 6, kShell = 6 + camera::kBrownNumParams;
+  constexpr int kN = kShell + kShellNumParams;
   using J = ceres::Jet<double, kN>;
   const Camera cam = D300Brown();
   double worst = 0;
@@ -175,15 +177,17 @@ TEST(ForwardProjection, JacobiansEqualCentralDifferences) {
     const auto p = ParamsOf(c.sys);
     for (const Vec3& x : {Vec3(180, -120, 600), Vec3(-2500, 1500, 5000), Vec3(40, 30, 300),
                           Vec3(-9000, -6000, 20000)}) {
-      // Values in one array: port [0, 3), point [3, 6), camera [6, kN).
+      // Values in one array: port [0, 3), point [3, 6), camera [6, kShell), shell [kShell, kN).
       std::array<double, kN> v;
       std::copy(p.begin(), p.end(), v.begin());
       for (int k = 0; k < 3; ++k) v[3 + k] = x(k);
-      std::copy(cam.params.begin(), cam.params.end(), v.begin() + 6);
+      std::copy(cam.params.begin(), cam.params.end(), v.begin() + kLens);
+      const ShellArray sv = ShellValues(shell);
+      std::copy(sv.begin(), sv.end(), v.begin() + kShell);
       auto project = [&](const auto* q) {
         using T = std::remove_cv_t<std::remove_pointer_t<decltype(q)>>;
-        return Project<BrownModel, T>(cam.sensor, q + 6, shell, q,
-                                      Vec3T<T>(q[3], q[4], q[5]));
+        return Project<BrownModel, T>(cam.sensor, q + kLens, shell, q,
+                                      Vec3T<T>(q[3], q[4], q[5]), q + kShell);
       };
       std::array<J, kN> vj;
       for (int k = 0; k < kN; ++k) vj[k] = J(v[k], k);
@@ -194,10 +198,15 @@ TEST(ForwardProjection, JacobiansEqualCentralDifferences) {
       EXPECT_LE(std::abs((*pj)(0).a - (*p0)(0)), 1e-9);
       for (int k = 0; k < kN; ++k) {
         // A step that moves the pixel by about 0.01 px: large against round-off, small against
-        // the curvature.
+        // the curvature (0.001 px for the shell values: a dome's radius curves the pixel more).
         const double col = std::hypot((*pj)(0).v(k), (*pj)(1).v(k));
-        if (!(col > 0)) continue;
-        const double h = 1e-2 / col;
+        // Below 1e-9 px per unit a column is zero up to round-off (the shell values at a pupil in
+        // the centre of a concentric dome bend nothing: the difference quotient is exactly 0).
+        if (!(col > 1e-9)) {
+          EXPECT_LE(col, 1e-9) << c.name << " column " << k;
+          continue;
+        }
+        const double h = (k >= kShell ? 1e-3 : 1e-2) / col;
         auto plus = v, minus = v;
         plus[k] += h;
         minus[k] -= h;
@@ -213,6 +222,46 @@ TEST(ForwardProjection, JacobiansEqualCentralDifferences) {
     }
   }
   std::printf("Jacobian vs central differences: worst relative difference %.2e\n", worst);
+}
+
+// The shell's values as parameters are the shell itself: the Shell's own values project as no
+// values at all, a water index factor as the water index scaled, and a port spec with other values
+// traces as those values say; values that are no shell are refused.
+TEST(ShellValues, AreTheShellsOwnAndRefuseNonsense) {
+  const Camera cam = D300Brown();
+  const Vec3 x(-700, 400, 1500);
+  for (const Case& c : Cases()) {
+    const Shell shell = ShellOf(c.sys);
+    const auto p = ParamsOf(c.sys);
+    ShellArray v = ShellValues(shell);
+    const auto a = ForwardDirection<double>(shell, p.data(), x);
+    const auto b = ForwardDirection<double>(shell, p.data(), x, v.data());
+    ASSERT_TRUE(a && b) << c.name;
+    EXPECT_EQ(*a, *b) << c.name;
+    v[0] = 1.01;
+    Shell wetter = shell;
+    wetter.n_water *= 1.01;
+    const auto d = ForwardDirection<double>(shell, p.data(), x, v.data());
+    const auto e = ForwardDirection<double>(wetter, p.data(), x);
+    ASSERT_TRUE(d && e) << c.name;
+    EXPECT_EQ(*d, *e) << c.name;
+    v[0] = 1;
+    v[1] += 0.5;  // outer radius or flat thickness
+    const PortSystem moved = ports::Place(SpecWithParams(c.sys, p, v), c.sys.ep_in_housing_mm,
+                                          c.sys.n_glass, c.sys.n_water);
+    const auto f = ForwardDirection<double>(shell, p.data(), x, v.data());
+    const auto g = ForwardDirection<double>(ShellOf(moved), ParamsOf(moved).data(), x);
+    ASSERT_TRUE(f && g) << c.name;
+    EXPECT_LE((*f - *g).norm(), 1e-12) << c.name;
+    EXPECT_EQ(WithShellValues(shell, v).n_water, shell.n_water);
+    EXPECT_NO_THROW(ValidateShellValues(shell, v, "shell"));
+    ShellArray bad = v;
+    bad[0] = 0.5;  // water index below 1
+    EXPECT_THROW(ValidateShellValues(shell, bad, "shell"), InvalidInput) << c.name;
+    bad = v;
+    bad[shell.kind == PortKind::kDome ? 2 : 1] = -1;  // inner radius or thickness negative
+    EXPECT_THROW(ValidateShellValues(shell, bad, "shell"), InvalidInput) << c.name;
+  }
 }
 
 TEST(PortParameters, SpecWithParamsPutsThePupilWhereTheParametersSay) {
