@@ -28,7 +28,9 @@ using PortArray = std::array<double, kPortNumParams>;
 using ShellFree = std::array<bool, kShellNumParams>;
 
 // Raises glog's threshold to ERROR while alive: Ceres warns through glog of what porthole reports
-// itself (Covariance: "Jacobian matrix is rank deficient"), which would be a second line on stderr.
+// or handles itself (Covariance: "Jacobian matrix is rank deficient"; a step where some point
+// cannot be projected: "Step failed to evaluate"), lines that would follow or precede porthole's
+// one line on stderr.
 class QuietGlog {
  public:
   QuietGlog() : saved_(FLAGS_minloglevel) { FLAGS_minloglevel = std::max(saved_, google::GLOG_ERROR); }
@@ -197,8 +199,6 @@ class RefractiveAdjustment {
     ceres::Covariance::Options co;
     co.num_threads = o_.lens.num_threads;
     ceres::Covariance covariance(co);
-    // A rank-deficient Jacobian is reported by the caller (one line, InvalidInput): not by glog too.
-    const QuietGlog quiet;
     // The blocks and their offsets in the joint matrix; the shell only when in the problem.
     std::vector<std::pair<const double*, int>> blocks = {{scaled.data(), 0},
                                                          {port.data(), N}};
@@ -507,9 +507,16 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
       vp[i - S] += h;
       vm[i - S] -= h;
     }
-    const auto fp = EquivalentCentral(o.port, pp, vp, lp, fo);
-    const auto fm = EquivalentCentral(o.port, pm, vm, lm, fo);
-    for (int k = 0; k < 3; ++k) jac(k, i) = (fp[k] - fm[k]) / (2 * h);
+    try {
+      const auto fp = EquivalentCentral(o.port, pp, vp, lp, fo);
+      const auto fm = EquivalentCentral(o.port, pm, vm, lm, fo);
+      for (int k = 0; k < 3; ++k) jac(k, i) = (fp[k] - fm[k]) / (2 * h);
+    } catch (const InvalidInput& e) {  // the estimate ± 1σ is no port: nothing to propagate
+      cp.why_not = fmt::format("{} ± 1 sigma is not a valid port ({}): the estimate is not "
+                               "determined well enough to compare", JointParamName(lens.model,
+                               refraction::ShellOf(o.port).kind, i, false), e.what());
+      return cp;
+    }
   }
   const Eigen::Matrix3d s_est = jac * post * jac.transpose();
   const Eigen::Matrix3d s_pred = jac * pred_cov * jac.transpose();
@@ -857,7 +864,10 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   res.preferred = res.bic < res.central_bic ? "refractive" : "central";
 
   refraction::ValidateParams(shell, res.port.data(), "port");
-  refraction::ValidateShellValues(shell, res.shell, "port");
+  // An estimate that is no shell (a water index below 1: images not taken in water; an inner
+  // sphere outside the outer one) is refused, naming the option that freed it.
+  refraction::ValidateShellValues(shell, res.shell,
+                                  n_shell_free > res.shell_free[0] ? "--free-shell" : "--free-water-index");
   res.estimated_port = refraction::SpecWithParams(o.port, res.port, res.shell);
   // The file's σ of a value adjusted here were its prior: the estimate's σ are in the JSON, and a
   // port file read again must not count that prior twice. σ of values not adjusted stay.
@@ -1001,9 +1011,9 @@ void CheckOptions(const RefractiveOptions& o) {
     if (o.intrinsics == IntrinsicsMode::kPrior && !o.air->has_covariance) {
       throw InvalidInput(
           "--air-calibration",
-          fmt::format("holds no sigma{}: the prior (--intrinsics prior, the default) needs the "
-                      "in-air covariance; give --intrinsics fixed, or a calibration with sigma "
-                      "(porthole JSON, Metashape, calibmar)",
+          fmt::format("a prior (--intrinsics prior, the default with --air-calibration) needs the "
+                      "in-air covariance, and this calibration has none{}: give --intrinsics "
+                      "fixed, or a calibration with sigma (porthole JSON, Metashape XML, calibmar)",
                       o.air->covariance_note.empty() ? "" : " (" + o.air->covariance_note + ")"));
     }
   }
@@ -1040,6 +1050,7 @@ CalibrationResult CentralOf(const std::vector<ImageDetections>& detections,
 RefractivePlan PlanRefractive(const std::vector<ImageResult>& poses, const TargetSpec& target,
                               const camera::Camera& lens, const RefractiveOptions& o,
                               double sigma0_px) {
+  const QuietGlog quiet;
   RequirePositive("--plan-sigma-px", sigma0_px);
   if (poses.empty()) throw InvalidInput("--images", "no poses to plan with");
   if (lens.model != o.lens.model) {
@@ -1056,6 +1067,7 @@ RefractivePlan PlanRefractive(const std::vector<ImageResult>& poses, const Targe
 RefractivePlan PlanRefractiveFromImages(const std::vector<ImageDetections>& detections,
                                         const TargetSpec& target, const RefractiveOptions& o,
                                         double sigma0_px) {
+  const QuietGlog quiet;
   RequirePositive("--plan-sigma-px", sigma0_px);
   CheckOptions(o);
   const CalibrationResult central = CentralOf(detections, target, o);
@@ -1150,6 +1162,7 @@ std::array<bool, kPortNumParams> ParsePortFree(PortKind kind, const std::string&
 
 RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detections,
                                      const TargetSpec& target, const RefractiveOptions& o) {
+  const QuietGlog quiet;
   const auto t0 = std::chrono::steady_clock::now();
   CheckOptions(o);
   if (o.predicted_sigma) {

@@ -118,6 +118,15 @@ CalibrationRecord AirCalibration(const camera::Camera& cam, const TargetSpec& ta
   return rec;
 }
 
+// The exact lens as an in-air calibration without σ: for --intrinsics fixed, the port alone.
+CalibrationRecord ExactLens(const camera::Camera& cam) {
+  CalibrationRecord air;
+  air.camera = cam;
+  air.free = DefaultFree(cam.model);
+  air.covariance = Eigen::MatrixXd::Zero(cam.info().num_params, cam.info().num_params);
+  return air;
+}
+
 // A predicted port off the truth, as a datasheet and a flange survey would give it.
 PortSystem Displaced(const PortSystem& truth, const std::array<double, 3>& delta) {
   auto p = refraction::ParamsOf(truth);
@@ -244,10 +253,7 @@ TEST(RefractiveCalibration, RecoversATiltedFlatPort) {
 TEST(RefractiveCalibration, SigmaMatchesMonteCarloSpread) {
   const camera::Camera cam = D300Brown();
   const TargetSpec target = ParseTarget("chessboard:6x5:60");
-  CalibrationRecord air;
-  air.camera = cam;
-  air.free = DefaultFree(camera::CameraModelId::kBrown);
-  air.covariance = Eigen::MatrixXd::Zero(10, 10);
+  const CalibrationRecord air = ExactLens(cam);
   for (const PortSystem& truth : {AsBuiltNi320(), TiltedFlat(2.0, 25.0)}) {
     const auto t = refraction::ParamsOf(truth);
     RefractiveOptions o = Options(Displaced(truth, truth.IsDome() ? std::array<double, 3>{0.2, -0.2, 0.5}
@@ -381,10 +387,7 @@ TEST(RefractiveCalibration, FreeWaterIndexIsRecoveredWithHonestSigma) {
   const TargetSpec target = ParseTarget("chessboard:6x5:60");
   const double factor = 1.005;
   const PortSystem truth = InWater(TiltedFlat(2.0, 25.0), 1.341 * factor);
-  CalibrationRecord air;
-  air.camera = cam;
-  air.free = DefaultFree(camera::CameraModelId::kBrown);
-  air.covariance = Eigen::MatrixXd::Zero(10, 10);
+  const CalibrationRecord air = ExactLens(cam);
   RefractiveOptions o = Options(Displaced(InWater(truth, 1.341), {0.002, -0.002, 1.0}),
                                 cam.sensor.pixel_pitch_mm);
   o.intrinsics = IntrinsicsMode::kFixed;
@@ -450,10 +453,7 @@ TEST(RefractiveCalibration, AnIndexTheImagesCannotSeeIsRefused) {
   s.shape = d;
   const PortSystem centred = ports::Place(s, ep, 1.5168, 1.341);
   RefractiveOptions o = Options(centred, cam.sensor.pixel_pitch_mm);
-  CalibrationRecord air;
-  air.camera = cam;
-  air.free = DefaultFree(camera::CameraModelId::kBrown);
-  o.air = air;
+  o.air = ExactLens(cam);
   o.intrinsics = IntrinsicsMode::kFixed;
   o.port_free = {false, false, false};
   o.free_water_index = true;
@@ -494,10 +494,7 @@ TEST(RefractiveCalibration, ShellPriorsPullTowardTruthWithHonestSigma) {
     spec.sigma.inner_radius_mm = 0.5;
     return ports::Place(spec, truth.ep_in_housing_mm, truth.n_glass, truth.n_water);
   };
-  CalibrationRecord air;
-  air.camera = cam;
-  air.free = DefaultFree(camera::CameraModelId::kBrown);
-  air.covariance = Eigen::MatrixXd::Zero(10, 10);
+  const CalibrationRecord air = ExactLens(cam);
   const auto options = [&](const PortSystem& predicted) {
     RefractiveOptions o = Options(predicted, cam.sensor.pixel_pitch_mm);
     o.air = air;
