@@ -163,6 +163,11 @@ std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOpt
     if (std::isfinite(p.lens_sigma[i])) lens += fmt::format(" {} {:.3g};", m.params[i].name, p.lens_sigma[i]);
   }
   if (!lens.empty()) t += "lens std:" + lens + "\n";
+  std::string shell;
+  for (int i = 0; i < refraction::kShellNumParams; ++i) {
+    if (p.shell_free[i]) shell += fmt::format(" {} {:.3g};", refraction::ShellParams(p.kind)[i].json_key, p.shell_sigma[i]);
+  }
+  if (!shell.empty()) t += "shell std:" + shell + "\n";
   const int n = m.num_params;
   std::string high;
   for (int i = n; i < p.correlation.rows(); ++i) {

@@ -773,9 +773,11 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   lr.covariance_ok = adj.Covariance(&cov);
   constexpr int S = N + kPortNumParams, T = S + kShellNumParams;
   if (!lr.covariance_ok) {
-    throw InvalidInput("--images", "the port parameters and the lens are not determined by these "
-                                   "images (singular covariance): add views at other ranges and "
-                                   "angles, or fix parameters (--intrinsics fixed, --free)");
+    throw InvalidInput("--images", std::string("the port parameters and the lens are not determined "
+                                               "by these images (singular covariance): add views at "
+                                               "other ranges and angles, or fix parameters "
+                                               "(--intrinsics fixed, --free") +
+                                       (n_shell_free > 0 ? ", without --free-water-index, --free-shell)" : ")"));
   }
   cov *= s0w2;
   std::vector<bool> free_all(T);
