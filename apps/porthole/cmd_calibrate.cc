@@ -273,8 +273,9 @@ void RegisterCalibrate(CLI::App& app) {
                 "Adjust a factor on the water index too (no prior; its sigma and correlations "
                 "say whether the images determine it)")->group(group);
   cmd->add_flag("--free-shell", o->free_shell,
-                "Adjust the shell values the port file gives a sigma for (radius_sigma_mm, "
-                "center_sigma_mm, thickness_sigma_mm), each with that Gaussian prior")->group(group);
+                "Adjust the shell values the port file's [sigma] table gives a sigma for "
+                "(outer_radius_mm, inner_radius_mm, thickness_mm, inner_offset_mm), each with that "
+                "Gaussian prior")->group(group);
   cmd->add_flag("--plan-only", o->plan_only,
                 "Network advice, no adjustment: the sigma these images' poses will give the port "
                 "(and lens) parameters at --plan-sigma-px noise, and a warning for one range")

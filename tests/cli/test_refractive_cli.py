@@ -68,14 +68,14 @@ def test_water_index_and_shell_reach_the_output(detections, tmp_path):
     assert shell["n_water"] == pytest.approx(j["port"]["n_water"] * shell["parameters"]["water_index_factor"])
     assert "c_mm" in shell["correlation"]["water_index_factor"]
     # A port file with the glass thickness's sigma: --free-shell adjusts it, the table shows it.
-    spec = run("presets", PORT).out + "thickness_sigma_mm = 0.2\n"
+    spec = run("presets", PORT).out + "\n[sigma]\nthickness_mm = 0.2\n"
     port = tmp_path / "flat.toml"
     port.write_text(spec)
     out = tmp_path / "as-calibrated.toml"
     t = run("calibrate", "--detections", detections, "--port", port, "--free-shell", "--port-out", out,
             "--quiet").out
     assert "thickness_mm" in t and "file" in t
-    assert "thickness_sigma_mm" not in out.read_text()  # the prior is not passed on as data
+    assert "[sigma]" not in out.read_text()  # the prior is not passed on as data
     # Without sigma in the port file, --free-shell is refused before any work.
     line = run_bad("calibrate", "--detections", detections, "--port", PORT, "--free-shell")
     assert "--free-shell" in line and "sigma" in line

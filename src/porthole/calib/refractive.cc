@@ -352,16 +352,17 @@ std::optional<ShellPrior> ShellPriorOf(const ports::PortSpec& spec, const refrac
     for (const auto& [i, c] : terms) a(i) = c;
     rows.push_back({a, sigma});
   };
+  // A σ of 0 states the value exactly: it stays fixed.
+  const auto given = [](const std::optional<double>& v) { return v && *v > 0; };
   if (shell.kind == PortKind::kDome) {
-    if (sg.outer_radius_mm) row({{1, 1.0}}, *sg.outer_radius_mm), prior.free[1] = true;
-    if (sg.inner_radius_mm) row({{2, 1.0}}, *sg.inner_radius_mm), prior.free[2] = true;
-    if (sg.thickness_mm) row({{1, 1.0}, {2, -1.0}}, *sg.thickness_mm), prior.free[2] = true;
+    if (given(sg.outer_radius_mm)) row({{1, 1.0}}, *sg.outer_radius_mm), prior.free[1] = true;
+    if (given(sg.inner_radius_mm)) row({{2, 1.0}}, *sg.inner_radius_mm), prior.free[2] = true;
+    if (given(sg.thickness_mm)) row({{1, 1.0}, {2, -1.0}}, *sg.thickness_mm), prior.free[2] = true;
     for (int k = 0; k < 3; ++k) {
-      const double so = sg.outer_center_mm ? (*sg.outer_center_mm)(k) : 0.0;
-      const double si = sg.inner_center_mm ? (*sg.inner_center_mm)(k) : 0.0;
-      if (std::hypot(so, si) > 0) row({{3 + k, 1.0}}, std::hypot(so, si)), prior.free[3 + k] = true;
+      const double so = sg.inner_offset_mm ? (*sg.inner_offset_mm)(k) : 0.0;
+      if (so > 0) row({{3 + k, 1.0}}, so), prior.free[3 + k] = true;
     }
-  } else if (sg.thickness_mm) {
+  } else if (given(sg.thickness_mm)) {
     row({{1, 1.0}}, *sg.thickness_mm), prior.free[1] = true;
   }
   if (rows.empty()) return std::nullopt;
@@ -401,8 +402,9 @@ std::optional<ShellPrior> ShellPriorFor(const RefractiveOptions& o, const refrac
   auto prior = ShellPriorOf(o.port.spec, shell);
   if (!prior) {
     throw InvalidInput("--free-shell",
-                       fmt::format("the port file '{}' states no sigma of its shell (radius_sigma_mm, "
-                                   "center_sigma_mm, thickness_sigma_mm: docs/presets.md)",
+                       fmt::format("the port file '{}' states no sigma of its shell (its [sigma] "
+                                   "table: outer_radius_mm, inner_radius_mm, thickness_mm, "
+                                   "inner_offset_mm; docs/presets.md)",
                                    o.port.spec.name));
   }
   return prior;
@@ -879,10 +881,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     sg.inner_radius_mm.reset();
     sg.thickness_mm.reset();
   }
-  if (res.shell_free[3] || res.shell_free[4] || res.shell_free[5]) {
-    sg.outer_center_mm.reset();
-    sg.inner_center_mm.reset();
-  }
+  if (res.shell_free[3] || res.shell_free[4] || res.shell_free[5]) sg.inner_offset_mm.reset();
   res.estimated_port.description = fmt::format("{} as calibrated from images ({})",
                                                o.port.spec.name, o.port.spec.description);
   res.estimated_port.source = "porthole calibrate --port: estimated from images";

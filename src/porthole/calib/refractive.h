@@ -86,11 +86,11 @@ struct RefractiveOptions {
   // Adjust a factor on the water index (refraction::ShellParams[0]; start 1, no prior). Its σ and
   // correlations (with c and the axial port parameter) say whether the images determine it.
   bool free_water_index = false;
-  // Adjust the shell values the port file states a σ for (port.spec.sigma): each a Gaussian prior
-  // of that σ about the file's value — a dome's radii (outer.radius_sigma_mm; inner.radius_sigma_mm
-  // or thickness_sigma_mm, the latter on outer − inner radius), its inner centre relative to the
-  // outer one per axis (σ² = outer.center_sigma_mm² + inner.center_sigma_mm²), a flat port's
-  // thickness (thickness_sigma_mm). The others stay fixed at the file's value.
+  // Adjust the shell values the port file states a σ > 0 for (its [sigma] table, port.spec.sigma):
+  // each a Gaussian prior of that σ about the file's value — a dome's radii (outer_radius_mm;
+  // inner_radius_mm, or thickness_mm on outer − inner radius), its inner centre relative to the
+  // outer one per axis (inner_offset_mm), a flat port's thickness (thickness_mm). The others stay
+  // fixed at the file's value.
   bool free_shell = false;
 };
 

@@ -489,7 +489,7 @@ TEST(RefractiveCalibration, ShellPriorsPullTowardTruthWithHonestSigma) {
     dome.inner.center_mm += Eigen::Vector3d(dx, dy, 0);
     dome.outer.radius_mm += dr_o;
     dome.inner.radius_mm += dr_i;
-    spec.sigma.inner_center_mm = Eigen::Vector3d(1.0, 1.0, 0.0);
+    spec.sigma.inner_offset_mm = Eigen::Vector3d(1.0, 1.0, 0.0);
     spec.sigma.outer_radius_mm = 0.5;
     spec.sigma.inner_radius_mm = 0.5;
     return ports::Place(spec, truth.ep_in_housing_mm, truth.n_glass, truth.n_water);
@@ -537,7 +537,7 @@ TEST(RefractiveCalibration, ShellPriorsPullTowardTruthWithHonestSigma) {
     if (base.IsDome()) {
       spec.sigma = {};
       spec.sigma.outer_radius_mm = spec.sigma.inner_radius_mm = 100;
-      spec.sigma.inner_center_mm = Eigen::Vector3d(100, 100, 100);
+      spec.sigma.inner_offset_mm = Eigen::Vector3d(100, 100, 100);
     }
     const PortSystem sys = ports::Place(spec, base.ep_in_housing_mm, base.n_glass, base.n_water);
     std::vector<ImageResult> poses;

@@ -240,16 +240,11 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
     if (material) d.material = *material;
     Reader outer = r.Table("outer");
     d.outer = {outer.Vector3("center_mm"), outer.Double("radius_mm")};
-    p.sigma.outer_center_mm = outer.OptVec3("center_sigma_mm");
-    p.sigma.outer_radius_mm = outer.OptDouble("radius_sigma_mm");
     outer.RejectUnknown();
     Reader inner = r.Table("inner");
     d.inner = {inner.Vector3("center_mm"), inner.Double("radius_mm")};
-    p.sigma.inner_center_mm = inner.OptVec3("center_sigma_mm");
-    p.sigma.inner_radius_mm = inner.OptDouble("radius_sigma_mm");
     inner.RejectUnknown();
     d.rim_z_mm = r.OptDouble("rim_z_mm");
-    p.sigma.thickness_mm = r.OptDouble("thickness_sigma_mm");
     p.shape = d;
   } else if (type == "flat") {
     ports::FlatPort f;
@@ -257,21 +252,26 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
     f.thickness_mm = r.Double("thickness_mm");
     f.inner_point_mm = r.Vector3("inner_point_mm");
     if (const auto n = r.OptVec3("normal")) f.normal = *n;
-    p.sigma.thickness_mm = r.OptDouble("thickness_sigma_mm");
     p.shape = f;
   } else {
     r.Fail("type", "must be \"dome\" or \"flat\"");
   }
-  // [sigma]: the housing's 1σ as the tool that measured it gives it (interop::HousingSigmaToml,
-  // docs/interop.md), in this file's units: checked (finite, >= 0), not used by the optics.
+  // [sigma]: the port's 1σ (interop::HousingSigmaToml writes calibmar's; docs/presets.md), in this
+  // file's units, checked (finite, >= 0). The shell's (outer_radius_mm, inner_radius_mm,
+  // thickness_mm, inner_offset_mm) are kept (ports::ShellSigma: calibrate --port --free-shell's
+  // priors); the placement's and the indices' are not used by the optics.
   if (t.contains("sigma")) {
     Reader sigma = r.Table("sigma");
-    for (const char* key : {"inner_radius_mm", "distance_mm", "thickness_mm", "n_glass", "n_water"}) {
+    for (const char* key : {"outer_radius_mm", "inner_radius_mm", "distance_mm", "thickness_mm", "n_glass", "n_water"}) {
       if (const auto v = sigma.OptDouble(key); v && *v < 0) sigma.Fail(key, "a sigma must be >= 0");
     }
-    for (const char* key : {"center_mm", "normal"}) {
+    for (const char* key : {"center_mm", "normal", "inner_offset_mm"}) {
       if (const auto v = sigma.OptVec3(key); v && v->minCoeff() < 0) sigma.Fail(key, "a sigma must be >= 0");
     }
+    p.sigma.outer_radius_mm = sigma.OptDouble("outer_radius_mm");
+    p.sigma.inner_radius_mm = sigma.OptDouble("inner_radius_mm");
+    p.sigma.thickness_mm = sigma.OptDouble("thickness_mm");
+    p.sigma.inner_offset_mm = sigma.OptVec3("inner_offset_mm");
     sigma.RejectUnknown();
   }
   r.RejectUnknown();
@@ -411,25 +411,25 @@ std::string PortToToml(const ports::PortSpec& p) {
   s += fmt::format("type = \"{}\"\nframe = \"{}\"\nmaterial = {}\n", p.IsDome() ? "dome" : "flat",
                    p.frame == ports::PortFrame::kCam ? "cam" : "housing", str(p.material()));
   s += fmt::format("entrance_pupil_mm = {}\n", vec(p.default_ep_in_housing_mm));
-  const ports::ShellSigma& sg = p.sigma;
-  const auto opt = [](const char* key, const std::optional<double>& v) {
-    return v ? fmt::format("{} = {}\n", key, *v) : std::string();
-  };
-  const auto opt_vec = [&](const char* key, const std::optional<Vec3>& v) {
-    return v ? fmt::format("{} = {}\n", key, vec(*v)) : std::string();
-  };
   if (const auto* d = std::get_if<ports::DomePort>(&p.shape)) {
     if (d->rim_z_mm) s += fmt::format("rim_z_mm = {}\n", *d->rim_z_mm);
-    s += opt("thickness_sigma_mm", sg.thickness_mm);
     s += fmt::format("\n[outer]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->outer.center_mm), d->outer.radius_mm);
-    s += opt_vec("center_sigma_mm", sg.outer_center_mm) + opt("radius_sigma_mm", sg.outer_radius_mm);
     s += fmt::format("\n[inner]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->inner.center_mm), d->inner.radius_mm);
-    s += opt_vec("center_sigma_mm", sg.inner_center_mm) + opt("radius_sigma_mm", sg.inner_radius_mm);
   } else {
     const auto& f = std::get<ports::FlatPort>(p.shape);
     s += fmt::format("thickness_mm = {}\ninner_point_mm = {}\nnormal = {}\n", f.thickness_mm,
                      vec(f.inner_point_mm), vec(f.normal));
-    s += opt("thickness_sigma_mm", sg.thickness_mm);
+  }
+  // The shell's σ (ports::ShellSigma) as the [sigma] table, when the port has any.
+  const ports::ShellSigma& sg = p.sigma;
+  if (!sg.Empty()) {
+    s += "\n[sigma]\n";
+    for (const auto& [key, v] : {std::pair{"outer_radius_mm", sg.outer_radius_mm},
+                                 std::pair{"inner_radius_mm", sg.inner_radius_mm},
+                                 std::pair{"thickness_mm", sg.thickness_mm}}) {
+      if (v) s += fmt::format("{} = {}\n", key, *v);
+    }
+    if (sg.inner_offset_mm) s += fmt::format("inner_offset_mm = {}\n", vec(*sg.inner_offset_mm));
   }
   return s;
 }

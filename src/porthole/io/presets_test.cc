@@ -88,31 +88,34 @@ TEST(PortToml, WriteThenReadIsLossless) {
   }
 }
 
-// The shell σ fields (ports::ShellSigma; calibrate --port --free-shell): read where docs/presets.md
-// puts them, written back unchanged, refused with file, line and key when not positive.
-TEST(PortToml, ShellSigmaFieldsRoundTrip) {
+// The shell's σ in the [sigma] table (ports::ShellSigma; calibrate --port --free-shell): read,
+// written back unchanged, refused with file, line and key when negative; the table's other keys
+// (calibmar's placement and index σ, interop::HousingSigmaToml) are accepted and not kept.
+TEST(PortToml, ShellSigmaRoundTrips) {
   const std::string dome =
-      "type = \"dome\"\nthickness_sigma_mm = 0.05\n[outer]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 83.4\n"
-      "radius_sigma_mm = 0.02\ncenter_sigma_mm = [0.01, 0.01, 0.03]\n"
-      "[inner]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 75.7\nradius_sigma_mm = 0.03\n";
+      "type = \"dome\"\n[outer]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 83.4\n"
+      "[inner]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 75.7\n"
+      "[sigma]\nouter_radius_mm = 0.02\ninner_radius_mm = 0.03\nthickness_mm = 0.05\n"
+      "inner_offset_mm = [0.01, 0.01, 0]\ncenter_mm = [0.2, 0.1, 0.3]\nn_water = 0.001\n";
   const auto p = ParsePortToml(dome, "dome.toml");
   EXPECT_EQ(p.sigma.thickness_mm, 0.05);
   EXPECT_EQ(p.sigma.outer_radius_mm, 0.02);
   EXPECT_EQ(p.sigma.inner_radius_mm, 0.03);
-  EXPECT_EQ(p.sigma.outer_center_mm, ports::Vec3(0.01, 0.01, 0.03));
-  EXPECT_FALSE(p.sigma.inner_center_mm.has_value());
+  EXPECT_EQ(p.sigma.inner_offset_mm, ports::Vec3(0.01, 0.01, 0));
   const auto q = ParsePortToml(PortToToml(p), "roundtrip.toml");
   EXPECT_EQ(PortToToml(q), PortToToml(p));
-  EXPECT_EQ(q.sigma.outer_center_mm, p.sigma.outer_center_mm);
+  EXPECT_EQ(q.sigma.inner_offset_mm, p.sigma.inner_offset_mm);
+  EXPECT_EQ(q.sigma.thickness_mm, 0.05);
   const auto flat = ParsePortToml(
-      "type = \"flat\"\nthickness_mm = 10\nthickness_sigma_mm = 0.1\ninner_point_mm = [0,0,40]\n", "f.toml");
+      "type = \"flat\"\nthickness_mm = 10\ninner_point_mm = [0,0,40]\n[sigma]\nthickness_mm = 0.1\n", "f.toml");
   EXPECT_EQ(flat.sigma.thickness_mm, 0.1);
   EXPECT_EQ(ParsePortToml(PortToToml(flat), "f2.toml").sigma.thickness_mm, 0.1);
   std::string bad = dome;
   bad.replace(bad.find("0.02"), 4, "-0.1");
-  EXPECT_NE(ErrorOf(bad).find("my-dome.toml:6: outer.radius_sigma_mm: must be > 0"), std::string::npos)
+  EXPECT_NE(ErrorOf(bad).find("my-dome.toml:9: sigma.outer_radius_mm: a sigma must be >= 0"), std::string::npos)
       << ErrorOf(bad);
   EXPECT_TRUE(LoadPort("nimar-ni320").sigma.Empty());
+  EXPECT_EQ(PortToToml(LoadPort("nimar-ni320")).find("[sigma]"), std::string::npos);
 }
 
 TEST(Presets, CameraAndLensPresetsCarryThePapersValues) {

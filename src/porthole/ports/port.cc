@@ -52,17 +52,13 @@ void Validate(const PortSpec& spec, const std::string& where) {
   }
   RequireFiniteVec(where + ".entrance_pupil_mm", spec.default_ep_in_housing_mm);
   const ShellSigma& sg = spec.sigma;
-  if (!spec.IsDome() && (sg.outer_radius_mm || sg.inner_radius_mm || sg.outer_center_mm || sg.inner_center_mm)) {
-    throw InvalidInput(where + ".sigma", "a flat port's shell has a thickness only (thickness_sigma_mm)");
+  for (const auto& [key, v] : {std::pair{".sigma.outer_radius_mm", sg.outer_radius_mm},
+                               std::pair{".sigma.inner_radius_mm", sg.inner_radius_mm},
+                               std::pair{".sigma.thickness_mm", sg.thickness_mm}}) {
+    if (v && !(std::isfinite(*v) && *v >= 0)) throw InvalidInput(where + key, "a sigma must be finite and >= 0");
   }
-  if (sg.outer_radius_mm) RequirePositive(where + ".outer.radius_sigma_mm", *sg.outer_radius_mm);
-  if (sg.inner_radius_mm) RequirePositive(where + ".inner.radius_sigma_mm", *sg.inner_radius_mm);
-  if (sg.thickness_mm) RequirePositive(where + ".thickness_sigma_mm", *sg.thickness_mm);
-  for (const auto& [key, v] : {std::pair{".outer.center_sigma_mm", sg.outer_center_mm},
-                               std::pair{".inner.center_sigma_mm", sg.inner_center_mm}}) {
-    if (!v) continue;
-    RequireFiniteVec(where + key, *v);
-    if (!(v->minCoeff() >= 0)) throw InvalidInput(where + key, "must be >= 0 on every axis");
+  if (sg.inner_offset_mm && !(sg.inner_offset_mm->allFinite() && sg.inner_offset_mm->minCoeff() >= 0)) {
+    throw InvalidInput(where + ".sigma.inner_offset_mm", "a sigma must be finite and >= 0 on every axis");
   }
 }
 

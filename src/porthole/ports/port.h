@@ -42,18 +42,16 @@ struct FlatPort {
 
 enum class PortFrame { kHousing, kCam };
 
-// 1σ of a port's shell values where the port file states them (a scan's sphere fits, a datasheet's
-// tolerances), mm; unset: not stated. `porthole calibrate --port --free-shell` adjusts the values
-// that have one, each with a Gaussian prior of that σ (docs/calibration.md); nothing else reads
-// them. Dome: the two radii, the two centres (per axis; what enters is the inner centre relative
-// to the outer one), the thickness outer − inner radius. Flat: the glass thickness.
+// 1σ of a port's shell values where the port file states them (its `[sigma]` table: a scan's
+// sphere fits, a datasheet's tolerances, calibmar's estimate through `porthole convert`), mm; unset:
+// not stated, 0: exact. `porthole calibrate --port --free-shell` adjusts the values with a σ > 0,
+// each with a Gaussian prior of that σ (docs/calibration.md). Dome: the two radii, the thickness
+// outer − inner radius, the inner centre relative to the outer one per axis. Flat: the thickness.
 struct ShellSigma {
   std::optional<double> outer_radius_mm, inner_radius_mm, thickness_mm;
-  std::optional<Vec3> outer_center_mm, inner_center_mm;
+  std::optional<Vec3> inner_offset_mm;
 
-  bool Empty() const {
-    return !outer_radius_mm && !inner_radius_mm && !thickness_mm && !outer_center_mm && !inner_center_mm;
-  }
+  bool Empty() const { return !outer_radius_mm && !inner_radius_mm && !thickness_mm && !inner_offset_mm; }
 };
 
 struct PortSpec {
@@ -64,7 +62,7 @@ struct PortSpec {
   std::variant<DomePort, FlatPort> shape;
   // The entrance pupil to use when no lens says otherwise (housing frame).
   Vec3 default_ep_in_housing_mm = Vec3(0, 0, 26.9);
-  // σ of the shell's values, where the file states them (flat: thickness_mm only).
+  // σ of the shell's values, where the file's [sigma] table states them.
   ShellSigma sigma;
 
   bool IsDome() const { return std::holds_alternative<DomePort>(shape); }
@@ -97,7 +95,7 @@ struct PortSystem {
 };
 
 // Checks `spec` (finite numbers, radii and thickness positive, inner sphere inside the outer one,
-// unit-length normal, σ positive and finite where given, a flat port's σ only on its thickness) and throws InvalidInput naming the field; `where` prefixes field names
+// unit-length normal, σ finite and >= 0 where given) and throws InvalidInput naming the field; `where` prefixes field names
 // (e.g. "port.outer.radius_mm").
 void Validate(const PortSpec& spec, const std::string& where = "port");
 
