@@ -27,6 +27,7 @@
 #include "porthole/io/presets.h"
 #include "porthole/render/dots.h"
 #include "porthole/render/render.h"
+#include "porthole/render/test_scenes.h"
 
 namespace porthole::render {
 namespace {
@@ -51,16 +52,7 @@ Scene CodedScene(const std::string& target, int width, Medium medium, const std:
   return s;
 }
 
-// The 8" dome made concentric and centred on the pupil: no ray is bent, the camera alone.
-ports::PortSpec ConcentricDome() {
-  ports::PortSpec dome = io::LoadPort("generic-dome-8in");
-  ports::DomePort shape = std::get<ports::DomePort>(dome.shape);
-  dome.frame = ports::PortFrame::kCam;
-  shape.outer.center_mm = shape.inner.center_mm = Vec3::Zero();
-  shape.rim_z_mm.reset();
-  dome.shape = shape;
-  return dome;
-}
+using testing::ConcentricDome;
 
 cv::Mat Gray16(const Image& im) {
   cv::Mat g(im.height, im.width, CV_16U);

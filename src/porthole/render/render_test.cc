@@ -16,6 +16,7 @@
 #include "porthole/io/presets.h"
 #include "porthole/materials/materials.h"
 #include "porthole/render/render.h"
+#include "porthole/render/test_scenes.h"
 #include "porthole/simulate/simulate.h"
 
 namespace porthole::render {
@@ -39,16 +40,7 @@ Scene PaperScene(const std::string& port = "nimar-ni320", int width = 720) {
   return s;
 }
 
-// The 8" dome made concentric and centred on the pupil (a cam-frame port).
-ports::PortSpec ConcentricDome() {
-  ports::PortSpec dome = io::LoadPort("generic-dome-8in");
-  ports::DomePort shape = std::get<ports::DomePort>(dome.shape);
-  dome.frame = ports::PortFrame::kCam;
-  shape.outer.center_mm = shape.inner.center_mm = Vec3::Zero();
-  shape.rim_z_mm.reset();
-  dome.shape = shape;
-  return dome;
-}
+using testing::ConcentricDome;
 
 // The rendered image as OpenCV's 8-bit grey.
 cv::Mat Gray8(const Image& im) {
