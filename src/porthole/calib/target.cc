@@ -31,14 +31,6 @@ double ParseNumber(const std::string& s, const std::string& field, const std::st
   return v;
 }
 
-coded::SheetLayout CodedSheet(const TargetSpec& t) {
-  coded::SheetOptions o;
-  o.bits = t.code_bits;
-  o.profile = coded::ParseProfile(t.code_profile, "--target");
-  o.radius_mm = t.dot_radius_mm;
-  return coded::LayoutSheet(o);
-}
-
 TargetSpec ParseCoded(const std::vector<std::string>& parts, const std::string& field) {
   if (parts.size() < 3 || parts.size() > 4) {
     throw InvalidInput(field, "expected coded:BITS:RADIUS_MM[:PROFILE] (BITS 12 or 14, PROFILE aicon or metashape)");
@@ -150,6 +142,15 @@ std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& t) {
     }
   }
   return pts;
+}
+
+
+coded::SheetLayout CodedSheet(const TargetSpec& t) {
+  coded::SheetOptions o;
+  o.bits = t.code_bits;
+  o.profile = coded::ParseProfile(t.code_profile, "--target");
+  o.radius_mm = t.dot_radius_mm;
+  return coded::LayoutSheet(o);
 }
 
 }  // namespace porthole::calib

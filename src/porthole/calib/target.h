@@ -21,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include "porthole/coded/sheet.h"
+
 namespace porthole::calib {
 
 enum class TargetKind { kChessboard, kCharuco, kCircles, kAsymmetricCircles, kCoded };
@@ -51,5 +53,9 @@ TargetSpec ParseTarget(const std::string& spec, const std::string& field = "--ta
 
 // Every point of the target in the target frame (mm), indexed by id.
 std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& target);
+
+// A coded target (kind kCoded): the sheet `porthole target-sheet` prints with its defaults for the
+// spec's bits, profile and dot radius.
+coded::SheetLayout CodedSheet(const TargetSpec& target);
 
 }  // namespace porthole::calib

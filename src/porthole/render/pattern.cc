@@ -137,19 +137,12 @@ Reflectance CharucoReflectance(const TargetSpec& t, const PatternStyle& st) {
 // ring segments (coded/sheet.h: RingArcs) are the ink. The IDs printed beside the targets, the
 // scale bar and the caption are not drawn. Ink is the style's black, paper its white (swap them
 // for white targets on black).
-coded::SheetLayout CodedLayout(const TargetSpec& t) {
-  coded::SheetOptions o;
-  o.bits = t.code_bits;
-  o.profile = coded::ParseProfile(t.code_profile, "--target");
-  o.radius_mm = t.dot_radius_mm;
-  return coded::LayoutSheet(o);
-}
 Extent CodedExtent(const TargetSpec& t, const PatternStyle&) {
-  const coded::SheetLayout l = CodedLayout(t);
+  const coded::SheetLayout l = calib::CodedSheet(t);
   return {0, 0, l.width_mm, l.height_mm};
 }
 Reflectance CodedReflectance(const TargetSpec& t, const PatternStyle& st) {
-  const coded::SheetLayout l = CodedLayout(t);
+  const coded::SheetLayout l = calib::CodedSheet(t);
   const Extent paper{0, 0, l.width_mm, l.height_mm};
   const coded::RingRadii ring = coded::Ring(l.options.profile);
   const int bits = l.options.bits;
