@@ -38,13 +38,7 @@ using Vec3 = Eigen::Vector3d;
 // The paper's D300 + 24 mm behind `port`, its sensor reduced to width × (2/3 width) pixels of the
 // same size in mm; one band (546 nm), a pinhole unless the test sets an aperture.
 Scene CodedScene(const std::string& target, int width, Medium medium, const std::string& port = "nimar-ni320") {
-  Scene s;
-  s.housed.camera = io::LoadCamera("nikon-d300");
-  s.housed.lens = io::LoadLens("nikkor-24mm-f2.8d");
-  s.housed.port = io::LoadPort(port);
-  camera::Sensor& sensor = s.housed.camera.sensor;
-  const double width_mm = sensor.width_px * sensor.pixel_pitch_mm;
-  sensor = {width, width * 2 / 3, width_mm / width};
+  Scene s = testing::PaperScene(port, width);
   s.target = calib::ParseTarget(target);
   s.medium = medium;
   s.bands_nm = {546.07};

@@ -28,13 +28,7 @@ using Vec3 = Eigen::Vector3d;
 // The paper's D300 + 24 mm behind `port`, its sensor reduced to width × (2/3 width) pixels of the
 // same size in mm (small images keep the tests fast).
 Scene PaperScene(const std::string& port = "nimar-ni320", int width = 720) {
-  Scene s;
-  s.housed.camera = io::LoadCamera("nikon-d300");
-  s.housed.lens = io::LoadLens("nikkor-24mm-f2.8d");
-  s.housed.port = io::LoadPort(port);
-  camera::Sensor& sensor = s.housed.camera.sensor;
-  const double width_mm = sensor.width_px * sensor.pixel_pitch_mm;
-  sensor = {width, width * 2 / 3, width_mm / width};
+  Scene s = testing::PaperScene(port, width);
   s.target = calib::ParseTarget("chessboard:9x6:40");
   s.pose = PoseFacing(s.target, 1200, {0, 0}, 15, -10, 5);
   return s;

@@ -1,12 +1,27 @@
 // Scenes the render tests share (render_test, coded_render_test). Tests only.
 #pragma once
 
+#include <string>
 #include <variant>
 
 #include "porthole/io/presets.h"
 #include "porthole/ports/port.h"
+#include "porthole/render/render.h"
 
 namespace porthole::render::testing {
+
+// The paper's D300 + 24 mm behind `port`, its sensor reduced to width × (2/3 width) pixels of the
+// same size in mm (small images keep the tests fast). Target, pose and medium are the caller's.
+inline Scene PaperScene(const std::string& port, int width) {
+  Scene s;
+  s.housed.camera = io::LoadCamera("nikon-d300");
+  s.housed.lens = io::LoadLens("nikkor-24mm-f2.8d");
+  s.housed.port = io::LoadPort(port);
+  camera::Sensor& sensor = s.housed.camera.sensor;
+  const double width_mm = sensor.width_px * sensor.pixel_pitch_mm;
+  sensor = {width, width * 2 / 3, width_mm / width};
+  return s;
+}
 
 // The 8" dome made concentric and centred on the pupil (a cam-frame port, no rim): no ray is bent,
 // the camera alone.
