@@ -13,6 +13,7 @@
 #include "porthole/calib/detect.h"
 #include "porthole/coded/raster.h"
 #include "porthole/coded/sheet.h"
+#include "porthole/core/error.h"
 
 namespace porthole::calib {
 namespace {
@@ -27,6 +28,43 @@ TEST(CodedCalib, SpecPointsAreTheDefaultSheet) {
   ASSERT_EQ(pts.size(), sheet.targets.size() + 1);
   for (const auto& p : sheet.targets) EXPECT_EQ(pts[p.id], p.xyz_mm);
   EXPECT_EQ(ParseTarget("coded:12:3:Metashape").ToString(), "coded:12:3:metashape");
+}
+
+// A --field file replaces the default sheet: ids index its points (3-D ones too), the ids it does
+// not list are no points, and a bad file or a field for a non-coded target is one InvalidInput.
+TEST(CodedCalib, FieldFileReplacesTheSheet) {
+  const std::string path = testing::TempDir() + "/field_test.txt";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs("# a raised target\n3 10 20 0\n7, 30.5, 20, -15.25\n\n12 0 0 0\n", f);
+    std::fclose(f);
+  }
+  TargetSpec t = ParseTarget("coded:12:2");
+  LoadTargetField(path, &t);
+  ASSERT_EQ(t.NumPoints(), 13);
+  const auto pts = TargetPoints(t);
+  ASSERT_EQ(pts.size(), 13u);
+  EXPECT_EQ(pts[7], Eigen::Vector3d(30.5, 20, -15.25));
+  EXPECT_EQ(pts[3], Eigen::Vector3d(10, 20, 0));
+  for (int id : {3, 7, 12}) EXPECT_TRUE(t.HasPoint(id)) << id;
+  for (int id : {-1, 0, 1, 6, 13, 600}) EXPECT_FALSE(t.HasPoint(id)) << id;
+  EXPECT_TRUE(ParseTarget("coded:12:2").HasPoint(1));
+  TargetSpec chess = ParseTarget("chessboard:9x6:25");
+  EXPECT_THROW(LoadTargetField(path, &chess), InvalidInput);
+  EXPECT_THROW(LoadTargetField(path + ".missing", &t), InvalidInput);
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs("3 10 20 0\n3 1 2 3\n", f);  // duplicate id
+    std::fclose(f);
+  }
+  try {
+    LoadTargetField(path, &t);
+    ADD_FAILURE() << "a duplicate id was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+  }
+  std::remove(path.c_str());
 }
 
 TEST(CodedCalib, RecoversARenderedPinholeCamera) {

@@ -100,13 +100,12 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
     case TargetKind::kAsymmetricCircles:
       found = cv::findCirclesGrid(gray, size, *pts, cv::CALIB_CB_ASYMMETRIC_GRID);
       break;
-    case TargetKind::kCoded: {  // target IDs on the default sheet (target.h)
+    case TargetKind::kCoded: {  // target IDs of the sheet or field (target.h)
       coded::CodedDetectOptions o;
       o.bits = t.code_bits;
       o.profile = coded::ParseProfile(t.code_profile, "--target");
-      const int n = t.NumPoints();
       for (const auto& c : coded::DetectCodedTargets(gray, o).targets) {
-        if (c.id >= n) continue;  // not on the sheet
+        if (!t.HasPoint(c.id)) continue;  // not on the sheet or in the field
         ids->push_back(c.id);
         pts->emplace_back(static_cast<float>(c.centre_px.x()), static_cast<float>(c.centre_px.y()));
       }

@@ -2,10 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 
 #include "porthole/coded/sheet.h"
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 namespace porthole::calib {
 namespace {
@@ -58,8 +60,19 @@ TargetSpec ParseCoded(const std::vector<std::string>& parts, const std::string& 
 int TargetSpec::PointCols() const { return kind == TargetKind::kCharuco ? cols - 1 : cols; }
 int TargetSpec::PointRows() const { return kind == TargetKind::kCharuco ? rows - 1 : rows; }
 int TargetSpec::NumPoints() const {
-  if (kind == TargetKind::kCoded) return CodedSheet(*this).targets.back().id + 1;
+  if (kind == TargetKind::kCoded) {
+    int last = 0;
+    for (const auto& p : field.empty() ? CodedSheet(*this).targets : field) last = std::max(last, p.id);
+    return last + 1;
+  }
   return PointCols() * PointRows();
+}
+
+bool TargetSpec::HasPoint(int id) const {
+  if (id < 0 || id >= NumPoints()) return false;
+  if (kind != TargetKind::kCoded) return true;
+  const auto& pts = field.empty() ? CodedSheet(*this).targets : field;
+  return std::any_of(pts.begin(), pts.end(), [id](const coded::PlacedTarget& p) { return p.id == id; });
 }
 
 std::string TargetSpec::ToString() const {
@@ -126,9 +139,8 @@ TargetSpec ParseTarget(const std::string& spec, const std::string& field) {
 std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& t) {
   std::vector<Eigen::Vector3d> pts;
   if (t.kind == TargetKind::kCoded) {  // indexed by target ID; id 0 (no target) at the origin
-    const coded::SheetLayout l = CodedSheet(t);
-    pts.assign(l.targets.back().id + 1, Eigen::Vector3d::Zero());
-    for (const auto& p : l.targets) pts[p.id] = p.xyz_mm;
+    pts.assign(t.NumPoints(), Eigen::Vector3d::Zero());
+    for (const auto& p : t.field.empty() ? CodedSheet(t).targets : t.field) pts[p.id] = p.xyz_mm;
     return pts;
   }
   pts.reserve(t.NumPoints());
@@ -151,6 +163,14 @@ coded::SheetLayout CodedSheet(const TargetSpec& t) {
   o.profile = coded::ParseProfile(t.code_profile, "--target");
   o.radius_mm = t.dot_radius_mm;
   return coded::LayoutSheet(o);
+}
+
+void LoadTargetField(const std::string& path, TargetSpec* target, const std::string& field) {
+  if (target->kind != TargetKind::kCoded) {
+    throw InvalidInput(field, "a target field holds coded targets: give --target coded:BITS:RADIUS_MM[:PROFILE]");
+  }
+  const std::string text = ReadInputFile(path, field, kMaxTextFileBytes);
+  target->field = coded::ParseField(text, fmt::format("{} ({})", field, path));
 }
 
 }  // namespace porthole::calib

@@ -37,10 +37,17 @@ struct TargetSpec {
   int code_bits = 0;         // coded: 12 or 14
   std::string code_profile;  // coded: aicon or metashape
   double dot_radius_mm = 0;  // coded: radius of the central dot, mm
+  // coded: the target field, ID → dot centre (X, Y, Z mm in the target frame; coded/sheet.h),
+  // e.g. read from a --field file (LoadTargetField); empty: the default sheet's targets. Its
+  // points may leave the Z = 0 plane (a 3-D field: raised targets). Every dot lies in a plane
+  // parallel to the target's XY plane, facing −Z (toward the camera side of the sheet).
+  std::vector<coded::PlacedTarget> field;
 
   // Number of points the target carries (ChArUco: the (cols−1)·(rows−1) inner corners; coded:
-  // the last ID + 1, ids being target IDs).
+  // the largest ID + 1, ids being target IDs).
   int NumPoints() const;
+  // Whether `id` is one of the target's points (coded: an ID of the sheet or field).
+  bool HasPoint(int id) const;
   // Columns and rows of the point lattice (ChArUco: squares − 1).
   int PointCols() const;
   int PointRows() const;
@@ -51,8 +58,14 @@ struct TargetSpec {
 // Parses a spec string (above). Throws InvalidInput(field, ...) naming the rule broken.
 TargetSpec ParseTarget(const std::string& spec, const std::string& field = "--target");
 
-// Every point of the target in the target frame (mm), indexed by id.
+// Every point of the target in the target frame (mm), indexed by id (coded: ids that are no
+// target, 0 among them, at the origin; HasPoint tells them apart).
 std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& target);
+
+// Reads a target-field file (coded/sheet.h ParseField: "id x_mm y_mm z_mm" lines) into
+// target->field, with the size limit of every text input (core/input.h). Throws
+// InvalidInput(field, ...) naming the file and line, or when the target is not coded.
+void LoadTargetField(const std::string& path, TargetSpec* target, const std::string& field = "--field");
 
 // A coded target (kind kCoded): the sheet `porthole target-sheet` prints with its defaults for the
 // spec's bits, profile and dot radius.

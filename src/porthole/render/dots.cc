@@ -21,7 +21,7 @@ std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup) {
   if (!(radius > 0)) return out;
   const auto pts = calib::TargetPoints(scene.target);
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (scene.target.kind == calib::TargetKind::kCoded && i == 0) continue;  // coded ids are target IDs, from 1
+    if (!scene.target.HasPoint(static_cast<int>(i))) continue;  // coded: ids that are no target
     DotTruth d;
     d.id = static_cast<int>(i);
     for (const Band& b : setup.bands) {

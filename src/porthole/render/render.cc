@@ -319,7 +319,7 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s) {
   std::vector<Vec3> check = {Vec3(e.x_min, e.y_min, 0), Vec3(e.x_max, e.y_min, 0), Vec3(e.x_min, e.y_max, 0),
                              Vec3(e.x_max, e.y_max, 0)};
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (scene.target.kind != calib::TargetKind::kCoded || i > 0) check.push_back(pts[i]);  // coded: id 0 is no target
+    if (scene.target.HasPoint(static_cast<int>(i))) check.push_back(pts[i]);  // coded: ids that are no target
   }
   for (const Vec3& p : check) {
     const Vec3 c = scene.pose.Apply(p);
@@ -335,7 +335,7 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s) {
   const camera::Sensor& sensor = s.camera.sensor;
   std::vector<TruthPoint> out;
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (scene.target.kind == calib::TargetKind::kCoded && i == 0) continue;  // coded ids are target IDs, from 1
+    if (!scene.target.HasPoint(static_cast<int>(i))) continue;  // coded: ids that are no target
     TruthPoint tp;
     tp.id = static_cast<int>(i);
     tp.point_in_target_mm = pts[i];
