@@ -281,3 +281,28 @@ put("colmap", "flat-normal-zero.txt", ct.replace(b"DOMEPORT 0.002 -0.001 0.003",
 put("colmap", "long-line.txt", ct.replace(b" 1.334\n", b" 1.334" + b" 1" * 100000 + b"\n"))
 put("colmap", "width-overflow.txt", ct.replace(b"1920", b"99999999999999999999"))
 mutants("colmap", "domeport", ".txt", ct, 15)
+
+# --- target fields (coded/sheet.cc ParseField: "id x_mm y_mm z_mm" lines) ---------------------------------
+fd = (b"# porthole target field: coded:12:2:aicon, raised targets\n# id x_mm y_mm z_mm\n"
+      b"1 20 20 0\n2 40 20 0\n3 60 20 -15.5\n4 20, 40, 0\n5 40 40 0\n6 60 40 -30\n7 20 60 0\n8 40 60 0\n"
+      b"9 60 60 0\n200 30 30 0\n")
+put("field", "valid-3d.txt", fd)
+put("field", "valid-crlf.txt", fd.replace(b"\n", b"\r\n"))
+put("field", "duplicate-id.txt", fd + b"3 1 2 3\n")
+put("field", "id-zero.txt", fd + b"0 1 2 3\n")
+put("field", "id-huge.txt", fd + b"4294967297 1 2 3\n")
+put("field", "id-fraction.txt", fd + b"12.5 1 2 3\n")
+put("field", "nan.txt", fd + b"12 nan 2 3\n")
+put("field", "inf.txt", fd + b"12 1 inf 3\n")
+put("field", "hex-float.txt", fd + b"12 0x1p3 2 3\n")
+put("field", "three-numbers.txt", fd + b"12 1 2\n")
+put("field", "five-numbers.txt", fd + b"12 1 2 3 4\n")
+put("field", "empty.txt", b"")
+put("field", "only-comments.txt", b"# nothing\n\n   \n")
+put("field", "binary.txt", bytes(range(256)) * 8)
+put("field", "nul-in-line.txt", fd.replace(b"5 40 40 0", b"5 40\x0040 0"))
+put("field", "long-line.txt", b"1 " + b"1" * 200000 + b" 2 3\n")
+put("field", "latin1-comment.txt", b"# Mus\xe9e\n" + fd)
+put("field", "all-on-a-line.txt", b"".join(b"%d %d 0 0\n" % (i, 10 * i) for i in range(1, 40)))
+put("field", "many-ids.txt", b"".join(b"%d %d %d 0\n" % (i, i % 100, i // 100) for i in range(1, 20001)))
+mutants("field", "field", ".txt", fd, 15)
