@@ -55,7 +55,7 @@ def test_every_readme_line_runs(tmp_path):
     if py_dir:
         env["PYTHONPATH"] = py_dir
     proc = subprocess.run(["bash", "-c", "\n".join(script)], cwd=ROOT, env=env, capture_output=True, text=True,
-                          timeout=500)
+                          timeout=5000 if os.environ.get("PORTHOLE_SANITIZED") else 500)  # ASan: many times slower
     tail = "\n".join(proc.stderr.splitlines()[-15:])
     assert proc.returncode == 0, f"README line failed (exit {proc.returncode}):\n{tail}"
     try_dir = tmp_path / "porthole-try"
