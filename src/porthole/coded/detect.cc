@@ -138,14 +138,22 @@ Outcome Refine(const cv::Mat& g, Frame* f, Levels* lv, double gap_lo, double gap
   return Outcome::kOk;
 }
 
-// Reads the ring; returns its raw code (first bit read = most significant) and the clarity.
+// Reads the ring; returns its raw code (first bit read = most significant) and the clarity, and
+// whether the gap between dot and ring is inside the image and empty (`gap_clean`).
 Outcome ReadRing(const cv::Mat& g, const Frame& f, const Levels& lv, const CodedDetectOptions& o, uint32_t* code,
-                 double* clarity) {
+                 double* clarity, bool* gap_clean) {
   const RingRadii ring = Ring(o.profile);
   const int m = o.bits * kSamplesPerBit;
   auto norm = [&](double v) { return (v - lv.gap) / (lv.dot - lv.gap); };  // 0 gap/background, 1 ink
-  std::vector<double> s(m, 0.0);
   int dirty_gap = 0, dirty_out = 0;
+  *gap_clean = false;
+  for (int k = 0; k < m; ++k) {
+    const auto gap = Sample(g, f.At(0.5 * (1 + ring.inner), kTwoPi * k / m));
+    if (!gap) return Outcome::kPartial;
+    dirty_gap += norm(*gap) > 0.25;
+  }
+  *gap_clean = dirty_gap == 0;
+  std::vector<double> s(m, 0.0);
   for (int k = 0; k < m; ++k) {
     const double t = kTwoPi * k / m;
     for (double q : {0.3, 0.5, 0.7}) {
@@ -153,10 +161,8 @@ Outcome ReadRing(const cv::Mat& g, const Frame& f, const Levels& lv, const Coded
       if (!v) return Outcome::kPartial;
       s[k] += norm(*v) / 3;
     }
-    const auto gap = Sample(g, f.At(0.5 * (1 + ring.inner), t));
     const auto out = Sample(g, f.At(ring.outer + 0.35, t));
-    if (!gap || !out) return Outcome::kPartial;
-    dirty_gap += norm(*gap) > 0.25;
+    if (!out) return Outcome::kPartial;
     dirty_out += norm(*out) > 0.25;
   }
   if (dirty_gap > 0 || dirty_out > m / 10) return Outcome::kNoRing;
@@ -234,8 +240,15 @@ CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptio
   out.counts.candidates = static_cast<int>(candidates.size());
 
   // 2–3. Refine and decode each candidate.
-  struct Found {
+  auto ellipse = [](const Frame& f, const Levels& lv) {
     CodedTarget t;
+    t.centre_px = f.c;
+    Eigen::JacobiSVD<Eigen::Matrix2d> svd(f.a, Eigen::ComputeFullU);
+    t.semi_major_px = svd.singularValues()(0);
+    t.semi_minor_px = svd.singularValues()(1);
+    t.angle_rad = std::atan2(svd.matrixU()(1, 0), svd.matrixU()(0, 0));
+    t.dark_on_light = lv.dot < lv.gap;
+    return t;
   };
   std::map<int, std::vector<CodedTarget>> by_id;
   for (Frame f : candidates) {
@@ -243,11 +256,20 @@ CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptio
     Outcome r = Refine(g, &f, &lv, gap_lo, gap_hi, o.min_contrast);
     uint32_t code = 0;
     double clarity = 0;
-    if (r == Outcome::kOk) r = ReadRing(g, f, lv, o, &code, &clarity);
+    bool gap_clean = false;
+    if (r == Outcome::kOk) r = ReadRing(g, f, lv, o, &code, &clarity, &gap_clean);
     int id = 0;
     if (r == Outcome::kOk) {
       id = IdOfRing(o.profile, o.bits, code);
       if (id == 0) r = Outcome::kImpossible;
+    }
+    if (o.uncoded_dots && gap_clean && r != Outcome::kOk) {
+      // A dot with an empty gap that gave no ID (ReadRing set gap_clean, so the refinement held).
+      const CodedTarget dot = ellipse(f, lv);
+      const bool seen = std::any_of(out.dots.begin(), out.dots.end(), [&](const CodedTarget& d) {
+        return (d.centre_px - dot.centre_px).norm() < 0.5 * d.semi_minor_px;
+      });
+      if (!seen) out.dots.push_back(dot);
     }
     switch (r) {
       case Outcome::kOk: break;
@@ -258,14 +280,8 @@ CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptio
       case Outcome::kRefineFailed: ++out.counts.refine_failed; continue;
       case Outcome::kNotElliptic: ++out.counts.not_elliptic; continue;
     }
-    CodedTarget t;
+    CodedTarget t = ellipse(f, lv);
     t.id = id;
-    t.centre_px = f.c;
-    Eigen::JacobiSVD<Eigen::Matrix2d> svd(f.a, Eigen::ComputeFullU);
-    t.semi_major_px = svd.singularValues()(0);
-    t.semi_minor_px = svd.singularValues()(1);
-    t.angle_rad = std::atan2(svd.matrixU()(1, 0), svd.matrixU()(0, 0));
-    t.dark_on_light = lv.dot < lv.gap;
     t.clarity = clarity;
     by_id[id].push_back(t);
   }

@@ -36,6 +36,7 @@ struct CodedDetectOptions {
   double max_axis_ratio = 4;          // long/short axis of the dot's image (tilt up to ~75°)
   double min_contrast = 0.04;         // |dot − gap| as a fraction of the image type's full range
   double min_bit_clarity = 0.25;      // each bit's level at most this far from 0 or 1 (of dot − gap)
+  bool uncoded_dots = false;          // also return the dots that carry no code (CodedDetection::dots)
 };
 
 struct CodedTarget {
@@ -62,6 +63,14 @@ struct DetectionCounts {
 
 struct CodedDetection {
   std::vector<CodedTarget> targets;   // ascending ID
+  // With CodedDetectOptions::uncoded_dots: the candidates for uncoded dots (id 0, clarity 0), in no
+  // particular order — every dot that refined to a clean ellipse with an empty gap around it
+  // (halfway from the dot to the profile's ring: 1.5 radii AICON, 1.625 Metashape) and gave no ID:
+  // no ring, or
+  // what lies where a ring would be is no code of the profile (neighbouring dots and rings in a
+  // dense field), or the ring would leave the image. They are counted among the skipped as before
+  // (no_ring, unclear, impossible, partial): the option changes neither `targets` nor `counts`.
+  std::vector<CodedTarget> dots;
   DetectionCounts counts;
 };
 

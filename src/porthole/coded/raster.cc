@@ -80,15 +80,18 @@ std::vector<double> RasterizeRaw(int width, int height, const Eigen::Matrix3d& i
   std::vector<double> img(static_cast<std::size_t>(width) * height, 0.0);
   const Eigen::Matrix3d sheet_from_image = image_from_sheet.inverse();
   const RingRadii ring = Ring(o.profile);
-  const LineRaster lr{sheet_from_image, o, ring.inner * o.radius_mm, ring.outer * o.radius_mm};
   const int s = std::max(1, o.subrows);
   for (const auto& t : targets) {
+    const Eigen::Matrix3d& h = t.image_from_sheet ? *t.image_from_sheet : image_from_sheet;
+    const Eigen::Matrix3d own_inverse = t.image_from_sheet ? t.image_from_sheet->inverse() : Eigen::Matrix3d();
+    const LineRaster lr{t.image_from_sheet ? own_inverse : sheet_from_image, o, ring.inner * o.radius_mm,
+                        ring.outer * o.radius_mm};
     // Bounding box of the image of the outer circle (sampled densely; every point in front).
     double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300;
     bool in_front = true;
     for (int k = 0; k < 720; ++k) {
       const double th = kTwoPi * k / 720;
-      const Eigen::Vector3d p = image_from_sheet * Eigen::Vector3d(t.centre_mm.x() + 1.01 * lr.ro * std::cos(th),
+      const Eigen::Vector3d p = h * Eigen::Vector3d(t.centre_mm.x() + 1.01 * lr.ro * std::cos(th),
                                                                    t.centre_mm.y() + 1.01 * lr.ro * std::sin(th), 1);
       if (!(p.z() > 0)) in_front = false;
       umin = std::min(umin, p.x() / p.z());
@@ -114,7 +117,7 @@ std::vector<double> RasterizeRaw(int width, int height, const Eigen::Matrix3d& i
 std::vector<double> RasterizeTargets(int width, int height, const Eigen::Matrix3d& image_from_sheet,
                                      const std::vector<PlacedTarget>& targets, const RasterOptions& o) {
   std::vector<RawTarget> raw;
-  for (const auto& t : targets) raw.push_back({t.xyz_mm.head<2>(), CodeOfId(o.profile, o.bits, t.id, "id"), true});
+  for (const auto& t : targets) raw.push_back({t.xyz_mm.head<2>(), CodeOfId(o.profile, o.bits, t.id, "id"), true, {}});
   return RasterizeRaw(width, height, image_from_sheet, raw, o);
 }
 

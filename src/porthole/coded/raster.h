@@ -10,6 +10,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <optional>
 #include <vector>
 
 #include "porthole/coded/sheet.h"
@@ -34,6 +35,9 @@ struct RawTarget {
   Eigen::Vector2d centre_mm;
   uint32_t ring = 0;        // bit bits−1 is the segment at angle 0 (sheet.h: RingArcs)
   bool dot = true;          // draw the dot
+  // This target seen through its own homography instead of the sheet's: a target raised off the
+  // sheet (its plane's homography), or a lens's distortion to first order about the target.
+  std::optional<Eigen::Matrix3d> image_from_sheet;
 };
 std::vector<double> RasterizeRaw(int width, int height, const Eigen::Matrix3d& image_from_sheet,
                                  const std::vector<RawTarget>& targets, const RasterOptions& options);
