@@ -13,6 +13,7 @@
 #include <optional>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -20,6 +21,7 @@
 #include "porthole/coded/ellipse.h"
 #include "porthole/coded/raster.h"
 #include "porthole/coded/sheet.h"
+#include "porthole/core/error.h"
 
 namespace porthole::coded {
 namespace {
@@ -447,6 +449,307 @@ TEST(CodedDetect, UncodedDotCandidatesOnRequest) {
   }
   std::printf("plain dots: %d checked, worst centre error %.4f px\n", checked, worst);
   EXPECT_GT(checked, 300);
+}
+
+// ---- Uncoded dots of a known field (MatchUncodedDots) ----
+
+// A test field on a grid of pitch 8r: coded targets (IDs from 1) at two grid points in three, plain
+// dots (IDs from 1001, above every profile's code count) at the others and at every cell's centre;
+// with `raise_mm`, some of both stand that far toward the camera (Z < 0): a 3-D field.
+std::vector<PlacedTarget> GridField(int cols, int rows, double pitch, double raise_mm) {
+  std::vector<PlacedTarget> f;
+  int coded = 1, plain = 1001;
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < cols; ++i) {
+      const double z = raise_mm > 0 && (3 * i + j) % 5 == 0 ? -raise_mm : 0.0;
+      f.push_back({(i + 2 * j) % 3 != 0 ? coded++ : plain++, Eigen::Vector3d(pitch * i, pitch * j, z)});
+      if (i + 1 < cols && j + 1 < rows) {
+        const double zc = raise_mm > 0 && (i + j) % 4 == 1 ? -raise_mm : 0.0;
+        f.push_back({plain++, Eigen::Vector3d(pitch * (i + 0.5), pitch * (j + 0.5), zc)});
+      }
+    }
+  }
+  return f;
+}
+
+// A pinhole view with radial distortion of its ideal pixels about the principal point:
+// x_d = x (1 + k1 ρ²), ρ = |x| / f (k1 < 0: barrel).
+struct FieldView {
+  View cam;
+  double k1 = 0;
+};
+
+// How a dot at field point x images: its plane's homography (the plane Z = x.z), then the
+// distortion to first order about the dot's centre — exact ellipses (hence exact truth) whose
+// positions follow the distortion, which no global projective map follows.
+Eigen::Matrix3d DotHomography(const FieldView& fv, const Eigen::Vector3d& x) {
+  Eigen::Matrix3d m;
+  m << fv.cam.rot.col(0), fv.cam.rot.col(1), fv.cam.rot.col(2) * x.z() + fv.cam.t;
+  const Eigen::Matrix3d h = fv.cam.K() * m;
+  if (fv.k1 == 0) return h;
+  const Eigen::Vector3d c = h * Eigen::Vector3d(x.x(), x.y(), 1);
+  const Eigen::Vector2d p0 = c.head<2>() / c.z();
+  const Eigen::Vector2d pp((fv.cam.width - 1) / 2.0, (fv.cam.height - 1) / 2.0);
+  const Eigen::Vector2d d = p0 - pp;
+  const double f2 = fv.cam.f_px * fv.cam.f_px, g = 1 + fv.k1 * d.squaredNorm() / f2;
+  const Eigen::Matrix2d j = g * Eigen::Matrix2d::Identity() + 2 * fv.k1 / f2 * d * d.transpose();
+  Eigen::Matrix3d a = Eigen::Matrix3d::Identity();
+  a.topLeftCorner<2, 2>() = j;
+  a.topRightCorner<2, 1>() = pp + g * d - j * p0;
+  return a * h;
+}
+
+struct FieldScene {
+  cv::Mat image;
+  std::map<int, Eigen::Vector2d> truth;  // ellipse centre of every dot drawn
+  std::set<int> eligible;                // uncoded dots drawn whose dot and gap (1.7 r) are inside the image
+};
+
+// Renders `field` (radius r) through `fv`; IDs in `missing` are not drawn; `extra` dots (sheet
+// position, Z, radius factor) are drawn as plain dots beside the field.
+struct ExtraDot {
+  Eigen::Vector3d xyz_mm;
+  double radius_factor = 1;
+};
+FieldScene RenderField(const std::vector<PlacedTarget>& field, double r, Profile p, int bits, const FieldView& fv,
+                       const Look& look, int subrows, const std::set<int>& missing = {},
+                       const std::vector<ExtraDot>& extra = {}, unsigned seed = 1) {
+  FieldScene s;
+  RasterOptions ro;
+  ro.bits = bits;
+  ro.profile = p;
+  ro.radius_mm = r;
+  ro.subrows = subrows;
+  std::vector<RawTarget> raw;
+  const int w = fv.cam.width, h = fv.cam.height;
+  for (const auto& t : field) {
+    if (missing.count(t.id)) continue;
+    const Eigen::Matrix3d hl = DotHomography(fv, t.xyz_mm);
+    const bool plain = IsUncodedId(p, bits, t.id);
+    raw.push_back({t.xyz_mm.head<2>(), plain ? 0u : CodeOfId(p, bits, t.id), true, hl});
+    s.truth[t.id] = ConicCentreOfCircle<double>(hl, t.xyz_mm.head<2>(), r);
+    bool inside = plain;
+    for (int k = 0; k < 32 && inside; ++k) {
+      const Eigen::Vector3d q = hl * Eigen::Vector3d(t.xyz_mm.x() + 1.7 * r * std::cos(kPi * k / 16),
+                                                     t.xyz_mm.y() + 1.7 * r * std::sin(kPi * k / 16), 1);
+      inside = q.z() > 0 && q.x() / q.z() > 1 && q.y() / q.z() > 1 && q.x() / q.z() < w - 2 && q.y() / q.z() < h - 2;
+    }
+    if (inside) s.eligible.insert(t.id);
+  }
+  std::vector<double> cov = RasterizeRaw(w, h, Eigen::Matrix3d::Identity(), raw, ro);
+  if (!extra.empty()) {  // drawn apart, each at its own size (the rasteriser's radius is global)
+    for (const auto& e : extra) {
+      RasterOptions re = ro;
+      re.radius_mm = r * e.radius_factor;
+      const std::vector<double> c =
+          RasterizeRaw(w, h, Eigen::Matrix3d::Identity(), {{e.xyz_mm.head<2>(), 0u, true, DotHomography(fv, e.xyz_mm)}}, re);
+      for (std::size_t k = 0; k < cov.size(); ++k) cov[k] = std::min(1.0, cov[k] + c[k]);
+    }
+  }
+  s.image = ToImage(cov, w, h, look, seed);
+  return s;
+}
+
+struct MatchScore {
+  int eligible = 0, matched_eligible = 0, matched = 0, wrong = 0, coded = 0;
+  int not_candidates = 0;  // uncoded dots inside the image that the detector did not return (overlapped)
+  double max_err = 0;
+  UncodedCounts counts;
+};
+
+// Detects and matches; a matched ID is wrong unless that dot was drawn and lies within 0.5 px.
+MatchScore ScoreMatch(const FieldScene& s, const std::vector<PlacedTarget>& field, double r, Profile p, int bits,
+                      const UncodedMatchOptions& mo = {}) {
+  CodedDetectOptions o;
+  o.profile = p;
+  o.bits = bits;
+  o.uncoded_dots = true;
+  const CodedDetection d = DetectCodedTargets(s.image, o);
+  const UncodedMatch m = MatchUncodedDots(d, field, r, o, s.image.cols, s.image.rows, mo);
+  MatchScore sc;
+  sc.counts = m.counts;
+  sc.coded = m.counts.coded;
+  for (int id : s.eligible) {  // eligible: drawn, inside, and found by the detector among its dots
+    const auto near = std::find_if(d.dots.begin(), d.dots.end(), [&](const CodedTarget& c) { return (c.centre_px - s.truth.at(id)).norm() < 0.05; });
+    if (near != d.dots.end()) ++sc.eligible; else ++sc.not_candidates;
+  }
+  for (const auto& t : m.dots) {
+    const auto it = s.truth.find(t.id);
+    if (!IsUncodedId(p, bits, t.id) || it == s.truth.end() || (t.centre_px - it->second).norm() > 0.5) {
+      std::printf("  wrong: ID %d at (%.2f, %.2f): %s\n", t.id, t.centre_px.x(), t.centre_px.y(),
+                  it == s.truth.end() ? "not drawn" : fmt::format("{:.2f} px from its dot", (t.centre_px - it->second).norm()).c_str());
+      ++sc.wrong;
+      continue;
+    }
+    ++sc.matched;
+    sc.matched_eligible += s.eligible.count(t.id) ? 1 : 0;
+    sc.max_err = std::max(sc.max_err, (t.centre_px - it->second).norm());
+  }
+  return sc;
+}
+
+void PrintMatch(const std::string& what, const MatchScore& sc) {
+  std::printf("%s: %d of %d candidates matched (%d in all; %d dots inside not detected), %d wrong, worst centre %.4f px | %s\n",
+              what.c_str(), sc.matched_eligible, sc.eligible, sc.matched, sc.not_candidates, sc.wrong, sc.max_err,
+              sc.counts.ToString().c_str());
+}
+
+// Clean 16-bit renders, dots about 17 px across: a planar field and a 3-D one (DLT), each without
+// and with strong barrel distortion (43 px at the corners, the dots' spacing 47 px). Every uncoded
+// dot in the image is matched to its ID, centred within 0.02 px of its image ellipse's centre.
+TEST(UncodedDots, EveryDotMatchedAndCentredOnCleanRenders) {
+  const double r = 3;
+  int eligible = 0, matched = 0, wrong = 0;
+  for (double raise : {0.0, 4.0}) {
+    const auto field = GridField(15, 11, 8 * r, raise);
+    for (double k1 : {0.0, -0.2}) {
+      for (double tilt : {0.0, 40.0}) {
+        FieldView fv;
+        fv.cam = LookAtSheet(Eigen::Vector2d(168, 120), 520, tilt, 30, 8, 1400, 1200, 900);
+        fv.k1 = k1;
+        const FieldScene s = RenderField(field, r, Profile::kAicon, 14, fv, Look{.white_on_black = tilt > 0}, 24);
+        const MatchScore sc = ScoreMatch(s, field, r, Profile::kAicon, 14);
+        PrintMatch(fmt::format("raise {} mm, k1 {}, tilt {}", raise, k1, tilt), sc);
+        EXPECT_EQ(sc.matched_eligible, sc.eligible);
+        EXPECT_EQ(sc.wrong, 0);
+        EXPECT_LT(sc.max_err, 0.02);
+        eligible += sc.eligible;
+        matched += sc.matched_eligible;
+        wrong += sc.wrong;
+      }
+    }
+  }
+  std::printf("clean renders: %d of %d uncoded dots matched, %d wrong\n", matched, eligible, wrong);
+}
+
+// The field with only the coded targets within `keep_mm` of `centre_mm` (X, Y) kept coded: the
+// others become plain dots (new IDs from 5001), so matching must grow outward from a small patch.
+std::vector<PlacedTarget> CodedPatchOnly(std::vector<PlacedTarget> field, Profile p, int bits,
+                                         const Eigen::Vector2d& centre_mm, double keep_mm) {
+  int next = 5001;
+  for (auto& t : field) {
+    if (!IsUncodedId(p, bits, t.id) && (t.xyz_mm.head<2>() - centre_mm).norm() > keep_mm) t.id = next++;
+  }
+  return field;
+}
+
+// Random views of planar and 3-D fields (tilt 0–55°, any roll, barrel distortion up to k1 = −0.25,
+// noise up to 2 %, defocus up to 1.2 px, 8-bit, both profiles and polarities, dots 12–20 px), a
+// third of them with coded targets only in a patch of the field's middle: thousands of uncoded
+// dots matched, none to a wrong ID, and at least 99 % of those the detector returned.
+TEST(UncodedDots, ThousandsMatchedNoneWrong) {
+  std::mt19937 rng(16);
+  std::uniform_real_distribution<double> uni(0, 1);
+  int eligible = 0, matched = 0, wrong = 0, views = 0, patch_views = 0;
+  for (int view = 0; matched < 3000 && view < 60; ++view) {
+    const Profile p = view % 2 ? Profile::kMetashape : Profile::kAicon;
+    const int bits = view % 4 < 2 ? 14 : 12;
+    const double r = 2.5, pitch = 2 * (Ring(p).outer + 1) * r;
+    const double raise = view % 3 == 1 ? 3.0 : 0.0;
+    auto field = GridField(15, 11, pitch, raise);
+    const Eigen::Vector2d mid(7 * pitch, 5 * pitch);
+    const bool patch = view % 3 == 2;
+    if (patch) field = CodedPatchOnly(field, p, bits, mid, 1.6 * pitch);
+    FieldView fv;
+    const double distance = (pitch * 15) / (1.1 * 1200 / 1400.0);  // the field about fills the width
+    fv.cam = LookAtSheet(mid, distance * (0.9 + 0.3 * uni(rng)), 55 * uni(rng), 360 * uni(rng), 360 * uni(rng), 1400,
+                         1200, 900);
+    fv.k1 = -0.25 * uni(rng);
+    const Look look{.white_on_black = view % 5 < 2, .noise = 0.02 * uni(rng), .defocus_px = 1.2 * uni(rng), .depth = CV_8U};
+    const FieldScene s = RenderField(field, r, p, bits, fv, look, 6, {}, {}, view + 1);
+    const MatchScore sc = ScoreMatch(s, field, r, p, bits);
+    PrintMatch(fmt::format("view {:2} {} {}-bit{}{} k1 {:.3f}", view, ProfileName(p), bits, raise > 0 ? " 3-D" : "",
+                           patch ? " patch" : "", fv.k1),
+               sc);
+    EXPECT_EQ(sc.wrong, 0) << view;
+    EXPECT_GE(sc.matched_eligible, 0.95 * sc.eligible) << view;
+    eligible += sc.eligible;
+    matched += sc.matched_eligible;
+    wrong += sc.wrong;
+    ++views;
+    patch_views += patch;
+  }
+  std::printf("%d views (%d from a coded patch): %d of %d detected uncoded dots matched (%.2f %%), %d wrong\n", views,
+              patch_views, matched, eligible, 100.0 * matched / std::max(1, eligible), wrong);
+  EXPECT_GE(matched, 3000);
+  EXPECT_GE(matched, 0.99 * eligible);
+  EXPECT_EQ(wrong, 0);
+}
+
+// Look-alikes: dots of the field not printed (missing), spurious plain dots beside true ones (half
+// the spacing away, the true dot present), spurious dots where a missing dot should be but
+// displaced by a quarter or a tenth of the spacing (the tenth lies within the matching tolerance:
+// the leave-one-out check drops it), and spurious dots exactly there but of the wrong size (0.6
+// and 1.6 r). None may give a wrong ID.
+TEST(UncodedDots, LookAlikesNeverGiveAWrongId) {
+  const double r = 3, pitch = 8 * r;
+  const auto field = GridField(15, 11, pitch, 0);
+  std::set<int> missing;
+  std::vector<ExtraDot> extra;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ang(0, 2 * kPi);
+  int beside = 0, displaced = 0, wrong_size = 0, near_missing = 0;
+  const double kSpacing = pitch / std::sqrt(2.0);  // a cell's centre to its corners
+  for (std::size_t k = 0; k < field.size(); ++k) {
+    const auto& t = field[k];
+    if (!IsUncodedId(Profile::kAicon, 14, t.id)) continue;
+    const double a = ang(rng);
+    const Eigen::Vector3d off(std::cos(a), std::sin(a), 0);
+    switch (k % 7) {
+      case 0: missing.insert(t.id); break;
+      case 1: extra.push_back({t.xyz_mm + kSpacing / 2 * off, 1}); ++beside; break;
+      case 2: missing.insert(t.id); extra.push_back({t.xyz_mm + kSpacing / 4 * off, 1}); ++displaced; break;
+      case 3: missing.insert(t.id); extra.push_back({t.xyz_mm, k % 2 ? 0.6 : 1.6}); ++wrong_size; break;
+      case 4: missing.insert(t.id); extra.push_back({t.xyz_mm + 0.1 * kSpacing * off, 1}); ++near_missing; break;
+      default: break;
+    }
+  }
+  int wrong = 0, matched = 0;
+  for (double k1 : {0.0, -0.2}) {
+    for (double tilt : {0.0, 45.0}) {
+      FieldView fv;
+      fv.cam = LookAtSheet(Eigen::Vector2d(168, 120), 520, tilt, 100, -12, 1400, 1200, 900);
+      fv.k1 = k1;
+      const FieldScene s = RenderField(field, r, Profile::kAicon, 14, fv, Look{.noise = 0.01}, 8, missing, extra);
+      const MatchScore sc = ScoreMatch(s, field, r, Profile::kAicon, 14);
+      PrintMatch(fmt::format("look-alikes k1 {} tilt {}", k1, tilt), sc);
+      EXPECT_EQ(sc.wrong, 0);
+      EXPECT_GE(sc.matched_eligible, 0.95 * sc.eligible);  // the true dots left are still found
+      wrong += sc.wrong;
+      matched += sc.matched;
+    }
+  }
+  std::printf("look-alikes: %zu missing dots, %d spurious beside true ones, %d displaced by a quarter spacing, %d by a "
+              "tenth, %d of the wrong size: %d matched over 4 views, %d wrong\n",
+              missing.size(), beside, displaced, near_missing, wrong_size, matched, wrong);
+}
+
+// Too few decoded targets of the field (2): nothing is predicted, nothing matched; a field with
+// no uncoded dots matches nothing; bad options are InvalidInput.
+TEST(UncodedDots, NothingWithoutEnoughCodedTargets) {
+  const double r = 3;
+  auto field = GridField(15, 11, 8 * r, 0);
+  field = CodedPatchOnly(field, Profile::kAicon, 14, Eigen::Vector2d(0, 0), 8 * r * 1.05);  // the corner's 2
+  FieldView fv;
+  fv.cam = LookAtSheet(Eigen::Vector2d(168, 120), 520, 10, 0, 0, 1400, 1200, 900);
+  const FieldScene s = RenderField(field, r, Profile::kAicon, 14, fv, Look{}, 4);
+  const MatchScore sc = ScoreMatch(s, field, r, Profile::kAicon, 14);
+  PrintMatch("two coded targets", sc);
+  EXPECT_EQ(sc.coded, 2);
+  EXPECT_EQ(sc.matched, 0);
+  EXPECT_EQ(sc.wrong, 0);
+  CodedDetectOptions o;
+  o.uncoded_dots = true;
+  const CodedDetection d = DetectCodedTargets(s.image, o);
+  std::vector<PlacedTarget> coded_only;
+  for (const auto& t : field) {
+    if (!IsUncodedId(Profile::kAicon, 14, t.id)) coded_only.push_back(t);
+  }
+  EXPECT_TRUE(MatchUncodedDots(d, coded_only, r, o, s.image.cols, s.image.rows).dots.empty());
+  UncodedMatchOptions bad;
+  bad.tolerance = 0.8;
+  EXPECT_THROW(MatchUncodedDots(d, field, r, o, s.image.cols, s.image.rows, bad), InvalidInput);
+  EXPECT_THROW(MatchUncodedDots(d, field, 0, o, s.image.cols, s.image.rows), InvalidInput);
 }
 
 }  // namespace
