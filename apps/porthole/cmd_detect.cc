@@ -1,4 +1,5 @@
-// `porthole detect --images DIR --target SPEC`: find a calibration target in every image (OpenCV),
+// `porthole detect --images DIR --target SPEC [--field FILE]`: find a calibration target in every
+// image (OpenCV; a coded target field's uncoded dots matched from its decoded targets),
 // report per image, optionally write one detections JSON per image (--out-dir) or print them all
 // (--json). Unreadable images and images without the target are reported and skipped.
 #include <fmt/format.h>
@@ -15,7 +16,7 @@ namespace porthole::cli {
 
 void RegisterDetect(CLI::App& app) {
   struct Options {
-    std::string images, target, out_dir;
+    std::string images, target, field, out_dir;
     bool json = false, quiet = false;
   };
   auto o = std::make_shared<Options>();
@@ -28,11 +29,15 @@ void RegisterDetect(CLI::App& app) {
                   "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM | "
                   "coded:BITS:DOT_RADIUS_MM[:aicon|metashape]")
       ->required();
+  cmd->add_option("--field", o->field,
+                  "Target field file (coded targets): 'id x_mm y_mm z_mm' lines, e.g. from target-sheet; IDs above "
+                  "the profile's code count are uncoded dots, matched once the decoded targets give the view");
   cmd->add_option("--out-dir", o->out_dir, "Write <image>.json detections into this directory (created if missing)");
   cmd->add_flag("--json", o->json, "Print all detections as one JSON set");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
   cmd->callback([o] {
-    const auto target = calib::ParseTarget(o->target);
+    auto target = calib::ParseTarget(o->target);
+    if (!o->field.empty()) calib::LoadTargetField(o->field, &target, "--field");
     if (!o->out_dir.empty()) EnsureOutputDirectory(o->out_dir, "--out-dir");
     const auto paths = calib::ListImages(o->images);
     const auto run = calib::DetectAll(paths, target, [&](const std::string& m) {
@@ -52,16 +57,38 @@ void RegisterDetect(CLI::App& app) {
     if (o->json) {
       return fmt::print("{}\n", calib::DetectionSetToJson(run.detections, run.skipped, target).dump(1, ' ', false, kReplace));
     }
-    // Coded targets: ids are target IDs 1…N (id 0 is no point).
+    // Coded targets: ids are target IDs 1…N (id 0 is no point); a field's uncoded dots are
+    // counted apart (matched / in view).
     const bool coded = target.kind == calib::TargetKind::kCoded;
-    std::string text = fmt::format("target {} ({} {})\n{:<28} {:>7}  {}\n", target.ToString(),
-                                   coded ? target.NumPoints() - 1 : target.NumPoints(), coded ? "targets" : "points",
-                                   "image", "points", "status");
-    for (const auto& d : run.detections) {
-      text += fmt::format("{:<28} {:>7}  ok\n", d.image, d.ids.size());
+    const bool dots = calib::HasUncodedDots(target);
+    const int n_targets = !target.field.empty() ? static_cast<int>(target.field.size())
+                                                : coded ? target.NumPoints() - 1 : target.NumPoints();
+    std::string text = fmt::format("target {}{} ({} {})\n{:<28} {:>7}  {}{}\n", target.ToString(),
+                                   o->field.empty() ? "" : ", field " + o->field, n_targets,
+                                   coded ? "targets" : "points", "image", "points", dots ? "uncoded  " : "", "status");
+    coded::UncodedCounts sum;
+    for (std::size_t k = 0; k < run.detections.size(); ++k) {
+      const auto& d = run.detections[k];
+      std::string col;
+      if (dots) {
+        const coded::UncodedCounts c = run.uncoded[k].value_or(coded::UncodedCounts{});
+        col = fmt::format("{:>7}  ", fmt::format("{}/{}", c.matched, c.in_view));
+        sum.in_view += c.in_view;
+        sum.matched += c.matched;
+        sum.not_found += c.not_found;
+        sum.ambiguous += c.ambiguous;
+        sum.rejected += c.rejected;
+        sum.inconsistent += c.inconsistent;
+      }
+      text += fmt::format("{:<28} {:>7}  {}ok\n", d.image, d.ids.size(), col);
     }
-    for (const auto& s : run.skipped) text += fmt::format("{:<28} {:>7}  {}\n", s.image, "-", s.reason);
+    for (const auto& s : run.skipped) text += fmt::format("{:<28} {:>7}  {}{}\n", s.image, "-", dots ? "         " : "", s.reason);
     text += fmt::format("{} of {} images hold the target\n", run.detections.size(), paths.size());
+    if (dots) {
+      text += fmt::format("uncoded dots: {} matched of {} in view; {} not found, {} ambiguous, {} of the wrong size or "
+                          "polarity, {} off their neighbours' pattern\n",
+                          sum.matched, sum.in_view, sum.not_found, sum.ambiguous, sum.rejected, sum.inconsistent);
+    }
     fmt::print("{}", text);
   });
 }

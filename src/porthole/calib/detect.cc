@@ -84,7 +84,7 @@ bool FindChessboard(const cv::Mat& gray, const TargetSpec& t, int factor, std::v
 }
 
 bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
-                std::vector<cv::Point2f>* pts, int factor) {
+                std::vector<cv::Point2f>* pts, int factor, coded::UncodedCounts* uncoded) {
   const cv::Size size(t.cols, t.rows);
   bool found = false;
   switch (t.kind) {
@@ -104,10 +104,20 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
       coded::CodedDetectOptions o;
       o.bits = t.code_bits;
       o.profile = coded::ParseProfile(t.code_profile, "--target");
-      for (const auto& c : coded::DetectCodedTargets(gray, o).targets) {
+      o.uncoded_dots = HasUncodedDots(t);
+      const coded::CodedDetection d = coded::DetectCodedTargets(gray, o);
+      for (const auto& c : d.targets) {
         if (!t.HasPoint(c.id)) continue;  // not on the sheet or in the field
         ids->push_back(c.id);
         pts->emplace_back(static_cast<float>(c.centre_px.x()), static_cast<float>(c.centre_px.y()));
+      }
+      if (o.uncoded_dots) {  // the field's uncoded dots, placed from the decoded targets
+        const coded::UncodedMatch m = coded::MatchUncodedDots(d, t.field, t.dot_radius_mm, o, gray.cols, gray.rows);
+        for (const auto& c : m.dots) {
+          ids->push_back(c.id);
+          pts->emplace_back(static_cast<float>(c.centre_px.x()), static_cast<float>(c.centre_px.y()));
+        }
+        if (uncoded) *uncoded = m.counts;
       }
       return ids->size() >= 4;
     }
@@ -132,6 +142,13 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
 }
 
 }  // namespace
+
+bool HasUncodedDots(const TargetSpec& t) {
+  if (t.kind != TargetKind::kCoded) return false;
+  const coded::Profile p = coded::ParseProfile(t.code_profile, "--target");
+  return std::any_of(t.field.begin(), t.field.end(),
+                     [&](const coded::PlacedTarget& x) { return coded::IsUncodedId(p, t.code_bits, x.id); });
+}
 
 cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const std::string& field) {
   using namespace cv::aruco;
@@ -250,13 +267,14 @@ std::optional<std::pair<long, long>> ReadImageSize(const std::string& path) {
 }
 
 bool DetectInImage(const cv::Mat& gray, const TargetSpec& target, std::vector<int>* ids,
-                   std::vector<cv::Point2f>* points, const DetectOptions& options, bool reduce) {
+                   std::vector<cv::Point2f>* points, const DetectOptions& options, bool reduce,
+                   coded::UncodedCounts* uncoded) {
   const int long_side = std::max(gray.cols, gray.rows);
   int factor = 1;
   if (reduce && target.kind == TargetKind::kChessboard && long_side > options.reduce_above_px) {
     factor = std::max(2, static_cast<int>(std::lround(double(long_side) / options.reduced_long_side_px)));
   }
-  return FindPoints(gray, target, ids, points, factor);
+  return FindPoints(gray, target, ids, points, factor, uncoded);
 }
 
 DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
@@ -286,7 +304,10 @@ DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
       r.reason = fmt::format("too large: {} x {} px", gray.cols, gray.rows);
       return r;
     }
-    if (!DetectInImage(gray, target, &ids, &pts, options)) {
+    coded::UncodedCounts uncoded;
+    const bool found = DetectInImage(gray, target, &ids, &pts, options, true, &uncoded);
+    if (HasUncodedDots(target)) r.uncoded = uncoded;
+    if (!found) {
       r.reason = "no target found";
       return r;
     }
@@ -345,7 +366,8 @@ DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& 
       ++done;
       if (progress) {
         const auto& r = results[i];
-        progress(r.detections ? fmt::format("[{}/{}] {}: {} points", done, paths.size(), label, r.detections->ids.size())
+        const std::string dots = r.uncoded ? fmt::format(" ({} of {} uncoded dots in view)", r.uncoded->matched, r.uncoded->in_view) : "";
+        progress(r.detections ? fmt::format("[{}/{}] {}: {} points{}", done, paths.size(), label, r.detections->ids.size(), dots)
                               : fmt::format("[{}/{}] {}: skipped ({})", done, paths.size(), label, r.reason));
       }
     }
@@ -361,6 +383,7 @@ DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& 
   for (std::size_t i = 0; i < paths.size(); ++i) {
     if (results[i].detections) {
       run.detections.push_back(std::move(*results[i].detections));
+      run.uncoded.push_back(results[i].uncoded);
     } else {
       run.skipped.push_back({fs::path(paths[i]).filename().string(), results[i].reason});
     }

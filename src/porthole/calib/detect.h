@@ -4,7 +4,9 @@
 //  - ChArUco: contrib aruco detectMarkers + interpolateCornersCharuco (ids = OpenCV's corner ids),
 //    the corners then refined again by porthole (RefineCharucoCorners);
 //  - circle grids: cv::findCirclesGrid, symmetric or asymmetric;
-//  - coded circular targets: coded::DetectCodedTargets (coded/detect.h), ids = target IDs.
+//  - coded circular targets: coded::DetectCodedTargets (coded/detect.h), ids = target IDs; when the
+//    target carries a field with uncoded dots (IDs that are no code of the profile), those are
+//    matched from the decoded targets (coded::MatchUncodedDots) and reported with their field IDs.
 // Pixel convention of OpenCV = porthole's: (0, 0) is the centre of the top-left pixel.
 // An unreadable image or one without the target is not an error: it is returned as skipped.
 // Images are untrusted (docs/robustness.md): the dimensions in the file's header are read first and
@@ -24,6 +26,7 @@
 #include "porthole/calib/detections_json.h"
 #include "porthole/calib/observations.h"
 #include "porthole/calib/target.h"
+#include "porthole/coded/detect.h"
 
 namespace porthole::calib {
 
@@ -46,15 +49,21 @@ std::optional<std::pair<long, long>> ReadImageSize(const std::string& path);
 struct DetectResult {
   std::optional<ImageDetections> detections;  // set when the target was found
   std::string reason;                          // why not: "unreadable", "no target found"
+  std::optional<coded::UncodedCounts> uncoded; // a field with uncoded dots: how they were matched
 };
+
+// Whether the target is coded and its field holds uncoded dots (IDs no code of its profile).
+bool HasUncodedDots(const TargetSpec& target);
 
 // Detects `target` in the image file at `path`. `label` names it in the result (default: path).
 DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
                           const std::string& label = "", const DetectOptions& options = {});
 
 // Detection on an image already in memory (8-bit grey); `reduce` false forces full resolution.
+// `uncoded` (may be null) gets the matching counts of a field's uncoded dots (HasUncodedDots).
 bool DetectInImage(const cv::Mat& gray, const TargetSpec& target, std::vector<int>* ids,
-                   std::vector<cv::Point2f>* points, const DetectOptions& options = {}, bool reduce = true);
+                   std::vector<cv::Point2f>* points, const DetectOptions& options = {}, bool reduce = true,
+                   coded::UncodedCounts* uncoded = nullptr);
 
 // Refines ChArUco corners (px) in place, from wherever a detector left them (within a quarter of a
 // square): cv::cornerSubPix on a smoothed patch as for the chessboard, with a window that sees only
@@ -71,6 +80,7 @@ std::vector<std::string> ListImages(const std::string& dir, const std::string& f
 
 struct DetectionRun {
   std::vector<ImageDetections> detections;
+  std::vector<std::optional<coded::UncodedCounts>> uncoded;  // per detections entry (DetectResult::uncoded)
   std::vector<SkippedImage> skipped;
 };
 

@@ -1,5 +1,6 @@
-// Detection on rendered chessboards with known corners (render_board.h), and the image-header and
-// size checks that keep hostile images from being decoded (docs/robustness.md).
+// Detection on rendered chessboards with known corners (render_board.h), a coded target field's
+// uncoded dots found through a TargetSpec carrying the field, and the image-header and size checks
+// that keep hostile images from being decoded (docs/robustness.md).
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -9,6 +10,7 @@
 
 #include "porthole/calib/detect.h"
 #include "porthole/calib/render_board.h"
+#include "porthole/coded/test_fields.h"
 
 namespace porthole::calib {
 namespace {
@@ -77,6 +79,46 @@ TEST(Detect, OversizeImagesAreSkippedBeforeDecoding) {
   const DetectResult bad = DetectTarget(Write("porthole_bad.png", "\x89PNG\r\n\x1a\n garbage"), ParseTarget("chessboard:9x6:25"));
   EXPECT_FALSE(bad.detections.has_value());
   EXPECT_NE(bad.reason.find("unreadable"), std::string::npos) << bad.reason;
+}
+
+// A coded target whose field holds uncoded dots (IDs above the code count): detection through the
+// TargetSpec (as `detect --field` and `calibrate` do) reports them with their field IDs, where
+// they are in the image, read back from an 8-bit PNG with barrel distortion; without the field,
+// only the coded targets.
+TEST(Detect, CodedFieldReportsItsUncodedDotsByFieldId) {
+  TargetSpec t = ParseTarget("coded:14:3");
+  t.field = coded::testing::GridField(15, 11, 24, 0);
+  ASSERT_TRUE(HasUncodedDots(t));
+  coded::testing::FieldView fv;
+  fv.cam = coded::LookAtSheet(Eigen::Vector2d(168, 120), 520, 35, 60, 10, 1400, 1200, 900);
+  fv.k1 = -0.15;
+  const auto cov = coded::testing::DrawField(t.field, 3, coded::Profile::kAicon, 14, fv, 8);
+  cv::Mat img(fv.cam.height, fv.cam.width, CV_8U);
+  for (int v = 0; v < img.rows; ++v) {
+    for (int u = 0; u < img.cols; ++u) img.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(220 - 190 * cov.ink[v * img.cols + u]);
+  }
+  const auto path = std::filesystem::temp_directory_path() / "porthole_uncoded_field.png";
+  ASSERT_TRUE(cv::imwrite(path.string(), img));
+  const DetectResult r = DetectTarget(path.string(), t);
+  ASSERT_TRUE(r.detections && r.uncoded);
+  int uncoded = 0;
+  double worst = 0;
+  for (std::size_t k = 0; k < r.detections->ids.size(); ++k) {
+    const int id = r.detections->ids[k];
+    ASSERT_TRUE(cov.truth.count(id)) << id;
+    const double e = (r.detections->points_px[k] - cov.truth.at(id)).norm();
+    EXPECT_LT(e, 0.1) << id;
+    worst = std::max(worst, e);
+    uncoded += coded::IsUncodedId(coded::Profile::kAicon, 14, id);
+  }
+  std::printf("%zu points, %d uncoded (%zu inside the image), worst %.4f px | %s\n", r.detections->ids.size(), uncoded,
+              cov.eligible.size(), worst, r.uncoded->ToString().c_str());
+  EXPECT_EQ(uncoded, r.uncoded->matched);
+  EXPECT_GE(uncoded, static_cast<int>(cov.eligible.size()) - 2);
+  TargetSpec sheet = ParseTarget("coded:14:3");  // no field: the default sheet's IDs, no uncoded dots
+  const DetectResult plain = DetectTarget(path.string(), sheet);
+  EXPECT_FALSE(plain.uncoded);
+  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -21,10 +21,17 @@
 #include "porthole/coded/ellipse.h"
 #include "porthole/coded/raster.h"
 #include "porthole/coded/sheet.h"
+#include "porthole/coded/test_fields.h"
 #include "porthole/core/error.h"
 
 namespace porthole::coded {
 namespace {
+
+using testing::DrawField;
+using testing::ExtraDot;
+using testing::FieldCoverage;
+using testing::FieldView;
+using testing::GridField;
 
 constexpr double kPi = std::numbers::pi;
 
@@ -453,101 +460,17 @@ TEST(CodedDetect, UncodedDotCandidatesOnRequest) {
 
 // ---- Uncoded dots of a known field (MatchUncodedDots) ----
 
-// A test field on a grid of pitch 8r: coded targets (IDs from 1) at two grid points in three, plain
-// dots (IDs from 1001, above every profile's code count) at the others and at every cell's centre;
-// with `raise_mm`, some of both stand that far toward the camera (Z < 0): a 3-D field.
-std::vector<PlacedTarget> GridField(int cols, int rows, double pitch, double raise_mm) {
-  std::vector<PlacedTarget> f;
-  int coded = 1, plain = 1001;
-  for (int j = 0; j < rows; ++j) {
-    for (int i = 0; i < cols; ++i) {
-      const double z = raise_mm > 0 && (3 * i + j) % 5 == 0 ? -raise_mm : 0.0;
-      f.push_back({(i + 2 * j) % 3 != 0 ? coded++ : plain++, Eigen::Vector3d(pitch * i, pitch * j, z)});
-      if (i + 1 < cols && j + 1 < rows) {
-        const double zc = raise_mm > 0 && (i + j) % 4 == 1 ? -raise_mm : 0.0;
-        f.push_back({plain++, Eigen::Vector3d(pitch * (i + 0.5), pitch * (j + 0.5), zc)});
-      }
-    }
-  }
-  return f;
-}
-
-// A pinhole view with radial distortion of its ideal pixels about the principal point:
-// x_d = x (1 + k1 ρ²), ρ = |x| / f (k1 < 0: barrel).
-struct FieldView {
-  View cam;
-  double k1 = 0;
-};
-
-// How a dot at field point x images: its plane's homography (the plane Z = x.z), then the
-// distortion to first order about the dot's centre — exact ellipses (hence exact truth) whose
-// positions follow the distortion, which no global projective map follows.
-Eigen::Matrix3d DotHomography(const FieldView& fv, const Eigen::Vector3d& x) {
-  Eigen::Matrix3d m;
-  m << fv.cam.rot.col(0), fv.cam.rot.col(1), fv.cam.rot.col(2) * x.z() + fv.cam.t;
-  const Eigen::Matrix3d h = fv.cam.K() * m;
-  if (fv.k1 == 0) return h;
-  const Eigen::Vector3d c = h * Eigen::Vector3d(x.x(), x.y(), 1);
-  const Eigen::Vector2d p0 = c.head<2>() / c.z();
-  const Eigen::Vector2d pp((fv.cam.width - 1) / 2.0, (fv.cam.height - 1) / 2.0);
-  const Eigen::Vector2d d = p0 - pp;
-  const double f2 = fv.cam.f_px * fv.cam.f_px, g = 1 + fv.k1 * d.squaredNorm() / f2;
-  const Eigen::Matrix2d j = g * Eigen::Matrix2d::Identity() + 2 * fv.k1 / f2 * d * d.transpose();
-  Eigen::Matrix3d a = Eigen::Matrix3d::Identity();
-  a.topLeftCorner<2, 2>() = j;
-  a.topRightCorner<2, 1>() = pp + g * d - j * p0;
-  return a * h;
-}
-
 struct FieldScene {
   cv::Mat image;
   std::map<int, Eigen::Vector2d> truth;  // ellipse centre of every dot drawn
   std::set<int> eligible;                // uncoded dots drawn whose dot and gap (1.7 r) are inside the image
 };
 
-// Renders `field` (radius r) through `fv`; IDs in `missing` are not drawn; `extra` dots (sheet
-// position, Z, radius factor) are drawn as plain dots beside the field.
-struct ExtraDot {
-  Eigen::Vector3d xyz_mm;
-  double radius_factor = 1;
-};
 FieldScene RenderField(const std::vector<PlacedTarget>& field, double r, Profile p, int bits, const FieldView& fv,
                        const Look& look, int subrows, const std::set<int>& missing = {},
                        const std::vector<ExtraDot>& extra = {}, unsigned seed = 1) {
-  FieldScene s;
-  RasterOptions ro;
-  ro.bits = bits;
-  ro.profile = p;
-  ro.radius_mm = r;
-  ro.subrows = subrows;
-  std::vector<RawTarget> raw;
-  const int w = fv.cam.width, h = fv.cam.height;
-  for (const auto& t : field) {
-    if (missing.count(t.id)) continue;
-    const Eigen::Matrix3d hl = DotHomography(fv, t.xyz_mm);
-    const bool plain = IsUncodedId(p, bits, t.id);
-    raw.push_back({t.xyz_mm.head<2>(), plain ? 0u : CodeOfId(p, bits, t.id), true, hl});
-    s.truth[t.id] = ConicCentreOfCircle<double>(hl, t.xyz_mm.head<2>(), r);
-    bool inside = plain;
-    for (int k = 0; k < 32 && inside; ++k) {
-      const Eigen::Vector3d q = hl * Eigen::Vector3d(t.xyz_mm.x() + 1.7 * r * std::cos(kPi * k / 16),
-                                                     t.xyz_mm.y() + 1.7 * r * std::sin(kPi * k / 16), 1);
-      inside = q.z() > 0 && q.x() / q.z() > 1 && q.y() / q.z() > 1 && q.x() / q.z() < w - 2 && q.y() / q.z() < h - 2;
-    }
-    if (inside) s.eligible.insert(t.id);
-  }
-  std::vector<double> cov = RasterizeRaw(w, h, Eigen::Matrix3d::Identity(), raw, ro);
-  if (!extra.empty()) {  // drawn apart, each at its own size (the rasteriser's radius is global)
-    for (const auto& e : extra) {
-      RasterOptions re = ro;
-      re.radius_mm = r * e.radius_factor;
-      const std::vector<double> c =
-          RasterizeRaw(w, h, Eigen::Matrix3d::Identity(), {{e.xyz_mm.head<2>(), 0u, true, DotHomography(fv, e.xyz_mm)}}, re);
-      for (std::size_t k = 0; k < cov.size(); ++k) cov[k] = std::min(1.0, cov[k] + c[k]);
-    }
-  }
-  s.image = ToImage(cov, w, h, look, seed);
-  return s;
+  FieldCoverage c = DrawField(field, r, p, bits, fv, subrows, missing, extra);
+  return {ToImage(c.ink, fv.cam.width, fv.cam.height, look, seed), std::move(c.truth), std::move(c.eligible)};
 }
 
 struct MatchScore {
