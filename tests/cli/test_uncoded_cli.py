@@ -12,19 +12,9 @@ import numpy as np
 import pytest
 
 from conftest import run, run_bad
+from test_coded_cli import DPI, read_field
 
-DPI = 150  # 5.9 px/mm: a 2.5 mm dot is 29.5 px across
 SCALE = DPI / 25.4
-
-
-def read_field(path):
-    out = {}
-    with open(path) as f:
-        for line in f:
-            line = line.split("#")[0].split()
-            if line:
-                out[int(line[0])] = tuple(map(float, line[1:]))
-    return out
 
 
 def sheet_with_plain_dots(tmp_path, skip):
