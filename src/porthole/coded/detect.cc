@@ -694,7 +694,8 @@ UncodedMatch MatchUncodedDots(const CodedDetection& detection, const std::vector
   // round that adds dots starts again from the tightest.
   const double tight = o.tolerance / 3;
   double reach = o.reach, tolerance = tight;
-  for (int round = 0; round < 100000; ++round) {
+  // (64 rounds at most in the tests; the cap bounds the work on any input.)
+  for (int round = 0; round < 1000; ++round) {
     const auto m = MapField(known, field, dot_radius_mm);
     if (!m) break;
     struct Claim {
