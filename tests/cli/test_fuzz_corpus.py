@@ -31,6 +31,11 @@ def command(kind, path, out):
     if kind == "detections":
         return ["calibrate", "--detections", path, "--pixel-pitch-mm", "0.0055", "--quiet",
                 "--out", os.path.join(out, "calibration.json")]
+    if kind == "field":
+        images = os.path.join(out, "..", "images")
+        os.makedirs(images, exist_ok=True)
+        shutil.copy(os.path.join(FUZZ, "images", "valid-board.png"), images)
+        return ["detect", "--images", images, "--target", "coded:12:2", "--field", path, "--quiet", "--out-dir", out]
     if kind == "images":
         images = os.path.join(out, "..", "images")
         os.makedirs(images, exist_ok=True)
@@ -40,7 +45,7 @@ def command(kind, path, out):
 
 
 KINDS = ("port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "metashape", "opencv_xml",
-         "colmap", "detections", "images")
+         "colmap", "detections", "images", "field")
 CASES = sorted((kind, name) for kind in KINDS
                for name in os.listdir(os.path.join(FUZZ, kind)))
 
@@ -48,8 +53,8 @@ CASES = sorted((kind, name) for kind in KINDS
 def test_corpus_is_there():
     kinds = {k for k, _ in CASES}
     assert kinds >= {"port", "camera", "lens", "ply", "stl", "obj", "xyz", "calib_json", "yaml", "metashape",
-                     "opencv_xml", "colmap", "detections", "images"}
-    assert len(CASES) >= 434  # docs/robustness.md states the count
+                     "opencv_xml", "colmap", "detections", "images", "field"}
+    assert len(CASES) >= 468  # docs/robustness.md states the count
 
 
 def check(kind, name, tmp):
