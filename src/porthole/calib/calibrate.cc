@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -41,6 +42,23 @@ struct State {
   std::vector<Eigen::Vector3d> points;                       // target frame, mm
 };
 
+// Hartley's normalisation of a point set of dimension D: the similarity (homogeneous, (D+1)²)
+// that moves its centroid to the origin and its mean distance from it to √D.
+template <int D>
+Eigen::Matrix<double, D + 1, D + 1> Normaliser(const std::vector<Eigen::Matrix<double, D, 1>>& p) {
+  Eigen::Matrix<double, D, 1> mean = Eigen::Matrix<double, D, 1>::Zero();
+  for (const auto& q : p) mean += q;
+  mean /= static_cast<double>(p.size());
+  double d = 0;
+  for (const auto& q : p) d += (q - mean).norm();
+  d /= static_cast<double>(p.size());
+  const double s = d > 0 ? std::sqrt(static_cast<double>(D)) / d : 1.0;
+  Eigen::Matrix<double, D + 1, D + 1> t = Eigen::Matrix<double, D + 1, D + 1>::Identity() * s;
+  t(D, D) = 1;
+  t.template topRightCorner<D, 1>() = -s * mean;
+  return t;
+}
+
 // Normalised DLT homography mapping src to dst points (Hartley's normalisation of both sets), unit
 // Frobenius norm. The right singular vector of the 2n×9 system is taken as the eigenvector of its
 // 9×9 normal matrix (the same solution at a fraction of the cost). nullopt when the points do not
@@ -49,19 +67,7 @@ struct State {
 std::optional<Eigen::Matrix3d> FitHomography(const std::vector<Eigen::Vector2d>& src,
                                              const std::vector<Eigen::Vector2d>& dst) {
   if (src.size() < 4 || src.size() != dst.size()) return std::nullopt;
-  auto normaliser = [](const std::vector<Eigen::Vector2d>& p) {
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (const auto& q : p) mean += q;
-    mean /= static_cast<double>(p.size());
-    double d = 0;
-    for (const auto& q : p) d += (q - mean).norm();
-    d /= static_cast<double>(p.size());
-    const double s = d > 0 ? std::sqrt(2.0) / d : 1.0;
-    Eigen::Matrix3d t;
-    t << s, 0, -s * mean.x(), 0, s, -s * mean.y(), 0, 0, 1;
-    return t;
-  };
-  const Eigen::Matrix3d ts = normaliser(src), td = normaliser(dst);
+  const Eigen::Matrix3d ts = Normaliser<2>(src), td = Normaliser<2>(dst);
   Eigen::MatrixXd a(2 * src.size(), 9);
   for (std::size_t i = 0; i < src.size(); ++i) {
     const Eigen::Vector3d s = ts * src[i].homogeneous();
@@ -78,6 +84,113 @@ std::optional<Eigen::Matrix3d> FitHomography(const std::vector<Eigen::Vector2d>&
   hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
   const Eigen::Matrix3d hm = td.inverse() * hn * ts;
   return Eigen::Matrix3d(hm / hm.norm());
+}
+
+using Matrix34d = Eigen::Matrix<double, 3, 4>;
+
+// Normalised DLT camera matrix (Hartley: both sets normalised) mapping 3-D points to 2-D points,
+// P·(X, 1) ∝ (x, 1), unit Frobenius norm; the right singular vector of the 2n×12 system taken
+// as the eigenvector of its 12×12 normal matrix, as FitHomography. nullopt with fewer than 6
+// points, or when they do not determine it (all on one plane or line): the second-smallest
+// singular value below 1e-3 of the largest.
+std::optional<Matrix34d> FitCameraMatrix(const std::vector<Eigen::Vector3d>& src,
+                                         const std::vector<Eigen::Vector2d>& dst) {
+  if (src.size() < 6 || src.size() != dst.size()) return std::nullopt;
+  const Eigen::Matrix4d ts = Normaliser<3>(src);
+  const Eigen::Matrix3d td = Normaliser<2>(dst);
+  Eigen::MatrixXd a(2 * src.size(), 12);
+  for (std::size_t i = 0; i < src.size(); ++i) {
+    const Eigen::RowVector4d x = (ts * src[i].homogeneous()).transpose();
+    const Eigen::Vector3d d = td * dst[i].homogeneous();
+    a.row(2 * i) << x, Eigen::RowVector4d::Zero(), -d.x() * x;
+    a.row(2 * i + 1) << Eigen::RowVector4d::Zero(), x, -d.y() * x;
+  }
+  const Eigen::Matrix<double, 12, 12> ata = a.transpose() * a;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 12, 12>> es(ata);
+  const auto& ev = es.eigenvalues();  // σ², ascending
+  if (!(ev(1) > 1e-6 * ev(11))) return std::nullopt;
+  const Eigen::Matrix<double, 12, 1> p = es.eigenvectors().col(0);
+  Matrix34d pn;
+  pn << p.segment<4>(0).transpose(), p.segment<4>(4).transpose(), p.segment<4>(8).transpose();
+  const Matrix34d pm = td.inverse() * pn * ts;
+  return Matrix34d(pm / pm.norm());
+}
+
+// K of M = K·R (the RQ decomposition: K upper triangular with a positive diagonal, R a rotation
+// up to sign), scaled to K(2, 2) = 1: the calibration matrix of a DLT camera matrix's left 3×3.
+Eigen::Matrix3d RqCalibration(const Eigen::Matrix3d& m) {
+  Eigen::Matrix3d flip;
+  flip << 0, 0, 1, 0, 1, 0, 1, 0, 0;
+  // (flip·M)ᵀ = Q·U  ⇒  M = (flip·Uᵀ·flip)·(flip·Qᵀ), flip·Uᵀ·flip upper triangular.
+  const Eigen::HouseholderQR<Eigen::Matrix3d> qr((flip * m).transpose());
+  const Eigen::Matrix3d u = qr.matrixQR().triangularView<Eigen::Upper>();
+  Eigen::Matrix3d k = flip * u.transpose() * flip;
+  for (int i = 0; i < 3; ++i) {
+    if (k(i, i) < 0) k.col(i) *= -1;  // K·D, D·R with D = diag(±1)
+  }
+  return k / k(2, 2);
+}
+
+// A target field is planar when no point lies off its least-squares plane by more than this
+// fraction of its extent (twice the largest distance of a point from its centroid): then every
+// image's start is a homography of that plane; otherwise a DLT where an image sees the field off
+// one plane.
+constexpr double kPlanarFraction = 0.02;
+
+// The least-squares plane of a point set: its centroid, its principal axes (columns: the largest
+// spread, the second, and the plane's normal, a right-handed frame), the spread (RMS distance
+// from the centroid) along each, the largest distance of a point from the plane and the extent.
+struct PlaneFit {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d spread = Eigen::Vector3d::Zero();  // along axes' columns, mm
+  double off_plane_mm = 0;
+  double extent_mm = 0;
+  bool Planar() const { return off_plane_mm <= kPlanarFraction * extent_mm; }
+  // Points (nearly) on one line: the second spread below 10 % of the first.
+  bool OnALine() const { return !(spread(1) > 0.1 * spread(0)); }
+};
+
+PlaneFit FitPlane(const std::vector<Eigen::Vector3d>& pts) {
+  PlaneFit f;
+  if (pts.empty()) return f;
+  for (const auto& p : pts) f.centroid += p;
+  f.centroid /= static_cast<double>(pts.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) {
+    scatter += (p - f.centroid) * (p - f.centroid).transpose();
+    f.extent_mm = std::max(f.extent_mm, 2 * (p - f.centroid).norm());
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(scatter / static_cast<double>(pts.size()));
+  f.axes.col(0) = es.eigenvectors().col(2);
+  f.axes.col(1) = es.eigenvectors().col(1);
+  f.axes.col(2) = f.axes.col(0).cross(f.axes.col(1));
+  f.spread = es.eigenvalues().reverse().cwiseMax(0).cwiseSqrt();
+  for (const auto& p : pts) f.off_plane_mm = std::max(f.off_plane_mm, std::abs(f.axes.col(2).dot(p - f.centroid)));
+  return f;
+}
+
+// Coordinates of coplanar points in a frame of their plane, target = axes·(x, y, 0) + origin:
+// X, Y themselves (axes I, origin 0) when every Z is 0, as on every printed board; nullopt when
+// the points are not planar (PlaneFit::Planar).
+struct PlaneFrame {
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector2d> xy;
+};
+
+std::optional<PlaneFrame> OnPlane(const std::vector<Eigen::Vector3d>& pts) {
+  PlaneFrame f;
+  if (std::all_of(pts.begin(), pts.end(), [](const Eigen::Vector3d& p) { return p.z() == 0; })) {
+    for (const auto& p : pts) f.xy.push_back(p.head<2>());
+    return f;
+  }
+  const PlaneFit fit = FitPlane(pts);
+  if (!fit.Planar()) return std::nullopt;
+  f.axes = fit.axes;
+  f.origin = fit.centroid;
+  for (const auto& p : pts) f.xy.push_back((fit.axes.transpose() * (p - fit.centroid)).head<2>());
+  return f;
 }
 
 // Zhang's constraints with the principal point at the image-mm origin and one principal distance:
@@ -103,7 +216,7 @@ void PoseFromHomography(const Eigen::Matrix3d& h, double c, std::array<double, 3
   const Eigen::Vector3d kinv(1 / c, 1 / c, 1);
   const Eigen::Vector3d m1 = kinv.cwiseProduct(h.col(0)), m2 = kinv.cwiseProduct(h.col(1)),
                         m3 = kinv.cwiseProduct(h.col(2));
-  // h's sign is the caller's (RayHomography: the target points lie along +ray); the target origin
+  // h's sign is the caller's (PoseFromRays: the target points lie along +ray); the target origin
   // itself may be behind the camera (a fisheye seeing the board 85° off axis).
   const double lambda = 2.0 / (m1.norm() + m2.norm());
   Eigen::Matrix3d r;
@@ -124,23 +237,66 @@ void PoseFromHomography(const Eigen::Matrix3d& h, double c, std::array<double, 3
   *translation = {t.x(), t.y(), t.z()};
 }
 
-// The datum of a free target: three observed points (ids) spanning it.
-std::array<int, 3> ChooseDatum(const std::vector<Eigen::Vector3d>& pts, const std::set<int>& used) {
-  const int a = *used.begin();
-  int b = a, c = a;
+// The datum of a free target: 7 fixed coordinates, the minimum that fixes its similarity gauge
+// (translation, rotation, scale): all three of point a, all three of point b (the direction and
+// the nominal length a–b), and coordinate `axis` of point c, which fixes the rotation about the
+// line a–b — c moves by ω·d × (c − a) under it (d the line's direction), so c and the axis are
+// the observed point and coordinate where that motion is largest. On a planar field (Z = 0) that
+// is the Z of the point farthest from the line. a is the lowest observed id, b the observed point
+// farthest from it. On a 3-D field the three are taken among the points of its dominant plane
+// (DominantPlane: the board of raised targets), so that the raised points, whose heights a
+// self-calibration is there to measure, are all free.
+using Datum = CalibrationResult::Datum;
+
+// The observed points of the field's dominant plane: every point when the field is planar; else
+// those within 2 % of the extent of the plane fitted, twice, to the half of the points nearest
+// the previous fit (a trimmed fit: raised targets leave it), when at least 3 off one line lie
+// there; else every point.
+std::vector<int> DominantPlane(const std::vector<Eigen::Vector3d>& pts, const std::set<int>& used) {
+  std::vector<int> all(used.begin(), used.end());
+  std::vector<Eigen::Vector3d> xyz;
+  for (int id : all) xyz.push_back(pts[id]);
+  const PlaneFit whole = FitPlane(xyz);
+  if (whole.Planar()) return all;
+  PlaneFit fit = whole;
+  for (int round = 0; round < 2; ++round) {
+    std::vector<std::pair<double, int>> by_distance;
+    for (int id : all) by_distance.push_back({std::abs(fit.axes.col(2).dot(pts[id] - fit.centroid)), id});
+    std::sort(by_distance.begin(), by_distance.end());
+    std::vector<Eigen::Vector3d> nearest;
+    for (std::size_t k = 0; k < std::max<std::size_t>(3, by_distance.size() / 2); ++k) nearest.push_back(pts[by_distance[k].second]);
+    fit = FitPlane(nearest);
+  }
+  std::vector<int> on;
+  std::vector<Eigen::Vector3d> on_xyz;
+  for (int id : all) {
+    if (std::abs(fit.axes.col(2).dot(pts[id] - fit.centroid)) <= kPlanarFraction * whole.extent_mm) {
+      on.push_back(id);
+      on_xyz.push_back(pts[id]);
+    }
+  }
+  if (on.size() < 3 || FitPlane(on_xyz).OnALine()) return all;
+  return on;
+}
+
+Datum ChooseDatum(const std::vector<Eigen::Vector3d>& pts, const std::set<int>& used) {
+  const std::vector<int> candidates = DominantPlane(pts, used);
+  Datum d;
+  d.a = d.b = d.c = candidates.front();
   double best = -1;
-  for (int id : used) {
-    const double d = (pts[id] - pts[a]).norm();
-    if (d > best) best = d, b = id;
+  for (int id : candidates) {
+    const double dist = (pts[id] - pts[d.a]).norm();
+    if (dist > best) best = dist, d.b = id;
   }
   best = -1;
-  const Eigen::Vector3d dir = (pts[b] - pts[a]).normalized();
-  for (int id : used) {
-    const Eigen::Vector3d v = pts[id] - pts[a];
-    const double d = (v - v.dot(dir) * dir).norm();
-    if (d > best) best = d, c = id;
+  const Eigen::Vector3d dir = (pts[d.b] - pts[d.a]).normalized();
+  for (int id : candidates) {
+    const Eigen::Vector3d motion = dir.cross(pts[id] - pts[d.a]);
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(motion(k)) > best) best = std::abs(motion(k)), d.c = id, d.axis = k;
+    }
   }
-  return {a, b, c};
+  return d;
 }
 
 // The analytic cost of one observation in the residual form `form`.
@@ -253,16 +409,21 @@ class Adjustment {
 
   // The unscaled marginal covariance of the camera parameters, (JᵀJ)⁻¹ of the image residual
   // (px, not yet multiplied by σ0²), rows and columns of fixed parameters 0. False if singular.
-  bool Covariance(const FreeMask& free, CameraMatrix* covariance) {
+  // With a free target, *point_variance (if given) receives the diagonal of each point's block
+  // (mm², unscaled likewise; 0 for the datum's fixed coordinates, NaN for unobserved ids).
+  bool Covariance(const FreeMask& free, CameraMatrix* covariance,
+                  std::vector<Eigen::Vector3d>* point_variance = nullptr) {
     covariance->setZero();
     bool ok = (o_.target_free || o_.loss != LossKind::kNone || o_.ceres_covariance)
-                  ? CeresCovariance(free, covariance)
+                  ? CeresCovariance(free, covariance, point_variance)
                   : ReducedCameraCovariance(free, covariance);
     // Back to the parameters' own units: Σ = S Σ_scaled S.
     const Eigen::Map<const Eigen::Matrix<double, N, 1>> sv(scale_.data());
     *covariance = sv.asDiagonal() * (*covariance) * sv.asDiagonal();
     return ok;
   }
+
+  const Datum& datum() const { return datum_; }
 
  private:
   ceres::CostFunction* NewModelCost(Form form, const Observation& ob, bool point_free) const {
@@ -289,7 +450,7 @@ class Adjustment {
       Eigen::Vector3d* point = &s_->points[ob.point];
       double* rot = s_->rotation[ob.image].data();
       double* tr = s_->translation[ob.image].data();
-      const bool point_free = o_.target_free && ob.point != datum_[0] && ob.point != datum_[1];
+      const bool point_free = o_.target_free && ob.point != datum_.a && ob.point != datum_.b;
       ceres::CostFunction* cost = NewModelCost(form, ob, point_free);
       if (point_free) {
         problem->AddResidualBlock(cost, loss, scaled->data(), rot, tr, point->data());
@@ -306,15 +467,16 @@ class Adjustment {
     } else if (!fixed.empty()) {
       problem->SetManifold(scaled->data(), new ceres::SubsetManifold(N, fixed));
     }
-    if (o_.target_free && problem->HasParameterBlock(s_->points[datum_[2]].data())) {
-      problem->SetManifold(s_->points[datum_[2]].data(), new ceres::SubsetManifold(3, {2}));
+    if (o_.target_free && problem->HasParameterBlock(s_->points[datum_.c].data())) {
+      problem->SetManifold(s_->points[datum_.c].data(), new ceres::SubsetManifold(3, {datum_.axis}));
     }
   }
 
   // Ceres's marginal covariance over all unknowns (sparse QR): the general path (free target,
   // robust loss, automatic differentiation) and the reference of ReducedCameraCovariance.
   // Scaled units.
-  bool CeresCovariance(const FreeMask& free, CameraMatrix* covariance) {
+  bool CeresCovariance(const FreeMask& free, CameraMatrix* covariance,
+                       std::vector<Eigen::Vector3d>* point_variance) {
     std::array<double, N> scaled;
     ceres::Problem problem;
     Build(free, Form::kProject, &scaled, &problem);
@@ -322,9 +484,30 @@ class Adjustment {
     co.num_threads = o_.num_threads;
     ceres::Covariance cov(co);
     const double* cam = scaled.data();
-    const std::vector<std::pair<const double*, const double*>> blocks = {{cam, cam}};
+    std::vector<std::pair<const double*, const double*>> blocks = {{cam, cam}};
+    std::vector<int> free_points;
+    if (point_variance != nullptr && o_.target_free) {
+      for (int id : used_) {
+        if (problem.HasParameterBlock(s_->points[id].data())) {
+          free_points.push_back(id);
+          blocks.push_back({s_->points[id].data(), s_->points[id].data()});
+        }
+      }
+    }
     // Ceres writes row-major; the matrix is symmetric, so the storage order does not matter.
-    return cov.Compute(blocks, &problem) && cov.GetCovarianceBlock(cam, cam, covariance->data());
+    if (!cov.Compute(blocks, &problem) || !cov.GetCovarianceBlock(cam, cam, covariance->data())) return false;
+    if (point_variance != nullptr) {
+      point_variance->assign(s_->points.size(), Eigen::Vector3d::Constant(NAN));
+      if (o_.target_free) {
+        (*point_variance)[datum_.a] = (*point_variance)[datum_.b] = Eigen::Vector3d::Zero();
+      }
+      for (int id : free_points) {
+        Eigen::Matrix3d c;  // ambient: the datum's fixed coordinate has variance 0
+        if (!cov.GetCovarianceBlock(s_->points[id].data(), s_->points[id].data(), c.data())) return false;
+        (*point_variance)[id] = c.diagonal();
+      }
+    }
+    return true;
   }
 
   // Fixed target, no robust loss: the camera block of (JᵀJ)⁻¹ is the inverse of the reduced
@@ -390,44 +573,72 @@ class Adjustment {
   camera::Sensor sensor_;
   std::array<double, N> scale_;
   std::set<int> used_;
-  std::array<int, 3> datum_{-1, -1, -1};
+  Datum datum_;
 };
 
-// Homography from the target plane (X, Y, 1) to the camera's unit rays through the observed
-// pixels of one image (H·X = λ·ray, λ > 0), by the normalised DLT in a frame turned so that the
-// rays' mean direction is its axis: a board seen by a fisheye 85° off axis is as well conditioned
-// as one seen straight on, and rays beyond 90° from the camera axis are no exception. nullopt with
-// fewer than 4 rays, or when the points do not determine a homography (FitHomography).
-std::optional<Eigen::Matrix3d> RayHomography(const camera::Camera& cam, const ImageDetections& d,
-                                             const std::vector<Eigen::Vector3d>& nominal) {
-  std::vector<Eigen::Vector2d> src;
-  std::vector<Eigen::Vector3d> rays;
+// The cam_from_target pose of one image from the camera's unit rays through its observed points
+// and their target coordinates (mm): a PnP for a known camera. Solved in a frame turned so that
+// the rays' mean direction is its axis: a board seen by a fisheye 85° off axis is as well
+// conditioned as one seen straight on, and rays beyond 90° from the camera axis are no exception.
+// Coplanar points (OnPlane): the normalised DLT homography of their plane onto the rays
+// (FitHomography), the pose from it (PoseFromHomography). Points off one plane: the normalised
+// DLT camera matrix of the rays (FitCameraMatrix), which for a calibrated camera is λ·[R | t]:
+// R its left 3×3 over λ = det^(1/3), orthonormalised by SVD. Either with the sign that puts the
+// points in front along their rays. False with fewer than 4 rays (6 off a plane), rays spanning
+// more than ~170°, or points that do not fix the pose.
+bool PoseFromRays(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& rays,
+                  std::array<double, 3>* rotation, std::array<double, 3>* translation) {
+  if (points.size() < 4 || points.size() != rays.size()) return false;
   Eigen::Vector3d mean_ray = Eigen::Vector3d::Zero();
-  for (std::size_t k = 0; k < d.ids.size(); ++k) {
-    const auto ray = cam.Unproject(d.points_px[k]);
-    if (!ray) continue;
-    src.push_back(nominal[d.ids[k]].head<2>());
-    rays.push_back(*ray);
-    mean_ray += *ray;
-  }
-  if (src.size() < 4 || !(mean_ray.norm() > 0)) return std::nullopt;
+  for (const auto& r : rays) mean_ray += r;
+  if (!(mean_ray.norm() > 0)) return false;
   const Eigen::Matrix3d turn =
       Eigen::Quaterniond::FromTwoVectors(mean_ray.normalized(), Eigen::Vector3d::UnitZ())
           .toRotationMatrix();
   std::vector<Eigen::Vector2d> dst;
   for (const auto& r : rays) {
     const Eigen::Vector3d q = turn * r;
-    if (!(q.z() > 0.05)) return std::nullopt;  // the board spans more than ~170° of view
+    if (!(q.z() > 0.05)) return false;  // the points span more than ~170° of view
     dst.emplace_back(q.x() / q.z(), q.y() / q.z());
   }
-  const auto h = FitHomography(src, dst);
-  if (!h) return std::nullopt;
-  Eigen::Matrix3d hm = turn.transpose() * *h;
-  // The sign that puts the observed points in front along their rays (H·X = +λ·ray).
+  if (const auto plane = OnPlane(points)) {
+    const auto h = FitHomography(plane->xy, dst);
+    if (!h) return false;
+    Eigen::Matrix3d hm = turn.transpose() * *h;
+    double along = 0;  // H·X = +λ·ray
+    for (std::size_t i = 0; i < rays.size(); ++i) along += (hm * plane->xy[i].homogeneous()).dot(rays[i]);
+    if (along < 0) hm = -hm;
+    PoseFromHomography(hm / hm.norm(), 1.0, rotation, translation);
+    if (plane->axes.isIdentity(0) && plane->origin.isZero(0)) return true;
+    // cam = R_p·(x, y, 0) + t_p with (x, y, 0) = axesᵀ·(X − origin).
+    const Eigen::Vector3d v(rotation->data());
+    const Eigen::Matrix3d r_plane = Eigen::AngleAxisd(v.norm(), v.norm() > 0 ? v.normalized() : Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Matrix3d r = r_plane * plane->axes.transpose();
+    const Eigen::Vector3d t = Eigen::Vector3d(translation->data()) - r * plane->origin;
+    const Eigen::AngleAxisd aa(r);
+    const Eigen::Vector3d w = aa.angle() * aa.axis();
+    *rotation = {w.x(), w.y(), w.z()};
+    *translation = {t.x(), t.y(), t.z()};
+    return true;
+  }
+  const auto p = FitCameraMatrix(points, dst);
+  if (!p) return false;
+  Matrix34d pm = turn.transpose() * *p;
   double along = 0;
-  for (std::size_t i = 0; i < src.size(); ++i) along += (hm * src[i].homogeneous()).dot(rays[i]);
-  if (along < 0) hm = -hm;
-  return hm / hm.norm();
+  for (std::size_t i = 0; i < rays.size(); ++i) along += (pm * points[i].homogeneous()).dot(rays[i]);
+  if (along < 0) pm = -pm;
+  const Eigen::Matrix3d m = pm.leftCols<3>();
+  const double det = m.determinant();
+  if (!(det > 0)) return false;  // a mirror image: not a camera
+  const double lambda = std::cbrt(det);
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m / lambda, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+  const Eigen::AngleAxisd aa(r);
+  const Eigen::Vector3d w = aa.angle() * aa.axis();
+  const Eigen::Vector3d t = pm.col(3) / lambda;
+  *rotation = {w.x(), w.y(), w.z()};
+  *translation = {t.x(), t.y(), t.z()};
+  return true;
 }
 
 // Refines one image's cam_from_target pose with the camera held fixed (a PnP refinement on the
@@ -440,6 +651,15 @@ void RefinePose(const camera::Camera& cam, const ImageDetections& d,
   std::copy(cam.params.begin(), cam.params.end(), params.begin());
   std::array<double, M::kNumParams> unit;
   unit.fill(1.0);
+  // A pose from which a point cannot be projected (behind the camera: a PnP of too few points)
+  // is left as it is, for StartPoses to find unusable, not handed to Ceres.
+  {
+    Eigen::Matrix3d r;
+    ceres::AngleAxisToRotationMatrix(rotation->data(), r.data());
+    for (int id : d.ids) {
+      if (!cam.Project(r * nominal[id] + Eigen::Vector3d(translation->data()))) return;
+    }
+  }
   ceres::Problem problem;
   for (std::size_t k = 0; k < d.ids.size(); ++k) {
     auto* f = new ModelResidual<M>{d.points_px[k].x(), d.points_px[k].y(), cam.sensor, unit,
@@ -458,7 +678,7 @@ void RefinePose(const camera::Camera& cam, const ImageDetections& d,
 
 // The start poses of every image for a start camera, and the RMS (px) of the observations
 // reprojected through that camera from them. An image whose rays do not determine its pose
-// (RayHomography), or with a point the camera cannot project from it (the adjustment could not
+// (PoseFromRays), or with a point the camera cannot project from it (the adjustment could not
 // take its first step), is marked false in *usable and left out of the RMS; nullopt when fewer
 // than 3 images are usable. With `refine`, each pose is refined with the camera fixed
 // (RefinePose).
@@ -474,9 +694,14 @@ std::optional<double> StartPoses(const camera::Camera& cam,
   double ss = 0;
   int count = 0, n_usable = 0;
   for (int i = 0; i < n; ++i) {
-    const auto h = RayHomography(cam, *images[i], nominal);
-    if (!h) continue;
-    PoseFromHomography(*h, 1.0, &s->rotation[i], &s->translation[i]);
+    std::vector<Eigen::Vector3d> points, rays;
+    for (std::size_t k = 0; k < images[i]->ids.size(); ++k) {
+      const auto ray = cam.Unproject(images[i]->points_px[k]);
+      if (!ray) continue;
+      points.push_back(nominal[images[i]->ids[k]]);
+      rays.push_back(*ray);
+    }
+    if (!PoseFromRays(points, rays, &s->rotation[i], &s->translation[i])) continue;
     if (refine) RefinePose<M>(cam, *images[i], nominal, &s->rotation[i], &s->translation[i]);
     Eigen::Matrix3d r;
     ceres::AngleAxisToRotationMatrix(s->rotation[i].data(), r.data());
@@ -516,6 +741,25 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
   // Start: the camera (initial, or ideal), its focal length, then the poses.
   State<N> s;
   s.points = nominal;
+  // The observed points' shape: a planar field starts from homographies, a 3-D one from DLTs.
+  const PlaneFit field = [&] {
+    std::set<int> seen;
+    for (const auto* d : used_images) seen.insert(d->ids.begin(), d->ids.end());
+    std::vector<Eigen::Vector3d> pts;
+    for (int id : seen) pts.push_back(nominal[id]);
+    return FitPlane(pts);
+  }();
+  const bool planar_start = field.Planar() || options.planar_start;
+  if (!field.Planar()) {
+    say(fmt::format("a 3-D target field: points up to {:.1f} mm off their best plane ({:.1f} % of its extent){}",
+                    field.off_plane_mm, 100 * field.off_plane_mm / field.extent_mm,
+                    options.planar_start ? "; started as a planar one (Z ignored)" : ""));
+  }
+  // The points the start sees: Z ignored when a 3-D field is started as a planar one.
+  std::vector<Eigen::Vector3d> start_points = nominal;
+  if (options.planar_start) {
+    for (auto& p : start_points) p.z() = 0;
+  }
   camera::Camera start = camera::Camera::Ideal(id, sensor, 1.0);
   if (options.initial) {
     start.params = options.initial->params;
@@ -524,23 +768,46 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
   for (int i = 0; i < info.num_focal; ++i) focal_free = focal_free || free_start[i];
   if (focal_free || !options.initial) {
     if (!M::kCaps.fisheye) {
-      // Zhang on the homographies of the centred pixels (one focal length, no distortion).
+      // Images whose points lie on one plane: Zhang on their homographies of the centred pixels
+      // (one focal length, no distortion). Images that see a 3-D field off one plane: the DLT
+      // camera matrix of the centred pixels, K from its RQ decomposition, f = sqrt(fx·fy); the
+      // median over those images, which then decide alone.
       std::vector<Eigen::Matrix3d> hs;
+      std::vector<double> dlt_f;
       const Eigen::Vector2d mid(0.5 * (sensor.width_px - 1), 0.5 * (sensor.height_px - 1));
       for (const auto* d : used_images) {
-        std::vector<Eigen::Vector2d> src, dst;
+        std::vector<Eigen::Vector3d> src;
+        std::vector<Eigen::Vector2d> dst;
         for (std::size_t k = 0; k < d->ids.size(); ++k) {
-          src.push_back(nominal[d->ids[k]].head<2>());
+          src.push_back(start_points[d->ids[k]]);
           dst.push_back(d->points_px[k] - mid);
         }
-        if (const auto h = FitHomography(src, dst)) hs.push_back(*h);
+        if (const auto plane = OnPlane(src)) {
+          if (const auto h = FitHomography(plane->xy, dst)) hs.push_back(*h);
+        } else if (const auto p = FitCameraMatrix(src, dst)) {
+          const Eigen::Matrix3d k = RqCalibration(p->leftCols<3>());
+          const double f = std::sqrt(k(0, 0) * k(1, 1));
+          if (std::isfinite(f) && f > 0) dlt_f.push_back(f);
+        }
       }
-      const auto f = ZhangPrincipalDistance(hs);
-      camera::SetFocalLengthPx(&start, f ? *f : std::max(sensor.width_px, sensor.height_px));
-      say(f ? fmt::format("start: Zhang focal length {:.2f} px ({:.4f} mm)", *f,
-                          *f * sensor.pixel_pitch_mm)
-            : "start: homographies do not fix the focal length (views too parallel?); using the "
-              "image width");
+      if (!dlt_f.empty()) {
+        std::nth_element(dlt_f.begin(), dlt_f.begin() + dlt_f.size() / 2, dlt_f.end());
+        const double f = dlt_f[dlt_f.size() / 2];
+        camera::SetFocalLengthPx(&start, f);
+        say(fmt::format("start: DLT focal length {:.2f} px ({:.4f} mm; median of {} images of the 3-D field)",
+                        f, f * sensor.pixel_pitch_mm, dlt_f.size()));
+      } else {
+        if (!planar_start && hs.empty()) {
+          throw InvalidInput("--images", "no image sees 6 points of the 3-D target field off one plane (nor 4 "
+                                         "on one plane): the start cannot fix the focal length");
+        }
+        const auto f = ZhangPrincipalDistance(hs);
+        camera::SetFocalLengthPx(&start, f ? *f : std::max(sensor.width_px, sensor.height_px));
+        say(f ? fmt::format("start: Zhang focal length {:.2f} px ({:.4f} mm)", *f,
+                            *f * sensor.pixel_pitch_mm)
+              : "start: homographies do not fix the focal length (views too parallel?); using the "
+                "image width");
+      }
     } else {
       // Fisheye: the ideal projection (equidistant, equisolid, stereographic, orthographic) and
       // field (the frame corner 25°–125° off axis) whose camera best explains the views, that
@@ -556,7 +823,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
             id, sensor, p, f, std::min(1.1 * corner, camera::MaxFieldAngleRad(p)));
         State<N> trial_state;
         std::vector<bool> usable;
-        const auto rms = StartPoses<M>(trial, used_images, nominal, &trial_state, false, &usable);
+        const auto rms = StartPoses<M>(trial, used_images, start_points, &trial_state, false, &usable);
         if (rms && *rms < best_rms) {
           best_rms = *rms;
           best_name = fmt::format("{} {:.0f} deg to the corner", camera::ProjectionName(p),
@@ -584,10 +851,16 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     }
   }
   std::vector<bool> usable;
-  if (!StartPoses<M>(start, used_images, nominal, &s, M::kCaps.fisheye, &usable)) {
+  // Poses by PnP of the start camera, refined with it fixed for a fisheye (approximate start
+  // camera) and for a 3-D field (the DLT pose is not the least-squares one).
+  const auto start_rms = StartPoses<M>(start, used_images, start_points, &s, M::kCaps.fisheye || !planar_start, &usable);
+  if (!start_rms) {
     throw InvalidInput("--images", "fewer than 3 images whose points fix their pose for the start "
-                                   "camera (boards seen edge-on or along one line?)");
+                                   "camera (boards seen edge-on or along one line, or fewer than 6 "
+                                   "points of a 3-D field?)");
   }
+  res.start_focal_px = start.FocalLengthPx();
+  res.start_rms_px = *start_rms;
   std::copy(start.params.begin(), start.params.end(), s.camera.begin());
   {
     std::vector<const ImageDetections*> kept;
@@ -707,8 +980,11 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     res.rms_px = std::sqrt(ss / n_active);
     res.n_points = n_active;
     if (!options.statistics) break;
-    res.covariance_ok = adj.Covariance(free, &cov);
+    std::vector<Eigen::Vector3d> point_variance;
+    res.covariance_ok = adj.Covariance(free, &cov, &point_variance);
     res.covariance = cov * (res.sigma0_px * res.sigma0_px);
+    res.target_sigma_mm.clear();
+    for (const auto& v : point_variance) res.target_sigma_mm.push_back(res.sigma0_px * v.cwiseSqrt());
     res.significance.clear();
     int weakest = -1;
     double weakest_t = options.significance_t;
@@ -739,6 +1015,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
   res.camera.params.assign(s.camera.begin(), s.camera.end());
   res.n_images = n_images;
   res.target_points_mm = s.points;
+  if (options.target_free) res.datum = adj.datum();
   std::vector<double> image_ss(n_images, 0);
   res.images.resize(n_images);
   for (const auto& ob : obs) {
@@ -817,6 +1094,32 @@ std::string FreeParametersToString(CameraModelId model, const FreeMask& free) {
   return s;
 }
 
+int KeepTargetPoints(const TargetSpec& target, std::vector<ImageDetections>* detections,
+                     const std::function<void(const std::string&)>& progress) {
+  if (target.kind != TargetKind::kCoded) return 0;
+  const std::vector<bool> is_point = TargetPointMask(target);
+  int dropped = 0;
+  for (auto& d : *detections) {
+    if (d.ids.size() != d.points_px.size()) continue;  // Calibrate refuses it
+    std::size_t kept = 0;
+    for (std::size_t k = 0; k < d.ids.size(); ++k) {
+      const int id = d.ids[k];
+      if (id < 0 || id >= static_cast<int>(is_point.size()) || !is_point[id]) continue;
+      d.ids[kept] = d.ids[k];
+      d.points_px[kept] = d.points_px[k];
+      ++kept;
+    }
+    dropped += static_cast<int>(d.ids.size() - kept);
+    d.ids.resize(kept);
+    d.points_px.resize(kept);
+  }
+  if (dropped > 0 && progress) {
+    progress(fmt::format("ignored {} detection(s) of IDs that are not in the {}", dropped,
+                         target.field.empty() ? "target's sheet" : "field " + target.field_file));
+  }
+  return dropped;
+}
+
 CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
                             const TargetSpec& target, const CalibrationOptions& options) {
   const auto say = [&](const std::string& m) {
@@ -849,10 +1152,18 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     }
   }
   const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
+  // Coded targets: IDs the sheet or field does not carry are no points (ignored, counted).
+  std::vector<ImageDetections> kept_detections;
+  const std::vector<ImageDetections>* dets = &detections;
+  if (target.kind == TargetKind::kCoded) {
+    kept_detections = detections;
+    KeepTargetPoints(target, &kept_detections, options.progress);
+    dets = &kept_detections;
+  }
 
   // Images with at least 4 valid points; all of one size.
   std::vector<const ImageDetections*> used_images;
-  for (const auto& d : detections) {
+  for (const auto& d : *dets) {
     if (d.ids.size() != d.points_px.size()) {
       throw InvalidInput("detections", d.image + ": ids and points differ in number");
     }
@@ -869,16 +1180,9 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     // Points (nearly) on one line of the target do not fix the image's pose: a board seen only
     // along its edge (a fisheye's frame corner) would start the adjustment from a wrong pose.
     {
-      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-      for (int id : d.ids) mean += nominal[id].head<2>();
-      mean /= static_cast<double>(d.ids.size());
-      Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
-      for (int id : d.ids) {
-        const Eigen::Vector2d q = nominal[id].head<2>() - mean;
-        scatter += q * q.transpose();
-      }
-      const Eigen::Vector2d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(scatter).eigenvalues();
-      if (!(ev(0) > 0.01 * ev(1))) {
+      std::vector<Eigen::Vector3d> pts;
+      for (int id : d.ids) pts.push_back(nominal[id]);
+      if (FitPlane(pts).OnALine()) {
         say(fmt::format("skipped {}: its {} points lie nearly on one line of the target",
                         d.image, d.ids.size()));
         continue;

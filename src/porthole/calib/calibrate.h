@@ -10,11 +10,19 @@
 //    distortion parameters), every image's cam_from_target pose (angle-axis rad, translation mm),
 //    and optionally the target points (self-calibration) with a minimal datum of 7 fixed
 //    coordinates: one point fully, a second far from it fully (scale from the nominal target),
-//    and the Z of a third far from their line.
+//    and one coordinate of a third — the point and coordinate that the rotation about the first
+//    two's line moves most (the Z of the point farthest from that line on a planar field); on a
+//    3-D field all three on its dominant plane (the board of raised targets), so that every
+//    raised point is free.
 //  - Start: a focal length from Zhang's closed form on plane homographies (principal point at the
 //    image centre, one focal length for all images) for rectilinear models, or, for fisheye
 //    models, the focal length among a range of candidates whose ideal projection best explains
 //    the views; then poses from each homography of the ideal camera's rays; then the adjustment.
+//    A 3-D target field (a point off the observed points' best plane by more than 2 % of their
+//    extent) starts rectilinear models from the normalised DLT of every image whose points lie
+//    off one plane (≥ 6 points): K by RQ decomposition, the median focal length; the poses of
+//    any model by PnP of the start camera's rays (DLT of the rays off a plane, homography on
+//    one), refined with the camera fixed.
 //    The Brown model first adjusts in the correction (collinearity) form (residual.h), with
 //    analytic Jacobians; every other model in the image residual by automatic differentiation.
 //  - Statistics: σ0 = sqrt(Σ|r|² / (2n − u)) (px, a posteriori), covariance of the camera
@@ -78,6 +86,10 @@ struct CalibrationOptions {
   double loss_scale_px = 1.0;
   // Self-calibration: adjust the target points too (with the datum above).
   bool target_free = false;
+  // Start a 3-D target field as a planar one (the homographies of X, Y with Z ignored, as before
+  // porthole knew 3-D fields), not by DLT: only to compare the two starts. A planar field starts
+  // so anyway.
+  bool planar_start = false;
   // Circular targets: the centre of a dot's image is not the image of its centre (coded/
   // ellipse.h). With the correction on, each observation is compared with the centre a perfect
   // ellipse-centre detector would measure for the dot (radius dot_radius_mm, in a plane parallel
@@ -153,11 +165,28 @@ struct CalibrationResult {
   std::vector<ImageResult> images;
   std::vector<Significance> significance;  // free distortion parameters, after dropping
   std::vector<DroppedParameter> dropped;   // in the order dropped
-  std::vector<Eigen::Vector3d> target_points_mm;  // adjusted if target_free, else nominal
+  std::vector<Eigen::Vector3d> target_points_mm;  // adjusted if target_free, else nominal; by id
+  // target_free: each point's σ (mm, per coordinate, from the same covariance as the camera's),
+  // 0 for the datum's fixed coordinates, NaN for ids not observed; empty otherwise.
+  std::vector<Eigen::Vector3d> target_sigma_mm;
+  // target_free: the datum (ids; coordinate `axis` of c: 0 X, 1 Y, 2 Z); all −1 otherwise.
+  struct Datum {
+    int a = -1, b = -1, c = -1, axis = -1;
+  } datum;
   double dot_radius_mm = 0;      // the dots' radius the centres were corrected for; 0: no correction
   double max_centre_offset_px = 0;  // largest |dot-image centre − projected centre| applied
+  double start_focal_px = 0;  // the start camera's focal length (Zhang, DLT, fisheye candidate or initial)
+  double start_rms_px = NAN;  // RMS reprojection (px) of the start camera from the start poses
   std::string message;   // "ok" or what went wrong (e.g. singular covariance)
 };
+
+// Coded targets: removes from each image the detections of IDs the target does not carry (its
+// field file lists fewer targets than were detected, or the detections are of another sheet);
+// returns how many were removed and says so on `progress` (may be empty). Other targets: nothing
+// is removed (Calibrate refuses ids beyond the target). Calibrate does this itself; the refractive
+// calibration's callers do it first.
+int KeepTargetPoints(const TargetSpec& target, std::vector<ImageDetections>* detections,
+                     const std::function<void(const std::string&)>& progress = {});
 
 // Calibrates from the detections of `target` in images of one camera. Images with fewer than 4
 // points are skipped (listed in the progress messages). Throws InvalidInput (field "--images")

@@ -53,6 +53,27 @@ Json CameraUnitsJson(camera::CameraModelId model) {
   return j;
 }
 
+Json FieldJson(const TargetSpec& target) {
+  Json points = Json::array();
+  for (const auto& p : target.field) points.push_back({p.id, p.xyz_mm.x(), p.xyz_mm.y(), p.xyz_mm.z()});
+  return {{"file", target.field_file}, {"n_points", target.field.size()}, {"points", points}};
+}
+
+Json AdjustedTargetJson(const CalibrationResult& r, const TargetSpec& target) {
+  const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
+  const auto xyz = [](const Eigen::Vector3d& v) { return Json::array({Number(v.x()), Number(v.y()), Number(v.z())}); };
+  Json points = Json::array();
+  for (std::size_t id = 0; id < r.target_sigma_mm.size() && id < r.target_points_mm.size(); ++id) {
+    if (!r.target_sigma_mm[id].allFinite()) continue;  // not observed
+    points.push_back({{"id", id}, {"xyz_mm", xyz(r.target_points_mm[id])}, {"sigma_mm", xyz(r.target_sigma_mm[id])},
+                      {"nominal_mm", xyz(nominal[id])}});
+  }
+  const char* axis[] = {"x", "y", "z"};
+  return {{"datum", {{"fixed", {r.datum.a, r.datum.b}}, {"one_coordinate", r.datum.c}, {"axis", axis[r.datum.axis]},
+                     {"note", "7 coordinates held at their nominal values: all of the two 'fixed' points, one of the third"}}},
+          {"points", points}};
+}
+
 Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                        const CalibrationOptions& options) {
   const camera::ModelInfo& m = r.camera.info();
@@ -120,6 +141,8 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
       {"images", images},
       {"status", r.message},
   };
+  if (!target.field.empty()) j["field"] = FieldJson(target);
+  if (options.target_free && r.datum.a >= 0) j["target_adjusted"] = AdjustedTargetJson(r, target);
   return j;
 }
 

@@ -11,7 +11,11 @@
 //   correlation {parameters: [keys of the adjusted ones], matrix: [[…]]}; covariance likewise;
 //   sigma0_px, rms_px, sensor {width_px, height_px, pixel_pitch_mm}, pixels_are_mm,
 //   significance [{parameter, t, significant}], dropped [{parameter, value, sigma, t}],
-//   images [{image, n_points, n_rejected, rms_px, rotation_rad, translation_mm}], counts, status.
+//   images [{image, n_points, n_rejected, rms_px, rotation_rad, translation_mm}], counts, status;
+//   field (a coded target with a field file only): {file: the path as given, n_points, points:
+//     [[id, x_mm, y_mm, z_mm], …] as read}, enough to rerun the calibration without the file;
+//   target_adjusted (--free-target only): {datum {fixed: [id, id], one_coordinate: id, axis},
+//     points [{id, xyz_mm, sigma_mm, nominal_mm}] for every observed point}.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -39,6 +43,10 @@ nlohmann::ordered_json CameraUnitsJson(camera::CameraModelId model);
 // `covariance` and `correlation` objects); non-finite entries null.
 nlohmann::ordered_json CovarianceJson(const camera::ModelInfo& m, const FreeMask& free,
                                       const Eigen::MatrixXd& matrix);
+
+// The `field` and `target_adjusted` objects above.
+nlohmann::ordered_json FieldJson(const TargetSpec& target);
+nlohmann::ordered_json AdjustedTargetJson(const CalibrationResult& r, const TargetSpec& target);
 
 nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                                          const CalibrationOptions& options);

@@ -12,8 +12,11 @@ SyntheticSet MakeSyntheticSet(const SyntheticOptions& o) {
   const camera::Sensor& sensor = o.camera.sensor;
   RequireNonNegative("max_off_axis_deg", o.max_off_axis_deg);
   const auto pts = TargetPoints(o.target);
-  Eigen::Vector3d lo = pts[0], hi = pts[0];
-  for (const auto& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const std::vector<bool> is_point = TargetPointMask(o.target);
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    if (is_point[k]) lo = lo.cwiseMin(pts[k]), hi = hi.cwiseMax(pts[k]);
+  }
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const double extent = (hi - lo).head<2>().maxCoeff();
   const double distance = o.camera.FocalLengthPx() * extent / (o.fill * sensor.width_px);
@@ -56,6 +59,7 @@ SyntheticSet MakeSyntheticSet(const SyntheticOptions& o) {
     d.width_px = sensor.width_px;
     d.height_px = sensor.height_px;
     for (std::size_t k = 0; k < pts.size(); ++k) {
+      if (!is_point[k]) continue;  // coded: an ID that is no target
       const Eigen::Vector3d point_in_cam = r * pts[k] + t;
       const auto px = o.project ? o.project(point_in_cam) : o.camera.Project(point_in_cam);
       if (!px) continue;

@@ -156,6 +156,15 @@ std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& t) {
   return pts;
 }
 
+std::vector<bool> TargetPointMask(const TargetSpec& t) {
+  if (t.kind != TargetKind::kCoded) return std::vector<bool>(t.NumPoints(), true);
+  const auto& pts = t.field.empty() ? CodedSheet(t).targets : t.field;
+  int last = 0;
+  for (const auto& p : pts) last = std::max(last, p.id);
+  std::vector<bool> mask(last + 1, false);
+  for (const auto& p : pts) mask[p.id] = true;
+  return mask;
+}
 
 coded::SheetLayout CodedSheet(const TargetSpec& t) {
   coded::SheetOptions o;
@@ -171,6 +180,7 @@ void LoadTargetField(const std::string& path, TargetSpec* target, const std::str
   }
   const std::string text = ReadInputFile(path, field, kMaxTextFileBytes);
   target->field = coded::ParseField(text, fmt::format("{} ({})", field, path));
+  target->field_file = path;
 }
 
 }  // namespace porthole::calib

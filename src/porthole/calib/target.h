@@ -42,6 +42,8 @@ struct TargetSpec {
   // points may leave the Z = 0 plane (a 3-D field: raised targets). Every dot lies in a plane
   // parallel to the target's XY plane, facing −Z (toward the camera side of the sheet).
   std::vector<coded::PlacedTarget> field;
+  // coded: the file `field` was read from (LoadTargetField), as given; recorded in the results.
+  std::string field_file;
 
   // Number of points the target carries (ChArUco: the (cols−1)·(rows−1) inner corners; coded:
   // the largest ID + 1, ids being target IDs).
@@ -61,6 +63,10 @@ TargetSpec ParseTarget(const std::string& spec, const std::string& field = "--ta
 // Every point of the target in the target frame (mm), indexed by id (coded: ids that are no
 // target, 0 among them, at the origin; HasPoint tells them apart).
 std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& target);
+
+// HasPoint of every id at once (size NumPoints()): true where the id is one of the target's points.
+// HasPoint lays out a coded sheet at every call; loops over points use this.
+std::vector<bool> TargetPointMask(const TargetSpec& target);
 
 // Reads a target-field file (coded/sheet.h ParseField: "id x_mm y_mm z_mm" lines) into
 // target->field, with the size limit of every text input (core/input.h). Throws
