@@ -23,11 +23,32 @@ namespace porthole::cli {
 namespace {
 
 // The parameter table: value, σ, |p|/σ, or "-" where not adjusted (the paper's Table 6).
-std::string CalibrationTable(const calib::CalibrationResult& r, const calib::CalibrationOptions& o) {
+std::string CalibrationTable(const calib::CalibrationResult& r, const calib::CalibrationOptions& o,
+                             const calib::TargetSpec& target) {
   std::string t = fmt::format(
       "{} images, {} points ({} rejected), {} unknowns, redundancy {}; free: {}\n",
       r.n_images, r.n_points, r.n_rejected, r.n_unknowns, r.redundancy,
       calib::FreeParametersToString(r.camera.model, r.free));
+  if (!target.field.empty()) t += fmt::format("target field {}: {} targets\n", target.field_file, target.field.size());
+  if (r.datum.a >= 0) {  // --free-target: the datum and the largest change from the nominal points
+    const auto nominal = calib::TargetPoints(target);
+    int moved = -1, n_adjusted = 0;
+    double most = -1;
+    for (std::size_t id = 0; id < r.target_sigma_mm.size(); ++id) {
+      if (!r.target_sigma_mm[id].allFinite()) continue;
+      ++n_adjusted;
+      const double d = (r.target_points_mm[id] - nominal[id]).norm();
+      if (d > most) most = d, moved = static_cast<int>(id);
+    }
+    t += fmt::format("free target: {} points adjusted (JSON target_adjusted); datum: ids {} and {} fixed, the {} of {}",
+                     n_adjusted, r.datum.a, r.datum.b, "xyz"[r.datum.axis], r.datum.c);
+    if (moved >= 0) {
+      const Eigen::Vector3d& s = r.target_sigma_mm[moved];
+      t += fmt::format("; largest change from the nominal {:.3f} mm (id {}, sigma {:.3f} {:.3f} {:.3f} mm)", most, moved,
+                       s.x(), s.y(), s.z());
+    }
+    t += "\n";
+  }
   const camera::ModelInfo& m = r.camera.info();
   t += fmt::format("model {}: {}\n", m.name, m.description);
   if (m.caps.image_mm && o.pixel_pitch_mm == 1.0) {
@@ -188,7 +209,7 @@ std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOpt
 
 void RegisterCalibrate(CLI::App& app) {
   struct Options {
-    std::string images, detections, target, model = "brown", free = "default", loss = "none", out,
+    std::string images, detections, target, field, model = "brown", free = "default", loss = "none", out,
                                                             yaml;
     double pitch_mm = 1.0;
     calib::CalibrationOptions calib;
@@ -211,6 +232,9 @@ void RegisterCalibrate(CLI::App& app) {
   img->excludes(det);
   cmd->add_option("--target", o->target,
                   "Target spec (required with --images), e.g. chessboard:9x6:25 or coded:14:2.5 (porthole detect --help)");
+  cmd->add_option("--field", o->field,
+                  "Coded targets: a target-field file (lines 'id x_mm y_mm z_mm', e.g. from porthole target-sheet, or "
+                  "measured; Z != 0 for raised targets) instead of the default sheet");
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch, mm; without it millimetres are pixels")
       ->capture_default_str();
@@ -288,7 +312,10 @@ void RegisterCalibrate(CLI::App& app) {
       throw InvalidInput("--images", "give --images DIR or --detections PATH");
     }
     calib::TargetSpec target;
-    if (!o->target.empty()) target = calib::ParseTarget(o->target);
+    if (!o->target.empty()) {
+      target = calib::ParseTarget(o->target);
+      if (!o->field.empty()) calib::LoadTargetField(o->field, &target);  // before any detection
+    }
     if (!o->images.empty() && o->target.empty()) {
       throw InvalidInput("--target", "required with --images");
     }
@@ -351,7 +378,11 @@ void RegisterCalibrate(CLI::App& app) {
     } else {
       dets = calib::LoadDetections(o->detections, "--detections", &target);
       if (target.cols == 0) throw InvalidInput("--target", "the detections name no target");
+      if (!o->field.empty() && target.field.empty()) calib::LoadTargetField(o->field, &target);
     }
+    // Detections of IDs the field does not hold are no points (the refractive calibration needs
+    // them gone; Calibrate would drop them too).
+    calib::KeepTargetPoints(target, &dets, say);
     if (refractive && o->plan_only) {
       ro.lens = o->calib;
       if (!o->port_out.empty()) throw InvalidInput("--port-out", "not with --plan-only (nothing is estimated)");
@@ -377,7 +408,7 @@ void RegisterCalibrate(CLI::App& app) {
       }
       if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
       if (o->json) return fmt::print("{}\n", j.dump(2));
-      std::string text = CalibrationTable(rr.lens, o->calib) + PortTable(rr, ro) + port_note;
+      std::string text = CalibrationTable(rr.lens, o->calib, target) + PortTable(rr, ro) + port_note;
       if (!air_note.empty()) text += "air calibration " + air_note + "\n";
       for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
       return fmt::print("{}", text);
@@ -400,7 +431,7 @@ void RegisterCalibrate(CLI::App& app) {
     }
     if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
     if (o->json) return fmt::print("{}\n", j.dump(2));
-    std::string text = CalibrationTable(r, o->calib) + yaml_note;
+    std::string text = CalibrationTable(r, o->calib, target) + yaml_note;
     for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
     fmt::print("{}", text);
   });

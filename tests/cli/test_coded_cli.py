@@ -106,13 +106,8 @@ def test_bad_options_write_nothing(tmp_path):
         assert "--target" in line, line
 
 
-SMALL_CAMERA = """name = "small-dx"
-description = "the D300's sensor cut to 720 x 480 px of 32.8 um (tests)"
-mount = "nikon-f"
-width_px = 720
-height_px = 480
-pixel_pitch_mm = 0.032778
-"""
+# The D300's sensor cut to 720 x 480 px (tests; the Python tests render with it too).
+SMALL_CAMERA = open(os.path.join(os.path.dirname(__file__), "small-dx.toml")).read()
 
 
 @pytest.mark.parametrize("polarity", [[], ["--white-on-black"]])
@@ -148,3 +143,120 @@ def test_centre_correction_needs_a_coded_target(tmp_path):
     det.write_text(json.dumps({"target": "chessboard:9x6:40", "images": [], "skipped": []}))
     line = run_bad("calibrate", "--detections", det, "--target", "chessboard:9x6:40", "--centre-correction", "on")
     assert line.startswith("porthole: error: --centre-correction:"), line
+
+
+# A 3-D target field as the paper's pool field in miniature: a 400 x 300 mm board with a 9 x 7 grid
+# of targets (Z = 0, ids 1-63) and 16 raised 40-120 mm toward the camera (Z < 0, ids 64-79).
+def raised_field():
+    field = {}
+    for r in range(7):
+        for c in range(9):
+            field[len(field) + 1] = (50.0 * c, 50.0 * r, 0.0)
+    for k in range(16):
+        field[len(field) + 1] = (25 + 100 * (k % 4), 25 + 75 * (k // 4), -(40 + 80 * ((k * 7) % 16) / 15))
+    return field
+
+
+def write_field(path, field):
+    path.write_text("# a raised board (test)\n# id x_mm y_mm z_mm\n" +
+                    "".join(f"{i} {x:.4f} {y:.4f} {z:.4f}\n" for i, (x, y, z) in field.items()))
+
+
+F_PX, W, H = 2400.0, 1200, 900
+
+
+def synthetic_field_detections(path, field, n_images=10, noise_px=0.1, seed=5, extra_ids=()):
+    """`porthole detect --json` detections of `field` seen by a pinhole camera (f = 2400 px,
+    1200 x 900, principal point at the image centre) from n_images views 1000-1200 mm away, tilted
+    up to 35 deg, with Gaussian noise: images of the dots' centres (no eccentricity)."""
+    import numpy as np
+    rng = np.random.default_rng(seed)
+    ids = np.array(sorted(field))
+    pts = np.array([field[i] for i in ids])
+    centre = np.array([200.0, 150.0, -30.0])
+    images = []
+    for k in range(n_images):
+        tilt = math.radians(10 + 25 * rng.random())
+        az = 2 * math.pi * k / n_images
+        eye = centre + rng.uniform(1000, 1200) * np.array([math.sin(tilt) * math.cos(az), math.sin(tilt) * math.sin(az), -math.cos(tilt)])
+        z = (centre - eye) / np.linalg.norm(centre - eye)
+        x = np.cross([0.0, 1.0, 0.0], z) if abs(z[1]) < 0.9 else np.array([1.0, 0, 0])
+        x /= np.linalg.norm(x)
+        roll = rng.uniform(-0.5, 0.5)
+        y = np.cross(z, x)
+        x, y = math.cos(roll) * x + math.sin(roll) * y, -math.sin(roll) * x + math.cos(roll) * y
+        cam = (pts - eye) @ np.array([x, y, z]).T
+        uv = F_PX * cam[:, :2] / cam[:, 2:] + [(W - 1) / 2, (H - 1) / 2] + rng.normal(0, noise_px, (len(ids), 2))
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] <= W - 1) & (uv[:, 1] >= 0) & (uv[:, 1] <= H - 1)
+        assert inside.sum() > 60
+        got_ids = [int(i) for i in ids[inside]] + list(extra_ids)
+        got_uv = uv[inside].tolist() + [[5.0, 5.0]] * len(extra_ids)
+        images.append({"image": f"view{k}.png", "target": "coded:14:2.5:aicon", "width_px": W,
+                       "height_px": H, "ids": got_ids, "points_px": got_uv})
+    path.write_text(json.dumps({"target": "coded:14:2.5:aicon", "images": images, "skipped": []}))
+
+
+def test_calibrate_with_a_3d_field_file(tmp_path):
+    # `calibrate --field` with a raised field: the DLT start, the rendering camera within 3 sigma,
+    # the field (file name and points) in the JSON; an ID outside the field (200, on the default
+    # sheet) is ignored with a message, not placed at the origin.
+    field = raised_field()
+    write_field(tmp_path / "raised.txt", field)
+    synthetic_field_detections(tmp_path / "d.json", field, extra_ids=(200,))
+    res = run("calibrate", "--detections", tmp_path / "d.json", "--field", tmp_path / "raised.txt",
+              "--centre-correction", "off", "--free", "c,x0,y0,K1,K2", "--json")
+    assert "DLT focal length" in res.err and "ignored 10 detection(s) of IDs that are not in the field" in res.err, res.err
+    j = res.json()
+    assert j["field"]["file"] == str(tmp_path / "raised.txt")
+    assert j["field"]["n_points"] == 79
+    points = {p[0]: p[1:] for p in j["field"]["points"]}
+    assert sorted(points) == sorted(field)
+    for i, xyz in field.items():
+        assert points[i] == pytest.approx(list(xyz), abs=1e-4), i
+    cam, sig = j["camera"], j["sigma"]
+    print(f"3-D field: c {cam['c_mm']:.3f} px (sigma {sig['c_mm']:.3f}), x0 {cam['x0_mm']:.3f}, y0 {cam['y0_mm']:.3f}; "
+          f"sigma0 {j['sigma0_px']:.3f} px")
+    assert abs(cam["c_mm"] - F_PX) < 3 * sig["c_mm"]
+    assert abs(cam["x0_mm"]) < 3 * sig["x0_mm"] and abs(cam["y0_mm"]) < 3 * sig["y0_mm"]
+    assert j["sigma0_px"] == pytest.approx(0.1, rel=0.1)
+    assert "target_adjusted" not in j
+
+    # Self-calibration: the raised heights given 3 mm wrong come back to the truth.
+    wrong = {i: (x, y, z - 3.0 if z else z) for i, (x, y, z) in field.items()}
+    write_field(tmp_path / "wrong.txt", wrong)
+    j = run("calibrate", "--detections", tmp_path / "d.json", "--field", tmp_path / "wrong.txt", "--free-target",
+            "--centre-correction", "off", "--free", "c,x0,y0,K1,K2", "--json", "--quiet").json()
+    adjusted = j["target_adjusted"]
+    assert adjusted["datum"]["axis"] == "z" and all(field[i][2] == 0 for i in adjusted["datum"]["fixed"])
+    raised = [p for p in adjusted["points"] if field[p["id"]][2] != 0]
+    assert len(raised) == 16
+    for p in raised:
+        assert abs(p["xyz_mm"][2] - field[p["id"]][2]) < 3 * p["sigma_mm"][2], p
+        assert p["nominal_mm"][2] == pytest.approx(wrong[p["id"]][2])
+
+    # The refractive calibration takes the field too (plumbing: in-air views behind a flat port).
+    j = run("calibrate", "--detections", tmp_path / "d.json", "--field", tmp_path / "raised.txt",
+            "--port", "flat-acrylic-10mm", "--centre-correction", "off", "--free", "c,x0,y0",
+            "--json", "--quiet").json()
+    assert j["field"]["n_points"] == 79 and "port" in j
+
+
+def test_field_errors_are_one_line(tmp_path):
+    field = raised_field()
+    write_field(tmp_path / "raised.txt", field)
+    synthetic_field_detections(tmp_path / "d.json", field, n_images=3)
+    line = run_bad("calibrate", "--images", tmp_path, "--target", "chessboard:9x6:25", "--field", tmp_path / "raised.txt")
+    assert line.startswith("porthole: error: --field:") and "coded" in line, line
+    line = run_bad("calibrate", "--detections", tmp_path / "d.json", "--field", tmp_path / "missing.txt")
+    assert line.startswith("porthole: error: --field:"), line
+    (tmp_path / "bad.txt").write_text("1 0 0 0\n1 5 5 5\n")
+    line = run_bad("calibrate", "--detections", tmp_path / "d.json", "--field", tmp_path / "bad.txt", "--out", tmp_path / "o.json")
+    assert "--field" in line and "line 2" in line, line
+    # Five targets off one plane: no image fixes a DLT (6 points) — one line, nothing written.
+    five = {i: field[i] for i in (1, 9, 55, 63, 79)}
+    write_field(tmp_path / "five.txt", five)
+    synthetic_field_detections(tmp_path / "d5.json", field, n_images=4)
+    line = run_bad("calibrate", "--detections", tmp_path / "d5.json", "--field", tmp_path / "five.txt",
+                   "--out", tmp_path / "o.json", "--quiet")
+    assert line.startswith("porthole: error: --images:") and "6 points" in line, line
+    assert not (tmp_path / "o.json").exists()
