@@ -64,11 +64,28 @@ std::vector<calib::ImageDetections> DetectionsArg(const py::list& detections) {
   return dets;
 }
 
+// The target spec, with a coded target's field file when one is given (None: the default sheet).
+calib::TargetSpec TargetArg(const std::string& target, const py::object& field) {
+  calib::TargetSpec t = calib::ParseTarget(target, "target");
+  if (!field.is_none()) {
+    calib::LoadTargetField(py::str(py::module_::import("os").attr("fspath")(field)), &t, "field");
+  }
+  return t;
+}
+
+using CentreCorrection = calib::CalibrationOptions::CentreCorrection;
+
 // The lens options calibrate() and calibrate_refractive() share.
 calib::CalibrationOptions LensOptions(const std::string& model, double pixel_pitch_mm, const std::string& free,
                                       double reject_k, const std::string& loss, double loss_scale_px,
-                                      bool progress) {
+                                      bool progress, const std::string& centre_correction = "auto") {
   calib::CalibrationOptions o;
+  if (centre_correction != "auto" && centre_correction != "on" && centre_correction != "off") {
+    throw InvalidInput("centre_correction", "auto | on | off");
+  }
+  o.centre_correction = centre_correction == "on"    ? CentreCorrection::kOn
+                        : centre_correction == "off" ? CentreCorrection::kOff
+                                                     : CentreCorrection::kAuto;
   o.pixel_pitch_mm = pixel_pitch_mm;
   o.model = camera::ModelFromName(model, "model");
   o.free = calib::ParseFreeParameters(o.model, free, "free");
@@ -150,9 +167,9 @@ void RegisterCalib(py::module_& m) {
 
   m.def(
       "detect",
-      [](const py::object& images, const std::string& target, int threads, bool progress) {
+      [](const py::object& images, const std::string& target, int threads, bool progress, const py::object& field) {
         return WithFieldNames({{"--images", "images"}}, [&] {
-          const auto t = calib::ParseTarget(target, "target");
+          const auto t = TargetArg(target, field);
           std::vector<std::string> paths;
           if (py::isinstance<py::str>(images) || py::hasattr(images, "__fspath__")) {
             paths = calib::ListImages(py::str(py::module_::import("os").attr("fspath")(images)), "images");
@@ -174,19 +191,21 @@ void RegisterCalib(py::module_& m) {
         });
       },
       py::arg("images"), py::arg("target"), py::kw_only(), py::arg("threads") = 0, py::arg("progress") = false,
-      "Detects a target (chessboard:COLSxROWS:SQUARE_MM, charuco:…, circles:…) in images: a folder or a list "
-      "of files. Returns the set of `porthole detect --json`: target, images (one dict per image with the "
+      py::arg("field") = py::none(),
+      "Detects a target (chessboard:COLSxROWS:SQUARE_MM, charuco:…, circles:…, coded:BITS:RADIUS_MM[:PROFILE]) in "
+      "images: a folder or a list of files; field: a coded target's field file (IDs outside it ignored). Returns the set of `porthole detect --json`: target, images (one dict per image with the "
       "target: image, width_px, height_px, ids, points_px) and skipped (image, reason).");
 
   m.def(
       "calibrate",
       [](const py::list& detections, const std::string& target, const std::string& model,
          double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
-         bool target_free, bool drop_insignificant, double significance_t, bool progress) {
-        const auto t = calib::ParseTarget(target, "target");
+         bool target_free, bool drop_insignificant, double significance_t, bool progress, const py::object& field,
+         const std::string& centre_correction) {
+        const auto t = TargetArg(target, field);
         const std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
         calib::CalibrationOptions o =
-            LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress);
+            LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress, centre_correction);
         o.target_free = target_free;
         o.drop_insignificant = drop_insignificant;
         o.significance_t = significance_t;
@@ -201,10 +220,12 @@ void RegisterCalib(py::module_& m) {
       py::arg("pixel_pitch_mm") = 1.0, py::arg("free") = "default", py::arg("reject_k") = 5.0,
       py::arg("loss") = "none", py::arg("loss_scale_px") = 1.0, py::arg("target_free") = false,
       py::arg("drop_insignificant") = false, py::arg("significance_t") = 2.0,
-      py::arg("progress") = false,
+      py::arg("progress") = false, py::arg("field") = py::none(), py::arg("centre_correction") = "auto",
       "Self-calibration from detections (list of dicts: image, width_px, height_px, ids, "
       "points_px), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
-      "stereographic, orthographic). Returns the calibration dict of `porthole calibrate --json`.");
+      "stereographic, orthographic). field: a coded target's field file (`--field`, 3-D fields "
+      "too); centre_correction: auto | on | off (`--centre-correction`). Returns the calibration "
+      "dict of `porthole calibrate --json`.");
 
   m.def(
       "calibrate_refractive",
@@ -215,17 +236,18 @@ void RegisterCalib(py::module_& m) {
          std::optional<std::array<double, 3>> port_sigma, bool free_water_index, bool free_shell,
          std::optional<Vec3> ep_mm, const std::string& water, std::optional<double> water_index,
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
-         bool compare_central, bool progress) {
+         bool compare_central, bool progress, const py::object& field, const std::string& centre_correction) {
         return WithFieldNames(
             {{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}, {"--port", "port"},
              {"--air-calibration", "air_calibration"}, {"--intrinsics", "intrinsics"},
              {"--free-port", "free_port"}, {"--port-sigma", "port_sigma"},
              {"--free-shell", "free_shell"}},
             [&] {
-              const auto t = calib::ParseTarget(target, "target");
-              const std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
+              const auto t = TargetArg(target, field);
+              std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
               calib::RefractiveOptions o;
-              o.lens = LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress);
+              o.lens = LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress, centre_correction);
+              calib::KeepTargetPoints(t, &dets, o.lens.progress);
               const ports::Environment env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm,
                                                              temperature_c, salinity_psu, pressure_dbar);
               o.port = ports::MakeSystem(io::LoadPort(port), env, ep_mm);
@@ -253,7 +275,8 @@ void RegisterCalib(py::module_& m) {
       py::arg("free_water_index") = false, py::arg("free_shell") = false, py::arg("ep_mm") = py::none(),
       py::arg("water") = "seawater", py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07,
       py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,
-      py::arg("compare_central") = true, py::arg("progress") = false,
+      py::arg("compare_central") = true, py::arg("progress") = false, py::arg("field") = py::none(),
+      py::arg("centre_correction") = "auto",
       "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
       "images. air_calibration: a file of any format or a calibration dict; intrinsics prior (the "

@@ -276,11 +276,13 @@ def calibrate(detections, target, *, port=None, **kwargs) -> Calibration:
     return RefractiveCalibration.from_dict(d, estimated_port)
 
 
-def calibrate_images(images, target: str, *, threads: int = 0, **calibrate_options) -> Calibration:
+def calibrate_images(images, target: str, *, threads: int = 0, field=None, **calibrate_options) -> Calibration:
     """Detects `target` in the images (a folder or a list of files) and calibrates from what was
-    found: calibrate(detect(images, target, threads=threads), target, **calibrate_options).
-    The keywords are calibrate()'s (model, pixel_pitch_mm, free, reject_k, loss, ...)."""
-    return calibrate(detect(images, target, threads=threads), target, **calibrate_options)
+    found: calibrate(detect(images, target, threads=threads, field=field), target, field=field,
+    **calibrate_options) — `porthole calibrate --images`. field: a coded target's field file
+    (`--field`; 3-D fields too). The keywords are calibrate()'s (model, pixel_pitch_mm, free,
+    reject_k, loss, target_free, centre_correction, ...)."""
+    return calibrate(detect(images, target, threads=threads, field=field), target, field=field, **calibrate_options)
 
 
 @_wraps(_porthole.synthetic_detections, "list[porthole.Detections]")

@@ -2,6 +2,7 @@
 the chi2 comparison accepts the same camera and rejects a changed one, and bad input raises
 ValueError naming the field."""
 import math
+import os
 
 import numpy as np
 import pytest
@@ -49,3 +50,38 @@ def test_bad_input():
         porthole.calibrate(dets[:2], "chessboard:13x9:40")
     with pytest.raises(TypeError):
         porthole.calibrate(dets, "chessboard:13x9:40", pitch=1)
+
+
+CODED = "coded:12:7:metashape"
+
+
+def test_calibrate_images_with_a_field_matches_the_cli(tmp_path):
+    """calibrate_images(..., field=...) is `porthole calibrate --images --field`: four renders of the
+    default coded:12:7:metashape sheet, the field that sheet's field file without its first three
+    targets (then ignored); the same camera (1e-9 relative), sigma and field block as the CLI's JSON."""
+    from test_notebook import ROOT, cli, cli_json
+    camera = os.path.join(ROOT, "tests", "cli", "small-dx.toml")  # the CLI tests' small camera
+    images = tmp_path / "images"
+    images.mkdir()
+    for k, tilt in enumerate(["0,0", "30,0", "0,30", "-25,-25"]):
+        cli("render", "--out", images / f"view{k}.png", "--camera", camera, "--target", CODED,
+            "--medium", "air", "--distance", 420, "--tilt", tilt, "--f-number", "inf", "--bands", 546.07,
+            "--spp", 4, "--quiet")
+    cli("target-sheet", tmp_path / "sheet.svg", "--bits", 12, "--radius-mm", 7, "--profile", "metashape",
+        "--field", tmp_path / "sheet.txt")
+    lines = (tmp_path / "sheet.txt").read_text().splitlines()
+    data = [i for i, line in enumerate(lines) if line and not line.startswith("#")]
+    field = tmp_path / "field.txt"
+    field.write_text("\n".join(line for i, line in enumerate(lines) if i not in data[:3]) + "\n")
+    ours = porthole.calibrate_images(images, CODED, field=field, free="c,x0,y0,K1").to_dict()
+    theirs = cli_json("calibrate", "--images", images, "--target", CODED, "--field", field, "--free", "c,x0,y0,K1",
+                      "--quiet")
+    assert ours["field"] == theirs["field"] and ours["field"]["n_points"] == len(data) - 3
+    assert ours["n_points"] == theirs["n_points"] > 0
+    for key, value in theirs["camera"].items():
+        if value is not None:
+            assert ours["camera"][key] == pytest.approx(value, rel=1e-9), key
+            assert ours["sigma"][key] == pytest.approx(theirs["sigma"][key], rel=1e-6), key
+    assert ours["sigma0_px"] == pytest.approx(theirs["sigma0_px"], rel=1e-9)
+    with pytest.raises(ValueError, match="field"):
+        porthole.calibrate_images(images, "chessboard:9x6:25", field=field)
