@@ -463,6 +463,67 @@ TEST(CalibField, DegenerateFieldsAreOneInvalidInput) {
   }
 }
 
+// A cage: targets on the floor (Z = 0) and the four walls (to 200 mm toward the camera) of a
+// 300 × 300 mm box, 4 × 4 per face: no dominant plane. The DLT start recovers the camera; the
+// homography start (Z ignored: the walls collapse onto the floor's edges) is printed beside it.
+TEST(CalibField, DltStartRecoversTheCameraFromACage) {
+  SyntheticOptions opts = PaperSet();
+  opts.target = ParseTarget("coded:14:2.5");
+  int id = 1;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) {
+      const double u = 30 + 80 * i, v = 30 + 80 * j, h = -(20 + 50 * j);
+      opts.target.field.push_back({id++, Eigen::Vector3d(u, v, 0)});
+      opts.target.field.push_back({id++, Eigen::Vector3d(0, u, h)});
+      opts.target.field.push_back({id++, Eigen::Vector3d(300, u, h)});
+      opts.target.field.push_back({id++, Eigen::Vector3d(u, 0, h)});
+      opts.target.field.push_back({id++, Eigen::Vector3d(u, 300, h)});
+    }
+  }
+  const auto set = MakeSyntheticSet(opts);
+  auto c = FieldOptions();
+  const auto r = Calibrate(set.detections, opts.target, c);
+  ASSERT_TRUE(r.covariance_ok) << r.message;
+  const double truth_f = opts.camera.FocalLengthPx();
+  for (int i = 0; i < kBrownNumParams; ++i) {
+    if (r.free[i]) EXPECT_LT(std::abs(r.camera.params[i] - opts.camera.params[i]), 3 * r.sigma[i]) << kBrownParamInfo[i].name;
+  }
+  c.planar_start = true;
+  const auto h = Calibrate(set.detections, opts.target, c);
+  std::printf("[field] cage: DLT start f %+.2f %%, start RMS %.2f px, final sigma0 %.3f px; homography start f %+.1f %%, "
+              "start RMS %.1f px, final sigma0 %.3f px, c %.4f mm (truth %.4f, sigma %.4f)\n",
+              100 * (r.start_focal_px / truth_f - 1), r.start_rms_px, r.sigma0_px, 100 * (h.start_focal_px / truth_f - 1),
+              h.start_rms_px, h.sigma0_px, h.camera.params[0], opts.camera.params[0], r.sigma[0]);
+  EXPECT_NEAR(r.sigma0_px, opts.noise_px, 0.05 * opts.noise_px);
+  EXPECT_GT(h.start_rms_px, 10 * r.start_rms_px);
+}
+
+// The same physical field in another frame gives the same calibration: a flat board surveyed with
+// Z up (its targets in the X–Z plane, as a wall of a pool field would be) is started from its
+// plane's homography, and with a free target the datum fixes its Y (the direction the rotation
+// about a–b moves the third point; fixing Z there, the earlier rule, leaves that rotation free:
+// a singular covariance).
+TEST(CalibField, FlatFieldInAnyFrameGivesTheSameCalibration) {
+  const auto opts = RaisedSet(0);  // the board alone (posts of height 0)
+  const auto set = MakeSyntheticSet(opts);
+  TargetSpec wall = opts.target;
+  for (auto& p : wall.field) p.xyz_mm = Eigen::Vector3d(p.xyz_mm.x(), -p.xyz_mm.z(), p.xyz_mm.y());  // 90° about X
+  auto c = FieldOptions();
+  c.target_free = true;
+  const auto flat = Calibrate(set.detections, opts.target, c);
+  const auto turned = Calibrate(set.detections, wall, c);
+  ASSERT_TRUE(flat.covariance_ok && turned.covariance_ok) << turned.message;
+  EXPECT_EQ(flat.datum.axis, 2);
+  EXPECT_EQ(turned.datum.axis, 1);
+  for (int i = 0; i < kBrownNumParams; ++i) {
+    if (!flat.free[i]) continue;
+    EXPECT_NEAR(turned.camera.params[i], flat.camera.params[i], 1e-4 * flat.sigma[i]) << kBrownParamInfo[i].name;
+    EXPECT_NEAR(turned.sigma[i], flat.sigma[i], 1e-4 * flat.sigma[i]) << kBrownParamInfo[i].name;
+  }
+  std::printf("[field] wall frame: datum %d, %d, %c of %d; c %.6f vs %.6f mm\n", turned.datum.a, turned.datum.b,
+              "XYZ"[turned.datum.axis], turned.datum.c, turned.camera.params[0], flat.camera.params[0]);
+}
+
 // Self-calibration of a 3-D field, as the paper measured its pool field: the raised targets'
 // heights given wrong by 3–4 mm are measured from the images. The datum lies on the board (exact),
 // so every raised point is free and its adjusted coordinates are comparable with the truth: within
