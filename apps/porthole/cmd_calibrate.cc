@@ -255,7 +255,8 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_option("--loss-scale-px", o->calib.loss_scale_px, "Robust loss scale, px")
       ->capture_default_str();
   cmd->add_flag("--free-target", o->calib.target_free,
-                "Adjust the target points too (self-calibration; datum: 7 coordinates of 3 points)");
+                "Adjust the target points too (self-calibration; datum: 7 coordinates of 3 points; the points and their "
+                "std in the JSON's target_adjusted)");
   cmd->add_option("--centre-correction", o->centre_correction,
                   "Circular targets: compare each centre with the centre of the dot's image through the camera, not the "
                   "image of the dot's centre: auto (on for coded targets) | on | off")
