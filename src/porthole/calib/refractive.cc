@@ -14,6 +14,7 @@
 
 #include "porthole/calib/compare.h"
 #include "porthole/calib/scales.h"
+#include "porthole/coded/ellipse.h"
 #include "porthole/core/error.h"
 #include "porthole/simulate/simulate.h"
 
@@ -44,8 +45,11 @@ class QuietGlog {
 
 struct Obs {
   int image = 0, point = 0;
-  double u_px = 0, v_px = 0;
+  double u_px = 0, v_px = 0;  // what the residual compares with: the measurement − centre offset
   bool active = true;
+  // The detector's measurement; u_px, v_px are it minus the centre offset of a circular target
+  // (RefractiveAdjustment::UpdateCentreOffsets), or it unchanged.
+  double measured_u_px = 0, measured_v_px = 0;
 };
 
 // The image residual through the port (refraction::Project), px times `weight`. Blocks: scaled
@@ -229,16 +233,48 @@ class RefractiveAdjustment {
     return cov->allFinite();
   }
 
+  // The pixel of `point_in_target_mm` seen in image `image` through the port by the current
+  // estimate; nullopt where it cannot be projected.
+  std::optional<Eigen::Vector2d> ProjectPoint(int image, const Eigen::Vector3d& point_in_target_mm) const {
+    Eigen::Matrix3d r;
+    ceres::AngleAxisToRotationMatrix(rotation_[image].data(), r.data());
+    const Eigen::Vector3d p = r * point_in_target_mm + Eigen::Vector3d(translation_[image].data());
+    return refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p, shell_values.data());
+  }
+
   // The image residual of one observation (px, unweighted); nullopt where it cannot be projected.
   std::optional<Eigen::Vector2d> Residual(const Obs& ob) const {
-    Eigen::Matrix3d r;
-    ceres::AngleAxisToRotationMatrix(rotation_[ob.image].data(), r.data());
-    const Eigen::Vector3d p = r * points_[ob.point] + Eigen::Vector3d(translation_[ob.image].data());
-    const auto uv = refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p,
-                                                   shell_values.data());
+    const auto uv = ProjectPoint(ob.image, points_[ob.point]);
     if (!uv) return std::nullopt;
     return Eigen::Vector2d(*uv - Eigen::Vector2d(ob.u_px, ob.v_px));
   }
+
+  // Circular targets of radius dot_radius_mm > 0 (CalibrationOptions::centre_correction): sets
+  // every observation to its measurement minus the centre offset at the current estimate — the
+  // centre of the ellipse fitted to 32 points of the dot's rim (in a plane parallel to the
+  // target's XY plane) projected through the port and the lens (coded::ImagedCircleCentre), minus
+  // the projection of the dot's centre; 0 where a rim point cannot be projected. Returns the
+  // largest change of an observation (px); max_centre_offset_px gets the largest offset.
+  double UpdateCentreOffsets(double dot_radius_mm) {
+    if (!(dot_radius_mm > 0)) return 0;
+    double change = 0, largest = 0;
+    for (Obs& ob : obs_) {
+      const Eigen::Vector3d& x = points_[ob.point];
+      const auto project = [&](const Eigen::Vector3d& p) { return ProjectPoint(ob.image, p); };
+      const auto projected = project(x);
+      const auto centre = coded::ImagedCircleCentre(project, x, Eigen::Vector3d::UnitX(),
+                                                    Eigen::Vector3d::UnitY(), dot_radius_mm);
+      const Eigen::Vector2d offset = projected && centre ? Eigen::Vector2d(*centre - *projected)
+                                                         : Eigen::Vector2d::Zero();
+      const Eigen::Vector2d uv = Eigen::Vector2d(ob.measured_u_px, ob.measured_v_px) - offset;
+      change = std::max(change, std::hypot(uv.x() - ob.u_px, uv.y() - ob.v_px));
+      largest = std::max(largest, offset.norm());
+      ob.u_px = uv.x(), ob.v_px = uv.y();
+    }
+    max_centre_offset_px = largest;
+    return change;
+  }
+  double max_centre_offset_px = 0;
 
   // Σ|r|² (px², unweighted) over the active observations, and their count.
   double SumSquares(int* n_active) const {
@@ -655,7 +691,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   for (int i = 0; i < n_images; ++i) {
     const ImageDetections* d = by_name.at(central.images[i].image);
     for (std::size_t k = 0; k < d->ids.size(); ++k) {
-      obs.push_back({i, d->ids[k], d->points_px[k].x(), d->points_px[k].y(), true});
+      const Eigen::Vector2d& uv = d->points_px[k];
+      obs.push_back({i, d->ids[k], uv.x(), uv.y(), true, uv.x(), uv.y()});
     }
   }
   RefractiveAdjustment<M> adj(o, sensor, shell, obs, TargetPoints(target), n_images);
@@ -681,6 +718,14 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     for (double f : {1.0, 0.5, 0.75, 1.5, 2.0}) candidates.push_back(predicted[2] * f);
   }
   if (!o.port_free[2] || !o.search) candidates.resize(1);
+  // Circular targets: the centre correction (CalibrationOptions::centre_correction) with the dot
+  // radius the central calibration used (0: off). Its offsets are computed at the start (the
+  // predicted port) for the search, then recomputed after every adjustment until they settle.
+  const double dot_r = central.dot_radius_mm;
+  std::copy(start.params.begin(), start.params.end(), adj.lens.begin());
+  adj.port = predicted;
+  set_poses();
+  adj.UpdateCentreOffsets(dot_r);
   double best_cost = INFINITY, best_axial = predicted[2];
   int iterations = 0;
   for (double c : candidates) {
@@ -713,6 +758,14 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   // Adjust with outlier rejection (as Calibrate), the water index factor free when asked but the
   // shell geometry fixed; then, with a prior (in-air lens, shell), weight the images by 1/σ0, add
   // the priors and free the shell values they hold.
+  // One adjustment, repeated while the centre offsets move (as Calibrate: at most 10 rounds, until
+  // no observation moves by 1e-5 px; the offsets' own derivatives are left out).
+  const auto solve = [&] {
+    for (int k = 0; k < 10; ++k) {
+      iterations += adj.Solve(o.lens.max_iterations);
+      if (adj.UpdateCentreOffsets(dot_r) < 1e-5) break;
+    }
+  };
   int n_port_free = 0, n_lens_free = 0, n_shell_free = 0;
   for (bool f : o.port_free) n_port_free += f;
   for (bool f : lens_free) n_lens_free += f;
@@ -723,7 +776,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   double ss = 0;
   int n_active = 0;
   for (int round = 0;; ++round) {
-    iterations += adj.Solve(o.lens.max_iterations);
+    solve();
     ss = adj.SumSquares(&n_active);
     const int redundancy = 2 * n_active - n_unknowns_first;
     if (redundancy <= 0) {
@@ -752,7 +805,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     adj.prior = used_prior;
     adj.shell_prior = shell_prior;
     adj.shell_free = res.shell_free;
-    iterations += adj.Solve(o.lens.max_iterations);
+    solve();
     ss = adj.SumSquares(&n_active);
   }
 
@@ -761,6 +814,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   lr.camera = central.camera;
   lr.camera.params.assign(adj.lens.begin(), adj.lens.end());
   lr.free = lens_free;
+  lr.dot_radius_mm = dot_r;
+  lr.max_centre_offset_px = adj.max_centre_offset_px;
   lr.n_images = n_images;
   lr.n_points = n_active;
   lr.n_unknowns = n_unknowns;
@@ -937,7 +992,7 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
           uv->y() > sensor.height_px - 1) {
         continue;
       }
-      seen.push_back({static_cast<int>(used.size()), static_cast<int>(k), uv->x(), uv->y(), true});
+      seen.push_back({static_cast<int>(used.size()), static_cast<int>(k), uv->x(), uv->y(), true, uv->x(), uv->y()});
     }
     if (seen.size() < 4) continue;  // as Calibrate: an image needs 4 points
     obs.insert(obs.end(), seen.begin(), seen.end());

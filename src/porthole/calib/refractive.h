@@ -9,6 +9,15 @@
 //    projection through the port; the residual is projected − observed, px (maximum likelihood
 //    for Gaussian pixel noise), derivatives by Jets through the projection (implicit-function
 //    step for the iteration, refraction.h).
+//  - Circular targets (coded): with options.lens.centre_correction (as Calibrate; auto = on for
+//    coded targets) each observation is compared not with the projection of the dot's centre but
+//    with the centre a perfect ellipse-centre detector measures for the dot imaged THROUGH THE
+//    PORT and the lens: the ellipse fitted to 32 points of its rim (dot radius from the spec, in a
+//    plane parallel to the target's XY plane) each projected as above (coded::ImagedCircleCentre).
+//    The offset (that centre − the projected centre) is held fixed within each Ceres solve and
+//    recomputed after it, until no observation moves by 1e-5 px; the residual's Jets are those of
+//    the point projection (the offset's own derivative is left out). lens.dot_radius_mm and
+//    lens.max_centre_offset_px report it (0: off).
 //  - Unknowns: the port's three parameters (refraction::PortParams: dome ep_in_dome_mm x, y, z;
 //    flat n_x, n_y, distance_mm) unless fixed, every image's cam_from_target pose, and the lens:
 //      kFree   the free set of options.lens (DefaultFree of the model unless given);
