@@ -307,6 +307,8 @@ class Calibration:
     correlation: np.ndarray
     sigma0_px: float
     rms_px: float
+    dot_radius_mm: float          #: circular targets: the dot radius the centres were corrected for (0: no correction)
+    max_centre_offset_px: float   #: the largest centre offset that correction applied (dot-image centre - projected centre)
     width_px: int
     height_px: int
     pixel_pitch_mm: float
@@ -337,6 +339,8 @@ class Calibration:
         return cls(model=CameraModel(d.get("model", "brown")), params=params, sigma=sigma,
                    units=dict(d.get("units", {})), adjusted=adjusted, covariance=cov, correlation=corr,
                    sigma0_px=_float(d.get("sigma0_px")), rms_px=_float(d.get("rms_px")),
+                   dot_radius_mm=_float(d.get("dot_radius_mm", 0.0)),
+                   max_centre_offset_px=_float(d.get("max_centre_offset_px", 0.0)),
                    width_px=int(sensor.get("width_px", 0)), height_px=int(sensor.get("height_px", 0)),
                    pixel_pitch_mm=_float(sensor.get("pixel_pitch_mm")), n_images=int(d.get("n_images", 0)),
                    n_points=int(d.get("n_points", 0)), n_rejected=int(d.get("n_rejected", 0)),

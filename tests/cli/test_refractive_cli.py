@@ -57,6 +57,8 @@ def test_a_prior_needs_sigma(detections, air_files):
         assert "--air-calibration" in line and "--intrinsics fixed" in line and "sigma" in line, line
     j = refractive(detections, air_files["json"])
     assert j["port"]["intrinsics"] == "prior"
+    # A chessboard: no centre correction, stated as such (calib_real_test checks coded targets).
+    assert j["dot_radius_mm"] == 0 and j["max_centre_offset_px"] == 0
 
 
 def test_water_index_and_shell_reach_the_output(detections, tmp_path):

@@ -15,6 +15,7 @@
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
 #include "porthole/calib/refractive.h"
+#include "porthole/calib/result_json.h"
 #include "porthole/calib/test_refractive.h"
 #include "porthole/coded/raster.h"
 #include "porthole/coded/sheet.h"
@@ -125,6 +126,15 @@ TEST(CodedCalib, RecoversARenderedPinholeCamera) {
   // it by 0.0006 px); left at the earlier bound, 0.1 px.
   EXPECT_LT(std::abs(on.camera.params[2]), 0.1);
   EXPECT_LT(on.rms_px, off.rms_px);
+  // The result JSON states the correction, and its reader reads it back.
+  for (const CalibrationResult* r : {&off, &on}) {
+    const auto j = CalibrationToJson(*r, t, o);
+    EXPECT_EQ(j["dot_radius_mm"], r->dot_radius_mm);
+    EXPECT_EQ(j["max_centre_offset_px"], r->max_centre_offset_px);
+    const CalibrationRecord rec = CalibrationFromJson(nlohmann::json::parse(j.dump()), "test");
+    EXPECT_EQ(rec.dot_radius_mm, r->dot_radius_mm);
+    EXPECT_EQ(rec.max_centre_offset_px, r->max_centre_offset_px);
+  }
 }
 
 
@@ -241,6 +251,9 @@ TEST(CodedCalib, RefractiveCorrectionRecoversTheAsBuiltNi320) {
     EXPECT_GT(std::abs(d_off.c_sigmas), 3.5) << spec;
     EXPECT_LT(d_on.worst_sigmas, 3) << spec;
     EXPECT_NEAR(on.lens.sigma0_px, 0.02, 0.002) << spec;
+    const auto j = RefractiveToJson(on, target, o);  // the lens block of `calibrate --port --json`
+    EXPECT_EQ(j["dot_radius_mm"], target.dot_radius_mm);
+    EXPECT_EQ(j["max_centre_offset_px"], on.lens.max_centre_offset_px);
 
     // The lens fixed: the port alone.
     o.air = fixtures::ExactLens(cam);

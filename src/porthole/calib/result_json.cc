@@ -125,6 +125,8 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
         {"height_px", sensor.height_px},
         {"pixel_pitch_mm", sensor.pixel_pitch_mm}}},
       {"target", target.ToString()},
+      {"dot_radius_mm", r.dot_radius_mm},
+      {"max_centre_offset_px", r.max_centre_offset_px},
       {"free", FreeParametersToString(r.camera.model, r.free)},
       {"fixed", fixed},
       {"significance_t", options.significance_t},
@@ -237,6 +239,10 @@ CalibrationRecord CalibrationFromJsonUnchecked(const nlohmann::json& j, const st
     rec.covariance_note = "diagonal from sigma";
   }
   if (j.contains("sigma0_px") && j["sigma0_px"].is_number()) rec.sigma0_px = j["sigma0_px"];
+  if (j.contains("dot_radius_mm") && j["dot_radius_mm"].is_number()) rec.dot_radius_mm = j["dot_radius_mm"];
+  if (j.contains("max_centre_offset_px") && j["max_centre_offset_px"].is_number()) {
+    rec.max_centre_offset_px = j["max_centre_offset_px"];
+  }
   return rec;
 }
 

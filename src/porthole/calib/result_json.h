@@ -10,6 +10,9 @@
 //   sigma {same keys}: 1σ = sqrt(σ0²·(JᵀJ)⁻¹ diagonal), null when not adjusted;
 //   correlation {parameters: [keys of the adjusted ones], matrix: [[…]]}; covariance likewise;
 //   sigma0_px, rms_px, sensor {width_px, height_px, pixel_pitch_mm}, pixels_are_mm,
+//   dot_radius_mm, max_centre_offset_px: the centre correction of circular targets
+//     (CalibrationOptions::centre_correction): the dot radius the centres were corrected for (0:
+//     no correction) and the largest offset applied (dot-image centre − projected centre, px);
 //   significance [{parameter, t, significant}], dropped [{parameter, value, sigma, t}],
 //   images [{image, n_points, n_rejected, rms_px, rotation_rad, translation_mm}], counts, status;
 //   field (a coded target with a field file only): {file: the path as given, n_points, points:
@@ -35,6 +38,8 @@ struct CalibrationRecord {
   bool has_covariance = false;
   std::string covariance_note;  // "" (full), or "diagonal from sigma" when the file had only σ
   double sigma0_px = NAN;
+  double dot_radius_mm = 0;         // the centre correction's dot radius (0: none, or not stated)
+  double max_centre_offset_px = 0;  // the largest centre offset it applied, px
 };
 
 // {key: unit} for every parameter of the model.
