@@ -2,12 +2,14 @@
 // (coded/raster.h) of the default sheet seen by a known pinhole camera are detected through
 // DetectInImage (ids = target IDs, positions from TargetPoints) and calibrated. Without the
 // model-based centre correction c is many σ off (the centres' eccentricity, coded/ellipse.h: a
-// bias: 11σ); with it (on by default for coded targets) c and x0 are the rendering camera's
-// within 3σ (c 0.3σ).
+// bias: 13σ); with it (on by default for coded targets) c, x0 and y0 are the rendering camera's
+// within 3σ (c 0.6σ, y0 2.0σ). Through the as-built NI320 in sea water the same correction inside
+// the refractive calibration (calibrate --port) removes the bias of the port and the lens.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <cstdio>
+#include <cstdlib>
 #include <opencv2/core.hpp>
 #include <random>
 #include <fmt/format.h>
@@ -81,7 +83,9 @@ TEST(CodedCalib, RecoversARenderedPinholeCamera) {
   const TargetSpec t = ParseTarget("coded:14:2.5");
   coded::RasterOptions ro;
   ro.radius_mm = t.dot_radius_mm;
-  ro.subrows = 16;
+  // 64 lines per pixel row (the rasteriser's default): with 16 its midpoint rule along v (u is
+  // exact) moved y0 by 0.013 px (to 0.024 px, 3.7σ); at 64 and 256 y0 is 0.011 px (1.8σ) alike.
+  ro.subrows = 64;
   const auto sheet = coded::LayoutSheet({});
   std::vector<ImageDetections> dets;
   const double tilts[][3] = {{0, 0, 0}, {25, 0, 10}, {25, 90, -15}, {35, 45, 30}, {35, 135, 60}, {30, 200, 90}, {20, 300, -60}, {40, 250, 5}};
@@ -122,9 +126,7 @@ TEST(CodedCalib, RecoversARenderedPinholeCamera) {
   EXPECT_GT(on.max_centre_offset_px, 0.02);
   EXPECT_LT(std::abs(on.camera.params[0] - 2400), 3 * on.sigma[0]);
   EXPECT_LT(std::abs(on.camera.params[1]), 3 * on.sigma[1]);
-  // y0 is 0.024 px (3.7σ) off with or without the correction: not the eccentricity (which moves
-  // it by 0.0006 px); left at the earlier bound, 0.1 px.
-  EXPECT_LT(std::abs(on.camera.params[2]), 0.1);
+  EXPECT_LT(std::abs(on.camera.params[2]), 3 * on.sigma[2]);
   EXPECT_LT(on.rms_px, off.rms_px);
   // The result JSON states the correction, and its reader reads it back.
   for (const CalibrationResult* r : {&off, &on}) {
