@@ -19,6 +19,7 @@
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/test_refractive.h"
+#include "porthole/coded/ellipse.h"
 #include "porthole/coded/raster.h"
 #include "porthole/coded/sheet.h"
 #include "porthole/core/error.h"
@@ -84,10 +85,14 @@ TEST(CodedCalib, RecoversARenderedPinholeCamera) {
   coded::RasterOptions ro;
   ro.radius_mm = t.dot_radius_mm;
   // 64 lines per pixel row (the rasteriser's default): with 16 its midpoint rule along v (u is
-  // exact) moved y0 by 0.013 px (to 0.024 px, 3.7σ); at 64 and 256 y0 is 0.011 px (1.8σ) alike.
+  // exact) moved y0 by 0.013 px (to 0.024 px, 3.7σ); at 64 and 256 y0 is 0.011 px (2σ) alike.
   ro.subrows = 64;
   const auto sheet = coded::LayoutSheet({});
-  std::vector<ImageDetections> dets;
+  const auto points = TargetPoints(t);
+  // `exact`: the same ids at the exact ellipse centres (coded/ellipse.h) of each view.
+  std::vector<ImageDetections> dets, exact;
+  Eigen::Vector2d error_sum = Eigen::Vector2d::Zero();
+  int n_error = 0;
   const double tilts[][3] = {{0, 0, 0}, {25, 0, 10}, {25, 90, -15}, {35, 45, 30}, {35, 135, 60}, {30, 200, 90}, {20, 300, -60}, {40, 250, 5}};
   for (const auto& v : tilts) {
     const coded::SheetView view = coded::LookAtSheet(Eigen::Vector2d(105, 140), 560, v[0], v[1], v[2], 2400, 1200, 900);
@@ -102,8 +107,20 @@ TEST(CodedCalib, RecoversARenderedPinholeCamera) {
     std::vector<cv::Point2f> pts;
     ASSERT_TRUE(DetectInImage(img, t, &d.ids, &pts)) << d.image;
     for (const auto& p : pts) d.points_px.emplace_back(p.x, p.y);
+    ImageDetections e = d;
+    for (std::size_t k = 0; k < d.ids.size(); ++k) {
+      e.points_px[k] = coded::ConicCentreOfCircle<double>(view.H(), points[d.ids[k]].head<2>(), t.dot_radius_mm);
+      error_sum += d.points_px[k] - e.points_px[k];
+      ++n_error;
+    }
     dets.push_back(d);
+    exact.push_back(e);
   }
+  // The detector has no bias along either axis (mean error against the exact centres).
+  const Eigen::Vector2d mean_error = error_sum / n_error;
+  std::printf("detector against the exact ellipse centres: mean error u %.5f, v %.5f px over %d\n", mean_error.x(),
+              mean_error.y(), n_error);
+  EXPECT_LT(mean_error.cwiseAbs().maxCoeff(), 0.001);
   // Brown, pitch 1: millimetres are pixels; default free set c, x0, y0, K1, K2, P1, P2.
   CalibrationOptions o;
   o.centre_correction = CalibrationOptions::CentreCorrection::kOff;
@@ -127,6 +144,13 @@ TEST(CodedCalib, RecoversARenderedPinholeCamera) {
   EXPECT_LT(std::abs(on.camera.params[0] - 2400), 3 * on.sigma[0]);
   EXPECT_LT(std::abs(on.camera.params[1]), 3 * on.sigma[1]);
   EXPECT_LT(std::abs(on.camera.params[2]), 3 * on.sigma[2]);
+  // The exact ellipse centres give the rendering camera back (the pixel convention, the sheet
+  // layout and the correction are exact; what is left in x0, y0 above is the detector's error).
+  const CalibrationResult ex = Calibrate(exact, t, o);
+  std::printf("exact centres: c %.7f, x0 %.2g, y0 %.2g px\n", ex.camera.params[0], ex.camera.params[1], ex.camera.params[2]);
+  EXPECT_NEAR(ex.camera.params[0], 2400, 1e-5);
+  EXPECT_NEAR(ex.camera.params[1], 0, 1e-5);
+  EXPECT_NEAR(ex.camera.params[2], 0, 1e-5);
   EXPECT_LT(on.rms_px, off.rms_px);
   // The result JSON states the correction, and its reader reads it back.
   for (const CalibrationResult* r : {&off, &on}) {
