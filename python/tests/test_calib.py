@@ -73,7 +73,8 @@ def test_calibrate_images_with_a_field_matches_the_cli(tmp_path):
     data = [i for i, line in enumerate(lines) if line and not line.startswith("#")]
     field = tmp_path / "field.txt"
     field.write_text("\n".join(line for i, line in enumerate(lines) if i not in data[:3]) + "\n")
-    ours = porthole.calibrate_images(images, CODED, field=field, free="c,x0,y0,K1").to_dict()
+    result = porthole.calibrate_images(images, CODED, field=field, free="c,x0,y0,K1")
+    ours = result.to_dict()
     theirs = cli_json("calibrate", "--images", images, "--target", CODED, "--field", field, "--free", "c,x0,y0,K1",
                       "--quiet")
     assert ours["field"] == theirs["field"] and ours["field"]["n_points"] == len(data) - 3
@@ -83,5 +84,9 @@ def test_calibrate_images_with_a_field_matches_the_cli(tmp_path):
             assert ours["camera"][key] == pytest.approx(value, rel=1e-9), key
             assert ours["sigma"][key] == pytest.approx(theirs["sigma"][key], rel=1e-6), key
     assert ours["sigma0_px"] == pytest.approx(theirs["sigma0_px"], rel=1e-9)
+    # The centre correction (on for coded targets) as the typed result reads it from the JSON.
+    assert result.dot_radius_mm == theirs["dot_radius_mm"] == 7
+    assert result.max_centre_offset_px == pytest.approx(theirs["max_centre_offset_px"], rel=1e-6)
+    assert result.max_centre_offset_px > 0
     with pytest.raises(ValueError, match="field"):
         porthole.calibrate_images(images, "chessboard:9x6:25", field=field)
