@@ -18,6 +18,7 @@
 #include "porthole/calib/scales.h"
 #include "porthole/coded/ellipse.h"
 #include "porthole/core/error.h"
+#include "porthole/core/hartley.h"
 
 namespace porthole::calib {
 namespace {
@@ -42,23 +43,6 @@ struct State {
   std::vector<Eigen::Vector3d> points;                       // target frame, mm
 };
 
-// Hartley's normalisation of a point set of dimension D: the similarity (homogeneous, (D+1)²)
-// that moves its centroid to the origin and its mean distance from it to √D.
-template <int D>
-Eigen::Matrix<double, D + 1, D + 1> Normaliser(const std::vector<Eigen::Matrix<double, D, 1>>& p) {
-  Eigen::Matrix<double, D, 1> mean = Eigen::Matrix<double, D, 1>::Zero();
-  for (const auto& q : p) mean += q;
-  mean /= static_cast<double>(p.size());
-  double d = 0;
-  for (const auto& q : p) d += (q - mean).norm();
-  d /= static_cast<double>(p.size());
-  const double s = d > 0 ? std::sqrt(static_cast<double>(D)) / d : 1.0;
-  Eigen::Matrix<double, D + 1, D + 1> t = Eigen::Matrix<double, D + 1, D + 1>::Identity() * s;
-  t(D, D) = 1;
-  t.template topRightCorner<D, 1>() = -s * mean;
-  return t;
-}
-
 // Normalised DLT homography mapping src to dst points (Hartley's normalisation of both sets), unit
 // Frobenius norm. The right singular vector of the 2n×9 system is taken as the eigenvector of its
 // 9×9 normal matrix (the same solution at a fraction of the cost). nullopt when the points do not
@@ -67,7 +51,7 @@ Eigen::Matrix<double, D + 1, D + 1> Normaliser(const std::vector<Eigen::Matrix<d
 std::optional<Eigen::Matrix3d> FitHomography(const std::vector<Eigen::Vector2d>& src,
                                              const std::vector<Eigen::Vector2d>& dst) {
   if (src.size() < 4 || src.size() != dst.size()) return std::nullopt;
-  const Eigen::Matrix3d ts = Normaliser<2>(src), td = Normaliser<2>(dst);
+  const Eigen::Matrix3d ts = HartleyNormaliser<2>(src), td = HartleyNormaliser<2>(dst);
   Eigen::MatrixXd a(2 * src.size(), 9);
   for (std::size_t i = 0; i < src.size(); ++i) {
     const Eigen::Vector3d s = ts * src[i].homogeneous();
@@ -96,8 +80,8 @@ using Matrix34d = Eigen::Matrix<double, 3, 4>;
 std::optional<Matrix34d> FitCameraMatrix(const std::vector<Eigen::Vector3d>& src,
                                          const std::vector<Eigen::Vector2d>& dst) {
   if (src.size() < 6 || src.size() != dst.size()) return std::nullopt;
-  const Eigen::Matrix4d ts = Normaliser<3>(src);
-  const Eigen::Matrix3d td = Normaliser<2>(dst);
+  const Eigen::Matrix4d ts = HartleyNormaliser<3>(src);
+  const Eigen::Matrix3d td = HartleyNormaliser<2>(dst);
   Eigen::MatrixXd a(2 * src.size(), 12);
   for (std::size_t i = 0; i < src.size(); ++i) {
     const Eigen::RowVector4d x = (ts * src[i].homogeneous()).transpose();

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "porthole/core/error.h"
+#include "porthole/core/hartley.h"
 
 namespace porthole::coded {
 namespace {
@@ -385,29 +386,13 @@ class PointGrid {
   std::vector<std::vector<int>> cells_;
 };
 
-// Hartley's normalisation of D-dimensional points: centroid to the origin, mean distance √D.
-template <int D>
-Eigen::Matrix<double, D + 1, D + 1> Normaliser(const std::vector<Eigen::Matrix<double, D, 1>>& pts) {
-  Eigen::Matrix<double, D, 1> c = Eigen::Matrix<double, D, 1>::Zero();
-  for (const auto& p : pts) c += p;
-  c /= static_cast<double>(pts.size());
-  double mean = 0;
-  for (const auto& p : pts) mean += (p - c).norm();
-  mean /= static_cast<double>(pts.size());
-  const double s = mean > 0 ? std::sqrt(double(D)) / mean : 1.0;
-  Eigen::Matrix<double, D + 1, D + 1> t = Eigen::Matrix<double, D + 1, D + 1>::Identity();
-  t.template topLeftCorner<D, D>() *= s;
-  t.template topRightCorner<D, 1>() = -s * c;
-  return t;
-}
-
 // The linear (DLT) fit of x_image ~ M x_field, M of shape 3 × (D + 1), both sides normalised.
 template <int D>
 std::optional<Eigen::Matrix<double, 3, D + 1>> FitProjective(const std::vector<Eigen::Matrix<double, D, 1>>& xs,
                                                              const std::vector<Eigen::Vector2d>& uvs) {
   constexpr int kN = 3 * (D + 1);
-  const auto tx = Normaliser<D>(xs);
-  const auto tu = Normaliser<2>(uvs);
+  const auto tx = HartleyNormaliser<D>(xs);
+  const auto tu = HartleyNormaliser<2>(uvs);
   Eigen::Matrix<double, kN, kN> ata = Eigen::Matrix<double, kN, kN>::Zero();
   for (std::size_t i = 0; i < xs.size(); ++i) {
     const Eigen::Matrix<double, D + 1, 1> x = tx * xs[i].homogeneous();

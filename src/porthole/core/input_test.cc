@@ -1,7 +1,9 @@
 // JsonPathLine and WithJsonLines: the line of a key in JSON text, for errors that nlohmann::json
 // (no positions for values) cannot place.
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "porthole/core/hartley.h"
 #include "porthole/core/input.h"
 
 namespace porthole {
@@ -59,5 +61,30 @@ TEST(WithJsonLines, NamesFileAndLineOfTheKey) {
   EXPECT_EQ(message([] { throw InvalidInput("--calibrate", "x"); }), "--calibrate: x");
 }
 
+}  // namespace
+}  // namespace porthole
+
+// Hartley's normalisation (core/hartley.h): the normalised set has its centroid at the origin and a
+// mean distance of √D from it, for any offset and scale; a set of one repeated point is left unscaled.
+namespace porthole {
+namespace {
+TEST(Hartley, CentroidAtTheOriginMeanDistanceSqrtD) {
+  std::vector<Eigen::Vector3d> p = {{1000, 2000, 5}, {1040, 1990, -20}, {990, 2070, 11}, {1013, 2011, 40}};
+  const Eigen::Matrix4d t = HartleyNormaliser<3>(p);
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  double d = 0;
+  for (const auto& q : p) {
+    const Eigen::Vector4d n = t * q.homogeneous();
+    EXPECT_DOUBLE_EQ(n.w(), 1.0);
+    c += n.head<3>() / 4.0;
+    d += n.head<3>().norm() / 4.0;
+  }
+  EXPECT_LT(c.norm(), 1e-12);
+  EXPECT_NEAR(d, std::sqrt(3.0), 1e-12);
+  const std::vector<Eigen::Vector2d> same(3, Eigen::Vector2d(5, -7));
+  const Eigen::Matrix3d u = HartleyNormaliser<2>(same);
+  EXPECT_TRUE((u.topLeftCorner<2, 2>() == Eigen::Matrix2d::Identity()));
+  EXPECT_TRUE(((u * same[0].homogeneous()).head<2>() == Eigen::Vector2d::Zero()));
+}
 }  // namespace
 }  // namespace porthole
