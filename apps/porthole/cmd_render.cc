@@ -28,6 +28,7 @@ struct RenderCliOptions {
   CameraLensOptions camera;
   WaterOptions water;
   std::string target = "chessboard:9x6:40";
+  std::string field;
   std::string medium = "water";
   double distance_mm = 1000;
   std::vector<double> shift = {0, 0}, tilt = {0, 0};
@@ -86,10 +87,15 @@ Json RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int 
     fmt::print(stderr, "render: {} {}x{} px, {} spp{}, {} bands in {:.1f} s; {:.2f} % of rays blocked by the housing\n",
                label, r.image.width, r.image.height, o.samples_per_pixel, edges, r.setup.bands.size(), r.seconds,
                100 * r.blocked_fraction);
+    if (!r.left_out.partial.empty() || !r.left_out.occluded.empty()) {
+      fmt::print(stderr, "render: {} {} targets in the truth; left out: {} not whole in the frame, {} hidden\n", label,
+                 r.truth.size(), r.left_out.partial.size(), r.left_out.occluded.size());
+    }
   }
   return Json{{"image", png.string()},        {"truth", json.string()},
               {"width_px", r.image.width},    {"height_px", r.image.height},
-              {"points", r.truth.size()},     {"blocked_fraction", r.blocked_fraction},
+              {"points", r.truth.size()},     {"left_out_partial", r.left_out.partial.size()},
+              {"left_out_occluded", r.left_out.occluded.size()}, {"blocked_fraction", r.blocked_fraction},
               {"refined_fraction", r.refined_fraction},
               {"seconds", r.seconds}};
 }
@@ -121,6 +127,7 @@ void RunRender(const RenderCliOptions& o) {
   render::Scene scene;
   scene.housed = o.camera.ToHoused(PortOptions{o.port, o.ep}, o.water);
   scene.target = calib::ParseTarget(o.target);
+  if (!o.field.empty()) calib::LoadTargetField(o.field, &scene.target);
   if (o.medium != "water" && o.medium != "air") throw InvalidInput("--medium", "must be water or air");
   scene.medium = o.medium == "air" ? render::Medium::kAir : render::Medium::kWater;
   if (o.focus != "target") scene.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
@@ -235,6 +242,9 @@ void RegisterRender(CLI::App& app) {
                   "chessboard:COLSxROWS:SQUARE_MM | charuco:SQXxSQY:SQUARE_MM:MARKER_MM[:DICT] | circles:COLSxROWS:MM | "
                   "acircles:COLSxROWS:MM | coded:BITS:RADIUS_MM[:PROFILE] (the default sheet of 'porthole target-sheet')")
       ->capture_default_str();
+  cmd->add_option("--field", o->field,
+                  "Coded targets: a target-field file (ID X Y Z mm per line, 'porthole target-sheet' writes one) "
+                  "drawn instead of the default sheet; Z < 0 raises a target toward the camera on a plate");
   cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
       ->capture_default_str()->group("Port");
   cmd->add_option("--ep", o->ep, "Entrance pupil X,Y,Z in the housing frame, mm (default: the lens's)")

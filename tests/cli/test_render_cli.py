@@ -77,3 +77,26 @@ def test_bad_scenes_fail_cleanly(tmp_path):
     assert "--vignetting" in run_bad("render", "--out", png, "--vignetting", "cos4", *SMALL)
     assert "--vignetting-pa" in run_bad("render", "--out", png, "--vignetting-pa", "-2,0,0", *SMALL)
     assert list(tmp_path.glob("x.*")) == [] and not (tmp_path / "set").exists()
+
+
+def test_a_field_with_raised_targets(tmp_path):
+    # A coded field file: four targets on the board, one raised 30 mm toward the camera on a plate
+    # right over target 1 (face on, it hides it), an uncoded dot (id 600: AICON 14-bit has 516 codes).
+    field = tmp_path / "field.txt"
+    field.write_text("# id x y z (mm)\n1 0 0 0\n2 0 0 -30\n3 80 0 0\n4 0 60 0\n5 80 60 -20\n600 40 30 0\n")
+    png = tmp_path / "f.png"
+    summary = run("render", "--out", png, "--target", "coded:14:3", "--field", field, "--distance", "600",
+                  "--focus", "1000", "--f-number", "inf", "--json", *SMALL).json()
+    assert summary["points"] == 5 and summary["left_out_occluded"] == 1 and summary["left_out_partial"] == 0
+    truth = json.loads((tmp_path / "f.json").read_text())
+    assert sorted(p["id"] for p in truth["points"]) == [2, 3, 4, 5, 600]
+    assert truth["left_out"] == {"partial": [], "occluded": [1]}
+    assert {p["id"]: p["target_mm"] for p in truth["points"]}[2] == [0, 0, -30]
+    assert sorted(d["id"] for d in truth["dot_centres"]) == [2, 3, 4, 5, 600]
+    det = run("detect", "--images", tmp_path, "--target", "coded:14:3", "--json", "--quiet").json()
+    assert sorted(det["images"][0]["ids"]) == [2, 3, 4, 5]
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 0 0\n")
+    assert "--field" in run_bad("render", "--out", tmp_path / "b.png", "--target", "coded:14:3", "--field", bad, *SMALL)
+    assert "--field" in run_bad("render", "--out", tmp_path / "b.png", "--field", field, *SMALL)  # a chessboard
+    assert list(tmp_path.glob("b.*")) == []

@@ -78,7 +78,7 @@ struct Score {
 // `big`: targets whose dot's image is at least min_axis_px long.
 Score RenderAndScore(const Scene& scene, const RenderOptions& ro, double min_axis_px = 0) {
   const Rendered r = Render(scene, ro);
-  const std::vector<DotTruth> truth = DotImageCentres(scene, r.setup);
+  const std::vector<DotTruth> truth = DotImageCentres(scene, r.setup, r.truth);
   const auto pts = calib::TargetPoints(scene.target);
   std::map<int, Vec2> at;
   Score sc;

@@ -15,19 +15,17 @@ std::optional<Eigen::Vector2d> DotImageCentre(const Setup& setup, const Band& ba
                                    radius_mm, n_rim);
 }
 
-std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup) {
+std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup, const std::vector<TruthPoint>& truth) {
   const double radius = DotRadiusMm(scene.target);
   std::vector<DotTruth> out;
   if (!(radius > 0)) return out;
-  const auto pts = calib::TargetPoints(scene.target);
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (!scene.target.HasPoint(static_cast<int>(i))) continue;  // coded: ids that are no target
+  for (const TruthPoint& tp : truth) {
     DotTruth d;
-    d.id = static_cast<int>(i);
+    d.id = tp.id;
     for (const Band& b : setup.bands) {
-      const auto c = DotImageCentre(setup, b, scene.pose, pts[i], radius);
+      const auto c = DotImageCentre(setup, b, scene.pose, tp.point_in_target_mm, radius);
       if (!c) {
-        throw InvalidInput("port", fmt::format("the rim of dot {} cannot be imaged through the port at {:g} nm", i,
+        throw InvalidInput("port", fmt::format("the rim of dot {} cannot be imaged through the port at {:g} nm", tp.id,
                                                b.lambda_nm));
       }
       d.centre_px_per_band.push_back(*c);
@@ -37,10 +35,14 @@ std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup) {
   return out;
 }
 
-nlohmann::ordered_json DotCentresJson(const Scene& scene, const Setup& setup) {
+std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup) {
+  return DotImageCentres(scene, setup, GroundTruth(scene, setup));
+}
+
+nlohmann::ordered_json DotCentresJson(const Scene& scene, const Setup& setup, const std::vector<TruthPoint>& truth) {
   using Json = nlohmann::ordered_json;
   Json a = Json::array();
-  for (const DotTruth& d : DotImageCentres(scene, setup)) {
+  for (const DotTruth& d : DotImageCentres(scene, setup, truth)) {
     Json px = Json::array();
     for (const Eigen::Vector2d& uv : d.centre_px_per_band) px.push_back({uv.x(), uv.y()});
     a.push_back({{"id", d.id}, {"px", px}});

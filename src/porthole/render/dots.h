@@ -20,8 +20,8 @@
 
 namespace porthole::render {
 
-// The centre (px) of the image of the circle of `radius_mm` about `centre_in_target_mm` in the
-// target plane (Z = 0 of the target frame), through `band`; nullopt when a rim point cannot be
+// The centre (px) of the image of the circle of `radius_mm` about `centre_in_target_mm` in its
+// plane parallel to the board (Z = its z in the target frame), through `band`; nullopt when a rim point cannot be
 // imaged (beyond the port's rim).
 std::optional<Eigen::Vector2d> DotImageCentre(const Setup& setup, const Band& band, const Pose& pose,
                                               const Eigen::Vector3d& centre_in_target_mm, double radius_mm,
@@ -32,11 +32,14 @@ struct DotTruth {
   std::vector<Eigen::Vector2d> centre_px_per_band;  // one per band of the setup
 };
 
-// Every dot's image centre per band, in the order of GroundTruth's points; empty for targets
-// without dots (DotRadiusMm = 0). Throws InvalidInput("port") where a rim cannot be imaged.
+// Every dot's image centre per band, for the points of `truth` (GroundTruth's, in its order; a
+// dot of a 3-D field in its own plane Z = z); empty for targets without dots (DotRadiusMm = 0).
+// Throws InvalidInput("port") where a rim cannot be imaged.
+std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup, const std::vector<TruthPoint>& truth);
+// The same for GroundTruth(scene, setup).
 std::vector<DotTruth> DotImageCentres(const Scene& scene, const Setup& setup);
 
 // The same as the ground-truth JSON's "dot_centres": [{id, px: [[u, v] per band]}].
-nlohmann::ordered_json DotCentresJson(const Scene& scene, const Setup& setup);
+nlohmann::ordered_json DotCentresJson(const Scene& scene, const Setup& setup, const std::vector<TruthPoint>& truth);
 
 }  // namespace porthole::render

@@ -7,6 +7,10 @@
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <limits>
+#include <unordered_map>
+#include <algorithm>
+#include <cstdint>
 #include <opencv2/aruco/charuco.hpp>
 
 #include "porthole/calib/detect.h"
@@ -133,45 +137,137 @@ Reflectance CharucoReflectance(const TargetSpec& t, const PatternStyle& st) {
 }
 
 // ---- Coded targets: the sheet `porthole target-sheet` prints with its defaults for the spec's
-// bits, profile and dot radius (calib/target.h): the paper is the board, a target's dot and its
-// ring segments (coded/sheet.h: RingArcs) are the ink. The IDs printed beside the targets, the
-// scale bar and the caption are not drawn. Ink is the style's black, paper its white (swap them
-// for white targets on black).
-Extent CodedExtent(const TargetSpec& t, const PatternStyle&) {
-  const coded::SheetLayout l = calib::CodedSheet(t);
-  return {0, 0, l.width_mm, l.height_mm};
-}
-Reflectance CodedReflectance(const TargetSpec& t, const PatternStyle& st) {
-  const coded::SheetLayout l = calib::CodedSheet(t);
-  const Extent paper{0, 0, l.width_mm, l.height_mm};
-  const coded::RingRadii ring = coded::Ring(l.options.profile);
-  const int bits = l.options.bits;
-  const double r = l.options.radius_mm, pitch = l.pitch_mm;
-  const double r_in = ring.inner * r, r_out = ring.outer * r;
-  // The targets lie on a grid of `pitch` from the first one: (column, row) → its code, or none.
-  const Eigen::Vector2d first = l.targets.front().xyz_mm.head<2>();
-  auto codes = std::make_shared<std::vector<std::optional<uint32_t>>>(static_cast<std::size_t>(l.cols) * l.rows);
-  for (const auto& p : l.targets) {
-    const long i = std::lround((p.xyz_mm.x() - first.x()) / pitch), j = std::lround((p.xyz_mm.y() - first.y()) / pitch);
-    PORTHOLE_CHECK(i >= 0 && j >= 0 && i < l.cols && j < l.rows);
-    (*codes)[j * l.cols + i] = coded::CodeOfId(l.options.profile, bits, p.id);
+// bits, profile and dot radius (calib/target.h), or the spec's target field (TargetSpec::field):
+// the paper is the board, a target's dot and its ring segments (coded/sheet.h: RingArcs) are the
+// ink; an ID the profile has no code for (an uncoded dot of a field) is a dot without a ring. The
+// IDs printed beside the targets, the scale bar and the caption are not drawn. Ink is the style's
+// black, paper its white (swap them for white targets on black). A field's targets off the board's
+// plane (Z != 0) are printed on plates of PlateRadiusMm at their Z (Surfaces).
+struct CodedDisc {
+  Eigen::Vector2d centre;
+  std::optional<uint32_t> code;  // none: an uncoded dot
+};
+
+// The discs of one level in a uniform grid whose cells are at least a disc across, each disc
+// registered in every cell its square overlaps: a point's disc is among its own cell's.
+class DiscGrid {
+ public:
+  DiscGrid(std::vector<CodedDisc> discs, double radius_mm)
+      : discs_(std::move(discs)), cell_(2 * radius_mm), r2_(radius_mm * radius_mm) {
+    for (std::size_t k = 0; k < discs_.size(); ++k) {
+      const Eigen::Vector2d& c = discs_[k].centre;
+      for (long i = Cell(c.x() - radius_mm); i <= Cell(c.x() + radius_mm); ++i) {
+        for (long j = Cell(c.y() - radius_mm); j <= Cell(c.y() + radius_mm); ++j) cells_[Key(i, j)].push_back(static_cast<int>(k));
+      }
+    }
   }
-  return [=](double x, double y) {
-    if (!Inside(paper, x, y)) return st.background;
-    const long i = std::lround((x - first.x()) / pitch), j = std::lround((y - first.y()) / pitch);
-    if (i < 0 || j < 0 || i >= l.cols || j >= l.rows) return st.white;
-    const auto& code = (*codes)[j * l.cols + i];
-    if (!code) return st.white;
-    const double dx = x - (first.x() + i * pitch), dy = y - (first.y() + j * pitch);
+  // The disc whose centre lies within the radius of (x, y), or null.
+  const CodedDisc* Find(double x, double y) const {
+    const auto it = cells_.find(Key(Cell(x), Cell(y)));
+    if (it == cells_.end()) return nullptr;
+    for (int k : it->second) {
+      const Eigen::Vector2d d = Eigen::Vector2d(x, y) - discs_[k].centre;
+      if (d.squaredNorm() <= r2_) return &discs_[k];
+    }
+    return nullptr;
+  }
+
+ private:
+  long Cell(double x) const { return static_cast<long>(std::floor(x / cell_)); }
+  static std::int64_t Key(long i, long j) { return (static_cast<std::int64_t>(i) << 32) ^ (j & 0xFFFFFFFFll); }
+  std::vector<CodedDisc> discs_;
+  double cell_, r2_;
+  std::unordered_map<std::int64_t, std::vector<int>> cells_;
+};
+
+const std::vector<coded::PlacedTarget>& CodedTargetsOf(const TargetSpec& t, coded::SheetLayout* sheet) {
+  if (!t.field.empty()) return t.field;
+  *sheet = calib::CodedSheet(t);
+  return sheet->targets;
+}
+
+// The targets grouped by level (their Z, equal within 1e-9 mm; level 0 the board, Z = 0).
+struct CodedField {
+  Extent board;
+  std::vector<double> z_mm;
+  std::vector<std::unique_ptr<DiscGrid>> levels;  // level 0: radius r_out; others: the plates
+  double r = 0, r_in = 0, r_out = 0;
+  int bits = 0;
+  // The ink of a target at (dx, dy) mm from its centre: black on the dot and the code's set
+  // segments, else white. Segment k spans [2πk/bits, 2π(k+1)/bits) clockwise on the sheet from +X
+  // toward +Y (y down), and is bit bits − 1 − k (the first segment read is the most significant).
+  double Ink(const CodedDisc& d, double dx, double dy, const PatternStyle& st) const {
     const double d2 = dx * dx + dy * dy;
     if (d2 <= r * r) return st.black;
-    if (d2 < r_in * r_in || d2 > r_out * r_out) return st.white;
-    // Segment k spans [2πk/bits, 2π(k+1)/bits) clockwise on the sheet from +X toward +Y (y down),
-    // and is bit bits − 1 − k (the first segment read is the most significant).
+    if (!d.code || d2 < r_in * r_in || d2 > r_out * r_out) return st.white;
     double a = std::atan2(dy, dx);
     if (a < 0) a += 2 * std::numbers::pi;
     const int k = std::min(bits - 1, static_cast<int>(a * bits / (2 * std::numbers::pi)));
-    return ((*code >> (bits - 1 - k)) & 1u) ? st.black : st.white;
+    return ((*d.code >> (bits - 1 - k)) & 1u) ? st.black : st.white;
+  }
+  // Level k's value at (x, y): NaN where it has nothing.
+  double Value(int k, double x, double y, const PatternStyle& st) const {
+    if (k == 0 && !Inside(board, x, y)) return std::numeric_limits<double>::quiet_NaN();
+    const CodedDisc* d = levels[k]->Find(x, y);
+    if (!d) return k == 0 ? st.white : std::numeric_limits<double>::quiet_NaN();
+    return Ink(*d, x - d->centre.x(), y - d->centre.y(), st);
+  }
+};
+
+Extent CodedExtent(const TargetSpec& t, const PatternStyle&) {
+  coded::SheetLayout sheet;
+  const auto& targets = CodedTargetsOf(t, &sheet);
+  if (t.field.empty()) return {0, 0, sheet.width_mm, sheet.height_mm};
+  // A field's board: its targets' square hull and a plate's radius plus a dot's of paper around.
+  const double m = PlateRadiusMm(t) + t.dot_radius_mm;
+  Extent e{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+           -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  for (const auto& p : targets) {
+    e.x_min = std::min(e.x_min, p.xyz_mm.x() - m);
+    e.y_min = std::min(e.y_min, p.xyz_mm.y() - m);
+    e.x_max = std::max(e.x_max, p.xyz_mm.x() + m);
+    e.y_max = std::max(e.y_max, p.xyz_mm.y() + m);
+  }
+  return e;
+}
+
+std::shared_ptr<const CodedField> MakeCodedField(const TargetSpec& t, const PatternStyle& st) {
+  auto f = std::make_shared<CodedField>();
+  const coded::Profile profile = coded::ParseProfile(t.code_profile);
+  const coded::RingRadii ring = coded::Ring(profile);
+  f->board = CodedExtent(t, st);
+  f->bits = t.code_bits;
+  f->r = t.dot_radius_mm;
+  f->r_in = ring.inner * f->r;
+  f->r_out = ring.outer * f->r;
+  coded::SheetLayout sheet;
+  const auto& targets = CodedTargetsOf(t, &sheet);
+  const int n_codes = static_cast<int>(coded::Codes(profile, t.code_bits).size());
+  f->z_mm = {0.0};
+  std::vector<std::vector<CodedDisc>> discs(1);
+  for (const auto& p : targets) {
+    std::size_t k = 0;
+    while (k < f->z_mm.size() && std::abs(f->z_mm[k] - p.xyz_mm.z()) > 1e-9) ++k;
+    if (k == f->z_mm.size()) {
+      f->z_mm.push_back(p.xyz_mm.z());
+      discs.emplace_back();
+    }
+    CodedDisc d{p.xyz_mm.head<2>(), std::nullopt};
+    if (p.id >= 1 && p.id <= n_codes) d.code = coded::CodeOfId(profile, t.code_bits, p.id);
+    discs[k].push_back(d);
+  }
+  const double plate = PlateRadiusMm(t);
+  for (std::size_t k = 0; k < discs.size(); ++k) {
+    f->levels.push_back(std::make_unique<DiscGrid>(std::move(discs[k]), k == 0 ? f->r_out : plate));
+  }
+  return f;
+}
+
+Reflectance CodedReflectance(const TargetSpec& t, const PatternStyle& st) {
+  const auto f = MakeCodedField(t, st);
+  return [=](double x, double y) {
+    const double v = f->Value(0, x, y, st);
+    return std::isnan(v) ? st.background : v;
   };
 }
 
@@ -203,6 +299,61 @@ Reflectance MakeReflectance(const TargetSpec& target, const PatternStyle& style)
 
 Extent BoardExtent(const TargetSpec& target, const PatternStyle& style) {
   return DrawingOf(target).extent(target, style);
+}
+
+Surfaces MakeSurfaces(const TargetSpec& target, const PatternStyle& style) {
+  Surfaces s;
+  if (target.kind == TargetKind::kCoded) {
+    const auto f = MakeCodedField(target, style);
+    s.z_mm = f->z_mm;
+    s.value = [f, style](int k, double x, double y) { return f->Value(k, x, y, style); };
+    return s;
+  }
+  const Reflectance reflect = MakeReflectance(target, style);
+  const Extent board = BoardExtent(target, style);
+  s.value = [reflect, board](int, double x, double y) {
+    return Inside(board, x, y) ? reflect(x, y) : std::numeric_limits<double>::quiet_NaN();
+  };
+  return s;
+}
+
+int FirstHit(const Surfaces& surfaces, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double background,
+             double* value, double* t, Eigen::Vector2d* hit) {
+  *value = background;
+  *t = std::numeric_limits<double>::infinity();
+  const std::size_t n = surfaces.z_mm.size();
+  auto try_level = [&](int k, double tk) {
+    const Eigen::Vector2d at = (o + tk * d).head<2>();
+    const double v = surfaces.value(k, at.x(), at.y());
+    if (std::isnan(v)) return false;
+    *value = v;
+    *t = tk;
+    *hit = at;
+    return true;
+  };
+  if (!(std::abs(d.z()) > 1e-15)) return -1;  // along the planes: meets none
+  if (n == 1) {
+    const double t0 = (surfaces.z_mm[0] - o.z()) / d.z();
+    return t0 > 0 && try_level(0, t0) ? 0 : -1;
+  }
+  thread_local std::vector<std::pair<double, int>> order;
+  order.clear();
+  for (std::size_t k = 0; k < n; ++k) {
+    const double tk = (surfaces.z_mm[k] - o.z()) / d.z();
+    if (tk > 0) order.emplace_back(tk, static_cast<int>(k));
+  }
+  std::sort(order.begin(), order.end());
+  for (const auto& [tk, k] : order) {
+    if (try_level(k, tk)) return k;
+  }
+  return -1;
+}
+
+double PlateRadiusMm(const TargetSpec& target) {
+  return (coded::Ring(coded::ParseProfile(target.code_profile)).outer + 1.0) * target.dot_radius_mm;
+}
+double WholeRadiusMm(const TargetSpec& target) {
+  return (coded::Ring(coded::ParseProfile(target.code_profile)).outer + 0.5) * target.dot_radius_mm;
 }
 
 double DotRadiusMm(const TargetSpec& target) {

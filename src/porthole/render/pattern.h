@@ -7,6 +7,7 @@
 // a printed board's black and white and what lies around the board are PatternStyle's.
 #pragma once
 
+#include <Eigen/Core>
 #include <functional>
 #include <string_view>
 #include <vector>
@@ -51,6 +52,35 @@ Reflectance MakeReflectance(const calib::TargetSpec& target, const PatternStyle&
 
 // The board's outline (its entry's `extent`).
 Extent BoardExtent(const calib::TargetSpec& target, const PatternStyle& style = {});
+
+// What a ray can meet: the board in the plane Z = 0 of the target frame and, for a 3-D coded field
+// (TargetSpec::field with Z != 0), the plates its raised targets are printed on, each a disc
+// parallel to the board at its target's Z (−Z is the camera's side: a raised target has Z < 0).
+// Levels are planes Z = z_mm[k]; level 0 is the board (z = 0). A ray's value is that of the
+// nearest level along it that has something where the ray meets it (Surfaces::value not NaN);
+// the background where it meets nothing. The plates' sides and posts are not drawn.
+struct Surfaces {
+  std::vector<double> z_mm = {0.0};
+  // Reflectance at board point (x_mm, y_mm) of level k; NaN where the level has nothing (beyond
+  // the board, beside a plate). Safe to call from several threads at once.
+  std::function<double(int level, double x_mm, double y_mm)> value;
+};
+// The surfaces of `target`: level 0 its drawing (MakeReflectance; NaN beyond BoardExtent) with the
+// targets of Z = 0, one more level per other Z of a coded field. Throws as MakeReflectance.
+Surfaces MakeSurfaces(const calib::TargetSpec& target, const PatternStyle& style = {});
+
+// The first surface a ray meets: origin and unit direction given in the target frame (mm).
+// Returns the level (−1: nothing, the background) and sets *value (the background when −1),
+// *t (the distance along the ray, +inf for nothing) and *hit (board point x, y of that level).
+int FirstHit(const Surfaces& surfaces, const Eigen::Vector3d& origin_in_target, const Eigen::Vector3d& dir_in_target,
+             double background, double* value, double* t, Eigen::Vector2d* hit);
+
+// Coded targets: the radius (mm) of a raised target's plate: its code ring's outer radius plus
+// one dot radius of plain sheet around it; and the radius around a dot that must be whole in the
+// image (not cut by the frame, not hidden) for the target to count as seen: its ring's outer
+// radius plus half a dot radius (docs/render.md, "Partial views").
+double PlateRadiusMm(const calib::TargetSpec& target);
+double WholeRadiusMm(const calib::TargetSpec& target);
 
 // The radius (mm) of the printed dot whose centre is each point of a target of circles: coded
 // targets (the spec's dot radius), circle grids (a quarter of the spacing; asymmetric grids 0.3 of

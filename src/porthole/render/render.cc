@@ -266,7 +266,8 @@ double VignettingAt(const Scene& scene, const camera::Camera& camera, const Eige
 
 std::optional<Eigen::Vector2d> ProjectThroughPort(const Setup& s, const Band& band, const Pose& pose,
                                                   const Eigen::Vector3d& point_in_target_mm) {
-  const Plane plane = TargetPlane(s, pose);
+  Plane plane = TargetPlane(s, pose);  // the point's own plane Z = z
+  plane.origin_in_housing += point_in_target_mm.z() * plane.normal();
   const Vec2 goal = point_in_target_mm.head<2>();
   auto residual = [&](const Vec2& uv) -> std::optional<Vec2> {
     const auto hit = ChiefOnBoard(s, band, plane, uv);
@@ -313,53 +314,108 @@ std::optional<Eigen::Vector2d> ProjectThroughPort(const Setup& s, const Band& ba
   return std::nullopt;
 }
 
-std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s) {
+namespace {
+// Whether the chief ray of pixel uv (band) meets the target's surfaces first at `point` (target
+// frame): no surface nearer the camera hides it.
+bool SeenAt(const Setup& s, const Band& band, const Pose& pose, const Surfaces& surfaces, const Vec3& point,
+            const Vec2& uv) {
+  const auto d = s.camera.Unproject(uv);
+  if (!d) return false;
+  optics::Ray out;
+  if (optics::TraceSequence<double>(band.outward, optics::Ray{s.ep_in_housing_mm, *d}, &out) != optics::RayStatus::kOk) {
+    return false;
+  }
+  const Plane plane = TargetPlane(s, pose);
+  const Eigen::Matrix3d to_target = plane.rotation.transpose();
+  double value = 0, t = 0;
+  Vec2 hit;
+  const int level = FirstHit(surfaces, to_target * (out.origin - plane.origin_in_housing), to_target * out.dir, 0,
+                             &value, &t, &hit);
+  return level >= 0 && std::abs(surfaces.z_mm[level] - point.z()) < 1e-9 && (hit - point.head<2>()).norm() < 1e-6;
+}
+}  // namespace
+
+std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s, LeftOut* left_out) {
   const auto pts = calib::TargetPoints(scene.target);
   const Extent e = BoardExtent(scene.target, scene.style);
+  std::vector<bool> has(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) has[i] = scene.target.HasPoint(static_cast<int>(i));  // coded: ids that are no target
   std::vector<Vec3> check = {Vec3(e.x_min, e.y_min, 0), Vec3(e.x_max, e.y_min, 0), Vec3(e.x_min, e.y_max, 0),
                              Vec3(e.x_max, e.y_max, 0)};
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (scene.target.HasPoint(static_cast<int>(i))) check.push_back(pts[i]);  // coded: ids that are no target
+    if (has[i]) check.push_back(pts[i]);
   }
   for (const Vec3& p : check) {
     const Vec3 c = scene.pose.Apply(p);
     if (!(c.z() > 0)) {
-      throw InvalidInput("pose", fmt::format("the target lies behind the camera (its point ({:g}, {:g}) mm at z = {:.1f} mm "
-                                             "from the pupil)", p.x(), p.y(), c.z()));
+      throw InvalidInput("pose", fmt::format("the target lies behind the camera (its point ({:g}, {:g}, {:g}) mm at z = "
+                                             "{:.1f} mm from the pupil)", p.x(), p.y(), p.z(), c.z()));
     }
     if (InsidePort(s.system, c + s.ep_in_housing_mm)) {
-      throw InvalidInput("pose", fmt::format("the target reaches into the port (its point ({:g}, {:g}) mm at {:.1f} mm "
-                                             "from the pupil)", p.x(), p.y(), c.norm()));
+      throw InvalidInput("pose", fmt::format("the target reaches into the port (its point ({:g}, {:g}, {:g}) mm at "
+                                             "{:.1f} mm from the pupil)", p.x(), p.y(), p.z(), c.norm()));
     }
   }
   const camera::Sensor& sensor = s.camera.sensor;
+  auto in_frame = [&](const Vec2& uv) {
+    return uv.x() >= 0 && uv.y() >= 0 && uv.x() <= sensor.width_px - 1 && uv.y() <= sensor.height_px - 1;
+  };
+  // Coded targets are read one by one: a target is kept when it images whole and unhidden.
+  const bool coded = scene.target.kind == calib::TargetKind::kCoded;
+  const Surfaces surfaces = coded ? MakeSurfaces(scene.target, scene.style) : Surfaces{};
+  const double whole_mm = coded ? WholeRadiusMm(scene.target) : 0;
+  LeftOut dropped;
   std::vector<TruthPoint> out;
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (!scene.target.HasPoint(static_cast<int>(i))) continue;  // coded: ids that are no target
+    if (!has[i]) continue;
     TruthPoint tp;
     tp.id = static_cast<int>(i);
     tp.point_in_target_mm = pts[i];
     tp.point_in_cam_mm = scene.pose.Apply(pts[i]);
+    bool partial = false, hidden = false;
     for (const Band& b : s.bands) {
       const auto uv = ProjectThroughPort(s, b, scene.pose, pts[i]);
+      if (coded) {
+        // The centre and 16 points round the ring's band: each must image inside the frame, and
+        // its chief ray meet this target first.
+        for (int k = -1; k < 16 && uv && !partial; ++k) {
+          const double a = k * std::numbers::pi / 8;
+          const Vec3 p = k < 0 ? pts[i] : Vec3(pts[i] + whole_mm * Vec3(std::cos(a), std::sin(a), 0));
+          const auto q = k < 0 ? uv : ProjectThroughPort(s, b, scene.pose, p);
+          if (!q || !in_frame(*q)) partial = true;
+          else if (!SeenAt(s, b, scene.pose, surfaces, p, *q)) hidden = true;
+        }
+        if (!uv || partial) {
+          partial = true;
+          break;
+        }
+        tp.pixel_per_band.push_back(*uv);
+        continue;
+      }
       if (!uv) {
         const auto direct = s.camera.Project(tp.point_in_cam_mm);
-        const bool in_frame = direct && direct->x() >= 0 && direct->y() >= 0 && direct->x() <= sensor.width_px - 1 &&
-                              direct->y() <= sensor.height_px - 1;
-        if (!in_frame) {
+        if (!(direct && in_frame(*direct))) {
           throw InvalidInput("pose", fmt::format("the target falls outside the camera's field (point {})", i));
         }
         throw InvalidInput("port", fmt::format("no ray from target point {} passes the port at {:g} nm (beyond its rim, "
                                                "or totally reflected)", i, b.lambda_nm));
       }
-      if (uv->x() < 0 || uv->y() < 0 || uv->x() > sensor.width_px - 1 || uv->y() > sensor.height_px - 1) {
+      if (!in_frame(*uv)) {
         throw InvalidInput("pose", fmt::format("the target falls outside the image: point {} images at {} in a {}x{} "
                                                "frame", i, Px(*uv), sensor.width_px, sensor.height_px));
       }
       tp.pixel_per_band.push_back(*uv);
     }
-    out.push_back(std::move(tp));
+    if (partial) dropped.partial.push_back(tp.id);
+    else if (hidden) dropped.occluded.push_back(tp.id);
+    else out.push_back(std::move(tp));
   }
+  if (coded && out.empty()) {
+    throw InvalidInput("pose", fmt::format("no coded target images whole and unhidden inside the {}x{} frame ({} cut by "
+                                           "the frame or beyond the port, {} hidden)", sensor.width_px, sensor.height_px,
+                                           dropped.partial.size(), dropped.occluded.size()));
+  }
+  if (left_out) *left_out = std::move(dropped);
   return out;
 }
 
@@ -369,7 +425,7 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
   Rendered r;
   r.setup = Resolve(scene, o.color);
   const Setup& s = r.setup;
-  r.truth = GroundTruth(scene, s);
+  r.truth = GroundTruth(scene, s, &r.left_out);
   {  // The image centre's chief ray must leave the housing in every band.
     const Vec2 centre((s.camera.sensor.width_px - 1) / 2.0, (s.camera.sensor.height_px - 1) / 2.0);
     const auto d = s.camera.Unproject(centre);
@@ -381,7 +437,7 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
       }
     }
   }
-  const Reflectance reflect = MakeReflectance(scene.target, scene.style);
+  const Surfaces surfaces = MakeSurfaces(scene.target, scene.style);
   const Plane plane = TargetPlane(s, scene.pose);
   const int W = s.camera.sensor.width_px, H = s.camera.sensor.height_px;
   const int channels = o.color == ColorMode::kRgb ? 3 : 1;
@@ -398,7 +454,6 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
   const bool fisheye = s.camera.info().caps.fisheye;
   const bool pinhole = s.pupil_radius_mm == 0;
   const Vec3 ep = s.ep_in_housing_mm;
-  const Vec3 plane_n = plane.normal();
   const Eigen::Matrix3d board_from_housing = plane.rotation.transpose();
 
   // Shades the pixels `pixels` (indices v·W + u) with n = m² samples each, writes each pixel's mean
@@ -472,13 +527,10 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
             ++blocked_here;
           } else {
             const Vec3 o3(out.ox[i], out.oy[i], out.oz[i]), d3(out.dx[i], out.dy[i], out.dz[i]);
-            const double t = (plane.origin_in_housing - o3).dot(plane_n) / d3.dot(plane_n);
-            if (!(t > 0) || !std::isfinite(t)) {
-              value = scene.style.background;
-            } else {
-              const Vec3 local = board_from_housing * (o3 + t * d3 - plane.origin_in_housing);
-              value = reflect(local.x(), local.y());
-            }
+            double t = 0;
+            Vec2 hit;
+            FirstHit(surfaces, board_from_housing * (o3 - plane.origin_in_housing), board_from_housing * d3,
+                     scene.style.background, &value, &t, &hit);
           }
           sum += value;
           low = std::min(low, value);
@@ -685,7 +737,7 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
     Json px = Json::array();
     for (const Vec2& uv : tp.pixel_per_band) px.push_back({uv.x(), uv.y()});
     points.push_back({{"id", tp.id},
-                      {"target_mm", vec(Eigen::Vector2d(tp.point_in_target_mm.head<2>()))},
+                      {"target_mm", vec(tp.point_in_target_mm)},
                       {"cam_mm", vec(tp.point_in_cam_mm)},
                       {"px", px}});
   }
@@ -693,7 +745,12 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
   j["points"] = points;
   if (DotRadiusMm(scene.target) > 0) {  // circular targets: what an ellipse-centre detector measures (render/dots.h)
     j["dot_centres_note"] = "px: the centre of each dot's image per band (the ellipse fitted to its traced rim)";
-    j["dot_centres"] = DotCentresJson(scene, s);
+    j["dot_centres"] = DotCentresJson(scene, s, r.truth);
+  }
+  if (scene.target.kind == calib::TargetKind::kCoded) {
+    j["left_out_note"] = "coded targets not in points: partial (dot and ring not whole inside the frame), occluded "
+                         "(hidden by a nearer surface)";
+    j["left_out"] = {{"partial", r.left_out.partial}, {"occluded", r.left_out.occluded}};
   }
   return j;
 }

@@ -160,13 +160,26 @@ struct TruthPoint {
   std::vector<Eigen::Vector2d> pixel_per_band;  // (u, v), one per band of the setup
 };
 
-// Every target point's image per band (the Newton solve above). Throws InvalidInput("pose") when a
-// point lies behind the camera, inside the port or outside the image, InvalidInput("port") when no
-// ray from it passes the port.
-std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& setup);
+// The points of a coded target left out of its ground truth (docs/render.md, "Partial views").
+struct LeftOut {
+  std::vector<int> partial;   // ids whose dot and ring (WholeRadiusMm) do not image whole inside the frame
+  std::vector<int> occluded;  // ids hidden, wholly or in part, by a surface nearer the camera (a raised plate)
+};
 
-// The image of a chief ray: the pixel whose chief ray, traced through `band`, meets the target plane
-// of `pose` at board point (x, y) — the forward projection; nullopt if Newton fails.
+// Every target point's image per band (the Newton solve above), a point of a 3-D field (Z != 0)
+// imaged in its own plane Z = z. Throws InvalidInput("pose") when a point lies behind the camera
+// or inside the port, InvalidInput("port") when no ray from it passes the port. Outside the
+// image: for a coded target (whose detector reads targets one by one) a target is in the truth
+// only when its dot and ring with a band around it (WholeRadiusMm: 16 rim points and the centre,
+// every band) image inside the frame and unhidden — the chief ray of each of those pixels meets
+// that target first (Surfaces) —, and the others are listed in *left_out; InvalidInput("pose")
+// when none is. Other targets (seen whole by their detectors): InvalidInput("pose") when any
+// point images outside the frame.
+std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& setup, LeftOut* left_out = nullptr);
+
+// The image of a chief ray: the pixel whose chief ray, traced through `band`, meets the plane
+// Z = point.z of the target frame (`pose`) at the point — the forward projection; nullopt if
+// Newton fails.
 std::optional<Eigen::Vector2d> ProjectThroughPort(const Setup& setup, const Band& band, const Pose& pose,
                                                   const Eigen::Vector3d& point_in_target_mm);
 
@@ -181,6 +194,7 @@ struct Rendered {
   Image image;
   Setup setup;
   std::vector<TruthPoint> truth;
+  LeftOut left_out;             // coded targets: points not in the truth (partial, occluded)
   double blocked_fraction = 0;  // of the first pass's rays, those that could not leave the housing
   double refined_fraction = 0;  // of the pixels, those rendered again with edge_samples_per_pixel
   double seconds = 0;
