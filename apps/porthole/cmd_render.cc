@@ -51,6 +51,7 @@ struct RenderCliOptions {
   int set = 0;
   std::vector<std::string> distances;
   double max_tilt_deg = 35;
+  double partial = 1;
   bool quiet = false, json = false;
   bool white_on_black = false;
 };
@@ -174,6 +175,7 @@ void RunRender(const RenderCliOptions& o) {
   so.seed = o.seed;
   so.max_tilt_deg = o.max_tilt_deg;
   so.max_roll_deg = 15;
+  so.min_whole_fraction = o.partial;
   if (!o.distances.empty()) {
     const auto d = ParseLengthList(o.distances, "--distances");
     if (d.size() != 2) throw InvalidInput("--distances", "takes NEAR,FAR in mm");
@@ -297,6 +299,10 @@ void RegisterRender(CLI::App& app) {
   cmd->add_option("--distances", o->distances, "Set: NEAR,FAR target distances, mm (default: the target fills 30-80 %)")
       ->delimiter(',')->group("Set");
   cmd->add_option("--max-tilt", o->max_tilt_deg, "Set: largest tilt about either axis, deg")->capture_default_str()->group("Set");
+  cmd->add_option("--partial", o->partial,
+                  "Set, coded targets: partial views, each pose showing at least this fraction of the targets whole "
+                  "(the rest cut by the frame and left out of the truth); 1: the whole target")
+      ->capture_default_str()->group("Set");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
   cmd->add_flag("--json", o->json, "Print what was written (files, size, time, rays blocked) as JSON");
   cmd->callback([o] {

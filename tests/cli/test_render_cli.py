@@ -100,3 +100,6 @@ def test_a_field_with_raised_targets(tmp_path):
     assert "--field" in run_bad("render", "--out", tmp_path / "b.png", "--target", "coded:14:3", "--field", bad, *SMALL)
     assert "--field" in run_bad("render", "--out", tmp_path / "b.png", "--field", field, *SMALL)  # a chessboard
     assert list(tmp_path.glob("b.*")) == []
+    # Partial views are for coded targets only.
+    assert "--partial" in run_bad("render", "--set", "2", "--out", tmp_path / "set", "--partial", "0.5", *SMALL)
+    assert not (tmp_path / "set").exists()

@@ -115,8 +115,13 @@ bool InsidePort(const ports::PortSystem& sys, const Vec3& p_in_housing) {
 Eigen::Vector3d TargetCentre(const calib::TargetSpec& target) {
   Vec3 c = Vec3::Zero();
   const auto pts = calib::TargetPoints(target);
-  for (const Vec3& p : pts) c += p;
-  return c / static_cast<double>(pts.size());
+  int n = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (!target.HasPoint(static_cast<int>(i))) continue;  // coded: ids that are no target
+    c += pts[i];
+    ++n;
+  }
+  return c / std::max(1, n);
 }
 
 Pose PoseFacing(const calib::TargetSpec& target, double distance_mm, const Eigen::Vector2d& shift_mm, double tilt_x_deg,
@@ -761,14 +766,27 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
   if (!(o.max_tilt_deg >= 0 && o.max_tilt_deg < 80)) throw InvalidInput("--max-tilt", "must be 0 to 80 degrees");
   if (!(o.max_roll_deg >= 0 && o.max_roll_deg <= 180)) throw InvalidInput("--max-roll", "must be 0 to 180 degrees");
   if (!(o.margin >= 0 && o.margin < 0.4)) throw InvalidInput("margin", "must be 0 to 0.4");
+  if (!(o.min_whole_fraction > 0 && o.min_whole_fraction <= 1)) {
+    throw InvalidInput("--partial", "must be a fraction above 0, up to 1 (the whole target in every image)");
+  }
+  if (o.min_whole_fraction < 1 && scene.target.kind != calib::TargetKind::kCoded) {
+    throw InvalidInput("--partial", "partial views are for coded targets (their detector reads targets one by one)");
+  }
   Scene water = scene, air = scene;
   water.medium = Medium::kWater;
   air.medium = Medium::kAir;
   const Setup sw = Resolve(water), sa = Resolve(air);
   const camera::Sensor& sensor = sw.camera.sensor;
-  const auto pts = calib::TargetPoints(scene.target);
+  std::vector<Vec3> pts;  // the target's points (coded: not the ids that are no target)
+  const auto all = calib::TargetPoints(scene.target);
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (scene.target.HasPoint(static_cast<int>(i))) pts.push_back(all[i]);
+  }
   double span = 0;  // the target's size
   for (const Vec3& p : pts) span = std::max(span, (p - pts.front()).norm());
+  const bool partial = o.min_whole_fraction < 1;
+  const std::size_t needed =
+      static_cast<std::size_t>(std::ceil(o.min_whole_fraction * static_cast<double>(pts.size()) - 1e-9));
   const double f_px = sw.camera.FocalLengthPx();
   double near = o.near_mm, far = o.far_mm;
   if (near == 0 && far == 0) {  // the target fills 80 % … 30 % of the frame's width
@@ -779,7 +797,10 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
   const double mu = o.margin * std::max(sensor.width_px, sensor.height_px);
   auto fits = [&](const Scene& sc, const Setup& st) {
     try {
-      for (const TruthPoint& tp : GroundTruth(sc, st)) {
+      const std::vector<TruthPoint> truth = GroundTruth(sc, st);
+      if (truth.size() < needed) return false;  // coded targets not whole in the frame are left out
+      if (partial) return true;  // a partial view: the targets kept image whole, wherever they are
+      for (const TruthPoint& tp : truth) {
         for (const Vec2& uv : tp.pixel_per_band) {
           if (uv.x() < mu || uv.y() < mu || uv.x() > sensor.width_px - 1 - mu || uv.y() > sensor.height_px - 1 - mu) {
             return false;

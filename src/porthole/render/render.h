@@ -223,11 +223,15 @@ struct SetOptions {
   double max_tilt_deg = 35;        // tilts drawn uniformly in ±max about X and Y
   double max_roll_deg = 15;
   double margin = 0.04;            // points at least this fraction of the frame from its edges
+  // Coded targets only: below 1, a pose may show part of the target (partial views): it is kept
+  // when at least this fraction of the target's points image whole inside the frame (GroundTruth:
+  // the others are left out of the truth), with no margin.
+  double min_whole_fraction = 1;
 };
 
 // N seeded poses: distances, tilts and rolls spread over their ranges, the target's centre over
 // the frame, each kept only when every point lands inside the frame (with the margin) in water and
-// in air. Throws InvalidInput("--count") when poses cannot be found (a target too large).
+// in air (coded targets with min_whole_fraction < 1: enough of them whole in both). Throws InvalidInput("--count") when poses cannot be found (a target too large).
 std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& options);
 
 }  // namespace porthole::render
