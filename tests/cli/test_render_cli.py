@@ -103,3 +103,18 @@ def test_a_field_with_raised_targets(tmp_path):
     # Partial views are for coded targets only.
     assert "--partial" in run_bad("render", "--set", "2", "--out", tmp_path / "set", "--partial", "0.5", *SMALL)
     assert not (tmp_path / "set").exists()
+
+
+def test_a_set_of_partial_views_of_a_coded_sheet(tmp_path):
+    # Close enough that the sheet overflows the frame: each pose shows at least 60 % of its targets
+    # whole, the rest are left out of the truth, and `detect` reads exactly the truth's targets.
+    out = tmp_path / "set"
+    run("render", "--set", "2", "--out", out, "--target", "coded:14:3", "--partial", "0.6", "--distances", "300,400",
+        "--f-number", "inf", *SMALL)
+    det = run("detect", "--images", out / "water", "--target", "coded:14:3", "--json", "--quiet").json()
+    assert len(det["images"]) == 2
+    for image in det["images"]:
+        truth = json.loads((out / "water" / os.path.basename(image["image"])).with_suffix(".json").read_text())
+        assert truth["left_out"]["partial"], "not a partial view"
+        assert 0.6 * 70 <= len(truth["points"]) < 70
+        assert sorted(image["ids"]) == sorted(p["id"] for p in truth["points"])
