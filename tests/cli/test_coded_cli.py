@@ -113,7 +113,9 @@ SMALL_CAMERA = open(os.path.join(os.path.dirname(__file__), "small-dx.toml")).re
 @pytest.mark.parametrize("polarity", [[], ["--white-on-black"]])
 def test_render_draws_coded_sheets_with_the_dot_centre_truth(tmp_path, polarity):
     # `porthole render --target coded:...` draws the default sheet; `porthole detect` reads every
-    # target of it with its ID, at the JSON's dot_centres (the ellipse of each traced rim) within
+    # target of the truth with its ID (and may read a target the truth leaves out because the frame
+    # cuts the band round its ring: render asks 0.5 dot radii of it, the detector samples 0.35), at
+    # the JSON's dot_centres (the ellipse of each traced rim) within
     # 0.03 px at 16 spp, and the dot centres differ from the images of the centres (points) by the
     # eccentricity, tenths of a pixel at this tilt.
     camera = tmp_path / "small.toml"
@@ -129,8 +131,10 @@ def test_render_draws_coded_sheets_with_the_dot_centre_truth(tmp_path, polarity)
     assert sorted(dots) == sorted(points) and min(dots) == 1
     det = run("detect", "--images", images, "--target", "coded:12:7:metashape", "--json", "--quiet").json()
     img = det["images"][0]
-    assert sorted(img["ids"]) == sorted(dots)
-    worst = max(math.dist(p, dots[i]) for i, p in zip(img["ids"], img["points_px"]))
+    assert set(dots) <= set(img["ids"])
+    assert set(img["ids"]) - set(dots) <= set(truth["left_out"]["partial"])
+    assert len(dots) >= 10
+    worst = max(math.dist(p, dots[i]) for i, p in zip(img["ids"], img["points_px"]) if i in dots)
     bias = max(math.dist(dots[i], points[i]) for i in dots)
     print(f"render coded {polarity}: {len(dots)} targets, worst centre {worst:.4f} px from dot_centres; "
           f"largest eccentricity {bias:.3f} px")

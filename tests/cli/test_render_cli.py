@@ -107,7 +107,9 @@ def test_a_field_with_raised_targets(tmp_path):
 
 def test_a_set_of_partial_views_of_a_coded_sheet(tmp_path):
     # Close enough that the sheet overflows the frame: each pose shows at least 60 % of its targets
-    # whole, the rest are left out of the truth, and `detect` reads exactly the truth's targets.
+    # whole, the rest are left out of the truth; `detect` reads every target of the truth, and of the
+    # others only some the frame cuts close to (the truth asks half a dot radius of band round the
+    # ring inside the frame, the detector samples 0.35 of it).
     out = tmp_path / "set"
     run("render", "--set", "2", "--out", out, "--target", "coded:14:3", "--partial", "0.6", "--distances", "300,400",
         "--f-number", "inf", *SMALL)
@@ -117,4 +119,6 @@ def test_a_set_of_partial_views_of_a_coded_sheet(tmp_path):
         truth = json.loads((out / "water" / os.path.basename(image["image"])).with_suffix(".json").read_text())
         assert truth["left_out"]["partial"], "not a partial view"
         assert 0.6 * 70 <= len(truth["points"]) < 70
-        assert sorted(image["ids"]) == sorted(p["id"] for p in truth["points"])
+        kept = {p["id"] for p in truth["points"]}
+        assert kept <= set(image["ids"])
+        assert set(image["ids"]) - kept <= set(truth["left_out"]["partial"])

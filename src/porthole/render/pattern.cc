@@ -352,7 +352,21 @@ int FirstHit(const Surfaces& surfaces, const Eigen::Vector3d& o, const Eigen::Ve
 double PlateRadiusMm(const TargetSpec& target) {
   return (coded::Ring(coded::ParseProfile(target.code_profile)).outer + 1.0) * target.dot_radius_mm;
 }
-double WholeRadiusMm(const TargetSpec& target) {
+namespace {
+bool Uncoded(const TargetSpec& target, int id) {
+  // As the field's rule (coded/detect.h, IsUncodedId): an ID the profile has no code for.
+  return id < 1 || id > static_cast<int>(coded::Codes(coded::ParseProfile(target.code_profile), target.code_bits).size());
+}
+double GapRadiusMm(const TargetSpec& target) {
+  return (1 + coded::Ring(coded::ParseProfile(target.code_profile)).inner) / 2 * target.dot_radius_mm;
+}
+}  // namespace
+double SeenRadiusMm(const TargetSpec& target, int id) {
+  if (Uncoded(target, id)) return GapRadiusMm(target);
+  return coded::Ring(coded::ParseProfile(target.code_profile)).outer * target.dot_radius_mm;
+}
+double FrameRadiusMm(const TargetSpec& target, int id) {
+  if (Uncoded(target, id)) return GapRadiusMm(target);
   return (coded::Ring(coded::ParseProfile(target.code_profile)).outer + 0.5) * target.dot_radius_mm;
 }
 

@@ -76,11 +76,16 @@ int FirstHit(const Surfaces& surfaces, const Eigen::Vector3d& origin_in_target, 
              double background, double* value, double* t, Eigen::Vector2d* hit);
 
 // Coded targets: the radius (mm) of a raised target's plate: its code ring's outer radius plus
-// one dot radius of plain sheet around it; and the radius around a dot that must be whole in the
-// image (not cut by the frame, not hidden) for the target to count as seen: its ring's outer
-// radius plus half a dot radius (docs/render.md, "Partial views").
+// one dot radius of plain sheet around it.
 double PlateRadiusMm(const calib::TargetSpec& target);
-double WholeRadiusMm(const calib::TargetSpec& target);
+// Coded targets, what must image for target `id` to count as seen (docs/render.md, "Partial
+// views"): nothing nearer the camera may hide the disc of SeenRadiusMm around its dot — the ring's
+// outer radius for a coded ID, the empty gap the detector asks of a plain dot ((1 + inner)/2 ring
+// radii) for an uncoded one —, and the disc of FrameRadiusMm must image inside the frame — the ring
+// with half a dot radius of band around it (the detector checks that band), the gap for an
+// uncoded dot.
+double SeenRadiusMm(const calib::TargetSpec& target, int id);
+double FrameRadiusMm(const calib::TargetSpec& target, int id);
 
 // The radius (mm) of the printed dot whose centre is each point of a target of circles: coded
 // targets (the spec's dot radius), circle grids (a quarter of the spacing; asymmetric grids 0.3 of

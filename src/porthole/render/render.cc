@@ -368,7 +368,6 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s, LeftOut*
   // Coded targets are read one by one: a target is kept when it images whole and unhidden.
   const bool coded = scene.target.kind == calib::TargetKind::kCoded;
   const Surfaces surfaces = coded ? MakeSurfaces(scene.target, scene.style) : Surfaces{};
-  const double whole_mm = coded ? WholeRadiusMm(scene.target) : 0;
   LeftOut dropped;
   std::vector<TruthPoint> out;
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -378,17 +377,22 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s, LeftOut*
     tp.point_in_target_mm = pts[i];
     tp.point_in_cam_mm = scene.pose.Apply(pts[i]);
     bool partial = false, hidden = false;
+    const double frame_mm = coded ? FrameRadiusMm(scene.target, tp.id) : 0;
+    const double seen_mm = coded ? SeenRadiusMm(scene.target, tp.id) : 0;
     for (const Band& b : s.bands) {
       const auto uv = ProjectThroughPort(s, b, scene.pose, pts[i]);
       if (coded) {
-        // The centre and 16 points round the ring's band: each must image inside the frame, and
-        // its chief ray meet this target first.
-        for (int k = -1; k < 16 && uv && !partial; ++k) {
-          const double a = k * std::numbers::pi / 8;
-          const Vec3 p = k < 0 ? pts[i] : Vec3(pts[i] + whole_mm * Vec3(std::cos(a), std::sin(a), 0));
+        // The centre and 32 points round each of two circles: the band round the ring must image
+        // inside the frame (frame_mm), and the chief ray of the ring's outer edge (seen_mm) meet
+        // this target first. A plate is larger than a ring, so what hides part of the ring crosses
+        // that edge.
+        constexpr int kRim = 32;
+        for (int k = -1; k < 2 * kRim && uv && !partial; ++k) {
+          const double a = k * 2 * std::numbers::pi / kRim, rad = k < kRim ? frame_mm : seen_mm;
+          const Vec3 p = k < 0 ? pts[i] : Vec3(pts[i] + rad * Vec3(std::cos(a), std::sin(a), 0));
           const auto q = k < 0 ? uv : ProjectThroughPort(s, b, scene.pose, p);
-          if (!q || !in_frame(*q)) partial = true;
-          else if (!SeenAt(s, b, scene.pose, surfaces, p, *q)) hidden = true;
+          if (!q || (k < kRim && !in_frame(*q))) partial = true;
+          else if (k < 0 || k >= kRim) hidden = hidden || !SeenAt(s, b, scene.pose, surfaces, p, *q);
         }
         if (!uv || partial) {
           partial = true;

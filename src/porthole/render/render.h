@@ -162,18 +162,18 @@ struct TruthPoint {
 
 // The points of a coded target left out of its ground truth (docs/render.md, "Partial views").
 struct LeftOut {
-  std::vector<int> partial;   // ids whose dot and ring (WholeRadiusMm) do not image whole inside the frame
-  std::vector<int> occluded;  // ids hidden, wholly or in part, by a surface nearer the camera (a raised plate)
+  std::vector<int> partial;   // ids whose dot and ring with its band (FrameRadiusMm) do not image whole inside the frame
+  std::vector<int> occluded;  // ids whose dot or ring (SeenRadiusMm) a surface nearer the camera hides, wholly or in part
 };
 
 // Every target point's image per band (the Newton solve above), a point of a 3-D field (Z != 0)
 // imaged in its own plane Z = z. Throws InvalidInput("pose") when a point lies behind the camera
 // or inside the port, InvalidInput("port") when no ray from it passes the port. Outside the
 // image: for a coded target (whose detector reads targets one by one) a target is in the truth
-// only when its dot and ring with a band around it (WholeRadiusMm: 16 rim points and the centre,
-// every band) image inside the frame and unhidden — the chief ray of each of those pixels meets
-// that target first (Surfaces) —, and the others are listed in *left_out; InvalidInput("pose")
-// when none is. Other targets (seen whole by their detectors): InvalidInput("pose") when any
+// only when, in every band, its centre and 32 points round the circle of FrameRadiusMm image inside
+// the frame, and the chief rays of its centre and of 32 points round the circle of SeenRadiusMm
+// meet that target first (Surfaces: no plate nearer the camera hides its dot or ring); the others
+// are listed in *left_out; InvalidInput("pose") when none is. Other targets (seen whole by their detectors): InvalidInput("pose") when any
 // point images outside the frame.
 std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& setup, LeftOut* left_out = nullptr);
 
