@@ -171,8 +171,8 @@ TEST(CodedRender, NoisyDefocusedRendersCentreWithin005Px) {
       s.f_number = s.housed.lens.focal_length_mm * c_px * std::abs(1 / d - 1 / sharp) / (2 * blur_radius_px);
       RenderOptions ro;
       ro.samples_per_pixel = 36;
-      // Edges (and the blur) get 400 samples, so the render's own sampling error (up to 0.03 px at
-      // 36 samples with the pupil sampled too) does not count against the detector.
+      // Edges (and the blur) get 400 samples, so the render's own sampling of the pixel and the
+      // pupil does not count against the detector.
       ro.edge_samples_per_pixel = 400;
       ro.seed = seed;
       ro.full_well_e = 1e5;
@@ -204,8 +204,8 @@ std::vector<BiasRow> BiasOverTilts(Scene s, double dot_px) {
     s.pose.translation_mm -= s.pose.Apply(pts[1]) - s.pose.Apply(TargetCentre(s.target));  // the dot, not the sheet, at the centre
     RenderOptions ro;
     ro.samples_per_pixel = 36;
-    // Edges get 400 samples: at 36 the render's own sampling error of the dot's centre is 0.002-0.006 px,
-    // as large as the 1 % to be measured; at 400 it is under 0.001 px (docs/targets.md).
+    // Edges get 400 samples: at 36 the render's own sampling error of the dot's centre was as large
+    // as the 1 % to be measured; at 400 the differences are at most 0.001 px (docs/targets.md).
     ro.edge_samples_per_pixel = 400;
     const Rendered r = Render(s, ro);
     coded::CodedDetectOptions o;
