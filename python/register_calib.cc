@@ -187,7 +187,7 @@ void RegisterCalib(py::module_& m) {
             py::gil_scoped_release release;
             run = calib::DetectAll(paths, t, report, o);
           }
-          return JsonToPython(calib::DetectionSetToJson(run.detections, run.skipped, t));
+          return JsonToPython(calib::DetectionRunToJson(run, t));
         });
       },
       py::arg("images"), py::arg("target"), py::kw_only(), py::arg("threads") = 0, py::arg("progress") = false,

@@ -48,14 +48,15 @@ void RegisterDetect(CLI::App& app) {
     constexpr auto kReplace = nlohmann::json::error_handler_t::replace;
     if (!o->out_dir.empty()) {
       std::vector<std::pair<std::filesystem::path, std::string>> files;
-      for (const auto& d : run.detections) {
+      for (std::size_t k = 0; k < run.detections.size(); ++k) {
+        const auto& d = run.detections[k];
         files.emplace_back(std::filesystem::path(o->out_dir) / (std::filesystem::path(d.image).stem().string() + ".json"),
-                           calib::DetectionsToJson(d, target).dump(1, ' ', false, kReplace) + "\n");
+                           calib::DetectionRunImageJson(run, k, target).dump(1, ' ', false, kReplace) + "\n");
       }
       for (const auto& [file, text] : files) WriteFileAtomically(file, text, "--out-dir");
     }
     if (o->json) {
-      return fmt::print("{}\n", calib::DetectionSetToJson(run.detections, run.skipped, target).dump(1, ' ', false, kReplace));
+      return fmt::print("{}\n", calib::DetectionRunToJson(run, target).dump(1, ' ', false, kReplace));
     }
     // Coded targets: ids are target IDs 1…N (id 0 is no point); a field's uncoded dots are
     // counted apart (matched / in view).
@@ -67,8 +68,19 @@ void RegisterDetect(CLI::App& app) {
                                    o->field.empty() ? "" : ", field " + o->field, n_targets,
                                    coded ? "targets" : "points", "image", "points", dots ? "uncoded  " : "", "status");
     coded::UncodedCounts sum;
+    calib::CodedCounts coded_sum;
     for (std::size_t k = 0; k < run.detections.size(); ++k) {
       const auto& d = run.detections[k];
+      if (run.coded[k]) {
+        const coded::DetectionCounts& c = run.coded[k]->detector;
+        coded::DetectionCounts& t = coded_sum.detector;
+        t.partial += c.partial;
+        t.no_ring += c.no_ring;
+        t.unclear += c.unclear;
+        t.impossible += c.impossible;
+        t.duplicate += c.duplicate;
+        coded_sum.not_in_target += run.coded[k]->not_in_target;
+      }
       std::string col;
       if (dots) {
         const coded::UncodedCounts c = run.uncoded[k].value_or(coded::UncodedCounts{});
@@ -84,6 +96,13 @@ void RegisterDetect(CLI::App& app) {
     }
     for (const auto& s : run.skipped) text += fmt::format("{:<28} {:>7}  {}{}\n", s.image, "-", dots ? "         " : "", s.reason);
     text += fmt::format("{} of {} images hold the target\n", run.detections.size(), paths.size());
+    if (coded) {  // what the coded detector skipped in those images, never given an ID
+      const coded::DetectionCounts& c = coded_sum.detector;
+      text += fmt::format("coded candidates skipped: {} cut by the frame, {} without a ring (plain dots, look-alikes), {} "
+                          "unclear, {} impossible codes, {} duplicate IDs; {} decoded IDs not in the {}\n",
+                          c.partial, c.no_ring, c.unclear, c.impossible, c.duplicate, coded_sum.not_in_target,
+                          o->field.empty() ? "sheet" : "field");
+    }
     if (dots) {
       text += fmt::format("uncoded dots: {} matched of {} in view; {} not found, {} ambiguous, {} of the wrong size or "
                           "polarity, {} off their neighbours' pattern\n",

@@ -237,12 +237,18 @@ class Detections:
     ids: np.ndarray        #: target point id of each point (int)
     points_px: np.ndarray  #: (N, 2) pixels (u, v)
     target: str = ""       #: the target spec, e.g. "chessboard:9x6:25"
+    #: coded targets: the detector's counts (candidates, decoded, and why the rest were skipped:
+    #: partial, no_ring, unclear, impossible, duplicate, not_elliptic, refine_failed; not_in_target)
+    coded_counts: Optional[Dict[str, int]] = None
+    #: a field with uncoded dots: coded, in_view, matched, not_found, ambiguous, rejected, inconsistent
+    uncoded_counts: Optional[Dict[str, int]] = None
 
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "Detections":
         pts = np.array(d.get("points_px") or [], dtype=float).reshape(-1, 2)
         return cls(image=d["image"], width_px=int(d["width_px"]), height_px=int(d["height_px"]),
-                   ids=np.array(d.get("ids") or [], dtype=np.int64), points_px=pts, target=d.get("target", ""))
+                   ids=np.array(d.get("ids") or [], dtype=np.int64), points_px=pts, target=d.get("target", ""),
+                   coded_counts=d.get("coded_counts"), uncoded_counts=d.get("uncoded_counts"))
 
     def to_dict(self) -> Dict[str, Any]:
         """As `porthole detect` writes one image's file."""
@@ -251,6 +257,10 @@ class Detections:
             out["target"] = self.target
         out.update({"width_px": self.width_px, "height_px": self.height_px, "ids": [int(i) for i in self.ids],
                     "points_px": [[float(u), float(v)] for u, v in self.points_px]})
+        if self.coded_counts is not None:
+            out["coded_counts"] = dict(self.coded_counts)
+        if self.uncoded_counts is not None:
+            out["uncoded_counts"] = dict(self.uncoded_counts)
         return out
 
 

@@ -84,7 +84,7 @@ bool FindChessboard(const cv::Mat& gray, const TargetSpec& t, int factor, std::v
 }
 
 bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
-                std::vector<cv::Point2f>* pts, int factor, coded::UncodedCounts* uncoded) {
+                std::vector<cv::Point2f>* pts, int factor, coded::UncodedCounts* uncoded, CodedCounts* counts) {
   const cv::Size size(t.cols, t.rows);
   bool found = false;
   switch (t.kind) {
@@ -106,8 +106,12 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
       o.profile = coded::ParseProfile(t.code_profile, "--target");
       o.uncoded_dots = HasUncodedDots(t);
       const coded::CodedDetection d = coded::DetectCodedTargets(gray, o);
+      if (counts) *counts = {d.counts, 0};
       for (const auto& c : d.targets) {
-        if (!t.HasPoint(c.id)) continue;  // not on the sheet or in the field
+        if (!t.HasPoint(c.id)) {  // not on the sheet or in the field
+          if (counts) ++counts->not_in_target;
+          continue;
+        }
         ids->push_back(c.id);
         pts->emplace_back(static_cast<float>(c.centre_px.x()), static_cast<float>(c.centre_px.y()));
       }
@@ -268,13 +272,13 @@ std::optional<std::pair<long, long>> ReadImageSize(const std::string& path) {
 
 bool DetectInImage(const cv::Mat& gray, const TargetSpec& target, std::vector<int>* ids,
                    std::vector<cv::Point2f>* points, const DetectOptions& options, bool reduce,
-                   coded::UncodedCounts* uncoded) {
+                   coded::UncodedCounts* uncoded, CodedCounts* coded) {
   const int long_side = std::max(gray.cols, gray.rows);
   int factor = 1;
   if (reduce && target.kind == TargetKind::kChessboard && long_side > options.reduce_above_px) {
     factor = std::max(2, static_cast<int>(std::lround(double(long_side) / options.reduced_long_side_px)));
   }
-  return FindPoints(gray, target, ids, points, factor, uncoded);
+  return FindPoints(gray, target, ids, points, factor, uncoded, coded);
 }
 
 DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
@@ -305,8 +309,10 @@ DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
       return r;
     }
     coded::UncodedCounts uncoded;
-    const bool found = DetectInImage(gray, target, &ids, &pts, options, true, &uncoded);
+    CodedCounts coded;
+    const bool found = DetectInImage(gray, target, &ids, &pts, options, true, &uncoded, &coded);
     if (HasUncodedDots(target)) r.uncoded = uncoded;
+    if (target.kind == TargetKind::kCoded) r.coded = coded;
     if (!found) {
       r.reason = "no target found";
       return r;
@@ -384,11 +390,37 @@ DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& 
     if (results[i].detections) {
       run.detections.push_back(std::move(*results[i].detections));
       run.uncoded.push_back(results[i].uncoded);
+      run.coded.push_back(results[i].coded);
     } else {
       run.skipped.push_back({fs::path(paths[i]).filename().string(), results[i].reason});
     }
   }
   return run;
+}
+
+nlohmann::ordered_json DetectionRunImageJson(const DetectionRun& run, std::size_t k, const TargetSpec& target) {
+  nlohmann::ordered_json j = DetectionsToJson(run.detections.at(k), target);
+  if (k < run.coded.size() && run.coded[k]) {
+    const CodedCounts& c = *run.coded[k];
+    const coded::DetectionCounts& d = c.detector;
+    j["coded_counts"] = {{"candidates", d.candidates}, {"decoded", d.decoded},       {"partial", d.partial},
+                         {"no_ring", d.no_ring},       {"unclear", d.unclear},       {"impossible", d.impossible},
+                         {"duplicate", d.duplicate},   {"not_elliptic", d.not_elliptic},
+                         {"refine_failed", d.refine_failed}, {"not_in_target", c.not_in_target}};
+  }
+  if (k < run.uncoded.size() && run.uncoded[k]) {
+    const coded::UncodedCounts& u = *run.uncoded[k];
+    j["uncoded_counts"] = {{"coded", u.coded},         {"in_view", u.in_view},     {"matched", u.matched},
+                           {"not_found", u.not_found}, {"ambiguous", u.ambiguous}, {"rejected", u.rejected},
+                           {"inconsistent", u.inconsistent}};
+  }
+  return j;
+}
+
+nlohmann::ordered_json DetectionRunToJson(const DetectionRun& run, const TargetSpec& target) {
+  nlohmann::ordered_json j = DetectionSetToJson({}, run.skipped, target);
+  for (std::size_t k = 0; k < run.detections.size(); ++k) j["images"].push_back(DetectionRunImageJson(run, k, target));
+  return j;
 }
 
 void ToOpenCVCorrespondences(const std::vector<ImageDetections>& detections,

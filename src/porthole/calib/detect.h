@@ -46,10 +46,19 @@ cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const st
 // it; nullopt when the format is not one of these or the header is damaged.
 std::optional<std::pair<long, long>> ReadImageSize(const std::string& path);
 
+// Coded targets in one image: the detector's tally of its candidates (what it decoded and why it
+// skipped the rest: partial, no ring, unclear, impossible codes, duplicate IDs; blobs that are no
+// dot), and the decoded IDs that the sheet or field does not have (dropped).
+struct CodedCounts {
+  coded::DetectionCounts detector;
+  int not_in_target = 0;
+};
+
 struct DetectResult {
   std::optional<ImageDetections> detections;  // set when the target was found
   std::string reason;                          // why not: "unreadable", "no target found"
   std::optional<coded::UncodedCounts> uncoded; // a field with uncoded dots: how they were matched
+  std::optional<CodedCounts> coded;            // coded targets: set whenever the image was searched
 };
 
 // Whether the target is coded and its field holds uncoded dots (IDs no code of its profile).
@@ -60,10 +69,11 @@ DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
                           const std::string& label = "", const DetectOptions& options = {});
 
 // Detection on an image already in memory (8-bit grey); `reduce` false forces full resolution.
-// `uncoded` (may be null) gets the matching counts of a field's uncoded dots (HasUncodedDots).
+// `uncoded` (may be null) gets the matching counts of a field's uncoded dots (HasUncodedDots),
+// `coded` (may be null) the coded detector's counts (coded targets).
 bool DetectInImage(const cv::Mat& gray, const TargetSpec& target, std::vector<int>* ids,
                    std::vector<cv::Point2f>* points, const DetectOptions& options = {}, bool reduce = true,
-                   coded::UncodedCounts* uncoded = nullptr);
+                   coded::UncodedCounts* uncoded = nullptr, CodedCounts* coded = nullptr);
 
 // Refines ChArUco corners (px) in place, from wherever a detector left them (within a quarter of a
 // square): cv::cornerSubPix on a smoothed patch as for the chessboard, with a window that sees only
@@ -81,8 +91,17 @@ std::vector<std::string> ListImages(const std::string& dir, const std::string& f
 struct DetectionRun {
   std::vector<ImageDetections> detections;
   std::vector<std::optional<coded::UncodedCounts>> uncoded;  // per detections entry (DetectResult::uncoded)
+  std::vector<std::optional<CodedCounts>> coded;             // per detections entry (DetectResult::coded)
   std::vector<SkippedImage> skipped;
 };
+
+// The run as `porthole detect --json` prints it: DetectionSetToJson, each image with
+// `coded_counts` (coded targets: candidates, decoded, partial, no_ring, unclear, impossible,
+// duplicate, not_elliptic, refine_failed, not_in_target) and `uncoded_counts` (a field with
+// uncoded dots: coded, in_view, matched, not_found, ambiguous, rejected, inconsistent) where known.
+nlohmann::ordered_json DetectionRunToJson(const DetectionRun& run, const TargetSpec& target);
+// One image's entry of it (run.detections[k]), as `detect --out-dir` writes it.
+nlohmann::ordered_json DetectionRunImageJson(const DetectionRun& run, std::size_t k, const TargetSpec& target);
 
 // Detects the target in every image, options.threads images at a time; `progress` (may be empty)
 // gets one line per image as each finishes (called from one thread at a time). Results keep the
