@@ -447,7 +447,12 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
     }
   }
   const Surfaces surfaces = MakeSurfaces(scene.target, scene.style);
+  // One plane (every target but a coded field with raised targets): the ray meets the board, whose
+  // reflectance is read directly — the path every other target takes, without FirstHit's levels.
+  const bool flat = surfaces.z_mm.size() == 1 && surfaces.z_mm[0] == 0;
+  const Reflectance reflect = flat ? MakeReflectance(scene.target, scene.style) : Reflectance{};
   const Plane plane = TargetPlane(s, scene.pose);
+  const Vec3 plane_n = plane.normal();
   const int W = s.camera.sensor.width_px, H = s.camera.sensor.height_px;
   const int channels = o.color == ColorMode::kRgb ? 3 : 1;
   const std::size_t n_pixels = static_cast<std::size_t>(W) * H;
@@ -536,10 +541,20 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
             ++blocked_here;
           } else {
             const Vec3 o3(out.ox[i], out.oy[i], out.oz[i]), d3(out.dx[i], out.dy[i], out.dz[i]);
-            double t = 0;
-            Vec2 hit;
-            FirstHit(surfaces, board_from_housing * (o3 - plane.origin_in_housing), board_from_housing * d3,
-                     scene.style.background, &value, &t, &hit);
+            if (flat) {
+              const double t = (plane.origin_in_housing - o3).dot(plane_n) / d3.dot(plane_n);
+              if (!(t > 0) || !std::isfinite(t)) {
+                value = scene.style.background;
+              } else {
+                const Vec3 local = board_from_housing * (o3 + t * d3 - plane.origin_in_housing);
+                value = reflect(local.x(), local.y());
+              }
+            } else {
+              double t = 0;
+              Vec2 hit;
+              FirstHit(surfaces, board_from_housing * (o3 - plane.origin_in_housing), board_from_housing * d3,
+                       scene.style.background, &value, &t, &hit);
+            }
           }
           sum += value;
           low = std::min(low, value);
