@@ -101,11 +101,17 @@ Results Gather(const ReportInputs& in, Steps& steps) {
     if (rec && (rec->camera.sensor.width_px != cam.width_px ||
                 rec->camera.sensor.height_px != cam.height_px ||
                 std::abs(rec->camera.sensor.pixel_pitch_mm - cam.pixel_pitch_mm) > 1e-9)) {
+      // A calibration run without the pixel pitch is in pixels (pitch 1 "mm"): say how to fix it.
+      const bool in_pixels = rec->camera.sensor.width_px == cam.width_px &&
+                             rec->camera.sensor.height_px == cam.height_px && rec->camera.sensor.pixel_pitch_mm == 1;
       throw InvalidInput(rec == &*in.air_calibration ? "--air-calibration" : "--water-calibration",
-                         fmt::format("its sensor ({}x{} px, {:g} mm) is not the camera's ({}x{} px, {:g} mm)",
+                         fmt::format("its sensor ({}x{} px, {:g} mm) is not the camera's ({}x{} px, {:g} mm){}",
                                      rec->camera.sensor.width_px, rec->camera.sensor.height_px,
                                      rec->camera.sensor.pixel_pitch_mm,
-                                     cam.width_px, cam.height_px, cam.pixel_pitch_mm));
+                                     cam.width_px, cam.height_px, cam.pixel_pitch_mm,
+                                     in_pixels ? fmt::format(": it was calibrated in pixels; run calibrate with "
+                                                             "--pixel-pitch-mm {:g}", cam.pixel_pitch_mm)
+                                               : std::string()));
     }
   }
 
