@@ -14,7 +14,7 @@ import tomllib
 
 import pytest
 
-from conftest import run
+from conftest import run, run_bad
 
 sys.path.insert(0, os.path.dirname(__file__))
 import chromium_check  # noqa: E402
@@ -115,3 +115,11 @@ def test_report_compares_the_coded_calibrations_in_chromium(chain, tmp_path):
     assert result["problems"] == []
     figures = {f["id"]: f for f in result["views"][0]["figures"]}
     assert figures["compare-curves"]["loaded"] and figures["compare-maps"]["loaded"]
+
+
+def test_report_says_how_to_fix_a_calibration_in_pixels(chain, tmp_path):
+    # Calibrated without --pixel-pitch-mm: the result is in pixels; the report says what to pass.
+    run("calibrate", "--images", chain / "set" / "air", "--target", TARGET, "--out", tmp_path / "px.json", "--quiet")
+    line = run_bad("report", "--out", tmp_path / "r", "--air-calibration", tmp_path / "px.json", *PITCH)
+    assert "calibrated in pixels; run calibrate with --pixel-pitch-mm 0.0145" in line
+    assert not (tmp_path / "r").exists()
