@@ -210,7 +210,7 @@ std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOpt
 void RegisterCalibrate(CLI::App& app) {
   struct Options {
     std::string images, detections, target, field, model = "brown", free = "default", loss = "none", out,
-                                                            yaml;
+                                                            yaml, field_out;
     double pitch_mm = 1.0;
     calib::CalibrationOptions calib;
     bool json = false, quiet = false;
@@ -267,6 +267,9 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_option("--significance-t", o->calib.significance_t, "Significance threshold |p|/std")
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Write the calibration JSON to this file");
+  cmd->add_option("--field-out", o->field_out,
+                  "Coded targets with --free-target: write the adjusted target field to this file ('id x_mm y_mm "
+                  "z_mm' lines, the sigma in comments), for --field of the next calibration or render");
   cmd->add_option("--opencv-yaml", o->yaml,
                   "Write an OpenCV YAML: exact for --model opencv; a Brown calibration refit to k1 k2 p1 p2 k3 "
                   "(RMS reported)");
@@ -328,6 +331,10 @@ void RegisterCalibrate(CLI::App& app) {
     if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
     if (!o->out.empty()) CheckOutputFile(o->out, "--out");
     if (!o->yaml.empty()) CheckOutputFile(o->yaml, "--opencv-yaml");
+    if (!o->field_out.empty()) {
+      CheckOutputFile(o->field_out, "--field-out");
+      if (!o->calib.target_free) throw InvalidInput("--field-out", "needs --free-target (without it no point is adjusted)");
+    }
     const bool refractive = !o->port.port.empty();
     if (!refractive) {
       const std::pair<const char*, bool> given[] = {
@@ -430,9 +437,16 @@ void RegisterCalibrate(CLI::App& app) {
       yaml_note = fmt::format("OpenCV YAML {}: refit RMS {:.4f} px, max {:.4f} px\n", o->yaml,
                               fit.rms_px, fit.max_px);
     }
+    std::string field_note;
+    if (!o->field_out.empty()) {
+      const std::string field_text = calib::AdjustedFieldText(r, target);  // throws before anything is written
+      WriteFileAtomically(o->field_out, field_text, "--field-out");
+      j["field_out"] = o->field_out;
+      field_note = fmt::format("adjusted target field written to {}\n", o->field_out);
+    }
     if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
     if (o->json) return fmt::print("{}\n", j.dump(2));
-    std::string text = CalibrationTable(r, o->calib, target) + yaml_note;
+    std::string text = CalibrationTable(r, o->calib, target) + yaml_note + field_note;
     for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
     fmt::print("{}", text);
   });

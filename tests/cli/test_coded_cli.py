@@ -264,3 +264,61 @@ def test_field_errors_are_one_line(tmp_path):
                    "--out", tmp_path / "o.json", "--quiet")
     assert line.startswith("porthole: error: --images:") and "6 points" in line, line
     assert not (tmp_path / "o.json").exists()
+
+
+def read_field_out(path):
+    """{id: ((x, y, z), comment)} of a field file `calibrate --field-out` wrote."""
+    out = {}
+    for line in path.read_text().splitlines():
+        data, _, comment = line.partition("#")
+        if data.strip():
+            i, x, y, z = data.split()
+            out[int(i)] = ((float(x), float(y), float(z)), comment.strip())
+    return out
+
+
+def test_field_out_writes_the_self_calibrated_field(tmp_path):
+    # Heights given 3 mm wrong, and one target (ID 300) that no image sees: --free-target
+    # --field-out writes the field back with the measured heights (within 3 sigma of the truth, the
+    # sigma in each line's comment), the unseen target as given; the file is a field file again: a
+    # calibration with it fixed gives the free-target run's camera.
+    field = raised_field()
+    synthetic_field_detections(tmp_path / "d.json", field)
+    wrong = {i: (x, y, z - 3.0 if z else z) for i, (x, y, z) in field.items()}
+    wrong[300] = (500.0, 500.0, -10.0)
+    write_field(tmp_path / "wrong.txt", wrong)
+    out = tmp_path / "measured.txt"
+    common = ["--detections", tmp_path / "d.json", "--centre-correction", "off", "--free", "c,x0,y0,K1,K2"]
+    res = run("calibrate", *common, "--field", tmp_path / "wrong.txt", "--free-target", "--field-out", out, "--json",
+              "--quiet")
+    j = res.json()
+    assert j["field_out"] == str(out)
+    text = out.read_text()
+    assert text.startswith("# porthole target field, self-calibrated") and str(tmp_path / "wrong.txt") in text
+    measured = read_field_out(out)
+    assert sorted(measured) == sorted(wrong)
+    assert measured[300] == ((500.0, 500.0, -10.0), "not observed: as given")
+    adjusted = {p["id"]: p for p in j["target_adjusted"]["points"]}
+    worst = 0.0
+    for i, (xyz, comment) in measured.items():
+        if i == 300:
+            continue
+        assert xyz == pytest.approx(adjusted[i]["xyz_mm"], abs=1e-6)  # the JSON's adjusted points, to 1e-6 mm
+        sigma = [float(s) for s in comment.split()[1:4]]
+        assert comment.startswith("sigma") and sigma == pytest.approx(adjusted[i]["sigma_mm"], abs=1e-6)
+        if field[i][2] != 0:
+            worst = max(worst, abs(xyz[2] - field[i][2]) / sigma[2])
+    print(f"field-out: 16 raised heights within {worst:.2f} sigma of the truth (given 3 mm wrong)")
+    assert worst < 3
+    fixed = [i for i, (_, c) in measured.items() if "(datum)" in c]
+    assert sorted(fixed) == sorted(j["target_adjusted"]["datum"]["fixed"])
+    # The written field, fixed: the same camera as the free-target run, within its sigma.
+    k = run("calibrate", *common, "--field", out, "--json", "--quiet").json()
+    for key in ("c_mm", "x0_mm", "y0_mm"):
+        assert abs(k["camera"][key] - j["camera"][key]) < j["sigma"][key], key
+    # Bad input: one line, nothing written.
+    assert "--free-target" in run_bad("calibrate", *common, "--field", tmp_path / "wrong.txt", "--field-out",
+                                      tmp_path / "x.txt", "--out", tmp_path / "x.json")
+    assert "--free-target" in run_bad("calibrate", *common, "--field", tmp_path / "wrong.txt", "--port",
+                                      "flat-acrylic-10mm", "--free-target", "--field-out", tmp_path / "x.txt")
+    assert not (tmp_path / "x.txt").exists() and not (tmp_path / "x.json").exists()

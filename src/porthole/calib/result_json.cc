@@ -74,6 +74,43 @@ Json AdjustedTargetJson(const CalibrationResult& r, const TargetSpec& target) {
           {"points", points}};
 }
 
+std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& target) {
+  if (target.kind != TargetKind::kCoded) {
+    throw InvalidInput("--field-out", "a target-field file is for coded targets (--target coded:...)");
+  }
+  if (r.datum.a < 0) throw InvalidInput("--field-out", "needs --free-target (without it no point is adjusted)");
+  const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
+  int n_adjusted = 0, n_given = 0;
+  std::string body;
+  for (std::size_t id = 0; id < nominal.size(); ++id) {
+    if (!target.HasPoint(static_cast<int>(id))) continue;
+    const bool adjusted = id < r.target_sigma_mm.size() && id < r.target_points_mm.size() &&
+                          r.target_sigma_mm[id].allFinite();
+    const Eigen::Vector3d& p = adjusted ? r.target_points_mm[id] : nominal[id];
+    body += fmt::format("{} {:.6f} {:.6f} {:.6f}", id, p.x(), p.y(), p.z());
+    if (adjusted) {
+      const Eigen::Vector3d& s = r.target_sigma_mm[id];
+      const char* datum = static_cast<int>(id) == r.datum.a || static_cast<int>(id) == r.datum.b ? " (datum)"
+                          : static_cast<int>(id) == r.datum.c ? " (datum: one coordinate)" : "";
+      body += fmt::format("  # sigma {:.6f} {:.6f} {:.6f}{}\n", s.x(), s.y(), s.z(), datum);
+      ++n_adjusted;
+    } else {
+      body += "  # not observed: as given\n";
+      ++n_given;
+    }
+  }
+  const char* axis = "xyz";
+  return fmt::format(
+             "# porthole target field, self-calibrated (porthole calibrate --free-target): {}\n"
+             "# from {}; {} images, sigma0 {:.4f} px\n"
+             "# datum (held at the given values): ids {} and {} whole, the {} of id {}\n"
+             "# {} points adjusted (sigma in mm after each), {} not observed (as given)\n"
+             "# id x_mm y_mm z_mm\n",
+             target.ToString(), target.field_file.empty() ? std::string("the default sheet") : target.field_file,
+             r.n_images, r.sigma0_px, r.datum.a, r.datum.b, axis[r.datum.axis], r.datum.c, n_adjusted, n_given) +
+         body;
+}
+
 Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                        const CalibrationOptions& options) {
   const camera::ModelInfo& m = r.camera.info();

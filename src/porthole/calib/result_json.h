@@ -52,6 +52,12 @@ nlohmann::ordered_json CovarianceJson(const camera::ModelInfo& m, const FreeMask
 // The `field` and `target_adjusted` objects above.
 nlohmann::ordered_json FieldJson(const TargetSpec& target);
 nlohmann::ordered_json AdjustedTargetJson(const CalibrationResult& r, const TargetSpec& target);
+// A coded target self-calibrated (--free-target) as a target-field file (`calibrate --field-out`;
+// coded::ParseField reads it): a header naming the target, its source and the datum, then every
+// point of the target in ID order, "id x_mm y_mm z_mm" to 1e-6 mm, the adjusted coordinates of the
+// observed points with their σ in a trailing comment, the others as given (marked). Throws
+// InvalidInput("--field-out") unless the target is coded and the result adjusted it.
+std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& target);
 
 nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                                          const CalibrationOptions& options);
