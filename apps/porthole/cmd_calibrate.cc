@@ -234,7 +234,8 @@ void RegisterCalibrate(CLI::App& app) {
                   "Target spec (required with --images), e.g. chessboard:9x6:25 or coded:14:2.5 (porthole detect --help)");
   cmd->add_option("--field", o->field,
                   "Coded targets: a target-field file (lines 'id x_mm y_mm z_mm', e.g. from porthole target-sheet, or "
-                  "measured; Z != 0 for raised targets) instead of the default sheet");
+                  "measured; Z != 0 for raised targets; 'id x_mm y_mm z_mm nx ny nz' for a dot facing another way "
+                  "than -Z) instead of the default sheet");
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch, mm; without it millimetres are pixels")
       ->capture_default_str();

@@ -322,3 +322,22 @@ def test_field_out_writes_the_self_calibrated_field(tmp_path):
     assert "--free-target" in run_bad("calibrate", *common, "--field", tmp_path / "wrong.txt", "--port",
                                       "flat-acrylic-10mm", "--free-target", "--field-out", tmp_path / "x.txt")
     assert not (tmp_path / "x.txt").exists() and not (tmp_path / "x.json").exists()
+
+
+def test_targets_facing_other_ways(tmp_path):
+    # A field line with seven numbers gives the dot's normal (a cage's wall facing +X): calibrate
+    # records it (the JSON's field.normals) and --field-out writes it back; render, which draws
+    # targets parallel to the board only, refuses the field in one line.
+    field = raised_field()
+    synthetic_field_detections(tmp_path / "d.json", field)
+    lines = [f"{i} {x} {y} {z}" + (" 1 0 0" if i == 70 else "") for i, (x, y, z) in field.items()]
+    (tmp_path / "n.txt").write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out.txt"
+    j = run("calibrate", "--detections", tmp_path / "d.json", "--field", tmp_path / "n.txt", "--centre-correction", "off",
+            "--free", "c,x0,y0,K1,K2", "--free-target", "--field-out", out, "--json", "--quiet").json()
+    assert j["field"]["normals"] == {"70": [1, 0, 0]}
+    back = {int(ln.split()[0]): ln.split("#")[0].split() for ln in out.read_text().splitlines() if not ln.startswith("#")}
+    assert [float(v) for v in back[70][4:]] == [1, 0, 0] and len(back[1]) == 4
+    line = run_bad("render", "--out", tmp_path / "r.png", "--target", "coded:14:2.5", "--field", tmp_path / "n.txt")
+    assert "--field" in line and "target 70 faces (1, 0, 0)" in line
+    assert not (tmp_path / "r.png").exists()

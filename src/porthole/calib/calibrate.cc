@@ -711,6 +711,7 @@ std::optional<double> StartPoses(const camera::Camera& cam,
 template <typename M>
 CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images,
                                  const std::vector<Eigen::Vector3d>& nominal,
+                                 const std::vector<Eigen::Vector3d>& normals,
                                  const CalibrationOptions& options, const FreeMask& free_start,
                                  CalibrationResult res) {
   constexpr int N = M::kNumParams;
@@ -896,7 +897,8 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
       const auto project = [&](const Eigen::Vector3d& x) { return cam.Project(r * x + t); };
       const Eigen::Vector3d& x = s.points[ob.point];
       const auto projected = project(x);
-      const auto centre = coded::ImagedCircleCentre(project, x, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), dot_r);
+      const auto [u, v] = coded::DotAxes(normals[ob.point]);  // the dot's plane
+      const auto centre = coded::ImagedCircleCentre(project, x, u, v, dot_r);
       const Eigen::Vector2d offset = projected && centre ? Eigen::Vector2d(*centre - *projected) : Eigen::Vector2d::Zero();
       const Eigen::Vector2d uv = Eigen::Vector2d(ob.measured_u_px, ob.measured_v_px) - offset;
       change = std::max(change, std::hypot(uv.x() - ob.u_px, uv.y() - ob.v_px));
@@ -1199,7 +1201,7 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     camera::ValidateCamera(initial, "--initial");
   }
   return camera::VisitModel(options.model, [&](auto m) {
-    return CalibrateModel<decltype(m)>(used_images, nominal, options, free, std::move(res));
+    return CalibrateModel<decltype(m)>(used_images, nominal, TargetNormals(target), options, free, std::move(res));
   });
 }
 

@@ -92,8 +92,8 @@ struct CalibrationOptions {
   bool planar_start = false;
   // Circular targets: the centre of a dot's image is not the image of its centre (coded/
   // ellipse.h). With the correction on, each observation is compared with the centre a perfect
-  // ellipse-centre detector would measure for the dot (radius dot_radius_mm, in a plane parallel
-  // to the target's XY plane) imaged through the current camera — the ellipse fitted to 32 points
+  // ellipse-centre detector would measure for the dot (radius dot_radius_mm, in the dot's plane:
+  // normal to its TargetNormals, −Z unless a field file says otherwise) imaged through the current camera — the ellipse fitted to 32 points
   // of its projected rim, coded::ImagedCircleCentre — not with the projection of its centre.
   // The offset (dot-image centre − projected centre) is held fixed within each Ceres solve and
   // recomputed from the new estimate after it, until it moves by less than 1e-5 px (a fixed point

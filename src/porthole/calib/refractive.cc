@@ -144,8 +144,9 @@ class RefractiveAdjustment {
 
   RefractiveAdjustment(const RefractiveOptions& o, const camera::Sensor& sensor,
                        const refraction::Shell& shell, std::vector<Obs> obs,
-                       std::vector<Eigen::Vector3d> points, int n_images)
+                       std::vector<Eigen::Vector3d> points, std::vector<Eigen::Vector3d> normals, int n_images)
       : o_(o), sensor_(sensor), shell_(shell), obs_(std::move(obs)), points_(std::move(points)),
+        normals_(std::move(normals)),
         scale_(ModelScales<M>(sensor)), rotation_(n_images), translation_(n_images) {
     shell_values = refraction::ShellValues(shell);
   }
@@ -251,8 +252,8 @@ class RefractiveAdjustment {
 
   // Circular targets of radius dot_radius_mm > 0 (CalibrationOptions::centre_correction): sets
   // every observation to its measurement minus the centre offset at the current estimate — the
-  // centre of the ellipse fitted to 32 points of the dot's rim (in a plane parallel to the
-  // target's XY plane) projected through the port and the lens (coded::ImagedCircleCentre), minus
+  // centre of the ellipse fitted to 32 points of the dot's rim (in the dot's plane, normal to its
+  // TargetNormals) projected through the port and the lens (coded::ImagedCircleCentre), minus
   // the projection of the dot's centre; 0 where a rim point cannot be projected. Returns the
   // largest change of an observation (px); max_centre_offset_px gets the largest offset.
   double UpdateCentreOffsets(double dot_radius_mm) {
@@ -262,8 +263,8 @@ class RefractiveAdjustment {
       const Eigen::Vector3d& x = points_[ob.point];
       const auto project = [&](const Eigen::Vector3d& p) { return ProjectPoint(ob.image, p); };
       const auto projected = project(x);
-      const auto centre = coded::ImagedCircleCentre(project, x, Eigen::Vector3d::UnitX(),
-                                                    Eigen::Vector3d::UnitY(), dot_radius_mm);
+      const auto [u, v] = coded::DotAxes(normals_[ob.point]);  // the dot's plane
+      const auto centre = coded::ImagedCircleCentre(project, x, u, v, dot_radius_mm);
       const Eigen::Vector2d offset = projected && centre ? Eigen::Vector2d(*centre - *projected)
                                                          : Eigen::Vector2d::Zero();
       const Eigen::Vector2d uv = Eigen::Vector2d(ob.measured_u_px, ob.measured_v_px) - offset;
@@ -367,6 +368,7 @@ class RefractiveAdjustment {
   refraction::Shell shell_;
   std::vector<Obs> obs_;
   std::vector<Eigen::Vector3d> points_;
+  std::vector<Eigen::Vector3d> normals_;  // of each point's dot (TargetNormals)
   std::array<double, N> scale_;
   std::vector<std::array<double, 3>> rotation_, translation_;
 };
@@ -695,7 +697,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
       obs.push_back({i, d->ids[k], uv.x(), uv.y(), true, uv.x(), uv.y()});
     }
   }
-  RefractiveAdjustment<M> adj(o, sensor, shell, obs, TargetPoints(target), n_images);
+  RefractiveAdjustment<M> adj(o, sensor, shell, obs, TargetPoints(target), TargetNormals(target), n_images);
   const auto set_poses = [&] {
     for (int i = 0; i < n_images; ++i) {
       const auto& im = central.images[i];
@@ -1002,7 +1004,7 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   plan.n_images = static_cast<int>(used.size());
   plan.n_points = static_cast<int>(obs.size());
   if (used.empty()) throw InvalidInput("--images", "no pose sees 4 target points through the port");
-  RefractiveAdjustment<M> adj(o, sensor, shell, obs, points, plan.n_images);
+  RefractiveAdjustment<M> adj(o, sensor, shell, obs, points, TargetNormals(target), plan.n_images);
   for (int i = 0; i < plan.n_images; ++i) {
     const auto& p = *used[i];
     adj.rotation()[i] = {p.rotation_rad.x(), p.rotation_rad.y(), p.rotation_rad.z()};

@@ -12,8 +12,8 @@
 //  - Circular targets (coded): with options.lens.centre_correction (as Calibrate; auto = on for
 //    coded targets) each observation is compared not with the projection of the dot's centre but
 //    with the centre a perfect ellipse-centre detector measures for the dot imaged THROUGH THE
-//    PORT and the lens: the ellipse fitted to 32 points of its rim (dot radius from the spec, in a
-//    plane parallel to the target's XY plane) each projected as above (coded::ImagedCircleCentre).
+//    PORT and the lens: the ellipse fitted to 32 points of its rim (dot radius from the spec, in the
+//    dot's plane, normal to its TargetNormals) each projected as above (coded::ImagedCircleCentre).
 //    The offset (that centre − the projected centre) is held fixed within each Ceres solve and
 //    recomputed after it, until no observation moves by 1e-5 px; the residual's Jets are those of
 //    the point projection (the offset's own derivative is left out). lens.dot_radius_mm and

@@ -55,8 +55,14 @@ Json CameraUnitsJson(camera::CameraModelId model) {
 
 Json FieldJson(const TargetSpec& target) {
   Json points = Json::array();
-  for (const auto& p : target.field) points.push_back({p.id, p.xyz_mm.x(), p.xyz_mm.y(), p.xyz_mm.z()});
-  return {{"file", target.field_file}, {"n_points", target.field.size()}, {"points", points}};
+  Json normals = Json::object();  // the targets facing another way than −Z: {id: [nx, ny, nz]}
+  for (const auto& p : target.field) {
+    points.push_back({p.id, p.xyz_mm.x(), p.xyz_mm.y(), p.xyz_mm.z()});
+    if (!coded::FacesMinusZ(p)) normals[std::to_string(p.id)] = {p.normal.x(), p.normal.y(), p.normal.z()};
+  }
+  Json j = {{"file", target.field_file}, {"n_points", target.field.size()}, {"points", points}};
+  if (!normals.empty()) j["normals"] = normals;
+  return j;
 }
 
 Json AdjustedTargetJson(const CalibrationResult& r, const TargetSpec& target) {
@@ -80,6 +86,7 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
   }
   if (r.datum.a < 0) throw InvalidInput("--field-out", "needs --free-target (without it no point is adjusted)");
   const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
+  const std::vector<Eigen::Vector3d> normal = TargetNormals(target);
   int n_adjusted = 0, n_given = 0;
   std::string body;
   for (std::size_t id = 0; id < nominal.size(); ++id) {
@@ -88,6 +95,9 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
                           r.target_sigma_mm[id].allFinite();
     const Eigen::Vector3d& p = adjusted ? r.target_points_mm[id] : nominal[id];
     body += fmt::format("{} {:.6f} {:.6f} {:.6f}", id, p.x(), p.y(), p.z());
+    if ((normal[id] + Eigen::Vector3d::UnitZ()).norm() >= 1e-12) {  // facing another way: its normal, as read
+      body += fmt::format(" {:.9f} {:.9f} {:.9f}", normal[id].x(), normal[id].y(), normal[id].z());
+    }
     if (adjusted) {
       const Eigen::Vector3d& s = r.target_sigma_mm[id];
       const char* datum = static_cast<int>(id) == r.datum.a || static_cast<int>(id) == r.datum.b ? " (datum)"
@@ -105,7 +115,7 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
              "# from {}; {} images, sigma0 {:.4f} px\n"
              "# datum (held at the given values): ids {} and {} whole, the {} of id {}\n"
              "# {} points adjusted (sigma in mm after each), {} not observed (as given)\n"
-             "# id x_mm y_mm z_mm\n",
+             "# id x_mm y_mm z_mm [nx ny nz: the dot's normal, where not -Z]\n",
              target.ToString(), target.field_file.empty() ? std::string("the default sheet") : target.field_file,
              r.n_images, r.sigma0_px, r.datum.a, r.datum.b, axis[r.datum.axis], r.datum.c, n_adjusted, n_given) +
          body;

@@ -156,6 +156,12 @@ std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& t) {
   return pts;
 }
 
+std::vector<Eigen::Vector3d> TargetNormals(const TargetSpec& t) {
+  std::vector<Eigen::Vector3d> n(t.NumPoints(), -Eigen::Vector3d::UnitZ());
+  for (const auto& p : t.field) n[p.id] = p.normal;  // a sheet's targets all face −Z
+  return n;
+}
+
 std::vector<bool> TargetPointMask(const TargetSpec& t) {
   if (t.kind != TargetKind::kCoded) return std::vector<bool>(t.NumPoints(), true);
   const auto& pts = t.field.empty() ? CodedSheet(t).targets : t.field;

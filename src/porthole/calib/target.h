@@ -39,8 +39,9 @@ struct TargetSpec {
   double dot_radius_mm = 0;  // coded: radius of the central dot, mm
   // coded: the target field, ID → dot centre (X, Y, Z mm in the target frame; coded/sheet.h),
   // e.g. read from a --field file (LoadTargetField); empty: the default sheet's targets. Its
-  // points may leave the Z = 0 plane (a 3-D field: raised targets). Every dot lies in a plane
-  // parallel to the target's XY plane, facing −Z (toward the camera side of the sheet).
+  // points may leave the Z = 0 plane (a 3-D field: raised targets). A dot lies in the plane
+  // through its point normal to PlacedTarget::normal (−Z unless the file gives another: a cage's
+  // walls).
   std::vector<coded::PlacedTarget> field;
   // coded: the file `field` was read from (LoadTargetField), as given; recorded in the results.
   std::string field_file;
@@ -63,6 +64,9 @@ TargetSpec ParseTarget(const std::string& spec, const std::string& field = "--ta
 // Every point of the target in the target frame (mm), indexed by id (coded: ids that are no
 // target, 0 among them, at the origin; HasPoint tells them apart).
 std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& target);
+// The unit normal of each point's dot, indexed as TargetPoints: the side it is printed on, −Z for
+// every point of a sheet or a board; a field's targets as its file gives them (coded/sheet.h).
+std::vector<Eigen::Vector3d> TargetNormals(const TargetSpec& target);
 
 // HasPoint of every id at once (size NumPoints()): true where the id is one of the target's points.
 // HasPoint lays out a coded sheet at every call; loops over points use this.

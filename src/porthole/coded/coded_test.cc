@@ -261,6 +261,29 @@ TEST(Sheet, FieldRoundTripsAndBadFieldsAreRejected) {
   EXPECT_THROW(ParseField("1 2 x 4\n"), InvalidInput);
   EXPECT_THROW(ParseField("# nothing\n"), InvalidInput);
   EXPECT_EQ(ParseField("7, 1.5, 2, -3  # a raised target\n")[0].xyz_mm.z(), -3);
+  // Four numbers: the dot faces −Z; seven: the normal given, normalised.
+  EXPECT_TRUE(FacesMinusZ(ParseField("1 0 0 0\n")[0]));
+  const PlacedTarget wall = ParseField("2 0 10 -50 2 0 0  # a wall facing +X\n")[0];
+  EXPECT_EQ(wall.normal, Eigen::Vector3d::UnitX());
+  EXPECT_FALSE(FacesMinusZ(wall));
+  EXPECT_THROW(ParseField("1 0 0 0 0 0 0\n"), InvalidInput);  // a zero normal
+  EXPECT_THROW(ParseField("1 0 0 0 1 0\n"), InvalidInput);    // six numbers
+}
+
+TEST(Sheet, DotAxesSpanTheDotsPlaneRightHanded) {
+  // (u, v, −n) right-handed and orthonormal for any normal; the sheet's X, Y for −Z.
+  const auto [x, y] = DotAxes(-Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(x, Eigen::Vector3d::UnitX());
+  EXPECT_EQ(y, Eigen::Vector3d::UnitY());
+  for (const Eigen::Vector3d& n : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 1, 0),
+                                   Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0.3, -0.4, 0.5).normalized()}) {
+    const auto [u, v] = DotAxes(n);
+    EXPECT_NEAR(u.norm(), 1, 1e-12);
+    EXPECT_NEAR(v.norm(), 1, 1e-12);
+    EXPECT_NEAR(u.dot(n), 0, 1e-12);
+    EXPECT_NEAR(v.dot(n), 0, 1e-12);
+    EXPECT_NEAR((u.cross(v) + n).norm(), 0, 1e-12) << n.transpose();
+  }
 }
 
 TEST(Raster, InkedAreaEqualsTheClosedForm) {

@@ -1,5 +1,7 @@
 #include "porthole/coded/sheet.h"
 
+#include <Eigen/Geometry>
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -280,6 +282,18 @@ std::string FieldText(const SheetLayout& l) {
   return s;
 }
 
+bool FacesMinusZ(const PlacedTarget& t) { return (t.normal + Eigen::Vector3d::UnitZ()).norm() < 1e-12; }
+
+std::pair<Eigen::Vector3d, Eigen::Vector3d> DotAxes(const Eigen::Vector3d& normal) {
+  const Eigen::Vector3d z = -normal.normalized();  // the dot's own "Z", away from its printed side
+  if ((z - Eigen::Vector3d::UnitZ()).norm() < 1e-12) return {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY()};
+  // u: the sheet's X projected into the plane (or Y when X is along the normal), v = z × u.
+  Eigen::Vector3d u = Eigen::Vector3d::UnitX() - z.x() * z;
+  if (u.norm() < 1e-6) u = Eigen::Vector3d::UnitY() - z.y() * z;
+  u.normalize();
+  return {u, z.cross(u)};
+}
+
 std::vector<PlacedTarget> ParseField(const std::string& text, const std::string& field) {
   std::vector<PlacedTarget> out;
   std::set<int> seen;
@@ -293,9 +307,11 @@ std::vector<PlacedTarget> ParseField(const std::string& text, const std::string&
     for (std::string w; ls >> w;) words.push_back(w);
     if (words.empty()) continue;
     const std::string where = fmt::format("line {}", n);
-    if (words.size() != 4) throw InvalidInput(field, where + ": expected 'id x_mm y_mm z_mm'");
-    double v[4];
-    for (int i = 0; i < 4; ++i) {
+    if (words.size() != 4 && words.size() != 7) {
+      throw InvalidInput(field, where + ": expected 'id x_mm y_mm z_mm' (or with the normal: 'id x_mm y_mm z_mm nx ny nz')");
+    }
+    double v[7];
+    for (std::size_t i = 0; i < words.size(); ++i) {
       std::size_t used = 0;
       try {
         v[i] = std::stod(words[i], &used);
@@ -307,7 +323,13 @@ std::vector<PlacedTarget> ParseField(const std::string& text, const std::string&
     if (v[0] != std::floor(v[0]) || v[0] < 1 || v[0] > 1e6) throw InvalidInput(field, where + ": the ID must be a whole number >= 1");
     const int id = static_cast<int>(v[0]);
     if (!seen.insert(id).second) throw InvalidInput(field, fmt::format("{}: ID {} appears twice", where, id));
-    out.push_back({id, Eigen::Vector3d(v[1], v[2], v[3])});
+    PlacedTarget t{id, Eigen::Vector3d(v[1], v[2], v[3])};
+    if (words.size() == 7) {
+      const Eigen::Vector3d n(v[4], v[5], v[6]);
+      if (!(n.norm() > 1e-9)) throw InvalidInput(field, where + ": the normal (nx ny nz) must not be zero");
+      t.normal = n.normalized();
+    }
+    out.push_back(t);
   }
   if (out.empty()) throw InvalidInput(field, "holds no targets");
   return out;

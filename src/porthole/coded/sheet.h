@@ -30,7 +30,16 @@ struct SheetOptions {
 struct PlacedTarget {
   int id = 0;
   Eigen::Vector3d xyz_mm = Eigen::Vector3d::Zero();  // dot centre in the sheet frame
+  // The unit normal of the dot's plane, pointing to the side it is printed on (where a camera must
+  // be to see it): −Z for the sheet and for a board's targets; a cage's wall targets face inward.
+  Eigen::Vector3d normal = -Eigen::Vector3d::UnitZ();
 };
+
+// Whether a target faces the sheet's viewer side (normal −Z within 1e-12): every target of a sheet.
+bool FacesMinusZ(const PlacedTarget& t);
+// Two unit vectors spanning the dot's plane, right-handed with the normal: (u, v, −normal) is
+// (X, Y, Z) for a target facing −Z, so a dot's ring reads as on the sheet.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> DotAxes(const Eigen::Vector3d& normal);
 
 struct SheetLayout {
   SheetOptions options;
@@ -57,8 +66,10 @@ std::string SheetPdf(const SheetLayout& layout);
 std::string FieldText(const SheetLayout& layout);
 
 // Reads a target field written by FieldText (or by hand: '#' comments, blank lines, whitespace or
-// commas between the four numbers). Throws InvalidInput(field, ...) naming the line at fault
-// (duplicate ID, not four numbers, ID < 1).
+// commas between the numbers): "id x_mm y_mm z_mm", or "id x_mm y_mm z_mm nx ny nz" for a target
+// facing another way than −Z (the direction it faces, normalised here). Throws InvalidInput(field,
+// ...) naming the line at fault (duplicate ID, not four or seven numbers, ID < 1, a normal of
+// length 0).
 std::vector<PlacedTarget> ParseField(const std::string& text, const std::string& field = "--field");
 
 // The ring's filled segments of a code: [start, end) angles in radians, clockwise on the sheet

@@ -246,6 +246,11 @@ std::shared_ptr<const CodedField> MakeCodedField(const TargetSpec& t, const Patt
   f->z_mm = {0.0};
   std::vector<std::vector<CodedDisc>> discs(1);
   for (const auto& p : targets) {
+    if (!coded::FacesMinusZ(p)) {
+      throw InvalidInput("--field", fmt::format("target {} faces ({:g}, {:g}, {:g}): render draws targets facing -Z "
+                                                "(parallel to the board) only", p.id, p.normal.x(), p.normal.y(),
+                                                p.normal.z()));
+    }
     std::size_t k = 0;
     while (k < f->z_mm.size() && std::abs(f->z_mm[k] - p.xyz_mm.z()) > 1e-9) ++k;
     if (k == f->z_mm.size()) {
