@@ -33,7 +33,7 @@ def test_readme_lists_the_commands_it_should():
     cmds = readme_commands()
     assert any(c.startswith("scripts/sample-data") for c in cmds)
     for word in ("report", "virtual-image", "trace", "plan", "flat", "materials", "synth-scan", "fit",
-                 "assemble", "presets", "simulate", "calibrate", "compare", "detect"):
+                 "assemble", "presets", "simulate", "calibrate", "compare", "detect", "render", "target-sheet"):
         assert any(re.match(rf"porthole {word}\b", c) for c in cmds), word
     assert any("import porthole" in c for c in cmds)
 
