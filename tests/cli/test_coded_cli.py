@@ -341,3 +341,17 @@ def test_targets_facing_other_ways(tmp_path):
     line = run_bad("render", "--out", tmp_path / "r.png", "--target", "coded:14:2.5", "--field", tmp_path / "n.txt")
     assert "--field" in line and "target 70 faces (1, 0, 0)" in line
     assert not (tmp_path / "r.png").exists()
+
+
+def test_field_out_keeps_a_line_break_in_the_source_path_out_of_the_data(tmp_path):
+    # The field's path is written into the header comment: a path holding a line break and a data
+    # line must not add a target to the written field.
+    field = raised_field()
+    synthetic_field_detections(tmp_path / "d.json", field)
+    odd = tmp_path / "f\n999 1 2 3"
+    odd.mkdir()
+    write_field(odd / "f.txt", field)
+    out = tmp_path / "out.txt"
+    run("calibrate", "--detections", tmp_path / "d.json", "--field", odd / "f.txt", "--centre-correction", "off",
+        "--free", "c,x0,y0,K1,K2", "--free-target", "--field-out", out, "--quiet")
+    assert sorted(read_field_out(out)) == sorted(field)

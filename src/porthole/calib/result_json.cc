@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 
 #include "porthole/camera/json.h"
 #include "porthole/core/error.h"
@@ -110,13 +112,16 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
     }
   }
   const char* axis = "xyz";
+  // The source path goes into a comment line: a line break in it would start a line of data.
+  std::string source = target.field_file.empty() ? std::string("the default sheet") : target.field_file;
+  std::replace_if(source.begin(), source.end(), [](char ch) { return ch == '\n' || ch == '\r'; }, '?');
   return fmt::format(
              "# porthole target field, self-calibrated (porthole calibrate --free-target): {}\n"
              "# from {}; {} images, sigma0 {:.4f} px\n"
              "# datum (held at the given values): ids {} and {} whole, the {} of id {}\n"
              "# {} points adjusted (sigma in mm after each), {} not observed (as given)\n"
              "# id x_mm y_mm z_mm [nx ny nz: the dot's normal, where not -Z]\n",
-             target.ToString(), target.field_file.empty() ? std::string("the default sheet") : target.field_file,
+             target.ToString(), source,
              r.n_images, r.sigma0_px, r.datum.a, r.datum.b, axis[r.datum.axis], r.datum.c, n_adjusted, n_given) +
          body;
 }
