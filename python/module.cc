@@ -4,11 +4,23 @@
 // dicts) or numpy arrays; the package turns them into typed objects (python/porthole/_results.py).
 #include <pybind11/pybind11.h>
 
+#include "porthole/core/error.h"
+#include "porthole/core/field_names.h"
 #include "register.h"
 
 PYBIND11_MODULE(_porthole, m) {
   m.doc() = "porthole's compiled bindings (use the package `porthole`, which wraps them)";
   m.attr("__version__") = PORTHOLE_VERSION;
+  // Another field a library rule names (`extrapolate`) in Python's words.
+  pybind11::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const porthole::InvalidInput& e) {
+      const porthole::InvalidInput py = porthole::RenameFields(
+          {{"extrapolate", "extrapolate=True"}, {"allow_adapter", "allow_adapter=True"}}, e, /*keep_unknown=*/false);
+      PyErr_SetString(PyExc_ValueError, py.what());
+    }
+  });
   porthole::python::RegisterMaterials(m);
   porthole::python::RegisterPorts(m);
   porthole::python::RegisterCalib(m);

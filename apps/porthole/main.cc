@@ -10,6 +10,7 @@
 
 #include "commands.h"
 #include "porthole/core/error.h"
+#include "porthole/core/field_names.h"
 #include "porthole/core/input.h"
 
 int main(int argc, char** argv) {
@@ -46,7 +47,14 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "porthole: error: {}\n", porthole::OneLineMessage(e.what()));
     return 2;
   } catch (const porthole::InvalidInput& e) {
-    fmt::print(stderr, "porthole: error: {}\n", e.what());  // already one line
+    // Already one line. The last table: the fields every command names alike (the water's
+    // conditions, switches a rule asks for), in the CLI's words.
+    const porthole::InvalidInput cli = porthole::RenameFields(
+        {{"temperature_c", "--temperature"}, {"salinity_psu", "--salinity"}, {"lambda_nm", "--lambda"},
+         {"pressure_dbar", "--pressure"}, {"depth_m", "--depth"}, {"extrapolate", "--extrapolate"},
+         {"allow_adapter", "--allow-adapter"}},
+        e, /*keep_unknown=*/false);
+    fmt::print(stderr, "porthole: error: {}\n", cli.what());
     return 2;
   } catch (const porthole::InternalError& e) {
     fmt::print(stderr, "porthole: internal error (please report): {}\n", porthole::OneLineMessage(e.what()));

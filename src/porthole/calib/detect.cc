@@ -67,6 +67,33 @@ void RefineChessboardCorners(const cv::Mat& gray, const TargetSpec& t, std::vect
   RefineXCorners(gray, half, half >= 8 ? 2.0 : 1.0, 0.25 * min_step, pts);
 }
 
+// Mean grey level of a small disc around `centre` (radius r px, clipped to the image).
+double MeanAround(const cv::Mat& gray, cv::Point2f centre, int r) {
+  const cv::Rect box = cv::Rect(cvRound(centre.x) - r, cvRound(centre.y) - r, 2 * r + 1, 2 * r + 1) &
+                       cv::Rect(0, 0, gray.cols, gray.rows);
+  if (box.empty()) return 0;
+  return cv::mean(gray(box))[0];
+}
+
+// One corner numbering for detect, render, the docs and the truth JSON (docs/calibration.md): id =
+// row · cols + col on the board, and the square just past corner 0 along +X and +Y (between corners
+// 0, 1, cols and cols + 1) is black — the square render draws black (render/pattern.cc). OpenCV's
+// findChessboardCornersSB may start from either end of the board; a board whose cols + rows is odd
+// (9 × 6: 10 × 7 squares) is not symmetric under a half turn, so the colour of that square decides,
+// and a half turn (id k → N − 1 − k) restores the numbering. A board with cols + rows even looks the
+// same both ways: its numbering stays OpenCV's (docs/calibration.md says so).
+void OrientChessboard(const cv::Mat& gray, const TargetSpec& t, std::vector<cv::Point2f>* pts) {
+  if ((t.cols + t.rows) % 2 == 0 || t.cols < 3 || pts->size() != static_cast<std::size_t>(t.cols * t.rows)) return;
+  const auto& p = *pts;
+  const int c = t.cols;
+  // Centres of square (0,0) (black when numbered right) and its neighbour (1,0), each the mean of its four corners.
+  const cv::Point2f first = (p[0] + p[1] + p[c] + p[c + 1]) * 0.25f;
+  const cv::Point2f next = (p[1] + p[2] + p[c + 1] + p[c + 2]) * 0.25f;
+  const double side = std::min(cv::norm(p[1] - p[0]), cv::norm(p[c] - p[0]));
+  const int r = std::clamp(static_cast<int>(side / 6), 0, 10);
+  if (MeanAround(gray, first, r) > MeanAround(gray, next, r)) std::reverse(pts->begin(), pts->end());
+}
+
 // Chessboard search on a reduced copy (`factor` > 1) or the image itself, corners refined on the
 // full image.
 bool FindChessboard(const cv::Mat& gray, const TargetSpec& t, int factor, std::vector<cv::Point2f>* pts) {
@@ -80,6 +107,7 @@ bool FindChessboard(const cv::Mat& gray, const TargetSpec& t, int factor, std::v
   const float f = static_cast<float>(factor);
   for (auto& p : *pts) p = p * f + cv::Point2f(0.5f * (f - 1), 0.5f * (f - 1));
   RefineChessboardCorners(gray, t, pts);
+  OrientChessboard(gray, t, pts);
   return true;
 }
 

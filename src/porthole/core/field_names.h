@@ -16,22 +16,60 @@ struct FieldName {
   std::string_view name;   // what the front end calls it ("--lens")
 };
 
-// Runs f(); an InvalidInput whose field is listed (or begins with a listed field followed by '.')
-// is rethrown with that part renamed and the rule unchanged. Anything else passes through.
+// The rule of an error may name another field the user can set, written between backquotes
+// ("… set `extrapolate` to use it anyway"); a front end's table renames those too ("--extrapolate").
+// A quoted field the table does not list stays quoted for an outer table (keep_unknown), or loses its
+// quotes when this is the last table (the front end's own error handler).
+inline std::string RenameQuotedFields(std::initializer_list<FieldName> names, std::string_view rule,
+                                      bool keep_unknown = false) {
+  std::string out;
+  std::size_t i = 0;
+  while (i < rule.size()) {
+    const std::size_t open = rule.find('`', i);
+    const std::size_t close = open == std::string_view::npos ? open : rule.find('`', open + 1);
+    if (close == std::string_view::npos) break;
+    out.append(rule.substr(i, open - i));
+    const std::string_view quoted = rule.substr(open + 1, close - open - 1);
+    bool found = false;
+    for (const FieldName& n : names) {
+      if (n.field != quoted) continue;
+      out.append(n.name);
+      found = true;
+      break;
+    }
+    if (!found) out.append(keep_unknown ? rule.substr(open, close - open + 1) : quoted);
+    i = close + 1;
+  }
+  out.append(rule.substr(i));
+  return out;
+}
+
+// `e` in a front end's words: its field renamed when the table lists it (or it begins with a listed
+// field followed by '.'), and the fields its rule names (`quoted`) renamed as well.
+inline InvalidInput RenameFields(std::initializer_list<FieldName> names, const InvalidInput& e,
+                                 bool keep_unknown = true) {
+  std::string field = e.field();
+  const std::string rule = std::string(e.what()).substr(field.size() + 2);  // "field: rule"
+  for (const FieldName& n : names) {
+    if (field.rfind(n.field, 0) != 0) continue;
+    const std::string rest = field.substr(n.field.size());
+    if (!rest.empty() && rest[0] != '.') continue;
+    field = std::string(n.name) + rest;
+    break;
+  }
+  return InvalidInput(field, RenameQuotedFields(names, rule, keep_unknown));
+}
+
+// Runs f(); an InvalidInput is rethrown in the table's words (RenameFields; fields the table does
+// not list stay as they are, for the front end's last table). Anything else passes through.
 template <typename F>
 auto WithFieldNames(std::initializer_list<FieldName> names, F&& f) -> decltype(f()) {
   try {
     return f();
   } catch (const InvalidInput& e) {
-    const std::string& field = e.field();
-    for (const FieldName& n : names) {
-      if (field.rfind(n.field, 0) != 0) continue;
-      const std::string rest = field.substr(n.field.size());
-      if (!rest.empty() && rest[0] != '.') continue;
-      const std::string rule = std::string(e.what()).substr(field.size() + 2);  // "field: rule"
-      throw InvalidInput(std::string(n.name) + rest, rule);
-    }
-    throw;
+    InvalidInput renamed = RenameFields(names, e);
+    if (std::string_view(renamed.what()) == e.what()) throw;
+    throw renamed;
   }
 }
 

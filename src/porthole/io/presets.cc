@@ -10,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "porthole/core/error.h"
+#include "porthole/core/nearest.h"
 #include "porthole/core/input.h"
 #include "porthole/materials/materials.h"
 
@@ -59,8 +60,19 @@ class Reader {
   }
   double Double(const std::string& key) {
     const auto v = OptDouble(key);
-    if (!v) Fail(key, "is required");
+    if (!v) Missing(key);
     return *v;
+  }
+  // A required key is absent: when a key not yet read is a typo of it ("radus_mm"), that key is the
+  // error, at its own line; else the table's line says what is required.
+  [[noreturn]] void Missing(const std::string& key, const std::string& rule = "is required") const {
+    for (const auto& [k, v] : t_) {
+      const std::string name(k.str());
+      if (!seen_.count(name) && EditDistance(name, key) <= TypoDistance(key)) {
+        Fail(name, "unknown key (did you mean " + prefix_ + key + "?)", &v);
+      }
+    }
+    Fail(key, rule);
   }
   // A whole number in [1, 1e6] (pixel counts): no silent truncation, no overflowing cast.
   int PositiveInt(const std::string& key) {
@@ -90,17 +102,24 @@ class Reader {
   }
   Vec3 Vector3(const std::string& key) {
     const auto v = OptVec3(key);
-    if (!v) Fail(key, "is required");
+    if (!v) Missing(key);
     return *v;
   }
   Reader Table(const std::string& key) {
     const toml::node* n = Node(key);
-    if (!n || !n->is_table()) Fail(key, "is required: a table [" + prefix_ + key + "]", n);
+    if (!n) Missing(key, "is required: a table [" + prefix_ + key + "]");
+    if (!n->is_table()) Fail(key, "is required: a table [" + prefix_ + key + "]", n);
     return Reader(*n->as_table(), origin_, prefix_ + key + ".");
   }
+  // Every key of the table must have been read: the first that was not is named at its line, with
+  // the nearest key this table knows when it looks like a typo of it.
   void RejectUnknown() const {
+    const std::vector<std::string> known(seen_.begin(), seen_.end());
     for (const auto& [k, v] : t_) {
-      if (!seen_.count(std::string(k.str()))) Fail(std::string(k.str()), "unknown key", &v);
+      const std::string name(k.str());
+      if (seen_.count(name)) continue;
+      const auto near = NearestNames(name, known, 1, TypoDistance(name));
+      Fail(name, near.empty() ? "unknown key" : "unknown key (did you mean " + prefix_ + near[0] + "?)", &v);
     }
   }
 
@@ -253,6 +272,8 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
     f.inner_point_mm = r.Vector3("inner_point_mm");
     if (const auto n = r.OptVec3("normal")) f.normal = *n;
     p.shape = f;
+  } else if (!type) {
+    r.Missing("type", "is required: \"dome\" or \"flat\"");
   } else {
     r.Fail("type", "must be \"dome\" or \"flat\"");
   }
@@ -353,7 +374,8 @@ lens::LensSpec ReadLens(Reader& r, const std::string& default_name, bool fixed) 
   }
   if (const toml::node* n = r.Node("projection_estimated")) l.projection_estimated = n->value_or(false);
   const toml::node* pupil = r.Node("pupil");
-  if (!pupil || !pupil->is_array()) r.Fail("pupil", "is required: an array of {focus_mm, d_ep2f_mm}");
+  if (!pupil) r.Missing("pupil", "is required: an array of {focus_mm, d_ep2f_mm}");
+  if (!pupil->is_array()) r.Fail("pupil", "is required: an array of {focus_mm, d_ep2f_mm}", pupil);
   for (const toml::node& e : *pupil->as_array()) {
     const toml::table* et = e.as_table();
     if (!et) r.Fail("pupil", "entries must be tables {focus_mm = ..., d_ep2f_mm = ...}", &e);

@@ -78,6 +78,25 @@ TEST(PortToml, ErrorsNameFileLineAndKey) {
             std::string::npos);
 }
 
+// Issue 23: a typo of a required key is named at its own line with the key it resembles, not
+// reported as the required key missing at the table's line.
+TEST(PortToml, ATypoIsNamedAtItsLineWithTheKeyItResembles) {
+  EXPECT_EQ(ErrorOf("type = \"dome\"\n[outer]\ncenter_mm = [0, 0, 21.5]\nradus_mm = 83.4\n"
+                    "[inner]\ncenter_mm = [0, 0, 21.5]\nradius_mm = 75.7\n"),
+            "my-dome.toml:4: outer.radus_mm: unknown key (did you mean outer.radius_mm?)");
+  EXPECT_EQ(ErrorOf("tpye = \"dome\"\n"), "my-dome.toml:1: tpye: unknown key (did you mean type?)");
+  // An optional key mistyped beside the required ones: the nearest key read.
+  EXPECT_EQ(ErrorOf("type = \"flat\"\nthickness_mm = 3\ninner_point_mm = [0,0,20]\nnormall = [0,0,1]\n"),
+            "my-dome.toml:4: normall: unknown key (did you mean normal?)");
+  try {
+    ParseCameraToml("name = \"x\"\nmount = \"nikon-f\"\nwidht_px = 4288\nheight_px = 2848\npixel_pitch_mm = 0.0055\n",
+                    "cam.toml");
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(std::string(e.what()), "cam.toml:3: widht_px: unknown key (did you mean width_px?)");
+  }
+}
+
 TEST(PortToml, WriteThenReadIsLossless) {
   for (const char* name : {"nimar-ni320", "nimar-ni320-nominal", "flat-acrylic-10mm"}) {
     const auto p = LoadPort(name);

@@ -121,7 +121,7 @@ LensSpec MountOn(const LensSpec& lens, const CameraBody& body, bool allow_adapte
   }
   std::string why = fmt::format("{} is a {} lens, the {} has a {} mount", lens.name, lens.mount, body.name, body.mount);
   if (own.flange_focal_distance_mm > on.flange_focal_distance_mm) {
-    why += fmt::format(" (an adapter {:g} mm long would fit it: allow_adapter, the CLI's --allow-adapter)",
+    why += fmt::format(" (an adapter {:g} mm long would fit it: set `allow_adapter`)",
                        own.flange_focal_distance_mm - on.flange_focal_distance_mm);
   } else {
     why += " (its flange focal distance is shorter than the body's: no adapter can focus it to infinity)";

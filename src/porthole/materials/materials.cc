@@ -67,7 +67,7 @@ void CheckRange(const char* field, double v, double lo, double hi, const char* u
                 std::string_view what, bool extrapolate) {
   if (extrapolate || (v >= lo && v <= hi)) return;
   throw InvalidInput(field, fmt::format("{} is outside the valid range {}..{} {} of {}; set "
-                                        "extrapolate (--extrapolate) to use it anyway",
+                                        "`extrapolate` to use it anyway",
                                         v, lo, hi, unit, what));
 }
 
