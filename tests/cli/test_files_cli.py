@@ -12,10 +12,10 @@ import pytest
 
 from conftest import run, run_bad
 
-SMALL = ["--pixel-pitch-mm", "0.058", "--spp", "1", "--quiet", "--f-number", "inf"]  # a 407 x 270 px D300
+SMALL = ["--pixel-pitch-mm", "0.029", "--spp", "1", "--quiet", "--f-number", "inf"]  # an 814 x 540 px D300
 # A Brown calibration of that small D300 (porthole calibration JSON, as calibrate --out writes).
 CAL = {"camera": {"c_mm": 24.0, "x0_mm": 0.0, "y0_mm": 0.0, "K1": 1e-4},
-       "sensor": {"width_px": 407, "height_px": 270, "pixel_pitch_mm": 0.058}, "note": "the user's calibration"}
+       "sensor": {"width_px": 814, "height_px": 540, "pixel_pitch_mm": 0.029}, "note": "the user's calibration"}
 
 
 def write_cal(path):
@@ -187,3 +187,17 @@ def test_non_utf8_names_print_as_json(tmp_path):
     res = run("render", "--out", png, "--json", *SMALL)
     assert res.json()["image"].endswith("b\ufffd.png")
     assert json.loads((tmp_path / os.fsdecode(b"b\xff.json")).read_text(errors="replace"))["image"] == "b\ufffd.png"
+
+
+def test_non_utf8_names_in_a_report(tmp_path):
+    """Issue 24: a calibration whose file name holds byte 0xff broke `report` (report.json could not be
+    written); the name is shown with U+FFFD in report.json and index.html, both valid UTF-8."""
+    name = os.fsdecode(os.fsencode(str(tmp_path)) + b"/air\xff.json")
+    with open(name, "w") as f:  # the paper's in-air calibration of the D300 + 24 mm (Table 6)
+        json.dump({"camera": {"c_mm": 25.801, "x0_mm": -0.026, "y0_mm": -0.144, "K1": 1.842e-4, "K2": -3.030e-7},
+                   "sensor": {"width_px": 4288, "height_px": 2848, "pixel_pitch_mm": 0.0055}}, f)
+    run("report", "--out", tmp_path / "rep", "--air-calibration", name)
+    page = (tmp_path / "rep" / "index.html").read_bytes().decode("utf-8")  # strict: valid UTF-8
+    report = json.loads((tmp_path / "rep" / "report.json").read_bytes().decode("utf-8"))
+    assert "air\ufffd.json" in page
+    assert "air\ufffd.json" in json.dumps(report, ensure_ascii=False)
