@@ -183,7 +183,7 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
     if (!IsReportDir(out, &other)) {
       throw InvalidInput("--out", other.empty()
                                       ? fmt::format("{} is not empty and holds no porthole report: not replaced", out.string())
-                                      : fmt::format("{} holds {}, which is not part of a porthole report: not replaced",
+                                      : fmt::format("{} is not empty and holds {}, which is not part of a porthole report: not replaced",
                                                     out.string(), other));
     }
   }
