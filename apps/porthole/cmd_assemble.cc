@@ -111,7 +111,7 @@ void RegisterAssemble(CLI::App& app) {
     j["lens"] = o->lens.empty() ? Json(nullptr) : Json(o->lens);
     j["focus_mm"] = Length(focus_mm);
     j["port_file"] = o->output.empty() ? Json(nullptr) : Json(o->output);
-    std::string text = o->json ? j.dump(2) + "\n" : a.Report();
+    std::string text = o->json ? j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n" : a.Report();
     if (!o->json && !o->output.empty()) text += "as-built port written to " + o->output + "\n";
     if (!o->output.empty()) WriteOutput(o->output, toml, "--output", rules);
     fmt::print("{}", text);

@@ -400,8 +400,8 @@ void RegisterCalibrate(CLI::App& app) {
       if (!o->port_out.empty()) throw InvalidInput("--port-out", "not with --plan-only (nothing is estimated)");
       const auto plan = calib::PlanRefractiveFromImages(dets, target, ro, o->plan_sigma_px);
       auto j = calib::PlanToJson(plan);
-      if (!o->out.empty()) WriteOutput(o->out, j.dump(1) + "\n", "--out", rules);
-      if (o->json) return fmt::print("{}\n", j.dump(2));
+      if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+      if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return fmt::print("{}", PlanTable(plan, ro));
     }
     if (refractive) {
@@ -418,8 +418,8 @@ void RegisterCalibrate(CLI::App& app) {
         j["port"]["port_out"] = o->port_out;
         port_note = fmt::format("estimated port written to {}\n", o->port_out);
       }
-      if (!o->out.empty()) WriteOutput(o->out, j.dump(1) + "\n", "--out", rules);
-      if (o->json) return fmt::print("{}\n", j.dump(2));
+      if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+      if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       std::string text = CalibrationTable(rr.lens, o->calib, target) + PortTable(rr, ro) + port_note;
       if (!air_note.empty()) text += "air calibration " + air_note + "\n";
       for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
@@ -434,7 +434,7 @@ void RegisterCalibrate(CLI::App& app) {
     if (!o->yaml.empty()) {
       camera::ConversionFit fit;
       const auto yaml = calib::ExportOpenCVYaml(
-          calib::CalibrationFromJson(nlohmann::json::parse(j.dump()), "--opencv-yaml"), &fit);
+          calib::CalibrationFromJson(nlohmann::json::parse(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)), "--opencv-yaml"), &fit);
       WriteOutput(o->yaml, yaml, "--opencv-yaml", rules);
       j["opencv_yaml"] = {{"file", o->yaml}, {"refit_rms_px", fit.rms_px},
                           {"refit_max_px", fit.max_px}};
@@ -448,8 +448,8 @@ void RegisterCalibrate(CLI::App& app) {
       j["field_out"] = o->field_out;
       field_note = fmt::format("adjusted target field written to {}\n", o->field_out);
     }
-    if (!o->out.empty()) WriteOutput(o->out, j.dump(1) + "\n", "--out", rules);
-    if (o->json) return fmt::print("{}\n", j.dump(2));
+    if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+    if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     std::string text = CalibrationTable(r, o->calib, target) + yaml_note + field_note;
     for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
     fmt::print("{}", text);

@@ -105,7 +105,7 @@ void RegisterCompare(CLI::App& app) {
         j["b_refit_rms_px"] = Num(fit_b.rms_px);
         j["b_refit_points_not_projected"] = fit_b.num_not_projected;
       }
-      return fmt::print("{}\n", j.dump(2));
+      return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     }
     auto cell = [](bool adj, double v, double s) {  // σ "?": unknown (the format holds none)
       return adj ? fmt::format("{:>12.5g} {:>9}", v, std::isfinite(s) ? fmt::format("{:.2g}", s) : "?")

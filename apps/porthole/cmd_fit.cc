@@ -100,7 +100,7 @@ void RegisterFit(CLI::App& app) {
               {"usable", status == "ok"},
               {"status", status}});
     if (!o->residuals.empty()) pointcloud::WritePointCloud(o->residuals, cloud.points, &res);
-    if (o->json) return fmt::print("{}\n", j.dump(2));
+    if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     rows.emplace_back("rms residual", rms, NAN, "mm");
     rows.emplace_back("max |residual|", max_abs, NAN, "mm");
     std::string text = fmt::format("{} fit to {} ({} points)\n{:<16} {:>14} {:>10}  {}\n", o->shape,

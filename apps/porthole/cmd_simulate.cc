@@ -28,7 +28,7 @@ bool EndsWith(const std::string& s, const std::string& tail) {
 
 // ".json" → JSON text, anything else → CSV.
 std::string AsFile(const std::string& path, const Json& json, const std::string& csv) {
-  return EndsWith(path, ".json") ? json.dump(2) + "\n" : csv;
+  return EndsWith(path, ".json") ? json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n" : csv;
 }
 
 std::string ParamRow(const std::string& label, const camera::BrownParams& p, const std::string& rms) {
@@ -289,7 +289,7 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
         out["air_calibration_read"] = interop::DescribeRead(*air_read, o->air_calibration);
         out["air_calibration_refit_rms_px"] = air_read->exact ? 0.0 : air_read->fit.rms_px;
       }
-      fmt::print("{}\n", out.dump(2));
+      fmt::print("{}\n", out.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return;
     }
     std::string t = fisheye ? FisheyeText(spec, p) : BrownText(spec, p, errors, radii);

@@ -63,7 +63,7 @@ void RegisterSynthScan(CLI::App& app) {
       const Json j = {{"out", o->out}, {"points", cap.points.cols()}, {"outliers", n_out},
                       {"center_mm", o->center}, {"radius_mm", o->cap.radius_mm},
                       {"half_angle_deg", o->cap.half_angle_deg}, {"noise_mm", o->cap.noise_sigma_mm}};
-      fmt::print("{}\n", j.dump(2));
+      fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return;
     }
     fmt::print(

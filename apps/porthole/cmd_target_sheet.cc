@@ -61,7 +61,7 @@ void RegisterTargetSheet(CLI::App& app) {
                       {"bits", o->sheet.bits}, {"radius_mm", o->sheet.radius_mm},
                       {"paper_mm", {layout.width_mm, layout.height_mm}}, {"pitch_mm", layout.pitch_mm},
                       {"targets", t.size()}, {"first_id", t.front().id}, {"last_id", t.back().id}};
-      return fmt::print("{}\n", j.dump(2));
+      return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     }
     fmt::print("wrote {} ({} {}-bit targets, IDs {}-{}, dot radius {} mm, pitch {} mm, {} x {} mm paper) and {}\n",
                o->out, coded::ProfileName(o->sheet.profile), o->sheet.bits, t.front().id, t.back().id,

@@ -84,7 +84,7 @@ void RegisterTrace(CLI::App& app) {
       Json j = DescribeSystem(sys, env);
       j["plane"] = o->plane;
       j["rays"] = rays;
-      text = j.dump(2) + "\n";
+      text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
     } else {
       text = csv;
     }

@@ -201,3 +201,17 @@ def test_non_utf8_names_in_a_report(tmp_path):
     report = json.loads((tmp_path / "rep" / "report.json").read_bytes().decode("utf-8"))
     assert "air\ufffd.json" in page
     assert "air\ufffd.json" in json.dumps(report, ensure_ascii=False)
+
+
+def test_non_utf8_image_names_in_a_calibration(tmp_path):
+    """Issue 24: an image whose name holds byte 0xff made `calibrate --out --json` fail ("input JSON:
+    invalid UTF-8 byte") with nothing written; the name is written with U+FFFD."""
+    out = tmp_path / "set"
+    run("render", "--set", "4", "--out", out, "--target", "chessboard:7x5:40", *SMALL)
+    air = os.fsencode(str(out / "air"))
+    os.rename(air + b"/pose_000.png", air + b"/p\xff.png")
+    res = run("calibrate", "--images", os.fsdecode(air), "--target", "chessboard:7x5:40", "--pixel-pitch-mm", "0.029",
+              "--out", tmp_path / "cal.json", "--json", "--quiet")
+    names = [im["image"] for im in res.json()["images"]]
+    assert any(n.endswith("p\ufffd.png") for n in names), names
+    assert any(im["image"].endswith("p\ufffd.png") for im in json.loads((tmp_path / "cal.json").read_text())["images"])
