@@ -20,7 +20,7 @@ Eigen::Vector3d Hint(const std::vector<double>& v) { return {v[0], v[1], v[2]}; 
 void RegisterAssemble(CLI::App& app) {
   struct Options {
     std::string camera_flange = "0,0,0,0,0,1", housing_flange, outer, inner, dome_rear;
-    bool dome_rear_flip = false, dome_centered = false, json = false;
+    bool dome_rear_flip = false, dome_centered = false, json = false, force = false;
     std::vector<double> x_hint{1, 0, 0}, dome_x_hint{1, 0, 0};
     std::string lens, focus;
     std::optional<double> pupil_offset_mm;
@@ -70,8 +70,11 @@ void RegisterAssemble(CLI::App& app) {
   cmd->add_option("--name", o->name, "Port name in the TOML")->capture_default_str();
   cmd->add_option("-o,--output", o->output, "Write the as-built port TOML here");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
+  AddForceFlag(cmd, &o->force);
 
-  cmd->callback([o] {
+  cmd->callback([o, cmd] {
+    const OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--output"})};
+    if (!o->output.empty()) CheckOutput(o->output, "--output", rules);
     fit::AssemblyInput in;
     in.camera_flange = fit::ParsePlaneSpec(o->camera_flange, "--camera-flange");
     in.housing_flange = fit::ParsePlaneSpec(o->housing_flange, "--housing-flange");
@@ -108,9 +111,9 @@ void RegisterAssemble(CLI::App& app) {
     j["lens"] = o->lens.empty() ? Json(nullptr) : Json(o->lens);
     j["focus_mm"] = Length(focus_mm);
     j["port_file"] = o->output.empty() ? Json(nullptr) : Json(o->output);
-    std::string text = o->json ? j.dump(2) + "\n" : a.Report();
+    std::string text = o->json ? j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n" : a.Report();
     if (!o->json && !o->output.empty()) text += "as-built port written to " + o->output + "\n";
-    if (!o->output.empty()) WriteFileAtomically(o->output, toml, "--output");
+    if (!o->output.empty()) WriteOutput(o->output, toml, "--output", rules);
     fmt::print("{}", text);
   });
 }

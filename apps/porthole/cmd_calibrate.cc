@@ -213,7 +213,7 @@ void RegisterCalibrate(CLI::App& app) {
                                                             yaml, field_out;
     double pitch_mm = 1.0;
     calib::CalibrationOptions calib;
-    bool json = false, quiet = false;
+    bool json = false, quiet = false, force = false;
     // Refractive calibration (--port).
     PortOptions port;
     WaterOptions water;
@@ -312,7 +312,10 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_option("--plan-sigma-px", o->plan_sigma_px,
                   "Pixel noise (1-sigma per coordinate) --plan-only assumes")
       ->capture_default_str()->group(group);
-  cmd->callback([o] {
+  AddForceFlag(cmd, &o->force);
+  cmd->callback([o, cmd] {
+    const OutputRules rules{.force = o->force,
+                            .inputs = InputFiles(cmd, {"--out", "--opencv-yaml", "--field-out", "--port-out"})};
     if (o->images.empty() && o->detections.empty()) {
       throw InvalidInput("--images", "give --images DIR or --detections PATH");
     }
@@ -330,10 +333,10 @@ void RegisterCalibrate(CLI::App& app) {
     o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
     o->calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o->pitch_mm);
     if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
-    if (!o->out.empty()) CheckOutputFile(o->out, "--out");
-    if (!o->yaml.empty()) CheckOutputFile(o->yaml, "--opencv-yaml");
+    if (!o->out.empty()) CheckOutput(o->out, "--out", rules, FileKind::kCalibration);
+    if (!o->yaml.empty()) CheckOutput(o->yaml, "--opencv-yaml", rules);
     if (!o->field_out.empty()) {
-      CheckOutputFile(o->field_out, "--field-out");
+      CheckOutput(o->field_out, "--field-out", rules);
       if (!o->calib.target_free) throw InvalidInput("--field-out", "needs --free-target (without it no point is adjusted)");
     }
     const bool refractive = !o->port.port.empty();
@@ -350,7 +353,7 @@ void RegisterCalibrate(CLI::App& app) {
     calib::RefractiveOptions ro;
     std::string air_note;  // how --air-calibration was read (exact, or refit to --model)
     if (refractive) {
-      if (!o->port_out.empty()) CheckOutputFile(o->port_out, "--port-out");
+      if (!o->port_out.empty()) CheckOutput(o->port_out, "--port-out", rules);
       if (!o->yaml.empty()) throw InvalidInput("--opencv-yaml", "not with --port (a refractive camera is not an OpenCV one)");
       if (o->calib.target_free) throw InvalidInput("--free-target", "not with --port");
       const ports::Environment env = o->water.ToEnvironment();
@@ -397,8 +400,8 @@ void RegisterCalibrate(CLI::App& app) {
       if (!o->port_out.empty()) throw InvalidInput("--port-out", "not with --plan-only (nothing is estimated)");
       const auto plan = calib::PlanRefractiveFromImages(dets, target, ro, o->plan_sigma_px);
       auto j = calib::PlanToJson(plan);
-      if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
-      if (o->json) return fmt::print("{}\n", j.dump(2));
+      if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+      if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return fmt::print("{}", PlanTable(plan, ro));
     }
     if (refractive) {
@@ -411,12 +414,12 @@ void RegisterCalibrate(CLI::App& app) {
       std::string port_note;
       if (!air_note.empty()) j["port"]["air_calibration"] = air_note;
       if (!o->port_out.empty()) {
-        WriteFileAtomically(o->port_out, io::PortToToml(rr.estimated_port), "--port-out");
+        WriteOutput(o->port_out, io::PortToToml(rr.estimated_port), "--port-out", rules);
         j["port"]["port_out"] = o->port_out;
         port_note = fmt::format("estimated port written to {}\n", o->port_out);
       }
-      if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
-      if (o->json) return fmt::print("{}\n", j.dump(2));
+      if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+      if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       std::string text = CalibrationTable(rr.lens, o->calib, target) + PortTable(rr, ro) + port_note;
       if (!air_note.empty()) text += "air calibration " + air_note + "\n";
       for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
@@ -431,8 +434,8 @@ void RegisterCalibrate(CLI::App& app) {
     if (!o->yaml.empty()) {
       camera::ConversionFit fit;
       const auto yaml = calib::ExportOpenCVYaml(
-          calib::CalibrationFromJson(nlohmann::json::parse(j.dump()), "--opencv-yaml"), &fit);
-      WriteFileAtomically(o->yaml, yaml, "--opencv-yaml");
+          calib::CalibrationFromJson(nlohmann::json::parse(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)), "--opencv-yaml"), &fit);
+      WriteOutput(o->yaml, yaml, "--opencv-yaml", rules);
       j["opencv_yaml"] = {{"file", o->yaml}, {"refit_rms_px", fit.rms_px},
                           {"refit_max_px", fit.max_px}};
       yaml_note = fmt::format("OpenCV YAML {}: refit RMS {:.4f} px, max {:.4f} px\n", o->yaml,
@@ -441,12 +444,12 @@ void RegisterCalibrate(CLI::App& app) {
     std::string field_note;
     if (!o->field_out.empty()) {
       const std::string field_text = calib::AdjustedFieldText(r, target);  // throws before anything is written
-      WriteFileAtomically(o->field_out, field_text, "--field-out");
+      WriteOutput(o->field_out, field_text, "--field-out", rules);
       j["field_out"] = o->field_out;
       field_note = fmt::format("adjusted target field written to {}\n", o->field_out);
     }
-    if (!o->out.empty()) WriteFileAtomically(o->out, j.dump(1) + "\n", "--out");
-    if (o->json) return fmt::print("{}\n", j.dump(2));
+    if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+    if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     std::string text = CalibrationTable(r, o->calib, target) + yaml_note + field_note;
     for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
     fmt::print("{}", text);

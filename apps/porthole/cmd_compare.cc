@@ -26,7 +26,7 @@ void RegisterCompare(CLI::App& app) {
     std::string a, b, csv_dir;
     double pitch_mm = 1.0;
     calib::CompareOptions compare;
-    bool json = false;
+    bool json = false, force = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -45,9 +45,14 @@ void RegisterCompare(CLI::App& app) {
   cmd->add_option("--csv-dir", o->csv_dir,
                   "Write curves.csv (Fig. 14) and map.csv (Fig. 15) into this directory (created if missing)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
-  cmd->callback([o] {
+  AddForceFlag(cmd, &o->force);
+  cmd->callback([o, cmd] {
     if (!(o->compare.alpha > 0 && o->compare.alpha < 1)) throw InvalidInput("--alpha", "in (0, 1)");
-    if (!o->csv_dir.empty()) EnsureOutputDirectory(o->csv_dir, "--csv-dir");
+    const OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--csv-dir"})};
+    if (!o->csv_dir.empty()) {
+      EnsureOutputDirectory(o->csv_dir, "--csv-dir");
+      for (const char* name : {"curves.csv", "map.csv"}) CheckOutput(std::filesystem::path(o->csv_dir) / name, "--csv-dir", rules);
+    }
     if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
     auto ra = interop::ReadCalibrationFile(o->a, o->pitch_mm, "A");
     auto rb = interop::ReadCalibrationFile(o->b, o->pitch_mm, "B");
@@ -77,8 +82,8 @@ void RegisterCompare(CLI::App& app) {
                              p.b_um.y());
     }
     if (!o->csv_dir.empty()) {
-      WriteFileAtomically(std::filesystem::path(o->csv_dir) / "curves.csv", curves_csv, "--csv-dir");
-      WriteFileAtomically(std::filesystem::path(o->csv_dir) / "map.csv", map_csv, "--csv-dir");
+      WriteOutput(std::filesystem::path(o->csv_dir) / "curves.csv", curves_csv, "--csv-dir", rules);
+      WriteOutput(std::filesystem::path(o->csv_dir) / "map.csv", map_csv, "--csv-dir", rules);
     }
     const std::string verdict =
         !std::isfinite(r.chi2) ? "chi2 not computed: " + r.covariance_note
@@ -100,7 +105,7 @@ void RegisterCompare(CLI::App& app) {
         j["b_refit_rms_px"] = Num(fit_b.rms_px);
         j["b_refit_points_not_projected"] = fit_b.num_not_projected;
       }
-      return fmt::print("{}\n", j.dump(2));
+      return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     }
     auto cell = [](bool adj, double v, double s) {  // σ "?": unknown (the format holds none)
       return adj ? fmt::format("{:>12.5g} {:>9}", v, std::isfinite(s) ? fmt::format("{:.2g}", s) : "?")

@@ -23,7 +23,7 @@ void RegisterConvert(CLI::App& app) {
     std::string to, port_out, port;
     std::optional<double> pitch_mm, water_index;
     int camera_id = 0;
-    bool json = false;
+    bool json = false, force = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -55,7 +55,9 @@ void RegisterConvert(CLI::App& app) {
       "(porthole JSON, Metashape) and unknown where the input has none. See docs/interop.md.\n"
       "Several INs write one COLMAP cameras.txt/.bin with CAMERA_ID 1, 2, ... in their order.\n"
       "Examples: porthole convert calib.json sparse/0/cameras.txt\n"
-      "          porthole convert left.json right.yml sparse/0/cameras.txt   # two cameras");
+      "          porthole convert left.json right.yml sparse/0/cameras.txt   # two cameras\n"
+      "An existing OUT (or --port-out) is replaced only with --force, never an IN, and never a file porthole\n"
+      "wrote for another purpose (detections, a render's ground truth) even with it.");
   cmd->add_option("IN...OUT", o->files,
                   "IN [IN ...] OUT: the calibration(s) to read (a file, or a COLMAP sparse-model directory), "
                   "then the file to write (an existing directory: its cameras.txt / cameras.bin)")
@@ -76,6 +78,7 @@ void RegisterConvert(CLI::App& app) {
   cmd->add_option("--water-index", o->water_index,
                   "With --port: the water index nw (default: seawater, Quan-Fry at 20 C, 35 PSU, 546.07 nm)");
   cmd->add_flag("--json", o->json, "JSON summary for scripts");
+  AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
     if (o->pitch_mm) {
       RequirePositive("--pixel-pitch-mm", *o->pitch_mm);
@@ -138,9 +141,18 @@ void RegisterConvert(CLI::App& app) {
       interop::WriteExtras extras{port_housing ? port_housing : in.housing, in.rt_fromref};  // where the output holds them
       w = interop::WriteCalibration(in.calibration, format, out_field, extras);
     }
-    if (!port_toml.empty()) CheckOutputFile(o->port_out, "--port-out");
-    WriteFileAtomically(out, w.content, "OUT");
-    if (!port_toml.empty()) WriteFileAtomically(o->port_out, port_toml, "--port-out");
+    // The overwrite rule (core/output.h): never an IN (a COLMAP folder's cameras.txt/.bin included),
+    // an existing file only with --force, both outputs checked before either is written.
+    OutputRules rules{.force = o->force, .inputs = {}};
+    if (!o->port.empty()) rules.inputs.emplace_back(o->port);
+    for (const auto& path : ins) {
+      rules.inputs.emplace_back(path);
+      for (const char* name : {"cameras.txt", "cameras.bin"}) rules.inputs.push_back(std::filesystem::path(path) / name);
+    }
+    CheckOutput(out, "OUT", rules, KindOfText(w.content));
+    if (!port_toml.empty()) CheckOutput(o->port_out, "--port-out", rules);
+    WriteOutput(out, w.content, "OUT", rules);
+    if (!port_toml.empty()) WriteOutput(o->port_out, port_toml, "--port-out", rules);
 
     // Reading (a Metashape model with terms porthole's lacks) or writing (Brown to a pixel format)
     // may be a refit: report the one that is, the largest if several are.
@@ -182,7 +194,7 @@ void RegisterConvert(CLI::App& app) {
                 {"in_rms_px", std::isfinite(in.file_rms_px) ? Json(in.file_rms_px) : Json(nullptr)},
                 {"width_px", in.camera().sensor.width_px},
                 {"height_px", in.camera().sensor.height_px}};
-      return fmt::print("{}\n", j.dump(2));
+      return fmt::print("{}\n", PrintableJson(j));
     }
     std::string extra;
     if (!port_toml.empty()) {

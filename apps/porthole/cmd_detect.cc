@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <filesystem>
+#include <map>
 
 #include "commands.h"
 #include "common.h"
@@ -17,7 +18,7 @@ namespace porthole::cli {
 void RegisterDetect(CLI::App& app) {
   struct Options {
     std::string images, target, field, out_dir;
-    bool json = false, quiet = false;
+    bool json = false, quiet = false, force = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -35,11 +36,31 @@ void RegisterDetect(CLI::App& app) {
   cmd->add_option("--out-dir", o->out_dir, "Write <image>.json detections into this directory (created if missing)");
   cmd->add_flag("--json", o->json, "Print all detections as one JSON set");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
-  cmd->callback([o] {
+  AddForceFlag(cmd, &o->force);
+  cmd->footer("Outputs: --out-dir writes <image>.json per image; an existing one is replaced only with --force, and "
+              "never a file another command wrote (a render's ground truth pose_NNN.json, a calibration): give "
+              "render's folder as --images and another folder as --out-dir.");
+  cmd->callback([o, cmd] {
     auto target = calib::ParseTarget(o->target);
     if (!o->field.empty()) calib::LoadTargetField(o->field, &target, "--field");
     if (!o->out_dir.empty()) EnsureOutputDirectory(o->out_dir, "--out-dir");
     const auto paths = calib::ListImages(o->images);
+    OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--out-dir"})};
+    rules.inputs.insert(rules.inputs.end(), paths.begin(), paths.end());
+    const auto out_file = [&](const std::string& image) {
+      return std::filesystem::path(o->out_dir) / (std::filesystem::path(image).stem().string() + ".json");
+    };
+    if (!o->out_dir.empty()) {  // before the long work: every file an image may write
+      std::map<std::filesystem::path, std::string> by_name;  // two images of one stem (a.png, a.jpg) would share a.json
+      for (const auto& image : paths) {
+        const auto file = out_file(image);
+        if (const auto [it, fresh] = by_name.emplace(file, image); !fresh) {
+          throw InvalidInput("--out-dir", "images " + it->second + " and " + image + " would both write " +
+                                              file.string() + ": rename one");
+        }
+        CheckOutput(file, "--out-dir", rules, FileKind::kDetections);
+      }
+    }
     const auto run = calib::DetectAll(paths, target, [&](const std::string& m) {
       if (!o->quiet) fmt::print(stderr, "detect: {}\n", m);
     });
@@ -49,11 +70,12 @@ void RegisterDetect(CLI::App& app) {
     if (!o->out_dir.empty()) {
       std::vector<std::pair<std::filesystem::path, std::string>> files;
       for (std::size_t k = 0; k < run.detections.size(); ++k) {
-        const auto& d = run.detections[k];
-        files.emplace_back(std::filesystem::path(o->out_dir) / (std::filesystem::path(d.image).stem().string() + ".json"),
+        files.emplace_back(out_file(run.detections[k].image),
                            calib::DetectionRunImageJson(run, k, target).dump(1, ' ', false, kReplace) + "\n");
       }
-      for (const auto& [file, text] : files) WriteFileAtomically(file, text, "--out-dir");
+      // Every file checked before the first is written: all or none.
+      for (const auto& [file, text] : files) CheckOutput(file, "--out-dir", rules, KindOfText(text));
+      for (const auto& [file, text] : files) WriteOutput(file, text, "--out-dir", rules);
     }
     if (o->json) {
       return fmt::print("{}\n", calib::DetectionRunToJson(run, target).dump(1, ' ', false, kReplace));

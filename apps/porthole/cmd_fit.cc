@@ -14,7 +14,7 @@ namespace porthole::cli {
 void RegisterFit(CLI::App& app) {
   struct Options {
     std::string shape, file, loss = "cauchy", residuals;
-    bool robust = false, json = false;
+    bool robust = false, json = false, force = false;
     double threshold_mm = fit::SphereFitOptions{}.inlier_threshold_mm;
   };
   auto o = std::make_shared<Options>();
@@ -35,8 +35,11 @@ void RegisterFit(CLI::App& app) {
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->add_option("--residuals", o->residuals,
                   "Write points with their residual (mm) to this PLY/XYZ file");
+  AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
     if (o->robust && o->shape != "sphere") throw InvalidInput("--robust", "only for 'sphere'");
+    // The scan is an input: never replaced by its residuals (WritePointCloud then writes the file).
+    if (!o->residuals.empty()) CheckOutput(o->residuals, "--residuals", OutputRules{.force = o->force, .inputs = {o->file}});
     const auto cloud = pointcloud::ReadPointCloud(o->file);
     Json j{{"shape", o->shape}, {"file", o->file}, {"n_points", cloud.size()}};
     std::vector<std::tuple<std::string, double, double, std::string>> rows;  // name, value, σ, unit
@@ -97,7 +100,7 @@ void RegisterFit(CLI::App& app) {
               {"usable", status == "ok"},
               {"status", status}});
     if (!o->residuals.empty()) pointcloud::WritePointCloud(o->residuals, cloud.points, &res);
-    if (o->json) return fmt::print("{}\n", j.dump(2));
+    if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     rows.emplace_back("rms residual", rms, NAN, "mm");
     rows.emplace_back("max |residual|", max_abs, NAN, "mm");
     std::string text = fmt::format("{} fit to {} ({} points)\n{:<16} {:>14} {:>10}  {}\n", o->shape,

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sys/stat.h>
+#include <cctype>
 
 #include "camera_options.h"
 #include "commands.h"
@@ -54,16 +56,25 @@ struct RenderCliOptions {
   double partial = 1;
   bool quiet = false, json = false;
   bool white_on_black = false;
+  bool force = false;
+  std::vector<fs::path> inputs;  // the files the options name: never replaced
 };
 
 double ParseLengthOrInf(const std::string& text, const std::string& field) {
   return ParseLengthList({text}, field).front();
 }
 
-// Renders one scene and writes <png> and <png minus .png>.json, both whole or not at all; returns
-// what --json prints of it.
+// The ground truth beside a PNG: the same name, .json.
+fs::path TruthPath(const fs::path& png) {
+  fs::path json = png;
+  json.replace_extension(".json");
+  return json;
+}
+
+// Renders one scene and writes <png> and <png minus .png>.json, both whole or not at all, under the
+// overwrite rule (`rules`, checked before rendering by the caller); returns what --json prints of it.
 Json RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int bit_depth, const fs::path& png,
-               const std::string& label, bool quiet) {
+               const std::string& label, bool quiet, const OutputRules& rules) {
   render::RenderOptions o = ro;
   int last_decile = 0;
   if (!quiet) {
@@ -75,11 +86,12 @@ Json RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int 
   }
   const render::Rendered r = render::Render(scene, o);
   const std::string bytes = render::EncodePng(r.image, bit_depth);
-  fs::path json = png;
-  json.replace_extension(".json");
-  const std::string truth = render::TruthJson(scene, o, r, png.filename().string(), bit_depth).dump(1) + "\n";
-  WriteFileAtomically(json, truth, "--out");
-  WriteFileAtomically(png, bytes, "--out");
+  const fs::path json = TruthPath(png);
+  const std::string truth =
+      render::TruthJson(scene, o, r, png.filename().string(), bit_depth).dump(1, ' ', false, Json::error_handler_t::replace) +
+      "\n";
+  WriteOutput(json, truth, "--out", rules);
+  WriteOutput(png, bytes, "--out", rules);
   if (!quiet) {
     const std::string edges = o.edge_samples_per_pixel > o.samples_per_pixel
                                   ? fmt::format(" ({} near edges: {:.1f} % of the pixels)", o.edge_samples_per_pixel,
@@ -124,6 +136,56 @@ camera::Camera LoadCameraModel(const std::string& path, double pixel_pitch_mm) {
   return interop::ReadCalibrationFile(path, pixel_pitch_mm, "--camera-model").camera();
 }
 
+// Whether `name` is one render --set writes: pose_NNN.png or pose_NNN.json.
+bool IsSetFileName(const std::string& name) {
+  const std::size_t dot = name.rfind('.');
+  if (name.rfind("pose_", 0) != 0 || dot == std::string::npos || dot < 8) return false;
+  const std::string ext = name.substr(dot);
+  if (ext != ".png" && ext != ".json") return false;
+  for (std::size_t i = 5; i < dot; ++i) {
+    if (!std::isdigit(static_cast<unsigned char>(name[i]))) return false;
+  }
+  return true;
+}
+
+// A set goes into an empty (or new) folder: an earlier set's poses mixed with this one's would be
+// calibrated together. Under --force the earlier set's own files (water/ and air/ pose_NNN.png and
+// .json, the .json a render ground truth) are removed first, all checked before the first is
+// removed; anything else is left, and an input or another command's file stops the run.
+void ClearEarlierSet(const fs::path& out, const OutputRules& rules) {
+  std::error_code ec;
+  if (!fs::is_directory(out, ec) || fs::is_empty(out, ec)) return;
+  if (!rules.force) {
+    throw InvalidInput("--out", out.string() + " is not empty (an earlier set?): --force removes the earlier set's "
+                                "images and ground truth first, or choose an empty folder");
+  }
+  std::vector<fs::path> remove;
+  for (const char* medium : {"water", "air"}) {
+    const fs::path dir = out / medium;
+    if (!fs::is_directory(fs::symlink_status(dir, ec))) continue;
+    for (const auto& e : fs::directory_iterator(dir)) {
+      const std::string name = e.path().filename().string();
+      if (!IsSetFileName(name)) continue;
+      if (!fs::is_regular_file(fs::symlink_status(e.path(), ec))) {
+        throw InvalidInput("--out", e.path().string() + " is not a regular file: not removed");
+      }
+      if (e.path().extension() == ".json" && KindOfFile(e.path()) != FileKind::kGroundTruth) {
+        throw InvalidInput("--out", e.path().string() + " is not a render ground truth: not removed (move it away)");
+      }
+      struct stat st {};
+      ::stat(e.path().c_str(), &st);
+      for (const fs::path& in : rules.inputs) {
+        struct stat is {};
+        if (::stat(in.c_str(), &is) == 0 && is.st_dev == st.st_dev && is.st_ino == st.st_ino) {
+          throw InvalidInput("--out", e.path().string() + " is an input of this command: the earlier set is not removed");
+        }
+      }
+      remove.push_back(e.path());
+    }
+  }
+  for (const fs::path& p : remove) fs::remove(p);
+}
+
 void RunRender(const RenderCliOptions& o) {
   render::Scene scene;
   scene.housed = o.camera.ToHoused(PortOptions{o.port, o.ep}, o.water);
@@ -155,16 +217,18 @@ void RunRender(const RenderCliOptions& o) {
   if (o.bit_depth != 8 && o.bit_depth != 16) throw InvalidInput("--bit-depth", "must be 8 or 16");
   if (o.shift.size() != 2 || o.tilt.size() != 2) throw InvalidInput("--shift", "--shift and --tilt take X,Y");
   if (o.out.empty()) throw InvalidInput("--out", "is required: the PNG file (single image) or a directory (--set)");
+  const OutputRules rules{.force = o.force, .inputs = o.inputs};
 
   if (o.set == 0) {
     const fs::path png = o.out;
     if (png.extension() != ".png") throw InvalidInput("--out", "must name a .png file");
-    CheckOutputFile(o.out, "--out");
+    CheckOutput(png, "--out", rules);  // before the long work: both files, the .json as a ground truth
+    CheckOutput(TruthPath(png), "--out", rules, FileKind::kGroundTruth);
     RequireFinite("--distance", o.distance_mm);
     scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
                                     o.roll_deg);
-    const Json j = RenderOne(scene, ro, o.bit_depth, png, png.filename().string(), o.quiet);
-    if (o.json) fmt::print("{}\n", j.dump(2));
+    const Json j = RenderOne(scene, ro, o.bit_depth, png, png.filename().string(), o.quiet, rules);
+    if (o.json) fmt::print("{}\n", PrintableJson(j));
     return;
   }
 
@@ -205,6 +269,7 @@ void RunRender(const RenderCliOptions& o) {
     }
   }
   const auto poses = render::SetPoses(scene, so);  // bad options fail here, before any directory exists
+  ClearEarlierSet(o.out, rules);
   EnsureOutputDirectory(o.out, "--out");
   for (const char* medium : {"water", "air"}) EnsureOutputDirectory((fs::path(o.out) / medium).string(), "--out");
   Json images = {{"water", Json::array()}, {"air", Json::array()}};
@@ -217,16 +282,16 @@ void RunRender(const RenderCliOptions& o) {
       r.seed = o.seed + i;
       const std::string dir = m == render::Medium::kWater ? "water" : "air";
       const fs::path png = fs::path(o.out) / dir / fmt::format("pose_{:03d}.png", i);
-      images[dir].push_back(RenderOne(sc, r, o.bit_depth, png, dir + "/" + png.filename().string(), o.quiet));
+      images[dir].push_back(RenderOne(sc, r, o.bit_depth, png, dir + "/" + png.filename().string(), o.quiet, rules));
     }
   }
   if (o.json) {
-    fmt::print("{}\n", Json{{"poses", poses.size()}, {"focus_distance_mm", Length(*scene.focus_distance_mm)},
-                            {"images", images}}.dump(2));
+    fmt::print("{}\n", PrintableJson(Json{{"poses", poses.size()}, {"focus_distance_mm", Length(*scene.focus_distance_mm)},
+                                          {"images", images}}));
   }
   if (!o.quiet) {
-    fmt::print(stderr, "render: {} poses in {}/water and {}/air; focus scale {:.1f} mm\n", poses.size(), o.out, o.out,
-               *scene.focus_distance_mm);
+    fmt::print(stderr, "render: {} poses in {} and {}; focus scale {:.1f} mm\n", poses.size(),
+               (fs::path(o.out) / "water").string(), (fs::path(o.out) / "air").string(), *scene.focus_distance_mm);
   }
 }
 
@@ -305,7 +370,13 @@ void RegisterRender(CLI::App& app) {
       ->capture_default_str()->group("Set");
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
   cmd->add_flag("--json", o->json, "Print what was written (files, size, time, rays blocked) as JSON");
-  cmd->callback([o] {
+  AddForceFlag(cmd, &o->force);
+  cmd->footer("Outputs: --out NAME.png writes NAME.png and NAME.json (the ground truth); neither replaces an existing "
+              "file without --force, nor an input (a --camera-model NAME.json) or a file another command wrote (a "
+              "calibration, detections) even with it. --set N needs an empty or new folder; --force removes an "
+              "earlier set's pose_NNN.png/.json first, so two sets never mix.");
+  cmd->callback([o, cmd] {
+    o->inputs = InputFiles(cmd, {"--out"});
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
                     {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"}, {"lambda_nm", "--bands"},
                     {"samples_per_pixel", "--spp"}, {"edge_samples_per_pixel", "--edge-spp"}, {"exposure", "--exposure"},

@@ -96,7 +96,7 @@ void RegisterReport(CLI::App& app) {
       const Json j = {{"index_html", s.index_html.string()},
                       {"report_json", (s.index_html.parent_path() / "report.json").string()},
                       {"figures", s.figures}, {"step_seconds", steps}, {"seconds", s.seconds}};
-      fmt::print("{}\n", j.dump(2));
+      fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return;
     }
     fmt::print("report: {} ({} figures, {:.1f} s)\n", s.index_html.string(), s.figures.size(), s.seconds);

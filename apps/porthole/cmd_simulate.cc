@@ -28,7 +28,7 @@ bool EndsWith(const std::string& s, const std::string& tail) {
 
 // ".json" → JSON text, anything else → CSV.
 std::string AsFile(const std::string& path, const Json& json, const std::string& csv) {
-  return EndsWith(path, ".json") ? json.dump(2) + "\n" : csv;
+  return EndsWith(path, ".json") ? json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n" : csv;
 }
 
 std::string ParamRow(const std::string& label, const camera::BrownParams& p, const std::string& rms) {
@@ -51,7 +51,8 @@ struct SimulateCliOptions {
   std::vector<double> offsets;
   std::string sweep_out, map_out;
   std::vector<std::string> check = {"300", "500", "800", "1300", "2000", "5000", "100000"};
-  bool json = false;
+  bool json = false, force = false;
+  OutputRules rules;  // set by the callback: --force and the files the options name
 };
 
 // A fisheye lens: the Kannala–Brandt fits in water and in air (pixels).
@@ -165,7 +166,9 @@ void RegisterSimulate(CLI::App& app) {
   cmd->add_option("--map", o->map_out, "Write the distortion maps on the fit grid to this file (.csv or .json)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
 
-  cmd->callback([o] {
+  AddForceFlag(cmd, &o->force);
+  cmd->callback([o, cmd] {
+    o->rules = OutputRules{.force = o->force, .inputs = InputFiles(cmd, {"--sweep-out", "--map"})};
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--focus-distance"}, {"c_mm", "--c"}},
                    [&] { RunSimulate(*o); });
   });
@@ -177,8 +180,8 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
     simulate::SystemSpec spec;
     static_cast<housing::HousedCamera&>(spec) = o->camera.ToHoused(PortOptions{o->port, {}}, o->water);
     WarnIfImplausiblePort(spec.port, o->port + ": port");
-    if (!o->sweep_out.empty()) CheckOutputFile(o->sweep_out, "--sweep-out");
-    if (!o->map_out.empty()) CheckOutputFile(o->map_out, "--map");
+    if (!o->sweep_out.empty()) CheckOutput(o->sweep_out, "--sweep-out", o->rules);
+    if (!o->map_out.empty()) CheckOutput(o->map_out, "--map", o->rules);
     spec.object_distance_mm = RequirePositive("--focus-distance", o->focus_distance_mm);
     if (!o->ep_offset.empty()) {
       spec.ep_offset_mm = simulate::Vec3(o->ep_offset[0], o->ep_offset[1], o->ep_offset[2]);
@@ -264,14 +267,12 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
 
     if (!o->map_out.empty()) {
       const auto map = simulate::DistortionMap(p);
-      WriteFileAtomically(o->map_out, AsFile(o->map_out, simulate::MapJson(map), simulate::MapCsv(map)),
-                          "--map");
+      WriteOutput(o->map_out, AsFile(o->map_out, simulate::MapJson(map), simulate::MapCsv(map)), "--map", o->rules);
     }
     if (!o->sweep_out.empty()) {
-      WriteFileAtomically(o->sweep_out,
-                          AsFile(o->sweep_out, simulate::SweepJson(sweep, axis, radii),
-                                 simulate::SweepCsv(sweep, axis, radii)),
-                          "--sweep-out");
+      WriteOutput(o->sweep_out,
+                  AsFile(o->sweep_out, simulate::SweepJson(sweep, axis, radii), simulate::SweepCsv(sweep, axis, radii)),
+                  "--sweep-out", o->rules);
     }
 
     if (o->json) {
@@ -288,7 +289,7 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
         out["air_calibration_read"] = interop::DescribeRead(*air_read, o->air_calibration);
         out["air_calibration_refit_rms_px"] = air_read->exact ? 0.0 : air_read->fit.rms_px;
       }
-      fmt::print("{}\n", out.dump(2));
+      fmt::print("{}\n", out.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return;
     }
     std::string t = fisheye ? FisheyeText(spec, p) : BrownText(spec, p, errors, radii);

@@ -16,7 +16,7 @@ void RegisterSynthScan(CLI::App& app) {
     pointcloud::SyntheticCapOptions cap;
     std::vector<double> center{-0.4, -1.0, 21.5}, axis{0, 0, 1};
     bool ascii = false;
-    bool json = false;
+    bool json = false, force = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -51,7 +51,9 @@ void RegisterSynthScan(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--ascii", o->ascii, "ASCII PLY instead of binary little endian");
   cmd->add_flag("--json", o->json, "Print the summary as JSON");
+  AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
+    CheckOutput(o->out, "out", OutputRules{.force = o->force, .inputs = {}});  // WritePointCloud then replaces it
     o->cap.center_mm = Eigen::Vector3d(o->center[0], o->center[1], o->center[2]);
     o->cap.axis = Eigen::Vector3d(o->axis[0], o->axis[1], o->axis[2]);
     const pointcloud::SyntheticCap cap = pointcloud::MakeSyntheticCap(o->cap);
@@ -61,7 +63,7 @@ void RegisterSynthScan(CLI::App& app) {
       const Json j = {{"out", o->out}, {"points", cap.points.cols()}, {"outliers", n_out},
                       {"center_mm", o->center}, {"radius_mm", o->cap.radius_mm},
                       {"half_angle_deg", o->cap.half_angle_deg}, {"noise_mm", o->cap.noise_sigma_mm}};
-      fmt::print("{}\n", j.dump(2));
+      fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return;
     }
     fmt::print(

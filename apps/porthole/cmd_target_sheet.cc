@@ -18,7 +18,7 @@ void RegisterTargetSheet(CLI::App& app) {
   struct Options {
     std::string out, field, profile = "aicon";
     coded::SheetOptions sheet;
-    bool json = false;
+    bool json = false, force = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -36,6 +36,7 @@ void RegisterTargetSheet(CLI::App& app) {
   cmd->add_option("--count", o->sheet.count, "Number of targets (0: as many as fit)")->capture_default_str();
   cmd->add_option("--margin-mm", o->sheet.margin_mm, "Blank border, mm")->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the summary as JSON");
+  AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
     namespace fs = std::filesystem;
     std::string ext = fs::path(o->out).extension().string();
@@ -49,15 +50,18 @@ void RegisterTargetSheet(CLI::App& app) {
     // Both texts are made before either file is written.
     const std::string sheet = ext == ".svg" ? coded::SheetSvg(layout) : coded::SheetPdf(layout);
     const std::string field = coded::FieldText(layout);
-    WriteFileAtomically(o->out, sheet, "out");
-    WriteFileAtomically(field_path, field, "--field");
+    const OutputRules rules{.force = o->force, .inputs = {}};
+    CheckOutput(o->out, "out", rules);  // both checked before either is written
+    CheckOutput(field_path, "--field", rules);
+    WriteOutput(o->out, sheet, "out", rules);
+    WriteOutput(field_path, field, "--field", rules);
     const auto& t = layout.targets;
     if (o->json) {
       const Json j = {{"sheet", o->out}, {"field", field_path}, {"profile", coded::ProfileName(o->sheet.profile)},
                       {"bits", o->sheet.bits}, {"radius_mm", o->sheet.radius_mm},
                       {"paper_mm", {layout.width_mm, layout.height_mm}}, {"pitch_mm", layout.pitch_mm},
                       {"targets", t.size()}, {"first_id", t.front().id}, {"last_id", t.back().id}};
-      return fmt::print("{}\n", j.dump(2));
+      return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
     }
     fmt::print("wrote {} ({} {}-bit targets, IDs {}-{}, dot radius {} mm, pitch {} mm, {} x {} mm paper) and {}\n",
                o->out, coded::ProfileName(o->sheet.profile), o->sheet.bits, t.front().id, t.back().id,

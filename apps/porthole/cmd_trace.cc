@@ -22,7 +22,7 @@ void RegisterTrace(CLI::App& app) {
     double length_mm = 300;
     std::string format = "csv";
     std::string out;
-    bool json = false;
+    bool json = false, force = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -38,12 +38,14 @@ void RegisterTrace(CLI::App& app) {
   cmd->add_option("-o,--out", o->out, "Write to this file (default: standard output)");
   cmd->add_flag("--json", o->json, "JSON output for scripts (the same as --format json)");
 
-  cmd->callback([o] {
+  AddForceFlag(cmd, &o->force);
+  cmd->callback([o, cmd] {
     if (!(o->half_angle_deg > 0 && o->half_angle_deg < 90)) throw InvalidInput("--half-angle", "must be in (0, 90) deg");
     if (o->rays < 1 || o->rays > 100000) throw InvalidInput("--rays", "must be between 1 and 100000");
     RequirePositive("--length", o->length_mm);
     if (o->json) o->format = "json";
-    if (!o->out.empty()) CheckOutputFile(o->out, "--out");
+    const OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--out"})};
+    if (!o->out.empty()) CheckOutput(o->out, "--out", rules);
     const ports::Environment env = o->water.ToEnvironment();
     const ports::PortSystem sys = ports::MakeSystem(o->port.Spec(), env, o->port.Ep());
     const auto seq = sys.Outward();
@@ -82,14 +84,14 @@ void RegisterTrace(CLI::App& app) {
       Json j = DescribeSystem(sys, env);
       j["plane"] = o->plane;
       j["rays"] = rays;
-      text = j.dump(2) + "\n";
+      text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
     } else {
       text = csv;
     }
     if (o->out.empty()) {
       fmt::print("{}", text);
     } else {
-      WriteFileAtomically(o->out, text, "--out");
+      WriteOutput(o->out, text, "--out", rules);
     }
   });
 }

@@ -182,12 +182,30 @@ void EnsureOutputDirectory(const std::string& dir, const std::string& field) {
 }
 
 void CheckOutputFile(const std::string& file, const std::string& field) {
-  if (file.empty()) throw InvalidInput(field, "give a file name");
-  const std::filesystem::path p(file);
-  if (std::filesystem::is_directory(p)) throw InvalidInput(field, file + " is a directory");
-  const std::filesystem::path parent = p.parent_path().empty() ? std::filesystem::path(".") : p.parent_path();
-  RequireWritableDirectory(parent, field);
-  if (std::filesystem::exists(p) && access(p.c_str(), W_OK) != 0) throw InvalidInput(field, file + " is not writable");
+  CheckOutput(file, field, OutputRules{.force = true, .inputs = {}});
+}
+
+void AddForceFlag(CLI::App* cmd, bool* force) {
+  cmd->add_flag("--force", *force,
+                "Replace existing output files (never an input of this command, nor a file porthole wrote for another "
+                "purpose: a calibration, ground truth, detections or a report); devices and FIFOs are written into, "
+                "symlinks through to their target");
+}
+
+std::vector<std::filesystem::path> InputFiles(const CLI::App* cmd, const std::vector<std::string>& outputs) {
+  std::vector<std::filesystem::path> files;
+  for (const CLI::Option* opt : cmd->get_options()) {
+    if (opt->count() == 0 || std::find(outputs.begin(), outputs.end(), opt->get_name()) != outputs.end()) continue;
+    for (const std::string& v : opt->results()) {
+      std::error_code ec;
+      if (!v.empty() && std::filesystem::is_regular_file(v, ec)) files.emplace_back(v);
+    }
+  }
+  return files;
+}
+
+std::string PrintableJson(const Json& j, int indent) {
+  return j.dump(indent, ' ', false, Json::error_handler_t::replace);
 }
 
 }  // namespace porthole::cli

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "porthole/core/output.h"
 #include "porthole/lens/lens.h"
 #include "porthole/ports/environment.h"
 #include "porthole/ports/port.h"
@@ -89,7 +90,21 @@ void WarnIfImplausiblePort(const ports::PortSpec& spec, const std::string& where
 void EnsureOutputDirectory(const std::string& dir, const std::string& field);
 
 // Checks, before long work, that `file` can be written: not a directory, and its directory exists
-// and is writable. Throws InvalidInput(field, ...). Writes nothing.
+// and is writable. Throws InvalidInput(field, ...). Writes nothing. Commands check their outputs with
+// CheckOutput and their own OutputRules (--force, inputs) instead: this one assumes --force.
 void CheckOutputFile(const std::string& file, const std::string& field);
+
+// ---- Outputs: the one overwrite rule of every command (core/output.h, docs/robustness.md) ----
+
+// The --force flag of a command that writes files, with the rule in its help.
+void AddForceFlag(CLI::App* cmd, bool* force);
+
+// The files among the values of `cmd`'s options (every option but `outputs`, e.g. {"--out"}): the
+// command's inputs, which no output of it may replace.
+std::vector<std::filesystem::path> InputFiles(const CLI::App* cmd, const std::vector<std::string>& outputs);
+
+// JSON text for stdout: names from the file system that are not UTF-8 are written with U+FFFD
+// instead of failing after the outputs were written.
+std::string PrintableJson(const Json& j, int indent = 2);
 
 }  // namespace porthole::cli

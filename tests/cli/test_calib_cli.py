@@ -227,14 +227,14 @@ def test_killed_calibrate_leaves_old_output_or_none_and_no_temporaries(samples, 
     old = json.loads(out.read_text())
     for delay in (0.05, 0.2, 0.5, 1.0, 1.5):
         proc = subprocess.Popen([BIN, "calibrate", "--images", str(samples), "--target", TARGET,
-                                 "--model", "kannala-brandt", "--out", str(out), "--quiet"],
+                                 "--model", "kannala-brandt", "--out", str(out), "--force", "--quiet"],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
         cal = json.loads(out.read_text())  # whole: it parses
         assert cal["model"] in (old["model"], "kannala-brandt"), delay
-    run("calibrate", "--detections", detections, "--out", out, "--quiet")
+    run("calibrate", "--detections", detections, "--out", out, "--force", "--quiet")
     assert json.loads(out.read_text())["model"] == old["model"]
     assert [p for p in os.listdir(tmp_path) if ".tmp" in p] == []
 

@@ -300,7 +300,7 @@ def test_opencv_filestorage_pinhole_and_fisheye_read_by_cv2(tmp_path, ext, to):
         else:
             theirs, _ = cv2.fisheye.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
         assert np.max(np.abs(theirs.reshape(-1, 2) - ours)) <= 1e-6, model
-        back = run("convert", out, tmp_path / "back.json", "--json").json()
+        back = run("convert", out, tmp_path / "back.json", "--json", "--force").json()
         assert back["in_format"] == (to or "opencv-yaml")
         got = json.loads((tmp_path / "back.json").read_text())
         assert got["model"] == model and got["camera"] == pytest.approx(params, rel=1e-15)
@@ -329,7 +329,7 @@ def test_porthole_reads_what_cv2_filestorage_writes(tmp_path, ext):
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
         fill(fs)
         fs.release()
-        res = run("convert", path, tmp_path / "out.json", "--json").json()
+        res = run("convert", path, tmp_path / "out.json", "--json", "--force").json()
         assert res["in_format"] == ("opencv-xml" if ext == "xml" else "opencv-yaml"), name
         got = json.loads((tmp_path / "out.json").read_text())
         assert got["model"] == model and got["sensor"]["width_px"] == 4288, name
@@ -365,7 +365,7 @@ def test_several_cameras_into_one_cameras_txt_read_by_colmap(tmp_path):
     assert len(ours) == 3 and [[float(x) for x in l[2:]] for l in theirs] == [[float(x) for x in l[2:]] for l in ours]
     assert [l[:2] for l in theirs] == [l[:2] for l in ours]
     for cid, (model, params) in enumerate((("opencv", OPENCV), ("kannala-brandt", KB), ("opencv", pinhole)), 1):
-        run("convert", out / "cameras.txt", tmp_path / "back.json", "--camera-id", cid)
+        run("convert", out / "cameras.txt", tmp_path / "back.json", "--camera-id", cid, "--force")
         got = json.loads((tmp_path / "back.json").read_text())
         assert got["model"] == model
         assert {k: got["camera"][k] for k in params} == pytest.approx(params, rel=1e-15)

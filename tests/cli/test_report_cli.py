@@ -168,9 +168,12 @@ def test_existing_out_needs_force_and_is_replaced_whole(tmp_path):
     (out / "notes.txt").unlink()
     run("report", "--out", out)  # an empty directory
     assert "--force" in run_bad("report", "--out", out)
-    (out / "stale.txt").write_text("old run")
+    (out / "stale.txt").write_text("mine")  # not part of a report: the folder is not replaced (issue 24)
+    assert "stale.txt" in run_bad("report", "--out", out, "--force")
+    assert (out / "stale.txt").read_text() == "mine"
+    (out / "stale.txt").unlink()
     run("report", "--out", out, "--force", "--aperture", "11")
-    assert not (out / "stale.txt").exists() and leftovers(tmp_path) == []
+    assert leftovers(tmp_path) == []
     assert json.loads((out / "report.json").read_text())["plan"]["f_number"] == 11
 
 

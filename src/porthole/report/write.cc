@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -57,11 +58,54 @@ std::string ReadFile(const fs::path& p) {
   return s.str();
 }
 
-// A directory a report may replace: empty, or holding a porthole report.json.
-bool IsReportDir(const fs::path& dir) {
+// What a report folder holds: nothing else is ever in one porthole made.
+bool IsReportEntry(const std::string& name) {
+  return name == "figures" || name == "report.json" || name == "index.html";
+}
+
+// A directory a report may replace: empty, or a porthole report (its report.json says so) holding
+// nothing but the report's own entries (a file the user put there, or an input of this command,
+// would be lost with it).
+bool IsReportDir(const fs::path& dir, std::string* other) {
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (!IsReportEntry(e.path().filename().string())) {
+      *other = e.path().filename().string();
+      return false;
+    }
+  }
   if (fs::is_empty(dir)) return true;
-  const std::string json = ReadFile(dir / "report.json");
-  return json.find("\"porthole_report\"") != std::string::npos;
+  return KindOfFile(dir / "report.json") == FileKind::kReport;
+}
+
+// Whether `entry` is exactly one of this report's temporary folders: ".<name>.tmp-XXXXXX" (mkdtemp's
+// six letters or digits), or that with ".old" (the old report moved aside), a directory (not a
+// link) holding only a report's own entries.
+bool IsOwnTemporary(const fs::directory_entry& entry, const std::string& name) {
+  std::string n = entry.path().filename().string();
+  if (n.size() > 4 && n.compare(n.size() - 4, 4, ".old") == 0) n.resize(n.size() - 4);
+  const std::string prefix = "." + name + ".tmp-";
+  if (n.size() != prefix.size() + 6 || n.compare(0, prefix.size(), prefix) != 0) return false;
+  for (std::size_t i = prefix.size(); i < n.size(); ++i) {
+    if (!std::isalnum(static_cast<unsigned char>(n[i]))) return false;
+  }
+  std::error_code ec;
+  if (!fs::is_directory(fs::symlink_status(entry.path(), ec))) return false;
+  for (auto it = fs::directory_iterator(entry.path(), ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    if (!IsReportEntry(it->path().filename().string())) return false;
+  }
+  return !ec;
+}
+
+// Removes the folders a killed run of this report left (IsOwnTemporary); nothing else. Call only
+// while holding DirLock(parent).
+void RemoveStaleReportTemporaries(const fs::path& parent, const std::string& name) {
+  std::error_code ec;
+  for (auto it = fs::directory_iterator(parent, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    if (IsOwnTemporary(*it, name)) {
+      std::error_code ignore;
+      fs::remove_all(it->path(), ignore);
+    }
+  }
 }
 
 // Runs `gnuplot all.gp` in `dir` (no shell); its messages go to dir/gnuplot.log.
@@ -135,14 +179,18 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
     if (!options.force && !fs::is_empty(out)) {
       throw InvalidInput("--out", fmt::format("{} exists: --force replaces it", out.string()));
     }
-    if (!IsReportDir(out)) {
-      throw InvalidInput("--out", fmt::format("{} is not empty and holds no porthole report: not replaced", out.string()));
+    std::string other;
+    if (!IsReportDir(out, &other)) {
+      throw InvalidInput("--out", other.empty()
+                                      ? fmt::format("{} is not empty and holds no porthole report: not replaced", out.string())
+                                      : fmt::format("{} is not empty and holds {}, which is not part of a porthole report: not replaced",
+                                                    out.string(), other));
     }
   }
   // Held until the report is in place: whoever holds it knows that any .<name>.tmp-* beside --out
   // is the leftover of a killed run, and removes it (docs/robustness.md).
   const DirLock lock(out.parent_path());
-  RemoveStaleTemporaries(out.parent_path(), "." + out.filename().string() + ".tmp-");
+  RemoveStaleReportTemporaries(out.parent_path(), out.filename().string());
   TempDir tmp(out);
   const fs::path figdir = tmp.path() / "figures";
   fs::create_directory(figdir);
@@ -171,8 +219,8 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
     }
   });
   steps.Run("page and JSON", [&] {
-    WriteFileAtomically(tmp.path() / "report.json", ReportJson(results, figures).dump(2) + "\n", "--out");
-    WriteFileAtomically(tmp.path() / "index.html", ReportHtml(results, figures, svgs), "--out");
+    WriteFileAtomically(tmp.path() / "report.json", ReportJson(results, figures).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out");
+    WriteFileAtomically(tmp.path() / "index.html", ValidUtf8(ReportHtml(results, figures, svgs)), "--out");
   });
   chmod(tmp.path().c_str(), 0755);  // mkdtemp made it private
   MoveIntoPlace(tmp.path(), out, exists);
