@@ -67,12 +67,13 @@ inline ports::Environment MakeEnvironment(const std::string& water, std::optiona
 // files, then lensfun names; one place, as MakeEnvironment).
 inline io::CameraAndLens FindCameraAndLens(const std::string& camera, const std::string& lens,
                                            std::optional<double> pixel_pitch_mm,
-                                           std::optional<double> focal_mm) {
+                                           std::optional<double> focal_mm, const io::LensData& lens_data = {}) {
   io::CameraLensQuery q;
   q.camera = camera;
   q.lens = lens;
   q.pixel_pitch_mm = pixel_pitch_mm;
   q.focal_length_mm = focal_mm;
+  q.lens_data = lens_data;
   return io::FindCameraAndLens(q);
 }
 
@@ -80,8 +81,9 @@ inline io::CameraAndLens FindCameraAndLens(const std::string& camera, const std:
 inline planning::Setup MakeSetup(const std::string& camera, const std::string& lens, const std::string& port,
                                  const std::string& water, std::optional<double> water_index, double lambda_nm,
                                  double temperature_c, double salinity_psu, double pressure_dbar,
-                                 std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm) {
-  const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm);
+                                 std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm,
+                                 const io::LensData& lens_data = {}) {
+  const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm, lens_data);
   planning::Setup s;
   s.camera = cl.camera;
   s.lens = cl.lens;

@@ -20,11 +20,12 @@ void RegisterReport(py::module_& m) {
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
          double subject_distance_mm, double f_number, std::optional<double> coc_mm,
          const py::object& air_calibration, const py::object& water_calibration, bool force,
-         std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm) {
+         std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm, std::optional<double> min_focus_mm,
+         std::optional<double> pupil_mm) {
         return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"--port", "port"}, {"--out", "out"}}, [&] {
           report::ReportInputs in;
           in.setup = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c, salinity_psu,
-                               pressure_dbar, pixel_pitch_mm, focal_mm);
+                               pressure_dbar, pixel_pitch_mm, focal_mm, {min_focus_mm, pupil_mm});
           in.other_port = WithFieldNames({{"--port", "compare_port"}}, [&] {
             return io::LoadPort(compare_port.empty() ? report::DefaultOtherPort(in.setup.port) : compare_port);
           });
@@ -59,7 +60,7 @@ void RegisterReport(py::module_& m) {
       py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("subject_distance_mm") = 1000.0,
       py::arg("f_number") = 8.0, py::arg("coc_mm") = py::none(), py::arg("air_calibration") = py::none(),
       py::arg("water_calibration") = py::none(), py::arg("force") = false, py::arg("pixel_pitch_mm") = py::none(),
-      py::arg("focal_mm") = py::none(),
+      py::arg("focal_mm") = py::none(), py::arg("min_focus_mm") = py::none(), py::arg("pupil_mm") = py::none(),
       "Writes the report of a camera-lens-port-water system into the directory `out` (as `porthole "
       "report`): index.html, report.json and the figures. Calibrations are file paths (any format "
       "`porthole convert` reads: porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape, calibmar) or "

@@ -23,9 +23,9 @@ void RegisterSimulate(py::module_& m) {
          double temperature_c, double salinity_psu, int grid_cols, int grid_rows, bool fit_k3,
          bool free_rotation, const std::optional<std::string>& sweep_axis,
          const std::vector<double>& offsets_mm, bool with_map, std::optional<double> pixel_pitch_mm,
-         std::optional<double> focal_mm) {
+         std::optional<double> focal_mm, std::optional<double> min_focus_mm, std::optional<double> pupil_mm) {
         return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}, {"--port", "port"}}, [&] {
-        const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm);
+        const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm, {min_focus_mm, pupil_mm});
         simulate::SystemSpec spec;
         spec.port = io::LoadPort(port);
         spec.camera = cl.camera;
@@ -78,6 +78,7 @@ void RegisterSimulate(py::module_& m) {
       py::arg("grid_rows") = 17, py::arg("fit_k3") = true, py::arg("free_rotation") = true,
       py::arg("sweep_axis") = py::none(), py::arg("offsets_mm") = std::vector<double>{},
       py::arg("with_map") = false, py::arg("pixel_pitch_mm") = py::none(), py::arg("focal_mm") = py::none(),
+      py::arg("min_focus_mm") = py::none(), py::arg("pupil_mm") = py::none(),
       "The central Brown model fitted in water and in air behind a port (dict, units in the keys;\n"
       "Brown coefficients K1..P2 in mm^-n as in 'units'). air_calibration: a dict {c_mm, x0_mm,\n"
       "y0_mm, K1, K2, P1, P2} gives 'predicted_water'. sweep_axis 'x'|'y'|'z' with offsets_mm adds\n"

@@ -1,5 +1,6 @@
-// --camera, --lens, --pixel-pitch-mm (alias --pixel-pitch), --focal, --allow-adapter: the camera
-// and lens options of every command that takes a housed camera (plan, flat, simulate, report):
+// --camera, --lens, --pixel-pitch-mm (alias --pixel-pitch), --focal, --min-focus-mm, --pupil-mm,
+// --allow-adapter: the camera and lens options of every command that takes a housed camera (plan,
+// flat, simulate, report, render):
 // presets, TOML files, or names in Debian's lensfun database (io/lookup.h), and the library fields
 // they stand for.
 #pragma once
@@ -18,7 +19,7 @@ namespace porthole::cli {
 #define PORTHOLE_CAMERA_FLAGS                                                                       \
   {"camera", "--camera"}, {"lens", "--lens"}, {"pixel_pitch_mm", "--pixel-pitch-mm"},                \
       {"focal_length_mm", "--focal"}, {"ep_offset_mm", "--ep-offset"}, {"ep_in_housing_mm", "--ep"}, \
-      {"port", "--port"}
+      {"port", "--port"}, {"min_focus_mm", "--min-focus-mm"}, {"pupil_mm", "--pupil-mm"}
 
 struct CameraLensOptions {
   io::CameraLensQuery query;
@@ -36,6 +37,14 @@ struct CameraLensOptions {
                     "Pixel pitch, mm (needed for a lensfun camera)")
         ->group("Camera");
     cmd->add_option("--focal", query.focal_length_mm, "Focal length, mm (needed for a lensfun zoom)")->group("Camera");
+    cmd->add_option("--min-focus-mm", query.lens_data.min_focus_mm,
+                    "The lens's minimum focus distance, mm, sensor to subject, as published (lensfun records none: "
+                    "without it 10 x the focal length is assumed)")
+        ->group("Camera");
+    cmd->add_option("--pupil-mm", query.lens_data.pupil_mm,
+                    "The entrance pupil's distance ahead of the sensor plane at infinity focus, mm, the lens on "
+                    "its own mount (lensfun records none: without it 68.1 mm / crop factor is assumed)")
+        ->group("Camera");
     cmd->add_flag("--allow-adapter", query.allow_adapter,
                   "Let a lens for a longer flange sit on an adapter (its pupil moves forward by the adapter)")
         ->group("Camera");

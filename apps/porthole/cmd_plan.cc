@@ -27,17 +27,20 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                               "confusion {:.4f} mm ({})\n\n",
                               s.camera.name, s.lens.name, s.lens.focal_length_mm, projection, sys.spec.name,
                               sys.IsDome() ? "dome" : "flat", sys.n_water, p.f_number, p.coc_mm, p.coc_source);
+  t.insert(t.size() - 1, io::DescribeCameraAndLens(s.camera, s.lens));
   t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
                    Fixed(p.d_s2ep_infinity_mm, 1));
-  t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm, Eq. 2)\n",
-                   Fixed(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm);
+  t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm{}, Eq. 2)\n",
+                   Fixed(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
   if (p.lens_covers_virtual_range) {
     t += fmt::format("minimum working distance       {:>9} mm: the glass (the lens focuses on the whole virtual-image "
                      "range, {:.1f} to {} mm)\n",
                      Fixed(p.min_wd_mm, 0), p.d_s2ep_touching_mm, Fixed(p.d_s2ep_infinity_mm, 1));
-    t += "  close-up lens                  not needed\n";
+    t += s.lens.min_focus_assumed ? "  close-up lens                  not needed (with the assumed minimum focus)\n"
+                                  : "  close-up lens                  not needed\n";
   } else {
-    t += fmt::format("minimum working distance       {:>9} mm (set by the lens's minimum focus)\n", Fixed(p.min_wd_mm, 0));
+    t += fmt::format("minimum working distance       {:>9} mm (set by the lens's minimum focus{})\n", Fixed(p.min_wd_mm, 0),
+                     s.lens.min_focus_assumed ? ", assumed" : "");
     for (const auto& r : p.closeup) {
       t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {} mm\n", r.dioptre, Fixed(r.min_wd_mm, 0),
                        Fixed(r.max_wd_mm, 0));
@@ -67,6 +70,7 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                                           : fmt::format("shorten the extension by {:.1f} mm", -c.extension_mm),
                        Fixed(c.focus_distance_after_mm.value_or(NAN), 0),
                        c.lateral_offset_mm >= 0.05 ? "; no ring corrects the lateral offset" : "");
+      if (s.lens.pupil_estimated) t += "  (the entrance pupil is assumed, not measured: so is this ring)\n";
     }
   }
   t += p.field_cut.blocked_fraction > 0

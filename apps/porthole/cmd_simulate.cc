@@ -57,7 +57,7 @@ struct SimulateCliOptions {
 
 // A fisheye lens: the Kannala–Brandt fits in water and in air (pixels).
 std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Prediction& p) {
-  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
+  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + io::DescribeCameraAndLens(spec.camera, spec.lens);
   t += fmt::format("{} + {} ({} fisheye) focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
                    "focus scale {:.1f} mm; c = {:.3f} mm\n\n{} fitted, pixels:\n",
                    spec.camera.name, spec.lens.name, camera::ProjectionName(spec.lens.projection),
@@ -95,7 +95,7 @@ std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Predic
 // A rectilinear lens: the Brown fits, the change, the profile and the error at other distances.
 std::string BrownText(const simulate::SystemSpec& spec, const simulate::Prediction& p,
                     const std::vector<simulate::DistanceError>& errors, const std::vector<double>& radii) {
-  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n";
+  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + io::DescribeCameraAndLens(spec.camera, spec.lens);
   t += fmt::format("{} + {} focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
                    "focus scale {:.1f} mm, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
                    spec.camera.name, spec.lens.name, p.object_distance_mm, p.focus.d_s2ep_mm,
@@ -281,6 +281,11 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
       out.erase("water");
       out["camera_body"] = spec.camera.name;
       out["lens"] = spec.lens.name;
+      // Which source answered each name ("preset", "file", "lensfun"), and what of the lens is assumed.
+      out["camera_found_in"] = spec.camera.lookup;
+      out["lens_found_in"] = spec.lens.lookup;
+      out["lens_min_focus_assumed"] = spec.lens.min_focus_assumed;
+      out["lens_pupil_estimated"] = spec.lens.pupil_estimated;
       const Json prediction = simulate::PredictionJson(p);  // outlives the loop over its items
       for (const auto& [k, v] : prediction.items()) out[k] = v;
       if (!fisheye) out["distance_errors"] = simulate::DistanceErrorsJson(errors);

@@ -53,3 +53,19 @@ def test_pixel_pitch_of_a_preset_body_as_the_cli():
     assert p.coc_mm == pytest.approx(0.022)
     with pytest.raises(ValueError, match="^pixel_pitch_mm:"):
         porthole.plan(pixel_pitch_mm=-1)
+
+
+def test_names_exact_and_lens_data_keywords():
+    # Issue 23: a name lensfun does not have is refused with candidates, never another camera; the
+    # minimum focus lensfun lacks is assumed (and said) or given as min_focus_mm= (as --min-focus-mm).
+    with pytest.raises(ValueError, match="^camera: .*did you mean"):
+        porthole.plan(camera="Sony A7R V", pixel_pitch_mm=0.004)
+    kw = dict(camera="sony-a7iv", lens="Sony FE 16-35mm f/4 ZA OSS", focal_mm=16, port="generic-dome-8in")
+    assumed = porthole.plan(**kw)
+    assert assumed.lens.min_focus_assumed is True and assumed.lens.found_in == "lensfun"
+    given = porthole.plan(**kw, min_focus_mm=280, pupil_mm=68.1)
+    assert given.lens.min_focus_assumed is False and given.lens.pupil_estimated is False
+    # Eq. 2 at FD 280 with the pupil 68.1 mm ahead of the sensor (Sony E flange 18 mm), moved f²/(FD − 2f).
+    assert given.closest_d_s2ep_mm == pytest.approx(280 - 68.1 - 16 * 16 / (280 - 32), abs=1e-9)
+    with pytest.raises(ValueError, match="^min_focus_mm:"):
+        porthole.plan(**kw, min_focus_mm=10)

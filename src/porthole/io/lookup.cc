@@ -1,15 +1,19 @@
 #include "porthole/io/lookup.h"
 
-#include <regex>
-
 #include <fmt/format.h>
 #include <lensfun/lensfun.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <set>
+#include <string_view>
+#include <tuple>
+#include <vector>
 
 #include "porthole/core/error.h"
 #include "porthole/io/presets.h"
@@ -33,24 +37,147 @@ const lfDatabase* Db() {
   return db;
 }
 
-// True when io knows `name` as a preset or it names a TOML file.
-bool IsPorthole(const std::string& kind, const std::string& name) {
-  if (name.ends_with(".toml") || std::filesystem::is_regular_file(name)) return true;  // "f/2.8" is no path
-  for (const Preset& p : BuiltinPresets()) {
-    if (p.kind == kind && p.name == name) return true;
+// A name as compared: lower case, without spaces, hyphens and underscores ("Nikon-D850",
+// "nikon d850", "NIKON_D850" → "nikond850"). Other characters ("/", ".", "+") are kept.
+std::string Key(std::string_view name) {
+  std::string k;
+  for (char ch : name) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (std::isspace(c) || ch == '-' || ch == '_') continue;
+    k += static_cast<char>(std::tolower(c));
   }
-  return false;
+  return k;
 }
 
-template <typename T>
-using LfList = std::unique_ptr<const T*[], decltype(&lf_free)>;
+// A name for display and ranking: lower case, words split at spaces, hyphens and underscores.
+std::vector<std::string> Words(std::string_view name) {
+  std::vector<std::string> out(1);
+  for (char ch : name) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (std::isspace(c) || ch == '-' || ch == '_') {
+      if (!out.back().empty()) out.emplace_back();
+    } else {
+      out.back() += static_cast<char>(std::tolower(c));
+    }
+  }
+  if (out.back().empty()) out.pop_back();
+  return out;
+}
+
+// True when `name` names a TOML file (a path), not a preset or database name.
+bool IsFile(const std::string& name) {
+  return name.ends_with(".toml") || std::filesystem::is_regular_file(name);  // "f/2.8" is no path
+}
+
+// The preset of `kind` whose id has the same Key as `name`.
+const Preset* PresetByKey(const std::string& kind, const std::string& name) {
+  const std::string k = Key(name);
+  for (const Preset& p : BuiltinPresets()) {
+    if (p.kind == kind && Key(p.name) == k) return &p;
+  }
+  return nullptr;
+}
 
 std::string Str(const lfMLstr s) { return s ? lf_mlstr_get(s) : ""; }
 
+// Every spelling of a lensfun multi-language string: the default, then each translation
+// ("ILCE-7M4", then "Alpha 7 IV" for lang="en").
+std::vector<std::string> Spellings(const lfMLstr s) {
+  std::vector<std::string> out;
+  if (!s) return out;
+  const char* p = s;
+  out.emplace_back(p);
+  p += std::strlen(p) + 1;
+  while (*p) {           // language code, then its value
+    p += std::strlen(p) + 1;
+    if (!*p) break;
+    out.emplace_back(p);
+    p += std::strlen(p) + 1;
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 // "Canon" + "Canon EF 24mm f/2.8" → "Canon EF 24mm f/2.8"; "Nikon" + "D850" → "Nikon D850".
-std::string FullName(const lfMLstr maker, const lfMLstr model) {
-  const std::string a = Str(maker), b = Str(model);
-  return b.rfind(a, 0) == 0 ? b : a + " " + b;
+std::string FullName(const std::string& a, const std::string& b) {
+  return Key(b).rfind(Key(a), 0) == 0 ? b : a + " " + b;
+}
+std::string FullName(const lfMLstr maker, const lfMLstr model) { return FullName(Str(maker), Str(model)); }
+
+// Every maker + model spelling of a lensfun entry.
+std::vector<std::string> FullNames(const lfMLstr maker, const lfMLstr model) {
+  std::vector<std::string> out;
+  for (const std::string& a : Spellings(maker)) {
+    for (const std::string& b : Spellings(model)) out.push_back(FullName(a, b));
+  }
+  return out;
+}
+
+// The longest common subsequence of two strings.
+std::size_t CommonSubsequence(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1, 0);
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = 0;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = a[i - 1] == b[j - 1] ? diag + 1 : std::max(row[j], row[j - 1]);
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// How far `candidate` is from what was asked (lower is closer), over the Keys: an edit distance
+// where a character of the query the candidate lacks costs 2 and a character the candidate adds
+// costs 0.5 (a user shortens names more than they misspell them: "Sony A7R V" is nearer "Sony
+// Alpha 7R IV" than "Sony DSC-R1"), less 0.5 for every word of the query the candidate shares.
+double Distance(const std::string& query, const std::string& candidate) {
+  const std::string q = Key(query), c = Key(candidate);
+  const auto common = static_cast<double>(CommonSubsequence(q, c));
+  const std::vector<std::string> qw = Words(query), cw = Words(candidate);
+  double shared = 0;
+  for (const std::string& w : qw) {
+    if (std::find(cw.begin(), cw.end(), w) != cw.end()) shared += 1;
+  }
+  return 2 * (static_cast<double>(q.size()) - common) + 0.5 * (static_cast<double>(c.size()) - common) -
+         0.5 * shared;
+}
+
+// The three names closest to `query` (a name and where it is from), as "a (preset), b
+// (lensfun), c (lensfun)".
+std::string Closest(const std::string& query, const std::vector<std::pair<std::string, std::string>>& names) {
+  std::vector<std::tuple<double, std::string, std::string>> ranked;
+  std::set<std::string> seen;
+  for (const auto& [name, from] : names) {
+    if (!seen.insert(name).second) continue;
+    ranked.emplace_back(Distance(query, name), name, from);
+  }
+  const std::size_t n = std::min<std::size_t>(3, ranked.size());
+  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(n), ranked.end());
+  std::string out;
+  for (std::size_t k = 0; k < n; ++k) {
+    out += fmt::format("{}'{}' ({})", k == 0 ? "" : k + 1 == n ? " or " : ", ", std::get<1>(ranked[k]),
+                       std::get<2>(ranked[k]));
+  }
+  return out;
+}
+
+// Preset ids of `kind` as candidates.
+std::vector<std::pair<std::string, std::string>> PresetNames(const std::string& kind) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const Preset& p : BuiltinPresets()) {
+    if (p.kind == kind) out.emplace_back(std::string(p.name), "preset");
+  }
+  return out;
+}
+
+[[noreturn]] void Unknown(const std::string& field, const std::string& kind, const std::string& name,
+                          const std::vector<std::pair<std::string, std::string>>& names) {
+  throw InvalidInput(field, fmt::format("unknown {} '{}': no preset, file or lensfun {} has that name; did you "
+                                        "mean {}? (names match exactly, ignoring case, spaces, hyphens and "
+                                        "underscores; 'porthole presets' lists the presets)",
+                                        kind, name, kind, Closest(name, names)));
 }
 
 // lensfun stores f-numbers as float: 2.8f reads back as 2.7999999523.
@@ -83,20 +210,50 @@ lens::CameraBody WithPixelPitch(lens::CameraBody body, double pitch_mm) {
   return body;
 }
 
+namespace {
+
+// The lensfun entries whose maker + model (any spelling) has the Key of `name`, and every entry's
+// names as candidates for "did you mean".
+template <typename T>
+std::vector<const T*> LensfunExact(const T* const* all, const std::string& name,
+                                   std::vector<std::pair<std::string, std::string>>* candidates) {
+  std::vector<const T*> out;
+  const std::string k = Key(name);
+  for (const T* const* e = all; e && *e; ++e) {
+    bool hit = false;
+    for (const std::string& full : FullNames((*e)->Maker, (*e)->Model)) {
+      if (Key(full) == k) hit = true;
+      candidates->emplace_back(full, "lensfun");
+    }
+    if (hit) out.push_back(*e);
+  }
+  return out;
+}
+
+}  // namespace
+
 lens::CameraBody FindCamera(const std::string& name, std::optional<double> pitch) {
-  if (IsPorthole("camera", name)) {
-    lens::CameraBody b = LoadCamera(name);
+  const Preset* preset = IsFile(name) ? nullptr : PresetByKey("camera", name);
+  if (IsFile(name) || preset) {
+    lens::CameraBody b = LoadCamera(preset ? std::string(preset->name) : name);
+    b.lookup = preset ? "preset" : "file";
+    if (b.fixed_lens) b.fixed_lens->lookup = b.lookup;
     // Another pitch for a preset or file body: the same sensor (its size in mm), other pixels.
     if (pitch && *pitch != b.sensor.pixel_pitch_mm) b = WithPixelPitch(b, *pitch);
     return b;
   }
-  if (!Db()) throw InvalidInput("camera", "unknown camera '" + name + "' (and the lensfun database is missing)");
-  LfList<lfCamera> found(lf_db_find_cameras_ext(Db(), nullptr, name.c_str(), LF_SEARCH_LOOSE), &lf_free);
-  if (!found || !found[0]) {
-    throw InvalidInput("camera", "unknown camera '" + name + "': not a preset ('porthole presets'), a file, "
-                                   "nor in the lensfun database");
-  }
+  std::vector<std::pair<std::string, std::string>> candidates = PresetNames("camera");
+  if (!Db()) Unknown("camera", "camera", name, candidates);
+  const std::vector<const lfCamera*> found = LensfunExact(lf_db_get_cameras(Db()), name, &candidates);
+  if (found.empty()) Unknown("camera", "camera", name, candidates);
   const lfCamera* c = found[0];
+  for (const lfCamera* o : found) {
+    if (std::string(o->Mount ? o->Mount : "") != (c->Mount ? c->Mount : "") || o->CropFactor != c->CropFactor) {
+      throw InvalidInput("camera", fmt::format("'{}' names {} cameras in the lensfun database with different mounts "
+                                               "or crop factors; porthole cannot tell which: give a camera TOML file",
+                                               name, found.size()));
+    }
+  }
   lens::CameraBody b;
   b.name = FullName(c->Maker, c->Model);
   const auto mount = MountFromLensfun(c->Mount ? c->Mount : "");
@@ -111,31 +268,61 @@ lens::CameraBody FindCamera(const std::string& name, std::optional<double> pitch
   b.description = fmt::format("{} (lensfun: crop factor {:g}, {} aspect assumed)", b.name, c->CropFactor,
                               *mount == "mft" ? "4:3" : "3:2");
   b.source = "lensfun database (liblensfun-data-v1)";
+  b.lookup = "lensfun";
   return b;
 }
 
-lens::LensSpec FindLens(const std::string& name, std::optional<double> focal_mm) {
-  if (IsPorthole("lens", name)) return LoadLens(name);
-  if (!Db()) throw InvalidInput("lens", "unknown lens '" + name + "' (and the lensfun database is missing)");
-  LfList<lfLens> found(lf_db_find_lenses_hd(Db(), nullptr, nullptr, name.c_str(), LF_SEARCH_LOOSE), &lf_free);
-  if (!found || !found[0]) {
-    throw InvalidInput("lens", "unknown lens '" + name + "': not a preset ('porthole presets'), a file, nor in "
-                                 "the lensfun database");
+lens::LensSpec WithLensData(lens::LensSpec s, const LensData& given) {
+  if (given.min_focus_mm) {
+    const double fd = RequireFinite("min_focus_mm", *given.min_focus_mm);
+    if (!(fd > 2 * s.focal_length_mm)) {
+      throw InvalidInput("min_focus_mm", fmt::format("{:g} mm is not beyond twice the focal length ({:g} mm): the "
+                                                     "minimum focus is a focus-scale distance, sensor to subject",
+                                                     fd, 2 * s.focal_length_mm));
+    }
+    s.min_focus_mm = fd;
+    s.min_focus_assumed = false;
   }
+  if (given.pupil_mm) {
+    const double ep = RequirePositive("pupil_mm", *given.pupil_mm);
+    // The sample table keeps its movement with focus, shifted to the given position at infinity.
+    const double ffd = lens::MountByName(s.mount).flange_focal_distance_mm;
+    const double shift = (ep - ffd) - s.PupilToFlangeMm(std::numeric_limits<double>::infinity());
+    for (lens::PupilSample& p : s.pupil) p.d_ep2f_mm += shift;
+    s.pupil_estimated = false;
+  }
+  return s;
+}
+
+lens::LensSpec FindLens(const std::string& name, std::optional<double> focal_mm, const LensData& given) {
+  const Preset* preset = IsFile(name) ? nullptr : PresetByKey("lens", name);
+  if (IsFile(name) || preset) {
+    lens::LensSpec s = LoadLens(preset ? std::string(preset->name) : name);
+    s.lookup = preset ? "preset" : "file";
+    return WithLensData(s, given);
+  }
+  std::vector<std::pair<std::string, std::string>> candidates = PresetNames("lens");
+  if (!Db()) Unknown("lens", "lens", name, candidates);
+  std::vector<const lfLens*> found = LensfunExact(lf_db_get_lenses(Db()), name, &candidates);
+  if (found.empty()) Unknown("lens", "lens", name, candidates);
+  // One lens calibrated on several bodies appears once per body's crop factor: the same optics, so
+  // the entry with the smallest crop factor (the largest format it was used on) stands for it.
+  // Entries that differ in anything else are different lenses.
+  std::stable_sort(found.begin(), found.end(),
+                   [](const lfLens* x, const lfLens* y) { return x->CropFactor < y->CropFactor; });
   const lfLens* l = found[0];
-  // lensfun's loose search returns its best guess even for a name that does not exist
-  // ("nikkor-99mm" → a 50 mm lens): a focal length written in the query must match.
-  static const std::regex kFocal(R"((\d+(?:\.\d+)?)\s*mm)", std::regex::icase);
-  for (auto it = std::sregex_iterator(name.begin(), name.end(), kFocal); it != std::sregex_iterator(); ++it) {
-    const double asked = std::stod((*it)[1].str());
-    if (asked < l->MinFocal - 0.5 || asked > l->MaxFocal + 0.5) {
-      throw InvalidInput("lens", fmt::format("unknown lens '{}': not a preset ('porthole presets'), a file, nor in "
-                                               "the lensfun database (nearest: {})",
-                                               name, FullName(l->Maker, l->Model)));
+  for (const lfLens* o : found) {
+    if (o->MinFocal != l->MinFocal || o->MaxFocal != l->MaxFocal || o->MinAperture != l->MinAperture ||
+        o->Type != l->Type) {
+      throw InvalidInput("lens", fmt::format("'{}' names {} lenses in the lensfun database with different focal "
+                                             "lengths, apertures or types; porthole cannot tell which: give a lens "
+                                             "TOML file",
+                                             name, found.size()));
     }
   }
   lens::LensSpec s;
   s.name = FullName(l->Maker, l->Model);
+  s.lookup = "lensfun";
   for (char** m = l->Mounts; m && *m; ++m) {
     const auto mount = MountFromLensfun(*m);
     if (!mount) continue;
@@ -173,22 +360,36 @@ lens::LensSpec FindLens(const std::string& name, std::optional<double> focal_mm)
   s.f_number_min = l->MinAperture > 0 ? FNumber(l->MinAperture) : 2.8;
   s.f_number_max = l->MaxAperture > 0 ? FNumber(l->MaxAperture) : 22;
   const double f = s.focal_length_mm;
+  // lensfun records neither the minimum focus nor the entrance pupil: the given values, else
+  // estimates flagged as assumed.
   s.min_focus_mm = 10 * f;
-  // Estimated pupil: a fixed distance ahead of the sensor at infinity, then the thin-lens extension.
+  s.min_focus_assumed = true;
+  s = WithLensData(s, {given.min_focus_mm, std::nullopt});  // checks the given minimum focus
+  // The pupil: a fixed distance ahead of the sensor at infinity, then the thin-lens extension.
   const double ffd = lens::MountByName(s.mount).flange_focal_distance_mm;
   const double crop = l->CropFactor > 0 ? l->CropFactor : 1.0;
-  const double ep_inf = kEpToSensorFullFrameMm / crop - ffd;
+  const double ep_sensor = given.pupil_mm ? RequirePositive("pupil_mm", *given.pupil_mm) : kEpToSensorFullFrameMm / crop;
+  const double ep_inf = ep_sensor - ffd;
   for (double fd : {std::numeric_limits<double>::infinity(), 4 * s.min_focus_mm, 2 * s.min_focus_mm, s.min_focus_mm}) {
     s.pupil.push_back({fd, ep_inf + (std::isinf(fd) ? 0.0 : f * f / (fd - 2 * f))});
   }
-  s.pupil_estimated = true;
+  s.pupil_estimated = !given.pupil_mm;
+  const std::string min_focus = s.min_focus_assumed
+                                    ? fmt::format("minimum focus assumed 10 f = {:g} mm (lensfun records none)",
+                                                  s.min_focus_mm)
+                                    : fmt::format("minimum focus {:g} mm (given)", s.min_focus_mm);
+  const std::string pupil =
+      given.pupil_mm
+          ? fmt::format("entrance pupil {:g} mm ahead of the sensor at infinity (given)", ep_sensor)
+          : fmt::format("entrance pupil assumed {:.1f} mm ahead of the sensor at infinity (68.1 mm / crop factor {:g}, "
+                        "the mean of the paper's two measured Nikkors)",
+                        ep_sensor, crop);
   s.description = fmt::format(
-      "lensfun data; minimum focus taken as 10 f = {:g} mm; entrance pupil taken {:.1f} mm ahead of the sensor at "
-      "infinity (68.1 mm / crop factor {:g}, the mean of the paper's two measured Nikkors), moving forward by the "
-      "thin-lens extension f^2/(FD - 2f) when focusing; {} projection{}",
-      s.min_focus_mm, ep_inf + ffd, crop, camera::ProjectionName(s.projection),
+      "lensfun data; {}; {}, moving forward by the thin-lens extension f^2/(FD - 2f) when focusing; {} projection{}",
+      min_focus, pupil, camera::ProjectionName(s.projection),
       s.projection_estimated ? " (estimated: lensfun records no exact type for it)" : " (lensfun's lens type)");
-  s.source = "lensfun database (liblensfun-data-v1); pupil: porthole estimate, docs/planning.md";
+  s.source = given.pupil_mm ? "lensfun database (liblensfun-data-v1); pupil: given"
+                            : "lensfun database (liblensfun-data-v1); pupil: porthole estimate, docs/planning.md";
   return s;
 }
 
@@ -208,20 +409,35 @@ std::optional<camera::Projection> ProjectionFromLensfunType(int t, bool* estimat
   }
 }
 
+std::string FoundIn(const std::string& lookup) {
+  if (lookup == "preset") return "porthole preset";
+  if (lookup == "file") return "file";
+  if (lookup == "lensfun") return "lensfun database";
+  return "built in";
+}
+
+std::string DescribeCameraAndLens(const lens::CameraBody& camera, const lens::LensSpec& lens) {
+  std::string l = FoundIn(lens.lookup);
+  if (lens.mount == "fixed") l = "the camera's own lens, " + l;
+  if (lens.min_focus_assumed) l += fmt::format("; minimum focus assumed: {:g} mm", lens.min_focus_mm);
+  if (lens.pupil_estimated) l += "; entrance pupil assumed";
+  return fmt::format("camera  {} ({})\nlens    {} ({})\n", camera.name, FoundIn(camera.lookup), lens.name, l);
+}
+
 CameraAndLens FindCameraAndLens(const CameraLensQuery& q) {
   CameraAndLens out;
   out.camera = FindCamera(q.camera, q.pixel_pitch_mm);
   if (out.camera.fixed_lens) {
-    if (!q.lens.empty() && q.lens != out.camera.fixed_lens->name) {
+    if (!q.lens.empty() && Key(q.lens) != Key(out.camera.fixed_lens->name)) {
       throw InvalidInput("lens", fmt::format("the {} has a fixed lens ({}); give no lens", out.camera.name,
                                              out.camera.fixed_lens->name));
     }
-    out.lens = *out.camera.fixed_lens;
+    out.lens = WithLensData(*out.camera.fixed_lens, q.lens_data);
     return out;
   }
   const std::string& name = q.lens.empty() ? q.default_lens : q.lens;
   if (name.empty()) throw InvalidInput("lens", "the " + out.camera.name + " takes interchangeable lenses: give one");
-  out.lens = lens::MountOn(FindLens(name, q.focal_length_mm), out.camera, q.allow_adapter);
+  out.lens = lens::MountOn(FindLens(name, q.focal_length_mm, q.lens_data), out.camera, q.allow_adapter);
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <toml++/toml.h>
@@ -363,6 +364,7 @@ lens::LensSpec ReadLens(Reader& r, const std::string& default_name, bool fixed) 
   l.f_number_min = r.Double("f_number_min");
   l.f_number_max = r.Double("f_number_max");
   l.min_focus_mm = r.Double("min_focus_mm");
+  if (const toml::node* n = r.Node("min_focus_assumed")) l.min_focus_assumed = n->value_or(false);
   if (const toml::node* n = r.Node("pupil_estimated")) l.pupil_estimated = n->value_or(false);
   if (const auto proj = r.OptString("projection")) {
     const auto p = camera::ProjectionFromName(*proj);
@@ -373,9 +375,22 @@ lens::LensSpec ReadLens(Reader& r, const std::string& default_name, bool fixed) 
     l.projection = *p;
   }
   if (const toml::node* n = r.Node("projection_estimated")) l.projection_estimated = n->value_or(false);
+  // pupil_mm: the entrance pupil ahead of the sensor at infinity focus (as --pupil-mm), instead of
+  // the table against the flange.
   const toml::node* pupil = r.Node("pupil");
-  if (!pupil) r.Missing("pupil", "is required: an array of {focus_mm, d_ep2f_mm}");
-  if (!pupil->is_array()) r.Fail("pupil", "is required: an array of {focus_mm, d_ep2f_mm}", pupil);
+  if (const auto ep = r.OptDouble("pupil_mm")) {
+    if (pupil) r.Fail("pupil_mm", "give either pupil_mm or the pupil table, not both");
+    if (!(*ep > 0)) r.Fail("pupil_mm", "must be > 0 (mm ahead of the sensor)");
+    double ffd = 0;
+    for (const lens::Mount& m : lens::KnownMounts()) {
+      if (m.name == l.mount) ffd = m.flange_focal_distance_mm;
+    }
+    l.pupil.push_back({std::numeric_limits<double>::infinity(), *ep - ffd});
+    r.RejectUnknown();
+    return l;
+  }
+  if (!pupil) r.Missing("pupil", "is required: an array of {focus_mm, d_ep2f_mm} (or pupil_mm)");
+  if (!pupil->is_array()) r.Fail("pupil", "is required: an array of {focus_mm, d_ep2f_mm} (or pupil_mm)", pupil);
   for (const toml::node& e : *pupil->as_array()) {
     const toml::table* et = e.as_table();
     if (!et) r.Fail("pupil", "entries must be tables {focus_mm = ..., d_ep2f_mm = ...}", &e);

@@ -45,6 +45,7 @@ struct LensSpec {
   double focal_length_mm = 0;
   double f_number_min = 0, f_number_max = 0;  // widest and smallest aperture
   double min_focus_mm = 0;                    // closest focus-scale distance (FD)
+  bool min_focus_assumed = false;             // true when not known (lensfun records none): say so
   std::vector<PupilSample> pupil;             // at least one sample
   bool pupil_estimated = false;               // true when not measured (say so to the user)
   // How the lens maps field angle θ to image radius r = f·g(θ) (camera/projection.h): rectilinear
@@ -55,6 +56,8 @@ struct LensSpec {
   // lists them). The pupil samples are for `mount`; on another of these mounts the pupil keeps its
   // distance from the sensor.
   std::vector<std::string> other_mounts;
+  // Where the name was found: "preset", "file" or "lensfun" (io::FindLens); empty when built in code.
+  std::string lookup;
 
   // D_EP2F at focus-scale distance fd_mm, linear in 1/FD between samples (lens extension is close
   // to linear in 1/FD), held constant beyond the first and last sample. Throws InvalidInput("focus")
@@ -68,6 +71,8 @@ struct CameraBody {
   std::string mount;
   // The lens of a fixed-lens camera (mount "fixed"): body and lens in one file.
   std::optional<LensSpec> fixed_lens;
+  // Where the name was found: "preset", "file" or "lensfun" (io::FindCamera); empty when built in code.
+  std::string lookup;
   double SensorWidthMm() const { return sensor.width_px * sensor.pixel_pitch_mm; }
   double SensorHeightMm() const { return sensor.height_px * sensor.pixel_pitch_mm; }
   double SensorDiagonalMm() const;

@@ -27,11 +27,14 @@ Json FieldCutJson(const FieldCut& c) {
 Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
   const auto& cam = s.camera;
   const auto& ln = s.lens;
-  return {{"camera", {{"name", cam.name}, {"mount", cam.mount}, {"width_px", cam.sensor.width_px},
-                      {"height_px", cam.sensor.height_px}, {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
-          {"lens", {{"name", ln.name}, {"focal_length_mm", ln.focal_length_mm}, {"f_number_min", ln.f_number_min},
+  // found_in: which source answered the name ("preset", "file", "lensfun"; io::FindCamera).
+  return {{"camera", {{"name", cam.name}, {"found_in", cam.lookup}, {"source", cam.source}, {"mount", cam.mount},
+                      {"width_px", cam.sensor.width_px}, {"height_px", cam.sensor.height_px},
+                      {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
+          {"lens", {{"name", ln.name}, {"found_in", ln.lookup}, {"source", ln.source},
+                    {"focal_length_mm", ln.focal_length_mm}, {"f_number_min", ln.f_number_min},
                     {"f_number_max", ln.f_number_max}, {"min_focus_mm", ln.min_focus_mm},
-                    {"pupil_estimated", ln.pupil_estimated},
+                    {"min_focus_assumed", ln.min_focus_assumed}, {"pupil_estimated", ln.pupil_estimated},
                     {"projection", camera::ProjectionName(ln.projection)},
                     {"projection_estimated", ln.projection_estimated}}},
           {"port", {{"name", sys.spec.name}, {"type", sys.IsDome() ? "dome" : "flat"},
