@@ -21,10 +21,11 @@ namespace porthole::camera {
 //  - every focal-length parameter > 0 (c, or fx and fy, or f);
 //  - the principal point inside the image (−0.5 … W − 0.5, −0.5 … H − 0.5 px);
 //  - a frame the distortion keeps monotonic: along 16 directions from the principal point to the
-//    frame's edge (corners, edge midpoints and quarter points), the boundary pixel has a ray and
-//    rays at 64 increasing angles up to it project at increasing distances from the principal
-//    point. A fisheye model may leave frame pixels without a ray (outside its image circle) only
-//    where the map is monotonic up to 90° off axis.
+//    frame's edge (corners, edge midpoints and quarter points), 64 pixels on the way have rays at
+//    increasing angles off axis and (forward models: OpenCV, Kannala–Brandt, the fisheye
+//    projections) rays at 64 increasing angles up to the edge pixel's project at increasing
+//    distances from the principal point, the last onto that pixel. A fisheye model may leave frame
+//    pixels without a ray (outside its image circle) only where the map is monotonic to 89°.
 void ValidateCalibration(const Camera& camera, const std::string& where = "camera");
 
 // The camera a calibration is applied to (a body and its lens).
