@@ -14,6 +14,7 @@
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/camera/camera.h"
+#include "porthole/camera/validate.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
 #include "porthole/interop/interop.h"
@@ -205,6 +206,25 @@ std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOpt
   return t;
 }
 
+// An adjustment that ended impossible (a focal length <= 0, a parameter, the RMS or a sigma not
+// finite) is an error naming the images, never printed as a calibration (camera/validate.h).
+void RequirePossibleCalibration(const calib::CalibrationResult& r, const std::string& field) {
+  camera::RequirePossibleResult(r.camera, r.rms_px, field, "the calibration of these images");
+  const camera::ModelInfo& m = r.camera.info();
+  for (int i = 0; r.covariance_ok && i < m.num_params && i < static_cast<int>(r.sigma.size()); ++i) {
+    if (i < static_cast<int>(r.free.size()) && r.free[i] && !std::isfinite(r.sigma[i])) {
+      throw InvalidInput(field, fmt::format("the calibration of these images is impossible: the sigma of {} is {}",
+                                            m.params[i].json_key, r.sigma[i]));
+    }
+  }
+  // What porthole writes its readers must read back (camera::ValidateCalibration).
+  try {
+    camera::ValidateCalibration(r.camera, "camera");
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(field, std::string("the calibration of these images is not a valid camera: ") + e.what());
+  }
+}
+
 }  // namespace
 
 void RegisterCalibrate(CLI::App& app) {
@@ -331,6 +351,11 @@ void RegisterCalibrate(CLI::App& app) {
     o->calib.centre_correction = o->centre_correction == "on" ? CC::kOn : o->centre_correction == "off" ? CC::kOff : CC::kAuto;
     o->calib.model = camera::ModelFromName(o->model, "--model");
     o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
+    // --port with an air calibration that states its pitch (porthole JSON): that pitch, unless
+    // --pixel-pitch-mm gives one (issue 23: not asked for twice).
+    if (!o->port.port.empty() && !o->air.empty() && cmd->get_option("--pixel-pitch-mm")->count() == 0) {
+      if (const auto pitch = interop::StatedPixelPitchMm(o->air, "--air-calibration")) o->pitch_mm = *pitch;
+    }
     o->calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o->pitch_mm);
     if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
     if (!o->out.empty()) CheckOutput(o->out, "--out", rules, FileKind::kCalibration);
@@ -407,6 +432,7 @@ void RegisterCalibrate(CLI::App& app) {
     if (refractive) {
       ro.lens = o->calib;
       const auto rr = calib::CalibrateRefractive(dets, target, ro);
+      RequirePossibleCalibration(rr.lens, o->images.empty() ? "--detections" : "--images");
       auto j = calib::RefractiveToJson(rr, target, ro);
       Json skip = Json::array();
       for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
@@ -426,6 +452,7 @@ void RegisterCalibrate(CLI::App& app) {
       return fmt::print("{}", text);
     }
     const auto r = calib::Calibrate(dets, target, o->calib);
+    RequirePossibleCalibration(r, o->images.empty() ? "--detections" : "--images");
     auto j = calib::CalibrationToJson(r, target, o->calib);
     Json skip = Json::array();
     for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});

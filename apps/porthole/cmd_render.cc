@@ -18,6 +18,7 @@
 #include "porthole/core/atomic_file.h"
 #include "porthole/interop/interop.h"
 #include "porthole/render/render.h"
+#include "porthole/simulate/simulate.h"
 
 namespace porthole::cli {
 namespace {
@@ -124,16 +125,22 @@ double ParseFNumber(const std::string& text) {
   return v;
 }
 
-// A calibration (any format of docs/interop.md), or the camera of a render's ground truth (its "camera").
-camera::Camera LoadCameraModel(const std::string& path, double pixel_pitch_mm) {
-  if (fs::path(path).extension() == ".json") {
-    std::ifstream in(path);
-    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-    if (j.is_object() && j.contains("points") && j.contains("camera") && j["camera"].is_object()) {
-      return calib::CalibrationFromJson(j["camera"], "--camera-model").camera;
+// A calibration (any format of docs/interop.md), or the camera of a render's ground truth (its "camera"),
+// checked against the body and lens it renders through (simulate::CheckAirCalibration).
+camera::Camera LoadCameraModel(const std::string& path, const housing::HousedCamera& h) {
+  const auto cam = [&] {
+    if (fs::path(path).extension() == ".json") {
+      std::ifstream in(path);
+      const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+      if (j.is_object() && j.contains("points") && j.contains("camera") && j["camera"].is_object()) {
+        return std::pair{calib::CalibrationFromJson(j["camera"], "--camera-model").camera, true};
+      }
     }
-  }
-  return interop::ReadCalibrationFile(path, pixel_pitch_mm, "--camera-model").camera();
+    const interop::ReadResult r = interop::ReadCalibrationFile(path, h.camera.sensor.pixel_pitch_mm, "--camera-model");
+    return std::pair{r.camera(), r.pitch_known};
+  }();
+  simulate::CheckAirCalibration(cam.first, cam.second, h, "--camera-model '" + path + "'");
+  return cam.first;
 }
 
 // Whether `name` is one render --set writes: pose_NNN.png or pose_NNN.json.
@@ -198,7 +205,7 @@ void RunRender(const RenderCliOptions& o) {
   if (o.vignetting != "none" && o.vignetting != "natural") throw InvalidInput("--vignetting", "must be none or natural");
   scene.natural_vignetting = o.vignetting == "natural";
   if (!o.vignetting_pa.empty()) scene.vignetting_pa = {o.vignetting_pa[0], o.vignetting_pa[1], o.vignetting_pa[2]};
-  if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed.camera.sensor.pixel_pitch_mm);
+  if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed);
   scene.c_mm = o.c_mm;
   scene.bands_nm = o.bands;
   if (o.white_on_black) std::swap(scene.style.black, scene.style.white);

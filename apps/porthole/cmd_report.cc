@@ -3,6 +3,7 @@
 // report.json, written whole into --out or not at all (docs/report.md).
 #include <fmt/format.h>
 
+#include "calibration_check.h"
 #include "camera_options.h"
 #include "commands.h"
 #include "common.h"
@@ -55,21 +56,31 @@ void RegisterReport(CLI::App& app) {
 
   cmd->callback([o, cmd] {
     report::ReportInputs in;
-    in.setup = WithFieldNames({PORTHOLE_CAMERA_FLAGS}, [&] { return o->camera.ToHoused(PortOptions{o->port, {}}, o->water); });
+    in.setup = WithFieldNames({PORTHOLE_CAMERA_FLAGS}, [&] {
+      return HousedWithCalibrationPitch(o->camera, PortOptions{o->port, {}}, o->water, o->air_calibration,
+                                        "--air-calibration");
+    });
     in.other_port = io::LoadPort(o->other_port.empty() ? report::DefaultOtherPort(in.setup.port) : o->other_port);
     in.subject_distance_mm = o->subject_distance_mm;
     in.f_number = o->aperture;
     in.coc_mm = o->coc_mm;
     const double pitch = in.setup.camera.sensor.pixel_pitch_mm;
+    // Each calibration checked against the body and lens before it is refit to Brown
+    // (camera/validate.h): the air one fully, the water one for image size and pitch (under a flat
+    // port its focal length is the air one's times about the water index).
     if (!o->air_calibration.empty()) {
       in.air_calibration =
-          interop::ReadCalibrationFileAs(o->air_calibration, pitch, camera::CameraModelId::kBrown, "--air-calibration")
-              .calibration;
+          ReadCalibrationFor(o->air_calibration, in.setup, camera::CameraModelId::kBrown, "--air-calibration").calibration;
     }
     if (!o->water_calibration.empty()) {
-      in.water_calibration = interop::ReadCalibrationFileAs(o->water_calibration, pitch, camera::CameraModelId::kBrown,
-                                                            "--water-calibration")
-                                 .calibration;
+      interop::ReadResult r = interop::ReadCalibrationFile(o->water_calibration, pitch, "--water-calibration");
+      const std::string where = "--water-calibration '" + o->water_calibration + "'";
+      camera::ExpectedCamera body = simulate::ExpectedCameraOf(in.setup);
+      body.focal_length_mm = 0;  // size and pitch only
+      camera::CheckCalibrationFits(r.camera(), r.pitch_known, body, where);
+      const std::string label = r.calibration.label;
+      in.water_calibration = interop::ConvertRead(std::move(r), camera::CameraModelId::kBrown, where).calibration;
+      in.water_calibration->label = label;
     }
     for (const CLI::Option* opt : cmd->get_options()) {
       if (opt->count() == 0 || opt->get_name() == "--help" || opt->get_name() == "--out" || opt->get_name() == "--force" ||

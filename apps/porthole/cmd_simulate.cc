@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "common.h"
+#include "calibration_check.h"
 #include "camera_options.h"
 #include "porthole/camera/json.h"
 #include "porthole/camera/projection.h"
@@ -169,7 +170,8 @@ void RegisterSimulate(CLI::App& app) {
   AddForceFlag(cmd, &o->force);
   cmd->callback([o, cmd] {
     o->rules = OutputRules{.force = o->force, .inputs = InputFiles(cmd, {"--sweep-out", "--map"})};
-    WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--focus-distance"}, {"c_mm", "--c"}},
+    WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--focus-distance"}, {"c_mm", "--c"},
+                    {"air_calibration", "--air-calibration"}},
                    [&] { RunSimulate(*o); });
   });
 }
@@ -178,7 +180,8 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
   const SimulateCliOptions* o = &o_ref;
   {
     simulate::SystemSpec spec;
-    static_cast<housing::HousedCamera&>(spec) = o->camera.ToHoused(PortOptions{o->port, {}}, o->water);
+    static_cast<housing::HousedCamera&>(spec) =
+        HousedWithCalibrationPitch(o->camera, PortOptions{o->port, {}}, o->water, o->air_calibration, "--air-calibration");
     WarnIfImplausiblePort(spec.port, o->port + ": port");
     if (!o->sweep_out.empty()) CheckOutput(o->sweep_out, "--sweep-out", o->rules);
     if (!o->map_out.empty()) CheckOutput(o->map_out, "--map", o->rules);
@@ -213,17 +216,13 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
                                                       " calibration; the " + spec.lens.name +
                                                       " is a fisheye (give a Kannala-Brandt calibration)");
         }
-        const camera::Sensor& s = air_read->camera().sensor;
-        if (s.width_px != spec.camera.sensor.width_px || s.height_px != spec.camera.sensor.height_px) {
-          throw InvalidInput("--air-calibration", fmt::format("is for {} x {} px; the {} has {} x {} px", s.width_px,
-                                                              s.height_px, spec.camera.name,
-                                                              spec.camera.sensor.width_px,
-                                                              spec.camera.sensor.height_px));
-        }
+        // Image size, pitch and focal length against the body and lens (camera/validate.h).
+        simulate::CheckAirCalibration(air_read->camera(), air_read->pitch_known, spec,
+                                      "--air-calibration '" + o->air_calibration + "'");
         spec.air_fisheye_calibration = air_read->camera();
       } else {
-        air_read = interop::ReadCalibrationFileAs(o->air_calibration, spec.camera.sensor.pixel_pitch_mm,
-                                                  camera::CameraModelId::kBrown, "--air-calibration");
+        // Checked against the body and lens before a pixel model is refit to Brown.
+        air_read = ReadCalibrationFor(o->air_calibration, spec, camera::CameraModelId::kBrown, "--air-calibration");
         spec.air_calibration = camera::ToBrown(air_read->camera(), "--air-calibration");
       }
     }

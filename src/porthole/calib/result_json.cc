@@ -6,6 +6,7 @@
 
 
 #include "porthole/camera/json.h"
+#include "porthole/camera/validate.h"
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
 
@@ -254,7 +255,14 @@ CalibrationRecord CalibrationFromJsonUnchecked(const nlohmann::json& j, const st
   } catch (const nlohmann::json::exception&) {
     throw InvalidInput(field, "sensor: needs width_px, height_px, pixel_pitch_mm");
   }
-  camera::ValidateCamera(rec.camera, field + ".camera");
+  try {
+    camera::ValidateSensor(rec.camera.sensor);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(field + ".sensor." + e.field(), std::string(e.what()).substr(e.field().size() + 2));
+  }
+  // The one validation of a calibration read (camera/validate.h): focal lengths > 0, principal
+  // point in the image, a frame the distortion keeps monotonic.
+  camera::ValidateCalibration(rec.camera, field + ".camera");
   if (j.contains("covariance") && j["covariance"].is_object()) {
     const auto& c = j["covariance"];
     std::vector<int> idx;

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "porthole/calib/result_json.h"
+#include "porthole/camera/validate.h"
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
 #include "porthole/interop/metashape.h"
@@ -102,6 +103,24 @@ Camera OpenCVCamera(const camera::Sensor& s, std::initializer_list<double> p) {
 
 // ---- Conversions with σ (interop/refit.h) ----
 
+// A refit's result is written or used only when possible (camera::RequirePossibleResult), valid as
+// a calibration (camera::ValidateCalibration: what a reader refuses is never written) and close to
+// the camera it replaces: RMS at most kMaxRefitRmsPx over the image.
+void CheckRefit(const Camera& result, const camera::ConversionFit& fit, const std::string& field) {
+  const std::string what = fmt::format("the refit to the {} model", result.model_name());
+  camera::RequirePossibleResult(result, fit.rms_px, field, what);
+  if (fit.rms_px > kMaxRefitRmsPx) {
+    throw InvalidInput(field, fmt::format("{} misses the camera by RMS {:.3g} px (max {:.3g} px) over the image, above "
+                                          "the {:g} px a conversion may differ: the {} model cannot hold this camera",
+                                          what, fit.rms_px, fit.max_px, kMaxRefitRmsPx, result.model_name()));
+  }
+  try {
+    camera::ValidateCalibration(result, "refit");
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(field, what + " is not a valid calibration: " + e.what());
+  }
+}
+
 // q's adjusted parameters and covariance from p's, by the pixel Jacobians of both models over
 // `rays`: a q parameter is adjusted when it is free in the conversion and moves with an adjusted p
 // parameter (its share of the pixel motion above 1e-9). Σp unknown (NaN) stays unknown.
@@ -167,7 +186,7 @@ calib::CalibrationRecord ConvertTo(const Src& src, const std::vector<double>& p,
     const refit::ProjectedRays data = refit::ProjectRays(src, p, rays);
     const camera::ConversionFit f = refit::Fit(dst, &out.camera.params, free_q, data.rays, data.px);
     if (fit != nullptr) *fit = f;
-    camera::ValidateCamera(out.camera, "refit");
+    CheckRefit(out.camera, f, "refit");
   } else if (fit != nullptr) {
     *fit = {};
   }
@@ -216,13 +235,14 @@ struct PixelCalibration {
   bool exact = true;
   camera::ConversionFit fit;
 };
-PixelCalibration ToPixelFamily(const calib::CalibrationRecord& in) {
+PixelCalibration ToPixelFamily(const calib::CalibrationRecord& in, const std::string& field) {
   const Camera& cam = in.camera;
   PixelCalibration out{in, true, {}};
   if (cam.model == CameraModelId::kBrown) {
     const auto conv = camera::BrownToOpenCV(camera::ToBrown(cam), cam.sensor);
     const auto& o = conv.opencv;
     const Camera start = OpenCVCamera(cam.sensor, {o.fx, o.fy, o.cx, o.cy, o.k1, o.k2, o.p1, o.p2, o.k3});
+    CheckRefit(start, conv.fit, field);  // never written: fx −875.9 at RMS 181.5 px (issue 24)
     out.cal = FromListModel<OpenCV>(in, start, FreeFirst(OpenCV::kNumParams, 9), /*refit_q=*/false, nullptr);
     out.exact = false;
     out.fit = conv.fit;
@@ -458,6 +478,10 @@ ReadResult FromColmapList(const std::vector<ColmapCamera>& list, Format format, 
   for (const auto& c : list) {
     if (camera_id == 0 ? list.size() == 1 : c.camera_id == camera_id) chosen = &c;
   }
+  if (list.empty()) {
+    throw InvalidInput(field, "holds no camera (COLMAP's cameras.txt has a line CAMERA_ID MODEL WIDTH HEIGHT PARAMS[] "
+                              "per camera; cameras.bin a count of at least 1)");
+  }
   if (chosen == nullptr) {
     throw InvalidInput(field, camera_id == 0 ? fmt::format("holds {} cameras (ids {}): choose one with --camera-id",
                                                            list.size(), ids)
@@ -613,7 +637,7 @@ ReadResult ReadMetashape(const std::string& text, double pitch_mm, const std::st
 // The Metashape projector's parameters as a record (for CarrySigma's target side).
 MetashapeCalibration ToMetashape(const calib::CalibrationRecord& in, const std::string& field,
                                  bool* exact, camera::ConversionFit* fit) {
-  const PixelCalibration pc = ToPixelFamily(in);
+  const PixelCalibration pc = ToPixelFamily(in, field);
   const Camera& c = pc.cal.camera;
   *exact = pc.exact;
   *fit = pc.fit;
@@ -652,6 +676,11 @@ MetashapeCalibration ToMetashape(const calib::CalibrationRecord& in, const std::
         const camera::ConversionFit f = refit::Fit(dst, &q, free_q, data.rays, data.px);
         *exact = false;
         *fit = f;
+        if (!(f.rms_px <= kMaxRefitRmsPx) || !(q[kMsF] > 0)) {
+          throw InvalidInput(field, fmt::format("the refit to Metashape's frame model misses the camera by RMS {:.3g} "
+                                                "px (f {:g} px): Metashape's model cannot hold this camera",
+                                                f.rms_px, q[kMsF]));
+        }
       }
       CarrySigma(src, p, pc.cal.free, pc.cal.covariance, dst, q, free_q, rays, &out);
     }
@@ -857,18 +886,36 @@ calib::CalibrationRecord WithoutSigma(const Camera& cam, const std::string& note
   return r;
 }
 
+namespace {
+calib::CalibrationRecord ConvertCalibrationUnnamed(const calib::CalibrationRecord& cal, CameraModelId model,
+                                                   const std::string& field, camera::ConversionFit* fit);
+}  // namespace
+
 calib::CalibrationRecord ConvertCalibration(const calib::CalibrationRecord& cal, CameraModelId model,
                                             const std::string& field, camera::ConversionFit* fit) {
+  try {
+    return ConvertCalibrationUnnamed(cal, model, field, fit);
+  } catch (const InvalidInput& e) {
+    if (e.field().rfind(field, 0) == 0) throw;
+    // An inner step's field ("opencv": the distortion cannot be inverted): name the file too.
+    throw InvalidInput(field, fmt::format("cannot be converted from {} to {}: {}", cal.camera.model_name(),
+                                          camera::Info(model).name, e.what()));
+  }
+}
+
+namespace {
+calib::CalibrationRecord ConvertCalibrationUnnamed(const calib::CalibrationRecord& cal, CameraModelId model,
+                                                   const std::string& field, camera::ConversionFit* fit) {
   if (fit != nullptr) *fit = {};
   const Camera& c = cal.camera;
   if (c.model == model) return cal;
   if (model == CameraModelId::kOpenCV && c.model == CameraModelId::kBrown) {
-    const PixelCalibration pc = ToPixelFamily(cal);
+    const PixelCalibration pc = ToPixelFamily(cal, field);
     if (fit != nullptr) *fit = pc.fit;
     return pc.cal;
   }
   if (model == CameraModelId::kKannalaBrandt && c.model == CameraModelId::kEquidistant) {
-    return ToPixelFamily(cal).cal;
+    return ToPixelFamily(cal, field).cal;
   }
   if (model == CameraModelId::kBrown && c.model == CameraModelId::kOpenCV) {
     const auto& p = c.params;
@@ -880,6 +927,7 @@ calib::CalibrationRecord ConvertCalibration(const calib::CalibrationRecord& cal,
          p[OpenCV::kP1], p[OpenCV::kP2], p[OpenCV::kK3]},
         c.sensor);
     if (fit != nullptr) *fit = conv.fit;
+    CheckRefit(camera::FromBrown(conv.brown, c.sensor), conv.fit, field);
     return FromListModel<camera::BrownModel>(cal, camera::FromBrown(conv.brown, c.sensor),
                                              FreeFirst(camera::kBrownNumParams, camera::kBrownNumParams),
                                              /*refit_q=*/false, nullptr);
@@ -888,6 +936,7 @@ calib::CalibrationRecord ConvertCalibration(const calib::CalibrationRecord& cal,
                                         "(porthole converts brown <-> opencv and equidistant -> kannala-brandt)",
                                         c.model_name(), camera::Info(model).name));
 }
+}  // namespace
 
 namespace {
 
@@ -936,11 +985,15 @@ ReadResult ReadCalibrationFrom(const std::string& content, Format format, double
         r.calibration.camera = cam;
         r.calibration.covariance = ColmapSigmaToCovariance(f.camera, f.camera_sigma);
         r.calibration.free.assign(cam.params.size(), false);
+        bool known = true;  // "nan" in the file: that parameter adjusted, its σ unknown
         for (std::size_t i = 0; i < cam.params.size(); ++i) {
-          r.calibration.free[i] = r.calibration.covariance(i, i) > 0;
+          const double v = r.calibration.covariance(i, i);
+          r.calibration.free[i] = v > 0 || std::isnan(v);
+          known = known && !std::isnan(v);
         }
-        r.calibration.has_covariance = true;
-        r.calibration.covariance_note = "diagonal from sigma";
+        r.calibration.has_covariance = known;
+        r.calibration.covariance_note =
+            known ? "diagonal from sigma" : "σ unknown: nan in the calibmar file's # params_est_std_dev";
       }
       break;
     }
@@ -948,7 +1001,9 @@ ReadResult ReadCalibrationFrom(const std::string& content, Format format, double
   if (format != Format::kJson && format != Format::kMetashape && format != Format::kCalibmar) {
     r.calibration = WithoutSigma(r.camera(), fmt::format("σ unknown: {} holds none", FormatName(format)));
   }
-  camera::ValidateCamera(r.camera(), field);
+  // The one validation of what was read (a JSON calibration had it in CalibrationFromJson, with
+  // the line of the offending key).
+  if (format != Format::kJson) camera::ValidateCalibration(r.camera(), field);
   return r;
 }
 
@@ -984,6 +1039,13 @@ ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, c
   }
   r.calibration.label = std::filesystem::path(path).stem().string();
   return r;
+}
+
+std::optional<double> StatedPixelPitchMm(const std::string& path, const std::string& field) {
+  const ReadResult r = ReadCalibrationFile(path, 1.0, field);
+  // Pitch 1: a calibration made without a pitch, whose millimetres are pixels (no pitch at all).
+  if (!r.pitch_known || r.camera().sensor.pixel_pitch_mm == 1.0) return std::nullopt;
+  return r.camera().sensor.pixel_pitch_mm;
 }
 
 ReadResult ConvertRead(ReadResult r, CameraModelId model, const std::string& field) {
@@ -1031,8 +1093,8 @@ WriteResult WriteColmapCameras(const std::vector<ColmapEntry>& cameras, Format f
     if (e.housing && format == Format::kColmapBinary) {
       throw InvalidInput(where, "a refractive housing goes into cameras.txt only (write colmap, not colmap-bin)");
     }
-    camera::ValidateCamera(e.calibration.camera, where);
-    const PixelCalibration pc = ToPixelFamily(e.calibration);  // Brown: refit to opencv
+    camera::ValidateCalibration(e.calibration.camera, where);
+    const PixelCalibration pc = ToPixelFamily(e.calibration, where);  // Brown: refit to opencv
     ColmapCamera c = ToColmap(pc.cal.camera, where);
     c.camera_id = e.camera_id;
     c.housing = e.housing;
@@ -1052,7 +1114,7 @@ WriteResult WriteCamera(const Camera& cam, Format format, const std::string& fie
 WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format, const std::string& field,
                              const WriteExtras& extras) {
   const Camera& cam = cal.camera;
-  camera::ValidateCamera(cam, field);
+  camera::ValidateCalibration(cam, field);  // porthole writes nothing its readers refuse
   WriteResult w;
   if (format == Format::kJson) {
     w.content = PortholeJson(cal);
@@ -1071,7 +1133,7 @@ WriteResult WriteCalibration(const calib::CalibrationRecord& cal, Format format,
     // The housing goes into refractive COLMAP's cameras.txt only.
     return WriteColmapCameras({{cal, 1, format == Format::kColmapText ? extras.housing : std::nullopt}}, format, field);
   }
-  const PixelCalibration pc = ToPixelFamily(cal);
+  const PixelCalibration pc = ToPixelFamily(cal, field);
   const Camera& pcam = pc.cal.camera;
   w.exact = pc.exact;
   w.fit = pc.fit;

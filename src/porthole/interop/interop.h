@@ -39,6 +39,12 @@
 
 namespace porthole::interop {
 
+// The largest RMS over the image (px) a refit between models may leave (Brown → opencv, opencv →
+// Brown, Metashape terms opencv lacks): above it the target model cannot hold the camera and the
+// conversion is refused, never written or used. Real conversions leave 0.005–0.2 px
+// (docs/interop.md); a refit that moves the image points by a pixel on average is another camera.
+inline constexpr double kMaxRefitRmsPx = 1.0;
+
 enum class Format { kJson, kOpenCVYaml, kColmapText, kColmapBinary, kMrcal, kMetashape, kCalibmar, kOpenCVXml };
 
 // "json", "opencv-yaml", "colmap", "colmap-bin", "mrcal", "metashape", "calibmar", "opencv-xml"
@@ -107,6 +113,11 @@ ReadResult ReadCalibration(const std::string& content, Format format, double pix
 // report).
 ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, const std::string& field,
                                int camera_id = 0);
+
+// The pixel pitch a calibration file states (porthole JSON's sensor.pixel_pitch_mm); nullopt for a
+// format without one. For commands whose camera has no pitch of its own (a lensfun body): the
+// calibration's, instead of asking for --pixel-pitch-mm again. Throws as ReadCalibrationFile.
+std::optional<double> StatedPixelPitchMm(const std::string& path, const std::string& field);
 
 // `r` with its calibration converted to `model` (ConvertCalibration); exact and fit then describe
 // the conversion when it was a refit (else what reading did).

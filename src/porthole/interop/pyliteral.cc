@@ -1,6 +1,7 @@
 #include "porthole/interop/pyliteral.h"
 
 #include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cstdlib>
 
@@ -170,8 +171,11 @@ class Parser {
     if (!text.empty() && text[0] == '+') text.erase(0, 1);
     char* end = nullptr;
     if (!is_float) {
+      errno = 0;
       const long long v = std::strtoll(text.c_str(), &end, 10);
       if (end != text.c_str() + text.size() || text.empty() || text == "-") Fail("bad number '" + text + "'");
+      // strtoll saturates: 99999999999999999999 would be read as 9.22e18.
+      if (errno == ERANGE) Fail("the integer '" + text.substr(0, 40) + "' does not fit in 64 bits");
       return v;
     }
     const double v = std::strtod(text.c_str(), &end);

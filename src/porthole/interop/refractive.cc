@@ -34,8 +34,8 @@ std::string Trim(std::string s) {
   return s.substr(a, s.find_last_not_of(" \t\r") - a + 1);
 }
 
-// "a, b, c" (or "[a, b, c]") as at most 32 finite numbers.
-std::vector<double> Numbers(std::string text, const std::string& field) {
+// "a, b, c" (or "[a, b, c]") as at most 32 finite numbers (`allow_nan`: "nan" too, read as NaN).
+std::vector<double> Numbers(std::string text, const std::string& field, bool allow_nan = false) {
   text = Trim(text);
   if (!text.empty() && text.front() == '[') {
     if (text.back() != ']') throw InvalidInput(field, "a list [ … ] without its ']'");
@@ -48,7 +48,8 @@ std::vector<double> Numbers(std::string text, const std::string& field) {
     if (item.empty() && out.empty() && ss.eof()) break;  // "[]"
     char* end = nullptr;
     const double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v)) {
+    const bool nan_ok = allow_nan && std::isnan(v);
+    if (item.empty() || end != item.c_str() + item.size() || !(std::isfinite(v) || nan_ok)) {
       throw InvalidInput(field, "'" + item.substr(0, 40) + "' is not a finite number");
     }
     out.push_back(v);
@@ -192,7 +193,11 @@ CalibmarFile ParseCalibmarYaml(std::string_view text, const std::string& field) 
     } else if (auto v = value("height:")) {
       height = whole(*v, "height");
     } else if (auto v = value("# params_est_std_dev:")) {
-      f.camera_sigma = Numbers(*v, at("params_est_std_dev"));
+      // "nan": a σ the writer did not know (porthole before issue 24 wrote it for fixed parameters).
+      f.camera_sigma = Numbers(*v, at("params_est_std_dev"), /*allow_nan=*/true);
+      for (double sd : f.camera_sigma) {
+        if (sd < 0) throw InvalidInput(at("params_est_std_dev"), "a standard deviation must be >= 0 (or nan: unknown)");
+      }
     } else if (auto v = value("# non_svp_est_std_dev:")) {
       housing_sigma = Numbers(*v, at("non_svp_est_std_dev"));
     } else if (auto v = value("# overall_rms:")) {
@@ -280,7 +285,8 @@ std::vector<double> CovarianceToColmapSigma(const ColmapCamera& c, const Eigen::
   std::vector<double> s;
   for (const auto& targets : ColmapTargets(c.model)) {
     const double v = covariance(targets.front(), targets.front());
-    s.push_back(v > 0 ? std::sqrt(v) : NAN);
+    if (!(v >= 0 && std::isfinite(v))) return {};  // a σ unknown: no # params_est_std_dev line at all
+    s.push_back(std::sqrt(v));                      // 0: not adjusted (fixed), as calibmar writes it
   }
   return s;
 }

@@ -61,7 +61,9 @@ std::string CalibmarYaml(const CalibmarFile& f);
 
 // COLMAP's σ of `c`'s parameters as porthole's covariance (diagonal in COLMAP's order; a
 // single-focal model's f is both fx and fy, fully correlated), in porthole's order for the model
-// FromColmap gives; and back (the σ of the COLMAP parameters from a porthole covariance).
+// FromColmap gives (a NaN σ: unknown, its parameter adjusted); and back (the σ of the COLMAP
+// parameters from a porthole covariance: 0 for a parameter not adjusted; empty when any variance is
+// unknown, so that no "nan" is ever written).
 Eigen::MatrixXd ColmapSigmaToCovariance(const ColmapCamera& c, const std::vector<double>& sigma);
 std::vector<double> CovarianceToColmapSigma(const ColmapCamera& c, const Eigen::MatrixXd& covariance);
 

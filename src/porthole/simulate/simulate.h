@@ -23,6 +23,7 @@
 #include "porthole/camera/camera.h"
 #include "porthole/camera/projection.h"
 #include "porthole/camera/sensor.h"
+#include "porthole/camera/validate.h"
 #include "porthole/housing/housed.h"
 #include "porthole/lens/lens.h"
 #include "porthole/ports/environment.h"
@@ -187,6 +188,17 @@ struct SystemSpec : housing::HousedCamera {
   std::optional<camera::Camera> air_fisheye_calibration;
 };
 
+// The camera an in-air calibration must be of (camera/validate.h): the body's sensor, the lens's
+// focal length and its thin-lens principal distance at the closest focus (2f, a 1:1 macro, when
+// the lens's closest focus is unknown or too close for the thin lens).
+camera::ExpectedCamera ExpectedCameraOf(const housing::HousedCamera& h);
+// Throws InvalidInput(field, …) unless `calibration` is a valid calibration (camera::
+// ValidateCalibration) of h's body and lens (camera::CheckCalibrationFits; `pitch_known`: the
+// calibration states its pixel pitch). Predict runs it on the air calibrations of the spec;
+// commands run it on a calibration file before converting it.
+void CheckAirCalibration(const camera::Camera& calibration, bool pitch_known, const housing::HousedCamera& h,
+                         const std::string& field);
+
 // The focus under water on spec.object_distance_mm (housing::FocusOnSubject). Throws
 // InvalidInput("subject_distance_mm") when the object is inside the port or the lens cannot focus
 // on its virtual image.
@@ -218,7 +230,10 @@ struct Prediction {
   FitView air_view() const { return air_fisheye ? FitView(*air_fisheye, lens_projection) : FitView(air); }
 };
 
-// Resolves the system (focus, pupil, c, indices), fits water and air. Throws InvalidInput.
+// Resolves the system (focus, pupil, c, indices), fits water and air. Throws InvalidInput: an air
+// calibration that is not one of the spec's body and lens (CheckAirCalibration, field
+// "air_calibration"); a fit that ends impossible (a focal length ≤ 0, a non-finite parameter or
+// RMS; field "fit"), never returned as an answer.
 Prediction Predict(const SystemSpec& spec, const FitOptions& options = {});
 
 // ---------------------------------------------------------------------------------------------

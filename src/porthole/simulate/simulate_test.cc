@@ -396,6 +396,7 @@ TEST(Simulate, FisheyeAirCalibrationBehindAThinFlatPortScalesByTheWaterIndex) {
   SystemSpec spec = FisheyeBehindAThinFlatPort();
   // 20 mm as in FisheyeBehindAThinFlatPortFollowsSnellsLaw: a field Kannala–Brandt can follow.
   camera::Camera cal = DecentredFisheyeCalibration(spec.camera.sensor, 20);
+  spec.lens.focal_length_mm = 20;  // a calibration must be of the lens (CheckAirCalibration)
   spec.air_fisheye_calibration = cal;
   const Prediction p = Predict(spec);
   ASSERT_TRUE(p.predicted_water_fisheye);
@@ -405,6 +406,34 @@ TEST(Simulate, FisheyeAirCalibrationBehindAThinFlatPortScalesByTheWaterIndex) {
   EXPECT_NEAR(p.predicted_water_fisheye->params[1] / (n * cal.params[1]), 1.0, 2e-3);
   // In air the thin plate changes nothing: the air fit is the calibration.
   EXPECT_NEAR(p.air_fisheye->camera.params[0], cal.params[0], 1e-3 * cal.params[0]);
+}
+
+// An air calibration of another lens or in pixels is refused (it gave c −2.82 mm or a "water c"
+// of 4566.9 mm); the paper's lens passes; the bounds are the lens's f − 15 % and its closest-focus
+// principal distance + 15 %.
+TEST(Simulate, AnAirCalibrationOfAnotherLensIsRefused) {
+  SystemSpec spec = PaperSystem();
+  const camera::ExpectedCamera e = ExpectedCameraOf(spec);
+  EXPECT_EQ(e.focal_length_mm, 24.0);
+  EXPECT_GT(e.max_principal_distance_mm, 24.0 * 1.05);  // 0.3 m closest focus: magnification > 0.05
+  EXPECT_LT(e.max_principal_distance_mm, 24.0 * 1.2);
+  for (double c : {1e-300, 2.92, 19.0, 40.0, 4454.5}) {
+    spec.air_calibration = PaperAirLens();
+    spec.air_calibration->c_mm = c;
+    try {
+      Predict(spec);
+      ADD_FAILURE() << c;
+    } catch (const InvalidInput& err) {
+      EXPECT_EQ(err.field(), "air_calibration") << c;
+    }
+  }
+  spec.air_calibration = PaperAirLens();
+  spec.air_calibration->x0_mm = 20;  // the principal point off the 23.6 mm wide sensor
+  EXPECT_THROW(Predict(spec), InvalidInput);
+  spec.air_calibration = PaperAirLens();
+  const Prediction p = Predict(spec);
+  EXPECT_GT(p.water.params.c_mm, 0);
+  EXPECT_TRUE(std::isfinite(p.water.rms_um));
 }
 
 TEST(CameraJson, RoundTripAndTyposAreRejected) {

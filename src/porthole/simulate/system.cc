@@ -25,7 +25,40 @@ camera::BrownParams Add(const camera::BrownParams& a, const camera::BrownParams&
   return camera::BrownParams::FromArray(d.data());
 }
 
+// The fit as a camera, checked possible (camera::RequirePossibleResult).
+void RequirePossible(const BrownFit& f, const camera::Sensor& s, const std::string& what) {
+  camera::RequirePossibleResult(camera::FromBrown(f.params, s), f.rms_um / 1000 / s.pixel_pitch_mm, "fit", what);
+}
+void RequirePossible(const CameraFit& f, const std::string& what) {
+  camera::RequirePossibleResult(f.camera, f.rms_px, "fit", what);
+}
+
 }  // namespace
+
+camera::ExpectedCamera ExpectedCameraOf(const housing::HousedCamera& h) {
+  camera::ExpectedCamera e;
+  e.name = h.camera.name + " + " + h.lens.name;
+  e.sensor = h.camera.sensor;
+  e.size_estimated = h.camera.source.find("lensfun") != std::string::npos;  // io/lookup.cc: crop factor, pitch
+  const double f = h.lens.focal_length_mm;
+  e.focal_length_mm = f;
+  e.max_principal_distance_mm = 2 * f;
+  try {
+    const double d = lens::SubjectToPupilMm(h.lens, housing::MountOf(h), h.lens.min_focus_mm);
+    const double c = lens::PrincipalDistanceMm(f, d);
+    if (std::isfinite(c) && c >= f) e.max_principal_distance_mm = c;
+  } catch (const InvalidInput&) {  // no closest focus known, or closer than the thin lens reaches
+  }
+  return e;
+}
+
+void CheckAirCalibration(const camera::Camera& calibration, bool pitch_known, const housing::HousedCamera& h,
+                         const std::string& field) {
+  // Whether it is of this camera first (one line naming both values), then whether it is valid.
+  camera::ValidateCamera(calibration, field);
+  camera::CheckCalibrationFits(calibration, pitch_known, ExpectedCameraOf(h), field);
+  camera::ValidateCalibration(calibration, field);
+}
 
 housing::FocusSetting FocusUnderWater(const SystemSpec& spec) {
   return housing::FocusOnSubject(spec, spec.object_distance_mm).focus;
@@ -56,7 +89,7 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
                                               " is rectilinear (give a Brown calibration)");
   }
   if (spec.air_fisheye_calibration) {
-    camera::ValidateCamera(*spec.air_fisheye_calibration, "air_calibration");
+    CheckAirCalibration(*spec.air_fisheye_calibration, /*pitch_known=*/false, spec, "air_calibration");
     if (spec.air_fisheye_calibration->model == camera::CameraModelId::kBrown) {
       throw InvalidInput("air_calibration", "is a Brown calibration; the " + spec.lens.name +
                                                 " is a fisheye (give a Kannala-Brandt calibration)");
@@ -65,6 +98,9 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
     p.air_fisheye_calibration->sensor = spec.camera.sensor;
     p.camera.lens.c_mm = p.air_fisheye_calibration->FocalLengthPx() * spec.camera.sensor.pixel_pitch_mm;
   } else if (spec.air_calibration) {
+    // Brown parameters hold no sensor: checked on the body's (c in mm against the lens's).
+    CheckAirCalibration(camera::FromBrown(*spec.air_calibration, spec.camera.sensor), /*pitch_known=*/false, spec,
+                        "air_calibration");
     p.camera.lens = *spec.air_calibration;
   } else {
     p.camera.lens.c_mm =
@@ -83,6 +119,8 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
         SimulateCameraFit(p.water_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm, model, p.options, cal);
     p.air_fisheye =
         SimulateCameraFit(p.air_system, spec.lens, p.camera.sensor, p.camera.lens.c_mm, model, p.options, cal);
+    RequirePossible(*p.water_fisheye, "the water fit");
+    RequirePossible(*p.air_fisheye, "the air fit");
     if (cal) {
       camera::Camera predicted = *cal;
       for (std::size_t i = 0; i < predicted.params.size(); ++i) {
@@ -94,6 +132,8 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
   }
   p.water = SimulateFit(p.water_system, p.camera, p.options);
   p.air = SimulateFit(p.air_system, p.camera, p.options);
+  RequirePossible(p.water, p.camera.sensor, "the water fit");
+  RequirePossible(p.air, p.camera.sensor, "the air fit");
   p.change = Subtract(p.water.params, p.air.params);
   if (spec.air_calibration) p.predicted_water = Add(*spec.air_calibration, p.change);
   return p;
@@ -119,9 +159,13 @@ std::vector<SweepRow> SweepPupilOffset(const Prediction& prediction, int axis,
       row.water_fisheye = SimulateCameraFit(water, prediction.lens, cam.sensor, c, model, prediction.options, cal);
       row.air_fisheye =
           SimulateCameraFit(WithAirOutside(water), prediction.lens, cam.sensor, c, model, prediction.options, cal);
+      RequirePossible(*row.water_fisheye, fmt::format("the water fit at offset {:g} mm", offset));
+      RequirePossible(*row.air_fisheye, fmt::format("the air fit at offset {:g} mm", offset));
     } else {
       row.water = SimulateFit(water, cam, prediction.options);
       row.air = SimulateFit(WithAirOutside(water), cam, prediction.options);
+      RequirePossible(row.water, cam.sensor, fmt::format("the water fit at offset {:g} mm", offset));
+      RequirePossible(row.air, cam.sensor, fmt::format("the air fit at offset {:g} mm", offset));
     }
     rows.push_back(std::move(row));
   }
