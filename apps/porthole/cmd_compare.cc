@@ -67,6 +67,20 @@ void RegisterCompare(CLI::App& app) {
     const auto& b = rb.calibration;
     const camera::ConversionFit fit_a = ra.exact ? camera::ConversionFit{} : ra.fit;
     const camera::ConversionFit fit_b = rb.exact ? camera::ConversionFit{} : rb.fit;
+    // A file without a pixel pitch (all formats but porthole JSON) is read at --pixel-pitch-mm: say
+    // how to make it match the other's instead of only that the sensors differ.
+    const double pa = a.camera.sensor.pixel_pitch_mm, pb = b.camera.sensor.pixel_pitch_mm;
+    if (pa != pb && ra.pitch_known != rb.pitch_known) {
+      const bool a_known = ra.pitch_known;
+      const std::string& known_file = a_known ? o->a : o->b;
+      const std::string& other_file = a_known ? o->b : o->a;
+      const double known = a_known ? pa : pb;
+      throw InvalidInput("--pixel-pitch-mm",
+                         fmt::format("{} ({}) holds no pixel pitch and was read at {:g} mm, but {} gives "
+                                     "{:g} mm: pass --pixel-pitch-mm {:g}",
+                                     other_file, interop::FormatName((a_known ? rb : ra).format),
+                                     a_known ? pb : pa, known_file, known, known));
+    }
     const auto r = calib::Compare(a, b, o->compare);
 
     std::string curves_csv = "r_mm,radial_a_um,radial_b_um,decentring_a_um,decentring_b_um\n";
@@ -87,8 +101,8 @@ void RegisterCompare(CLI::App& app) {
     }
     const std::string verdict =
         !std::isfinite(r.chi2) ? "chi2 not computed: " + r.covariance_note
-        : fmt::format("chi2 = {:.2f} with {} dof, p = {:.3g}: the calibrations {} at alpha {:g} "
-                      "(covariance: {})", r.chi2, r.dof, r.p_value,
+        : fmt::format("chi2 = {:.2f} with {} dof (the parameters both calibrations adjusted), p = {:.3g}: "
+                      "the calibrations {} at alpha {:g} (covariance: {})", r.chi2, r.dof, r.p_value,
                       r.significant ? "DIFFER significantly" : "do not differ significantly",
                       o->compare.alpha, r.covariance_note);
     if (o->json) {
@@ -118,7 +132,8 @@ void RegisterCompare(CLI::App& app) {
                        camera::Info(r.model).params[row.index].json_key,
                        cell(row.adjusted_a, row.a, row.sigma_a),
                        cell(row.adjusted_b, row.b, row.sigma_b), row.diff,
-                       std::isfinite(row.z) ? fmt::format("{:.1f}", row.z) : "");
+                       std::isfinite(row.z) ? fmt::format("{:.1f}", row.z)
+                       : row.left_out.empty() ? "" : "out");
     }
     t += "radial dr(r) and decentring P(r), um (Fig. 14):\n   r_mm   dr_A   dr_B    P_A    P_B\n";
     const int step = std::max(1, static_cast<int>(r.curves.size()) / 8);
@@ -132,6 +147,7 @@ void RegisterCompare(CLI::App& app) {
     if (a.camera.sensor.pixel_pitch_mm == 1.0) t += "pitch 1: millimetres are pixels, um are 1e-3 px\n";
     if (fit_a.num_points > 0) t += "A " + interop::DescribeRead(ra, o->a) + "\n";
     if (fit_b.num_points > 0) t += "B " + interop::DescribeRead(rb, o->b) + "\n";
+    if (!r.left_out_note.empty()) t += r.left_out_note + "\n";
     fmt::print("{}{}\n", t, verdict);
   });
 }

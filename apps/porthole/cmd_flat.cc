@@ -3,6 +3,8 @@
 // view, the distortion factor of Eq. 1 against angle, the apparent focal length, lateral colour.
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "camera_options.h"
 #include "commands.h"
 #include "common.h"
@@ -11,6 +13,14 @@
 namespace porthole::cli {
 
 namespace {
+
+// A number for the text: fixed decimals, or the word for what it is — "infinity" (an object at
+// infinity), "n/a" (not applicable: the ray does not pass) — never "inf", "nan" or "-".
+std::string Val(double v, int decimals) {
+  if (std::isinf(v)) return v > 0 ? "infinity" : "-infinity";
+  if (std::isnan(v)) return "n/a";
+  return Fixed(v, decimals);
+}
 
 struct FlatCliOptions {
   PortOptions port;
@@ -32,8 +42,8 @@ void RunFlat(const FlatCliOptions* o) {
     return;
   }
   auto fov = [](const planning::Fov& f) {
-    return fmt::format("{:>7} {:>7} {:>7}", Fixed(f.horizontal_deg, 1), Fixed(f.vertical_deg, 1),
-                       Fixed(f.diagonal_deg, 1));
+    return fmt::format("{:>7} {:>7} {:>7}", Val(f.horizontal_deg, 1), Val(f.vertical_deg, 1),
+                       Val(f.diagonal_deg, 1));
   };
   std::string t = fmt::format("{} + {} behind {} (water n = {:.4f}, glass n = {:.4f}), c = {:.2f} mm\n\n",
                               setup.camera.name, setup.lens.name, a.system.spec.name, a.n_water, a.n_glass,
@@ -47,20 +57,27 @@ void RunFlat(const FlatCliOptions* o) {
                    a.critical_angle_deg);
   t += fmt::format("apparent focal length            {:.2f} mm (+{:.1f} %)\n", a.apparent_focal_length_mm,
                    a.focal_length_increase_pct);
-  t += fmt::format("scene width at WD {} mm          thin {} mm, traced {} mm\n", Fixed(a.wd_mm, 0),
-                   Fixed(a.coverage_thin_mm, 0), Fixed(a.coverage_traced_mm, 0));
-  t += fmt::format("lateral colour {:g}-{:g} nm     n_w {:.5f} / {:.5f}; {} px at the corner\n\n",
+  t += std::isfinite(a.wd_mm)
+           ? fmt::format("scene width at WD {} mm          thin {} mm, traced {} mm\n", Val(a.wd_mm, 0),
+                         Val(a.coverage_thin_mm, 0), Val(a.coverage_traced_mm, 0))
+           : "scene width                      unlimited (focused at infinity; give --wd for a width)\n";
+  t += fmt::format("lateral colour {:g}-{:g} nm     n_w {:.5f} / {:.5f}; {}\n\n",
                    fo.lambda_blue_nm, fo.lambda_red_nm, a.n_water_blue, a.n_water_red,
-                   Fixed(a.lateral_colour_corner_px, 2));
+                   std::isfinite(a.lateral_colour_corner_px)
+                       ? Val(a.lateral_colour_corner_px, 2) + " px at the corner"
+                       : std::string("not applicable at the corner (its ray does not reach the water)"));
   t += fmt::format("{:>8} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}\n", "air deg", "water", "D (Eq. 1)", "D traced",
                    "radius mm", "distort. px", "colour px");
   for (const auto& r : a.rows) {
-    t += fmt::format("{:>8} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}\n", Fixed(r.theta_air_deg, 1),
-                     Fixed(r.theta_water_deg, 2), Fixed(r.distortion_factor, 5), Fixed(r.distortion_factor_traced, 5),
-                     Fixed(r.image_radius_mm, 3), Fixed(r.distortion_px, 1), Fixed(r.lateral_colour_px, 2));
+    t += fmt::format("{:>8} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}\n", Val(r.theta_air_deg, 1),
+                     Val(r.theta_water_deg, 2), Val(r.distortion_factor, 5), Val(r.distortion_factor_traced, 5),
+                     Val(r.image_radius_mm, 3), Val(r.distortion_px, 1), Val(r.lateral_colour_px, 2));
   }
   t += "\n";
-  for (const auto& w : a.warnings) t += "! " + w + "\n";
+  // The plausibility warnings (core/plausible.h) went to stderr in the CLI's words; the advice here.
+  for (const auto& w : a.warnings) {
+    if (w.find(kImplausiblePhrase) == std::string::npos) t += "! " + w + "\n";
+  }
   fmt::print("{}", t);
 }
 

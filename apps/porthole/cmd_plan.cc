@@ -16,6 +16,20 @@ namespace porthole::cli {
 
 namespace {
 
+// A distance for the text: fixed decimals, "infinity" for an infinite one (an object or focus at
+// infinity), "n/a" (not applicable) where none exists. Never "inf", "nan" or "-".
+std::string Dist(double v, int decimals) {
+  if (std::isinf(v)) return v > 0 ? "infinity" : "-infinity";
+  if (std::isnan(v)) return "n/a";
+  return Fixed(v, decimals);
+}
+// "focus scale 1234 mm", or what stands for it when the lens cannot reach that focus.
+std::string FocusScale(const std::optional<double>& fd) {
+  return fd ? "focus scale " + Dist(*fd, 0) + " mm" : "beyond the lens's focus range";
+}
+// A depth-of-field total: "unlimited" when the far limit is at infinity.
+std::string Total(double v, int decimals) { return std::isinf(v) && v > 0 ? "unlimited" : Dist(v, decimals); }
+
 std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   const auto& sys = p.system;
   const std::string projection =
@@ -29,29 +43,31 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                               sys.IsDome() ? "dome" : "flat", sys.n_water, p.f_number, p.coc_mm, p.coc_source);
   t.insert(t.size() - 1, io::DescribeCameraAndLens(s.camera, s.lens));
   t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
-                   Fixed(p.d_s2ep_infinity_mm, 1));
+                   Dist(p.d_s2ep_infinity_mm, 1));
   t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm{}, Eq. 2)\n",
-                   Fixed(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
+                   Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
   if (p.lens_covers_virtual_range) {
     t += fmt::format("minimum working distance       {:>9} mm: the glass (the lens focuses on the whole virtual-image "
                      "range, {:.1f} to {} mm)\n",
-                     Fixed(p.min_wd_mm, 0), p.d_s2ep_touching_mm, Fixed(p.d_s2ep_infinity_mm, 1));
+                     Dist(p.min_wd_mm, 0), p.d_s2ep_touching_mm, Dist(p.d_s2ep_infinity_mm, 1));
     t += s.lens.min_focus_assumed ? "  close-up lens                  not needed (with the assumed minimum focus)\n"
                                   : "  close-up lens                  not needed\n";
   } else {
-    t += fmt::format("minimum working distance       {:>9} mm (set by the lens's minimum focus{})\n", Fixed(p.min_wd_mm, 0),
-                     s.lens.min_focus_assumed ? ", assumed" : "");
+    t += std::isfinite(p.min_wd_mm)
+             ? fmt::format("minimum working distance       {:>9} mm (set by the lens's minimum focus{})\n",
+                           Dist(p.min_wd_mm, 0), s.lens.min_focus_assumed ? ", assumed" : "")
+             : "minimum working distance             none: the lens cannot focus on anything behind this port\n";
     for (const auto& r : p.closeup) {
-      t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {} mm\n", r.dioptre, Fixed(r.min_wd_mm, 0),
-                       Fixed(r.max_wd_mm, 0));
+      auto mm = [](double v) { return std::isinf(v) ? Dist(v, 0) : Dist(v, 0) + " mm"; };
+      t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {}\n", r.dioptre, mm(r.min_wd_mm), mm(r.max_wd_mm));
     }
   }
   const auto& i = p.infinity;
-  t += fmt::format("infinity sharp, under water    focus on {} mm (focus scale {} mm): sharp from WD {} mm\n",
-                   Fixed(i.water_virtual_focus_mm, 1), Fixed(i.water_focus_distance_mm.value_or(NAN), 0),
-                   Fixed(i.water_near_wd_mm, 0));
-  t += fmt::format("infinity sharp, in air         hyperfocal {} mm (focus scale {} mm): sharp from {} mm\n",
-                   Fixed(i.air_focus_mm, 0), Fixed(i.air_focus_distance_mm.value_or(NAN), 0), Fixed(i.air_near_mm, 0));
+  t += fmt::format("infinity sharp, under water    focus on {} mm ({}): sharp from WD {} mm\n",
+                   Dist(i.water_virtual_focus_mm, 1), FocusScale(i.water_focus_distance_mm),
+                   Dist(i.water_near_wd_mm, 0));
+  t += fmt::format("infinity sharp, in air         hyperfocal {} mm ({}): sharp from {} mm\n",
+                   Dist(i.air_focus_mm, 0), FocusScale(i.air_focus_distance_mm), Dist(i.air_near_mm, 0));
   t += fmt::format("field of view (c = {:.2f} mm)   air {}/{}/{} deg, water {}/{}/{} deg (h/v/diagonal)\n",
                    p.principal_distance_mm, Fixed(p.fov.air.horizontal_deg, 1), Fixed(p.fov.air.vertical_deg, 1),
                    Fixed(p.fov.air.diagonal_deg, 1), Fixed(p.fov.water.horizontal_deg, 1),
@@ -62,13 +78,13 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                                   ? std::string("at the dome's centre along the axis")
                                   : fmt::format("{:.1f} mm {} the dome's centre", std::abs(c.axial_offset_mm),
                                                 c.axial_offset_mm > 0 ? "ahead of" : "behind");
-    t += fmt::format("entrance pupil                 {}, {:.1f} mm off its axis (focus scale {} mm)\n", where,
-                     c.lateral_offset_mm, Fixed(c.focus_distance_mm.value_or(NAN), 0));
+    t += fmt::format("entrance pupil                 {}, {:.1f} mm off its axis ({})\n", where,
+                     c.lateral_offset_mm, FocusScale(c.focus_distance_mm));
     if (std::abs(c.extension_mm) >= 0.05) {
-      t += fmt::format("  to centre it                 {} (then focus scale {} mm){}\n",
+      t += fmt::format("  to centre it                 {} (then {}){}\n",
                        c.extension_mm > 0 ? fmt::format("add a {:.1f} mm extension ring", c.extension_mm)
                                           : fmt::format("shorten the extension by {:.1f} mm", -c.extension_mm),
-                       Fixed(c.focus_distance_after_mm.value_or(NAN), 0),
+                       FocusScale(c.focus_distance_after_mm),
                        c.lateral_offset_mm >= 0.05 ? "; no ring corrects the lateral offset" : "");
       if (s.lens.pupil_estimated) t += "  (the entrance pupil is assumed, not measured: so is this ring)\n";
     }
@@ -81,22 +97,28 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
            : fmt::format("cut off by the {}{:>6} nothing\n", sys.IsDome() ? "dome's rim" : "port", "");
   if (p.target) {
     const auto& g = *p.target;
-    t += fmt::format("\ntarget: WD {} mm, {} mm from the entrance pupil\n", Fixed(g.wd_mm, 1),
-                     Fixed(g.subject_distance_mm, 1));
-    t += fmt::format("virtual image                  {:>9} mm from the pupil (real rays at f/{:g}: {} mm)\n",
-                     Fixed(g.virtual_image.d_s2ep_mm, 1), p.f_number, Fixed(g.d_s2ep_real_mm, 1));
+    t += fmt::format("\ntarget: WD {} mm, {} mm from the entrance pupil\n", Dist(g.wd_mm, 1),
+                     Dist(g.subject_distance_mm, 1));
+    t += fmt::format("virtual image                  {:>9} mm from the pupil (real rays at f/{:g}: {})\n",
+                     Dist(g.virtual_image.d_s2ep_mm, 1), p.f_number,
+                     std::isfinite(g.d_s2ep_real_mm) ? Dist(g.d_s2ep_real_mm, 1) + " mm" : "not traced");
     t += g.focus.focus_distance_mm
-             ? fmt::format("set the focus scale to         {:>9} mm\n", Fixed(*g.focus.focus_distance_mm, 0))
+             ? fmt::format("set the focus scale to         {:>9} mm\n", Dist(*g.focus.focus_distance_mm, 0))
              : fmt::format("NOT REACHABLE: needs a close-up of at least +{:.2f} dioptres\n", g.focus.closeup_dioptre);
     t += fmt::format("\n{:<22} {:>9} {:>9} {:>9} {:>9}\n", "depth of field, mm", "focus", "near", "far", "total");
-    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "in air", Fixed(g.air.focus_mm, 0), Fixed(g.air.near_mm, 0),
-                     Fixed(g.air.far_mm, 0), Fixed(g.air.total_mm, 0));
-    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "water, virtual image", Fixed(g.water.virtual_focus_mm, 1),
-                     Fixed(g.water.virtual_near_mm, 1), Fixed(g.water.virtual_far_mm, 1),
-                     Fixed(g.water.virtual_total_mm, 1));
-    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}   (x{} of air)\n", "water, real objects", Fixed(g.water.focus_mm, 0),
-                     Fixed(g.water.near_mm, 0), Fixed(g.water.far_mm, 0), Fixed(g.water.total_mm, 0),
-                     Fixed(g.dof_ratio_water_to_air, 2));
+    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "in air", Dist(g.air.focus_mm, 0), Dist(g.air.near_mm, 0),
+                     Dist(g.air.far_mm, 0), Total(g.air.total_mm, 0));
+    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "water, virtual image", Dist(g.water.virtual_focus_mm, 1),
+                     Dist(g.water.virtual_near_mm, 1), Dist(g.water.virtual_far_mm, 1),
+                     Total(g.water.virtual_total_mm, 1));
+    // The ratio of two totals exists only when both are finite (an unlimited in-air depth of field
+    // made it "x0.00", or "x-" when both were unlimited).
+    const double ratio = g.dof_ratio_water_to_air;
+    t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}   ({})\n", "water, real objects", Dist(g.water.focus_mm, 0),
+                     Dist(g.water.near_mm, 0), Dist(g.water.far_mm, 0), Total(g.water.total_mm, 0),
+                     std::isfinite(ratio) ? fmt::format("x{:.2f} of air", ratio)
+                     : std::isinf(g.air.total_mm) ? "ratio to air not applicable: unlimited in air"
+                                                  : "ratio to air not applicable");
     t += fmt::format("\nground sample distance         {:.3f} mm/px under water ({:.3f} in air at the same distance)\n",
                      g.gsd_water_mm, g.gsd_air_mm);
     if (g.field) {
@@ -110,16 +132,32 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
       t += fmt::format("{:>10} {:>9} {:>11} {:>10} {:>8} {:>8} {:>10}\n", "image mm", "angle", "object mm", "D_S2EP",
                        "sag mm", "blur px", "spread px");
       for (const auto& r : g.field->rows) {
-        t += fmt::format("{:>10} {:>9} {:>11} {:>10} {:>8} {:>8} {:>10}\n", Fixed(r.image_height_mm, 2),
-                         Fixed(r.field_angle_deg, 1), Fixed(r.object_height_mm, 0), Fixed(r.d_s2ep_mm, 2),
-                         Fixed(r.sag_mm, 2), Fixed(r.blur_px, 1), Fixed(r.spread_px, 1));
+        t += std::isnan(r.d_s2ep_mm)  // the port's rim hides this part of the field
+                 ? fmt::format("{:>10} {:>9}   beyond the port's rim\n", Fixed(r.image_height_mm, 2),
+                               std::isfinite(r.field_angle_deg) ? Fixed(r.field_angle_deg, 1) : "n/a")
+                 : fmt::format("{:>10} {:>9} {:>11} {:>10} {:>8} {:>8} {:>10}\n", Fixed(r.image_height_mm, 2),
+                               std::isfinite(r.field_angle_deg) ? Fixed(r.field_angle_deg, 1) : "n/a",
+                               Dist(r.object_height_mm, 0), Dist(r.d_s2ep_mm, 2), Dist(r.sag_mm, 2),
+                               Dist(r.blur_px, 1), Dist(r.spread_px, 1));
       }
-      t += fmt::format("corner blur {:.1f} px at f/{:g}; within the circle of confusion from f/{:.1f}\n",
-                       g.field->corner_blur_px, p.f_number, g.field->f_number_for_sharp_corners);
+      // The f-number that brings the corners within the circle of confusion, within the lens's range.
+      const double nf = g.field->f_number_for_sharp_corners;
+      t += fmt::format("corner blur {:.1f} px at f/{:g}; {}\n", g.field->corner_blur_px, p.f_number,
+                       nf <= s.lens.f_number_min
+                           ? fmt::format("within the circle of confusion at every f-number of the lens (from "
+                                         "f/{:g})", s.lens.f_number_min)
+                       : nf <= s.lens.f_number_max
+                           ? fmt::format("within the circle of confusion from f/{:.1f}", nf)
+                           : fmt::format("not within the circle of confusion at any f-number of the lens (it would "
+                                         "take f/{:.1f}; the lens stops at f/{:g})", nf, s.lens.f_number_max));
     }
   }
-  if (!p.warnings.empty()) t += "\n";
-  for (const auto& w : p.warnings) t += "! " + w + "\n";
+  // The plausibility warnings (core/plausible.h) went to stderr in the CLI's words; the advice here.
+  std::string advice;
+  for (const auto& w : p.warnings) {
+    if (w.find(kImplausiblePhrase) == std::string::npos) advice += "! " + w + "\n";
+  }
+  if (!advice.empty()) t += "\n" + advice;
   return t;
 }
 

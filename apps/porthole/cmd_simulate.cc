@@ -37,6 +37,13 @@ std::string ParamRow(const std::string& label, const camera::BrownParams& p, con
                      label, p.c_mm, p.x0_mm, p.y0_mm, p.K1, p.K2, p.K3, p.P1, p.P2, rms);
 }
 
+// "focus scale 1234.5 mm" ("infinity" for a focus at infinity), or what stands for it when the lens
+// cannot reach that focus (never "nan").
+std::string FocusScaleText(const std::optional<double>& fd) {
+  if (!fd || std::isnan(*fd)) return "beyond the lens's focus range";
+  return std::isinf(*fd) ? std::string("focus scale at infinity") : fmt::format("focus scale {:.1f} mm", *fd);
+}
+
 struct SimulateCliOptions {
   std::string port = "nimar-ni320";
   CameraLensOptions camera;
@@ -60,9 +67,9 @@ struct SimulateCliOptions {
 std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Prediction& p) {
   std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + io::DescribeCameraAndLens(spec.camera, spec.lens);
   t += fmt::format("{} + {} ({} fisheye) focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
-                   "focus scale {:.1f} mm; c = {:.3f} mm\n\n{} fitted, pixels:\n",
+                   "{}; c = {:.3f} mm\n\n{} fitted, pixels:\n",
                    spec.camera.name, spec.lens.name, camera::ProjectionName(spec.lens.projection),
-                   p.object_distance_mm, p.focus.d_s2ep_mm, p.focus.focus_distance_mm.value_or(NAN),
+                   p.object_distance_mm, p.focus.d_s2ep_mm, FocusScaleText(p.focus.focus_distance_mm),
                    p.camera.lens.c_mm,
                    p.water_fisheye->camera.model == camera::CameraModelId::kKannalaBrandt
                        ? std::string("Kannala-Brandt (OpenCV fisheye)")
@@ -98,9 +105,9 @@ std::string BrownText(const simulate::SystemSpec& spec, const simulate::Predicti
                     const std::vector<simulate::DistanceError>& errors, const std::vector<double>& radii) {
   std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + io::DescribeCameraAndLens(spec.camera, spec.lens);
   t += fmt::format("{} + {} focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
-                   "focus scale {:.1f} mm, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
+                   "{}, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
                    spec.camera.name, spec.lens.name, p.object_distance_mm, p.focus.d_s2ep_mm,
-                   p.focus.focus_distance_mm.value_or(NAN), p.focus.ep_to_flange_mm, p.camera.lens.c_mm);
+                   FocusScaleText(p.focus.focus_distance_mm), p.focus.ep_to_flange_mm, p.camera.lens.c_mm);
   t += fmt::format("{:<16} {:>9} {:>8} {:>8} {:>11} {:>11} {:>11} {:>11} {:>11} {:>8}\n", "", "c mm",
                    "x0 mm", "y0 mm", "K1 mm^-2", "K2 mm^-4", "K3 mm^-6", "P1 mm^-1", "P2 mm^-1", "rms um");
   t += ParamRow("air (fitted)", p.air.params, Fixed(p.air.rms_um, 3));

@@ -142,11 +142,9 @@ std::string Fixed(double v, int decimals) {
 }
 
 bool WarnIfImplausible(const std::string& field, double value, const PlausibleRange& range) {
-  // Non-positive or non-finite values are invalid, not implausible: the validity checks refuse them.
-  if (!std::isfinite(value) || !(value > 0) || (value >= range.lo && value <= range.hi)) return false;
-  fmt::print(stderr, "porthole: warning: {}: {:g} {} is outside the range of any physical camera or port ({:g}..{:g} {}): {}\n",
-             field, value, range.unit, range.lo, range.hi, range.unit, range.hint);
-  return true;
+  const auto w = porthole::PlausibilityWarning(field, value, range);
+  if (w) fmt::print(stderr, "porthole: warning: {}\n", *w);
+  return w.has_value();
 }
 
 void WarnIfImplausiblePort(const ports::PortSpec& spec, const std::string& where) {

@@ -2,6 +2,8 @@
 // and small output helpers (JSON numbers that may be infinite, fixed-width tables).
 #pragma once
 
+#include "porthole/core/plausible.h"
+
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -60,24 +62,17 @@ std::string Fixed(double v, int decimals);
 
 // ---- Plausibility and outputs (issue 12) ----
 
-// The range of values that physical cameras, lenses and ports have, for one quantity: a value
-// outside it is most likely typed in the wrong unit (µm for mm, metres for mm). Lengths in mm.
-struct PlausibleRange {
-  double lo, hi;
-  const char* unit;  // as printed after the numbers, e.g. "mm"
-  const char* hint;  // the likely mistake, e.g. "a pitch in um?"
-};
-inline constexpr PlausibleRange kPixelPitchRange{0.0005, 0.03, "mm", "a pitch in um? 5.5 um is 0.0055 mm"};
-inline constexpr PlausibleRange kCocRange{0.001, 0.25, "mm", "a circle of confusion in um? 11 um is 0.011 mm"};
-inline constexpr PlausibleRange kDomeRadiusRange{15, 500, "mm", "a radius in metres or inches?"};
-inline constexpr PlausibleRange kPortThicknessRange{0.5, 60, "mm", "a thickness in metres or inches?"};
-inline constexpr PlausibleRange kFocalLengthRange{1, 2000, "mm", "a focal length in metres?"};
-inline constexpr PlausibleRange kPrincipalDistanceRange{1, 2000, "mm", "a principal distance in pixels?"};
+// The ranges of values physical cameras, lenses and ports have live in the library
+// (core/plausible.h: one definition, hints computed from the value given).
+using porthole::PlausibleRange;
+using porthole::kPixelPitchRange;
+using porthole::kCocRange;
+using porthole::kDomeRadiusRange;
+using porthole::kPortThicknessRange;
+using porthole::kFocalLengthRange;
 
-// Prints one line `porthole: warning: <field>: <value> <unit> is outside the range of any physical
-// camera or port (<lo>..<hi> <unit>): <hint>` on stderr when `value` is finite and outside
-// `range` (and > 0: invalid values are the validity checks' business); returns whether it warned.
-// Never throws: implausible is not invalid.
+// Prints `porthole: warning: ` and the library's PlausibilityWarning(field, value, range) on
+// stderr when there is one; returns whether it warned. Never throws: implausible is not invalid.
 bool WarnIfImplausible(const std::string& field, double value, const PlausibleRange& range);
 
 // Warns (WarnIfImplausible) for a port's radii or thickness, naming the port's fields.

@@ -28,7 +28,8 @@ import numpy as np
 from . import _porthole
 from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detections, DomeFit, FlatAnalysis,
                        HousingAssembly,
-                       Medium, Plan, PortCalibration, PortFocal, PortType, Preset, RayStatus, RefractiveCalibration,
+                       Medium, Plan, PortCalibration, PortFocal, PortholeWarning, PortType, Preset, RayStatus,
+                       RefractiveCalibration,
                        Record, ReportSummary, Simulation,
                        SkippedImage, SphereFit, Status, Table, TraceResult, VirtualImage, VirtualImageTable)
 
@@ -354,7 +355,7 @@ __all__ = [
     "detect", "calibrate", "calibrate_images", "synthetic_detections", "compare", "load_calibration",
     "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
     "PortType", "CameraModel",
-    "Status", "Record", "Table", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",
+    "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",
     "Detections", "SkippedImage", "DetectionSet", "Calibration", "PortCalibration", "RefractiveCalibration",
     "VirtualImage", "VirtualImageTable",
     "PortFocal", "TraceResult", "SphereFit", "DomeFit", "Preset", "Medium", "DEFAULT_WD_MM",

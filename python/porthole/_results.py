@@ -13,12 +13,13 @@ import enum
 import json
 import math
 import os
+import warnings as _warnings
 from typing import Any, Dict, List, NamedTuple, Optional, Tuple
 
 import numpy as np
 
 __all__ = [
-    "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "Plan", "FlatAnalysis",
+    "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis",
     "Simulation", "Comparison", "HousingAssembly", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
     "Calibration", "PortCalibration", "RefractiveCalibration", "VirtualImage", "VirtualImageTable", "PortFocal", "TraceResult", "SphereFit",
     "DomeFit", "Preset", "Medium",
@@ -184,14 +185,36 @@ class Table:
         raise AttributeError("Table is read-only")
 
 
-class Plan(Record):
+class PortholeWarning(UserWarning):
+    """An input porthole ran with but doubts: a value outside the range of any physical camera, lens
+    or port (most likely a unit typed wrong: 5.5 for a pixel pitch of 5.5 um). The result's
+    `warnings` holds the same text, as `porthole <command> --json` does."""
+
+
+# The phrase of the library's plausibility warnings (core/plausible.h, kImplausiblePhrase).
+_IMPLAUSIBLE = "is outside the range of any physical camera or port"
+
+
+class _WarnsRecord(Record):
+    """A Record whose `warnings` list the library filled: its plausibility warnings are also emitted
+    with Python's warnings.warn (category PortholeWarning), pointing at the caller's line."""
+
+    def __init__(self, data: Dict[str, Any]):
+        super().__init__(data)
+        for text in data.get("warnings") or []:
+            if _IMPLAUSIBLE in text:
+                _warnings.warn(text, PortholeWarning, stacklevel=4)
+
+
+class Plan(_WarnsRecord):
     """porthole.plan(): the dive plan as `porthole plan --json` (focus, minimum WD, close-up lenses,
-    depth of field, field of view, GSD, field curvature); attributes follow its JSON keys."""
+    depth of field, field of view, GSD, field curvature); attributes follow its JSON keys. `warnings`
+    holds the plausibility warnings of its inputs (also emitted as PortholeWarning) and the advice."""
 
 
-class FlatAnalysis(Record):
+class FlatAnalysis(_WarnsRecord):
     """porthole.flat(): the flat-port analysis as `porthole flat --json` (FOV in air and water, the
-    maximum FOV, the Eq. 1 table, lateral colour)."""
+    maximum FOV, the Eq. 1 table, lateral colour). `warnings` as for Plan."""
 
 
 class Simulation(Record):

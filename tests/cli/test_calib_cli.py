@@ -145,7 +145,8 @@ def test_compare_paper_table6(tmp_path):
     assert c["z"] == pytest.approx(0.407 / (0.006**2 + 0.002**2) ** 0.5, rel=1e-9)
     p1 = next(p for p in j["parameters"] if p["parameter"] == "P1")
     assert p1["a"] is None and p1["sigma_diff"] == pytest.approx(1.2e-6)
-    assert j["dof"] == 7 and j["significant"] is True
+    assert j["dof"] == 5 and j["significant"] is True  # c, x0, y0, K1, K2: P1, P2 adjusted under water only
+    assert [p["parameter"] for p in j["left_out"]] == ["P1", "P2"] and p1["z"] is None
     r10 = min(j["curves"], key=lambda p: abs(p["r_mm"] - 10))
     r = r10["r_mm"]
     assert r10["radial_a_um"] == pytest.approx(1e3 * (1.842e-4 * r**3 - 3.030e-7 * r**5), rel=1e-9)

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "porthole/camera/json.h"
 #include "porthole/camera/profile.h"
 #include "porthole/camera/sensor.h"
@@ -56,7 +58,10 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
   const camera::Sensor& sb = b.camera.sensor;
   if (s.width_px != sb.width_px || s.height_px != sb.height_px ||
       s.pixel_pitch_mm != sb.pixel_pitch_mm) {
-    throw InvalidInput("B", "the two calibrations are of different sensors (size or pixel pitch)");
+    throw InvalidInput("B", fmt::format("the two calibrations are of different sensors: A {}x{} px, pixel "
+                                        "pitch {:g} mm; B {}x{} px, pixel pitch {:g} mm",
+                                        s.width_px, s.height_px, s.pixel_pitch_mm, sb.width_px,
+                                        sb.height_px, sb.pixel_pitch_mm));
   }
   if (a.camera.model != b.camera.model) {
     throw InvalidInput("B", "A is a " + std::string(a.camera.model_name()) + " calibration, B a " +
@@ -71,8 +76,9 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
   r.model = a.camera.model;
   const std::vector<double>& va = a.camera.params;
   const std::vector<double>& vb = b.camera.params;
-  std::vector<int> tested;
+  std::vector<int>& tested = r.tested;
   bool untested_sigma = false;
+  std::string only_a, only_b;  // keys adjusted in one calibration only
   for (int i = 0; i < a.camera.info().num_params; ++i) {
     CompareRow row;
     row.index = i;
@@ -87,16 +93,32 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
     const double var_b = b.free[i] ? KnownVariance(b, i) : 0;
     if (a.free[i]) row.sigma_a = std::sqrt(var_a);
     if (b.free[i]) row.sigma_b = std::sqrt(var_b);
-    if (a.free[i] || b.free[i]) {
-      row.sigma_diff = std::sqrt(var_a + var_b);  // NaN when either σ is unknown
+    if (a.free[i] || b.free[i]) row.sigma_diff = std::sqrt(var_a + var_b);  // NaN when a σ is unknown
+    if (a.free[i] && b.free[i]) {
+      row.tested = true;
       row.z = row.diff / row.sigma_diff;
       tested.push_back(i);
       if (!std::isfinite(row.sigma_diff)) untested_sigma = true;
+    } else if (a.free[i] || b.free[i]) {
+      // A fixed value has no variance: the other σ alone would decide, and a parameter a
+      // conversion refit (B1, B2 from Metashape's fx, fy) has a tiny one. Not tested.
+      row.left_out = a.free[i] ? "adjusted in A only" : "adjusted in B only";
+      r.left_out.push_back(i);
+      std::string& list = a.free[i] ? only_a : only_b;
+      list += (list.empty() ? "" : ", ") + std::string(a.camera.info().params[i].json_key);
     }
     r.rows.push_back(row);
   }
+  if (!r.left_out.empty()) {
+    std::string which;
+    if (!only_a.empty()) which += only_a + " (adjusted in A only)";
+    if (!only_b.empty()) which += (which.empty() ? "" : "; ") + only_b + " (adjusted in B only)";
+    r.left_out_note = "left out of chi2: " + which +
+                      ": a parameter fixed in one calibration has no variance there to test against, "
+                      "and a refit from another format can give it a tiny one";
+  }
 
-  // χ² on the parameters adjusted in either calibration.
+  // χ² on the parameters adjusted in both calibrations.
   const auto any = [](const FreeMask& f) { return std::find(f.begin(), f.end(), true) != f.end(); };
   const auto why = [](const CalibrationRecord& c, const char* name) {
     return std::string(name) + (c.covariance_note.empty() ? " has no covariance" : ": " + c.covariance_note);
@@ -107,6 +129,8 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
     r.covariance_note = why(b, "B") + "; no significance test";
   } else if (untested_sigma) {
     r.covariance_note = "a σ is unknown; no significance test";
+  } else if (tested.empty()) {
+    r.covariance_note = "no parameter adjusted in both; no significance test";
   } else {
     const int n = static_cast<int>(tested.size());
     Eigen::MatrixXd sum(n, n);
@@ -188,7 +212,15 @@ nlohmann::ordered_json CompareToJson(const CompareResult& r, const std::string& 
                     {"sigma_b", num(row.sigma_b)},
                     {"diff_b_minus_a", row.diff},
                     {"sigma_diff", num(row.sigma_diff)},
-                    {"z", num(row.z)}});
+                    {"z", num(row.z)},
+                    {"tested", row.tested},
+                    {"left_out", row.left_out.empty() ? Json(nullptr) : Json(row.left_out)}});
+  }
+  Json tested = Json::array(), left_out = Json::array();
+  for (int i : r.tested) tested.push_back(std::string(camera::Info(r.model).params[i].json_key));
+  for (int i : r.left_out) {
+    left_out.push_back({{"parameter", std::string(camera::Info(r.model).params[i].json_key)},
+                        {"reason", r.rows[i].left_out}});
   }
   for (const auto& p : r.curves) {
     curves.push_back({{"r_mm", p.r_mm}, {"radial_a_um", p.radial_a_um},
@@ -199,7 +231,8 @@ nlohmann::ordered_json CompareToJson(const CompareResult& r, const std::string& 
             {"model", std::string(camera::Info(r.model).name)},
             {"units", CameraUnitsJson(r.model)}, {"chi2", num(r.chi2)}, {"dof", r.dof},
             {"p_value", num(r.p_value)}, {"significant", r.significant},
-            {"covariance", r.covariance_note}, {"max_a_um", r.max_a_um},
+            {"covariance", r.covariance_note}, {"tested", tested}, {"left_out", left_out},
+            {"left_out_note", r.left_out_note.empty() ? Json(nullptr) : Json(r.left_out_note)}, {"max_a_um", r.max_a_um},
             {"max_b_um", r.max_b_um}, {"max_diff_um", r.max_diff_um}, {"curves", curves}};
   if (with_map) {
     Json map = Json::array();

@@ -4,9 +4,12 @@
 //    of each (camera/profile.h; µm against r in mm from the principal point; the paper's Fig. 14);
 //  - distortion maps: the correction vector Δ (camera::Correction, µm) of each over the image and
 //    their difference Δa − Δb at the same measured point (Fig. 15 a, b, c);
-//  - a χ² test of the difference: Δpᵀ(Σa + Σb)⁻¹Δp over the parameters adjusted in either (a
-//    parameter not adjusted in one calibration is a fixed value there, with no variance), against
-//    χ² with that many degrees of freedom. Without a full covariance the σ give a diagonal one.
+//  - a χ² test of the difference: Δpᵀ(Σa + Σb)⁻¹Δp over the parameters BOTH calibrations
+//    adjusted, against χ² with that many degrees of freedom. A parameter adjusted in only one is
+//    left out (and listed with the reason): the other holds a fixed value with no variance, so
+//    the one σ alone would decide — a refit from another format (e.g. B1, B2 of a Brown camera
+//    read back from Metashape's fx, fy) carries a tiny propagated σ that made any round trip
+//    "differ". Without a full covariance the σ give a diagonal one.
 #pragma once
 
 #include <string>
@@ -29,7 +32,9 @@ struct CompareRow {
   double a = 0, sigma_a = NAN, b = 0, sigma_b = NAN;
   double diff = 0;        // b − a
   double sigma_diff = NAN;
-  double z = NAN;         // diff / sigma_diff
+  double z = NAN;         // diff / sigma_diff, for a tested parameter only
+  bool tested = false;    // in the χ² (adjusted in both)
+  std::string left_out;   // why not, for a parameter adjusted in one only ("adjusted in B only")
 };
 
 struct CurvePoint {
@@ -55,16 +60,21 @@ struct CompareResult {
   double p_value = NAN;          // P(χ²_dof ≥ chi2)
   bool significant = false;      // p_value < alpha
   std::string covariance_note;   // "full" or why not
+  std::vector<int> tested;       // the parameters of the χ² (adjusted in both), model order
+  std::vector<int> left_out;     // adjusted in one calibration only: not in the χ²
+  // One sentence naming the left-out parameters and why ("" when none).
+  std::string left_out_note;
 };
 
-// Throws InvalidInput("B") if the sensors (size or pitch) or the models differ. Curves and maps
+// Throws InvalidInput("B") if the sensors (size or pitch; the message gives both) or the models differ. Curves and maps
 // are computed for the Brown model only (empty otherwise).
 CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
                       const CompareOptions& options = {});
 
 // The comparison as JSON, with the keys of `porthole compare --json` (which adds its options):
 // a, b (the labels), parameters [{parameter, a, sigma_a, b, sigma_b, diff_b_minus_a, sigma_diff,
-// z}], units, chi2, dof, p_value, significant, covariance, max_a_um, max_b_um, max_diff_um,
+// z, tested, left_out (null or the reason)}], units, chi2, dof, p_value, significant, covariance,
+// tested [keys], left_out [{parameter, reason}], left_out_note, max_a_um, max_b_um, max_diff_um,
 // curves [{r_mm, radial_a_um, radial_b_um, decentring_a_um, decentring_b_um}] and, with_map,
 // map [{u_px, v_px, x_mm, y_mm, a_um, b_um, diff_um}]. Non-finite numbers are null.
 nlohmann::ordered_json CompareToJson(const CompareResult& r, const std::string& a_label,

@@ -1,6 +1,7 @@
 // Proves the calibration comparison: the χ² survival function against closed forms and table
 // values, the paper's Table 6 (air vs water) differences, curves and maps from the published
-// parameters, and that the χ² test accepts two calibrations of one camera and rejects a changed one.
+// parameters, that the χ² test accepts two calibrations of one camera and rejects a changed one, and
+// that it tests only the parameters both calibrations adjusted (one adjusted in one only is listed).
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -9,6 +10,7 @@
 
 #include "porthole/calib/compare.h"
 #include "porthole/calib/synthetic.h"
+#include "porthole/core/error.h"
 
 namespace porthole::calib {
 namespace {
@@ -80,13 +82,21 @@ TEST(CompareTest, PaperTable6AirVersusWater) {
   const auto& c = r.rows[camera::kBrownC];
   EXPECT_NEAR(c.diff, 26.208 - 25.801, 1e-12);
   EXPECT_NEAR(c.sigma_diff, std::hypot(0.006, 0.002), 1e-12);
-  const auto& p1 = r.rows[camera::kBrownP1];  // adjusted in water only: its σ alone
+  const auto& p1 = r.rows[camera::kBrownP1];  // adjusted in water only: its σ alone, not tested
   EXPECT_NEAR(p1.sigma_diff, 1.2e-6, 1e-15);
-  // Diagonal covariance: χ² is the sum of z² over the 7 parameters adjusted in either.
+  EXPECT_FALSE(p1.tested);
+  EXPECT_TRUE(std::isnan(p1.z));
+  EXPECT_EQ(p1.left_out, "adjusted in B only");
+  // Diagonal covariance: χ² is the sum of z² over the 5 parameters adjusted in both (c, x0, y0,
+  // K1, K2); P1 and P2, adjusted under water only, are left out and named.
   double chi2 = 0;
   for (const auto& row : r.rows)
-    if (row.adjusted_a || row.adjusted_b) chi2 += row.z * row.z;
-  EXPECT_EQ(r.dof, 7);
+    if (row.adjusted_a && row.adjusted_b) chi2 += row.z * row.z;
+  EXPECT_EQ(r.dof, 5);
+  EXPECT_EQ(r.tested, (std::vector<int>{camera::kBrownC, camera::kBrownX0, camera::kBrownY0,
+                                        camera::kBrownK1, camera::kBrownK2}));
+  EXPECT_EQ(r.left_out, (std::vector<int>{camera::kBrownP1, camera::kBrownP2}));
+  EXPECT_NE(r.left_out_note.find("P1, P2 (adjusted in B only)"), std::string::npos) << r.left_out_note;
   EXPECT_NEAR(r.chi2, chi2, 1e-9 * chi2);
   EXPECT_TRUE(r.significant);  // c alone moves by 64σ
   // Fig. 14 (a): δr(10 mm) = K1·10³ + K2·10⁵ in mm; barrel (> 0) in both, less in water.
@@ -128,6 +138,41 @@ TEST(CompareTest, ChiSquareAcceptsSameCameraRejectsChangedOne) {
   o.camera.params[camera::kBrownC] += 0.03;  // ~10σ
   const auto changed = Compare(a, record(o));
   EXPECT_LT(changed.p_value, 1e-6) << changed.chi2;
+
+  // The same calibration with B1 and B2 "adjusted" in B with a tiny σ and a value off 0 (what a
+  // Brown camera read back from Metashape's fx, fy carries): before, they entered the χ² as if
+  // measured against A's fixed 0 (χ² ≈ 10⁶, "differ"); now they are left out and named, and the
+  // seven parameters both adjusted agree exactly.
+  auto refit = a;
+  for (int i : {camera::kBrownB1, camera::kBrownB2}) {
+    refit.free[i] = true;
+    refit.camera.params[i] = 2e-7;
+    refit.covariance(i, i) = 1e-20;  // σ 1e-10
+  }
+  const auto round_trip = Compare(a, refit);
+  EXPECT_EQ(round_trip.dof, 7);
+  EXPECT_EQ(round_trip.chi2, 0);
+  EXPECT_FALSE(round_trip.significant);
+  EXPECT_EQ(round_trip.left_out, (std::vector<int>{camera::kBrownB1, camera::kBrownB2}));
+  EXPECT_NE(round_trip.left_out_note.find("B1, B2 (adjusted in B only)"), std::string::npos)
+      << round_trip.left_out_note;
+  EXPECT_TRUE(std::isnan(round_trip.rows[camera::kBrownB1].z));
+  // …and a genuinely changed calibration with the same extra B1, B2 still differs.
+  auto moved = refit;
+  moved.camera.params[camera::kBrownC] += 10 * std::sqrt(a.covariance(camera::kBrownC, camera::kBrownC));
+  EXPECT_LT(Compare(a, moved).p_value, 1e-6);
+}
+
+TEST(CompareTest, DifferentSensorsNameBoth) {
+  auto [air, water] = Table6();
+  water.camera.sensor.pixel_pitch_mm = 1.0;
+  try {
+    Compare(air, water);
+    FAIL() << "accepted two sensors";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("pixel pitch 0.0055 mm; B 4288x2848 px, pixel pitch 1 mm"),
+              std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

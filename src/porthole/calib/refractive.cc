@@ -1179,7 +1179,7 @@ nlohmann::ordered_json PlanToJson(const RefractivePlan& p) {
             {"port_correlations_beyond_0_9", high},
             {"min_range_mm", p.min_range_mm},
             {"max_range_mm", p.max_range_mm},
-            {"warning", p.warning}}}};
+            {"warning", p.warning.empty() ? Json(nullptr) : Json(p.warning)}}}};  // null: none
 }
 
 IntrinsicsMode ParseIntrinsicsMode(const std::string& s, const std::string& field) {

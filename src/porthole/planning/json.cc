@@ -3,6 +3,7 @@
 #include "porthole/camera/projection.h"
 #include "porthole/core/json_length.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace porthole::planning {
@@ -102,19 +103,30 @@ Json PlanToJson(const Setup& s, const Plan& p) {
                    {"virtual_far_mm", L(w.virtual_far_mm)}, {"virtual_total_mm", L(w.virtual_total_mm)},
                    {"focus_mm", L(w.focus_mm)}, {"near_mm", L(w.near_mm)}, {"far_mm", L(w.far_mm)},
                    {"total_mm", L(w.total_mm)}, {"near_wd_mm", L(w.near_wd_mm)}, {"far_wd_mm", L(w.far_wd_mm)}}},
+        // null: not applicable, when either total is unlimited (ratio_note says which).
         {"ratio_water_to_air", L(t.dof_ratio_water_to_air)}};
+    if (!std::isfinite(t.dof_ratio_water_to_air)) {
+      out["dof"]["ratio_note"] = std::isinf(t.air.total_mm) ? "not applicable: the depth of field in air is unlimited"
+                                                            : "not applicable: the depth of field in water is unlimited";
+    }
     out["gsd"] = {{"water_mm_per_px", t.gsd_water_mm}, {"air_mm_per_px", t.gsd_air_mm}};
     if (t.field) {
       Json rows = Json::array();
       for (const FieldRow& r : t.field->rows) {
-        rows.push_back({{"image_height_mm", r.image_height_mm}, {"field_angle_deg", r.field_angle_deg},
-                        {"object_height_mm", r.object_height_mm}, {"d_s2ep_mm", r.d_s2ep_mm},
-                        {"sag_mm", r.sag_mm}, {"blur_px", r.blur_px}, {"spread_px", r.spread_px}});
+        // A row beyond the port's rim has no image: its values are null and beyond_rim says why.
+        rows.push_back({{"image_height_mm", r.image_height_mm}, {"field_angle_deg", L(r.field_angle_deg)},
+                        {"object_height_mm", L(r.object_height_mm)}, {"d_s2ep_mm", L(r.d_s2ep_mm)},
+                        {"sag_mm", L(r.sag_mm)}, {"blur_px", L(r.blur_px)}, {"spread_px", L(r.spread_px)},
+                        {"beyond_rim", std::isnan(r.d_s2ep_mm)}});
       }
-      out["field_curvature"] = {{"aperture_height_mm", t.field->aperture_height_mm},
-                                {"corner_blur_px", t.field->corner_blur_px},
-                                {"f_number_for_sharp_corners", t.field->f_number_for_sharp_corners},
-                                {"rows", rows}};
+      // The smallest f-number that keeps the corners within the circle of confusion, no wider than
+      // the lens opens (a corner blur of 0 gave f/0: sharp at every f-number of the lens).
+      out["field_curvature"] = {
+          {"aperture_height_mm", t.field->aperture_height_mm},
+          {"corner_blur_px", t.field->corner_blur_px},
+          {"f_number_for_sharp_corners", std::max(t.field->f_number_for_sharp_corners, s.lens.f_number_min)},
+          {"sharp_corners_within_lens_range", t.field->f_number_for_sharp_corners <= s.lens.f_number_max},
+          {"rows", rows}};
     } else {
       out["field_curvature"] = nullptr;
     }

@@ -10,6 +10,7 @@
 
 #include "porthole/core/error.h"
 #include "porthole/camera/projection.h"
+#include "porthole/planning/plausible.h"
 #include "porthole/planning/thin_lens.h"
 
 namespace porthole::planning {
@@ -318,7 +319,9 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     w.near_mm = RealFromVirtual(sys, wv.near_mm, &w.near_wd_mm);
     w.far_mm = RealFromVirtual(sys, wv.far_mm, &w.far_wd_mm);
     w.total_mm = w.far_mm - w.near_mm;
-    t.dof_ratio_water_to_air = w.total_mm / t.air.total_mm;
+    // Not applicable (NaN) when either total is unlimited: inf/x gave 0, inf/inf NaN printed as "x-".
+    t.dof_ratio_water_to_air =
+        std::isfinite(w.total_mm) && std::isfinite(t.air.total_mm) ? w.total_mm / t.air.total_mm : NAN;
 
     // One pixel on the object: at the virtual image, divided by the port's lateral magnification.
     t.gsd_water_mm = pitch * dv / t.principal_distance_mm / t.virtual_image.magnification;
@@ -334,8 +337,11 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   plan.field_cut = FieldCutByPort(plan.system, setup.camera, ln, plan.principal_distance_mm);
   plan.centring = CentrePupil(setup, mount, plan_focus);
 
-  // Plain-language warnings, the paper's advice (Sections 2.3, 3.1, 4 and 6).
+  // Values outside what physical cameras and ports have (a unit typed wrong), then plain-language
+  // warnings, the paper's advice (Sections 2.3, 3.1, 4 and 6).
   auto& warn = plan.warnings;
+  warn = PlausibilityWarnings(setup);
+  if (o.coc_mm) AddPlausibilityWarning(&warn, "coc_mm", *o.coc_mm, kCocRange);
   const bool dome = plan.system.IsDome();
   if (ln.min_focus_assumed) {
     warn.push_back(fmt::format("The minimum focus of the {} is assumed, {:g} mm (not known): the minimum working "
@@ -392,9 +398,12 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     const TargetPlan& t = *plan.target;
     if (!t.focus.focus_distance_mm) {
       warn.push_back(fmt::format("The {} cannot focus on the virtual image at {:.1f} mm (its closest is {:.1f} "
-                                 "mm): move back to WD >= {:.0f} mm or add a close-up lens of at least +{:.2f} "
-                                 "dioptres.",
-                                 ln.name, t.focus.d_s2ep_mm, plan.closest_d_s2ep_mm, plan.min_wd_mm,
+                                 "mm): {}add a close-up lens of at least +{:.2f} dioptres.",
+                                 ln.name, t.focus.d_s2ep_mm, plan.closest_d_s2ep_mm,
+                                 // No WD is in reach when even infinity is imaged too close.
+                                 std::isfinite(plan.min_wd_mm)
+                                     ? fmt::format("move back to WD >= {:.0f} mm or ", plan.min_wd_mm)
+                                     : std::string(),
                                  t.focus.closeup_dioptre));
     } else if (t.air.focus_distance_mm) {
       warn.push_back(fmt::format("Do not pre-focus in air: on a subject {:.0f} mm away the focus scale would be "

@@ -113,7 +113,7 @@ struct TargetPlan {
   double principal_distance_mm = 0;  // thin lens at that focus
   DofAir air;
   DofWater water;
-  double dof_ratio_water_to_air = 0;
+  double dof_ratio_water_to_air = 0;  // water total / air total; NaN (not applicable) if either is unlimited
   double gsd_water_mm = 0, gsd_air_mm = 0;  // object size of one pixel at the centre
   std::optional<FieldCurvature> field;     // nullopt when the real rays fail
 };

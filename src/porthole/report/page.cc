@@ -265,20 +265,30 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
   h += "<section id=\"summary\"><h2>Summary</h2>\n<div class=\"cards\">\n";
   h += Card("Set the focus scale to", t.focus.focus_distance_mm ? F(*t.focus.focus_distance_mm, 0) + " mm" : "out of reach",
             fmt::format("virtual image {} mm from the pupil", F(t.virtual_image.d_s2ep_mm, 1)));
-  h += Card("Minimum working distance", F(p.min_wd_mm, 0) + " mm",
+  h += Card("Minimum working distance", std::isfinite(p.min_wd_mm) ? F(p.min_wd_mm, 0) + " mm" : "none in reach",
             fmt::format("closest focus {} mm from the pupil", F(p.closest_d_s2ep_mm, 1)));
   const VirtualRow& inf = r.infinity.focused;
   h += Card("Virtual image of infinity", F(inf.d_s2ep_mm, 1) + " mm",
             fmt::format("from the entrance pupil, the lens focused on it{}; VWD {} mm",
                         inf.fd_mm ? " (focus scale " + F(*inf.fd_mm, 0) + " mm)" : "", F(inf.vwd_mm, 1)));
-  h += Card("Depth of field under water", F(t.water.total_mm, 0) + " mm",
-            fmt::format("{} mm in air: ×{}", F(t.air.total_mm, 0), F(t.dof_ratio_water_to_air, 2)));
+  // An unlimited total is "unlimited", and a ratio of two totals exists only when both are finite.
+  auto total = [](double v) { return std::isinf(v) ? std::string("unlimited") : F(v, 0) + " mm"; };
+  h += Card("Depth of field under water", total(t.water.total_mm),
+            std::isfinite(t.dof_ratio_water_to_air)
+                ? fmt::format("{} in air: ×{}", total(t.air.total_mm), F(t.dof_ratio_water_to_air, 2))
+                : fmt::format("{} in air", total(t.air.total_mm)));
   h += Card("Field of view in water", F(p.fov.water.horizontal_deg, 1) + "°",
             fmt::format("horizontal; {}° in air; focused on the target (c = {} mm)", F(p.fov.air.horizontal_deg, 1),
                         F(p.principal_distance_mm, 2)));
   if (t.field) {
     h += Card("Corner blur", F(t.field->corner_blur_px, 1) + " px",
-              fmt::format("at f/{:g}; sharp from f/{}", p.f_number, F(t.field->f_number_for_sharp_corners, 1)));
+              fmt::format("at f/{:g}; {}", p.f_number,
+                          t.field->f_number_for_sharp_corners <= s.lens.f_number_min
+                              ? std::string("sharp at every f-number of the lens")
+                          : t.field->f_number_for_sharp_corners <= s.lens.f_number_max
+                              ? "sharp from f/" + F(t.field->f_number_for_sharp_corners, 1)
+                              : fmt::format("not sharp at any f-number of the lens (needs f/{})",
+                                            F(t.field->f_number_for_sharp_corners, 1))));
   }
   const simulate::FitView sim_water = sim.water_view(), sim_air = sim.air_view();
   h += Card(sim.water_fisheye ? "Focal length under water" : "Principal distance under water",
@@ -452,10 +462,12 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
                {"parameter", "air ± σ", "water ± σ", "water − air", "z", "water, predicted"}, rows);
     h += "</div>\n<p>" +
          Html(std::isfinite(c.chi2)
-                  ? fmt::format("χ² = {:.2f} with {} degrees of freedom, p = {:.3g}: the calibrations {} (covariance: {}).",
+                  ? fmt::format("χ² = {:.2f} with {} degrees of freedom (the parameters both calibrations "
+                                "adjusted), p = {:.3g}: the calibrations {} (covariance: {}).",
                                 c.chi2, c.dof, c.p_value, c.significant ? "differ significantly" : "do not differ significantly",
                                 c.covariance_note)
                   : "χ² not computed: " + c.covariance_note) +
+         (c.left_out_note.empty() ? std::string() : " " + Html(c.left_out_note) + ".") +
          "</p>\n" + figs_of("compare") + "</section>\n";
   }
 
