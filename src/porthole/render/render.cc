@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 #include "porthole/io/presets.h"
 #include "porthole/optics/batch.h"
 #include "porthole/render/dots.h"
@@ -116,8 +117,9 @@ Eigen::Vector3d TargetCentre(const calib::TargetSpec& target) {
   Vec3 c = Vec3::Zero();
   const auto pts = calib::TargetPoints(target);
   int n = 0;
+  const std::vector<bool> has = calib::TargetPointMask(target);
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (!target.HasPoint(static_cast<int>(i))) continue;  // coded: ids that are no target
+    if (i >= has.size() || !has[i]) continue;  // coded: ids that are no target
     c += pts[i];
     ++n;
   }
@@ -156,6 +158,17 @@ Setup Resolve(const Scene& scene, ColorMode color) {
   for (double l : scene.bands_nm) {
     if (!(std::isfinite(l) && l > 0)) throw InvalidInput("bands_nm", "wavelengths must be numbers > 0 (nm)");
   }
+  const std::size_t n_points = scene.target.kind == calib::TargetKind::kCoded && !scene.target.field.empty()
+                                   ? scene.target.field.size()
+                                   : scene.target.kind == calib::TargetKind::kCoded
+                                         ? static_cast<std::size_t>(std::max(0, scene.target.NumPoints()))
+                                         : std::size_t(std::max(0, scene.target.PointCols())) *
+                                               std::size_t(std::max(0, scene.target.PointRows()));
+  if (n_points > kMaxTargetPoints) {
+    throw InvalidInput("target", fmt::format("{} has {} points, more than the limit of {} points for a rendered "
+                                             "target", scene.target.ToString(), n_points, kMaxTargetPoints));
+  }
+
   Setup s;
   if (scene.focus_distance_mm) {
     const double fd = *scene.focus_distance_mm;
@@ -203,6 +216,15 @@ Setup Resolve(const Scene& scene, ColorMode color) {
     s.camera = camera::Camera::Ideal(model, sensor, c / sensor.pixel_pitch_mm);
   }
 
+  // Bounds on memory and time (docs/robustness.md): the frame is allocated whole (4 bytes a pixel
+  // and channel, more while refining), and each target point costs a Newton solve for the truth.
+  const double frame_px = double(s.camera.sensor.width_px) * double(s.camera.sensor.height_px);
+  if (frame_px > kMaxFramePixels) {
+    throw InvalidInput("frame", fmt::format("{} x {} px ({:.0f} megapixels) is more than the limit of {:g} megapixels "
+                                            "for a rendered frame (the camera's sensor)",
+                                            s.camera.sensor.width_px, s.camera.sensor.height_px, frame_px / 1e6,
+                                            kMaxFramePixels / 1e6));
+  }
   for (double k : scene.vignetting_pa) {
     if (!std::isfinite(k)) throw InvalidInput("vignetting_pa", "must be three finite numbers k1,k2,k3");
   }
@@ -343,8 +365,8 @@ bool SeenAt(const Setup& s, const Band& band, const Pose& pose, const Surfaces& 
 std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s, LeftOut* left_out) {
   const auto pts = calib::TargetPoints(scene.target);
   const Extent e = BoardExtent(scene.target, scene.style);
-  std::vector<bool> has(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) has[i] = scene.target.HasPoint(static_cast<int>(i));  // coded: ids that are no target
+  std::vector<bool> has = calib::TargetPointMask(scene.target);  // coded: ids that are no target
+  has.resize(pts.size(), false);
   std::vector<Vec3> check = {Vec3(e.x_min, e.y_min, 0), Vec3(e.x_max, e.y_min, 0), Vec3(e.x_min, e.y_max, 0),
                              Vec3(e.x_max, e.y_max, 0)};
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -798,8 +820,9 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
   const camera::Sensor& sensor = sw.camera.sensor;
   std::vector<Vec3> pts;  // the target's points (coded: not the ids that are no target)
   const auto all = calib::TargetPoints(scene.target);
+  const std::vector<bool> has = calib::TargetPointMask(scene.target);  // HasPoint per id lays the sheet out each time
   for (std::size_t i = 0; i < all.size(); ++i) {
-    if (scene.target.HasPoint(static_cast<int>(i))) pts.push_back(all[i]);
+    if (i < has.size() && has[i]) pts.push_back(all[i]);
   }
   double span = 0;  // the target's size
   for (const Vec3& p : pts) span = std::max(span, (p - pts.front()).norm());
