@@ -203,7 +203,7 @@ def test_coded_detection_on_noise_is_bounded_in_candidates(tmp_path):
 def test_render_refuses_a_huge_frame_before_allocating(tmp_path):
     # Before: 60000 x 40000 px would allocate gigabytes before the first ray.
     line, seconds = timed_bad("render", "--out", tmp_path / "r.png", "--pixel-pitch-mm", "0.0005", "--quiet")
-    assert "frame: " in line and "more than the limit of 100 megapixels for a rendered frame" in line, line
+    assert "frame: " in line and "more than the limit of 64 million pixel values (pixels x channels)" in line, line
     assert seconds < 5
 
 

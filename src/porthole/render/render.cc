@@ -216,15 +216,20 @@ Setup Resolve(const Scene& scene, ColorMode color) {
     s.camera = camera::Camera::Ideal(model, sensor, c / sensor.pixel_pitch_mm);
   }
 
-  // Bounds on memory and time (docs/robustness.md): the frame is allocated whole (4 bytes a pixel
-  // and channel, more while refining), and each target point costs a Newton solve for the truth.
+  // Bounds on memory and time (docs/robustness.md): the frame is allocated whole, about 19 bytes
+  // a pixel value at worst (4 for the float image, up to 8 for the pixels to refine, 1 for the
+  // refinement flags, 2 each for the 16-bit image, its PNG and the PNG's copy): 64 million values
+  // stay near 1.2 GB.
+  const int channels = color == ColorMode::kRgb ? 3 : 1;
   const double frame_px = double(s.camera.sensor.width_px) * double(s.camera.sensor.height_px);
-  if (frame_px > kMaxFramePixels) {
-    throw InvalidInput("frame", fmt::format("{} x {} px ({:.0f} megapixels) is more than the limit of {:g} megapixels "
-                                            "for a rendered frame (the camera's sensor)",
-                                            s.camera.sensor.width_px, s.camera.sensor.height_px, frame_px / 1e6,
-                                            kMaxFramePixels / 1e6));
+  if (frame_px * channels > kMaxFrameValues) {
+    throw InvalidInput("frame", fmt::format("{} x {} px{} ({:.0f} million pixel values) is more than the limit of {:g} "
+                                            "million pixel values (pixels x channels) for a rendered frame (the camera's "
+                                            "sensor)",
+                                            s.camera.sensor.width_px, s.camera.sensor.height_px,
+                                            channels == 3 ? " RGB" : "", frame_px * channels / 1e6, kMaxFrameValues / 1e6));
   }
+
   for (double k : scene.vignetting_pa) {
     if (!std::isfinite(k)) throw InvalidInput("vignetting_pa", "must be three finite numbers k1,k2,k3");
   }
