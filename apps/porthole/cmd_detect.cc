@@ -101,6 +101,7 @@ void RegisterDetect(CLI::App& app) {
         t.unclear += c.unclear;
         t.impossible += c.impossible;
         t.duplicate += c.duplicate;
+        t.over_limit += c.over_limit;
         coded_sum.not_in_target += run.coded[k]->not_in_target;
       }
       std::string col;
@@ -124,6 +125,10 @@ void RegisterDetect(CLI::App& app) {
                           "unclear, {} impossible codes, {} duplicate IDs; {} decoded IDs not in the {}\n",
                           c.partial, c.no_ring, c.unclear, c.impossible, c.duplicate, coded_sum.not_in_target,
                           o->field.empty() ? "sheet" : "field");
+      if (c.over_limit > 0) {
+        text += fmt::format("coded candidates not tried: {} beyond the limit of candidates per image (noise or texture "
+                            "that looks like dots; see coded_counts.over_limit)\n", c.over_limit);
+      }
     }
     if (dots) {
       text += fmt::format("uncoded dots: {} matched of {} in view; {} not found, {} ambiguous, {} of the wrong size or "

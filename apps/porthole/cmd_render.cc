@@ -16,6 +16,7 @@
 #include "common.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/core/atomic_file.h"
+#include "porthole/core/input.h"
 #include "porthole/interop/interop.h"
 #include "porthole/render/render.h"
 #include "porthole/simulate/simulate.h"
@@ -130,8 +131,13 @@ double ParseFNumber(const std::string& text) {
 camera::Camera LoadCameraModel(const std::string& path, const housing::HousedCamera& h) {
   const auto cam = [&] {
     if (fs::path(path).extension() == ".json") {
-      std::ifstream in(path);
-      const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+      // Through the same limits as every calibration reader (it had none: 283 MB took 6.5 GB).
+      const std::string text = ReadInputFile(path, "--camera-model", kMaxCalibrationFileBytes);
+      nlohmann::json j;
+      try {
+        j = ParseJsonText(text, "--camera-model", path);
+      } catch (const InvalidInput&) {  // not JSON: the calibration readers below say why
+      }
       if (j.is_object() && j.contains("points") && j.contains("camera") && j["camera"].is_object()) {
         return std::pair{calib::CalibrationFromJson(j["camera"], "--camera-model").camera, true};
       }
@@ -387,7 +393,7 @@ void RegisterRender(CLI::App& app) {
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
                     {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"}, {"lambda_nm", "--bands"},
                     {"samples_per_pixel", "--spp"}, {"edge_samples_per_pixel", "--edge-spp"}, {"exposure", "--exposure"},
-                    {"full_well_e", "--noise"}, {"vignetting_pa", "--vignetting-pa"}, {"read_noise_e", "--noise"}, {"pose", "pose"}},
+                    {"full_well_e", "--noise"}, {"vignetting_pa", "--vignetting-pa"}, {"read_noise_e", "--noise"}, {"pose", "pose"}, {"target", "--target"}},
                    [&] { RunRender(*o); });
   });
 }

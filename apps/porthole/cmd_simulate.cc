@@ -205,7 +205,7 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
       const auto first = o->air_calibration.find_first_not_of(" \t\r\n");
       const bool flat_brown_file =  // {c_mm, x0_mm, …} in a file, without a calibration's "camera"
           std::filesystem::path(o->air_calibration).extension() == ".json" &&
-          ReadInputFile(o->air_calibration, "--air-calibration", kMaxJsonFileBytes).find("\"camera\"") ==
+          ReadInputFile(o->air_calibration, "--air-calibration", kMaxCalibrationFileBytes).find("\"camera\"") ==
               std::string::npos;
       const bool fisheye_lens = camera::IsFisheye(spec.lens.projection);
       if ((first != std::string::npos && o->air_calibration[first] == '{') || flat_brown_file) {

@@ -107,8 +107,9 @@ def test_bad_images_are_skipped(samples, tmp_path):
     j = res.json()
     assert j["n_images"] == 4
     reasons = {s["image"]: s["reason"] for s in j["skipped"]}
-    assert reasons == {"broken.jpg": "unreadable", "blank.pgm": "no target found"}
-    assert "skipped (unreadable)" in res.err
+    assert reasons["blank.pgm"] == "no target found" and set(reasons) == {"broken.jpg", "blank.pgm"}
+    assert reasons["broken.jpg"].startswith("not an image (")  # says why (issue 24), not just "unreadable"
+    assert "broken.jpg: skipped (not an image (" in res.err
 
 
 def test_too_few_images_is_refused(samples, tmp_path):

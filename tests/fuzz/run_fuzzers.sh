@@ -9,9 +9,9 @@ build=$1 seconds=$2
 shift 2
 here=$(cd "$(dirname "$0")" && pwd)
 declare -A seeds=([toml]="port camera lens" [pointcloud]="ply stl obj xyz" [calib_json]="calib_json"
-                  [opencv_yaml]="yaml" [metashape_xml]="metashape" [opencv_xml]="opencv_xml" [colmap_text]="colmap" [detections]="detections" [gnuplot_text]="port" [image_header]="images" [target_field]="field")
+                  [opencv_yaml]="yaml" [metashape_xml]="metashape" [opencv_xml]="opencv_xml" [colmap_text]="colmap" [colmap_binary]="colmap_bin" [mrcal]="mrcal" [calibmar]="yaml" [detections]="detections" [gnuplot_text]="port" [image_header]="images" [target_field]="field")
 harnesses=("$@")
-[ ${#harnesses[@]} -eq 0 ] && harnesses=(toml pointcloud calib_json opencv_yaml metashape_xml opencv_xml colmap_text detections gnuplot_text image_header target_field)
+[ ${#harnesses[@]} -eq 0 ] && harnesses=(toml pointcloud calib_json opencv_yaml metashape_xml opencv_xml colmap_text colmap_binary mrcal calibmar detections gnuplot_text image_header target_field)
 status=0
 for h in "${harnesses[@]}"; do
   bin="$build/tests/fuzz/fuzz_$h"

@@ -1,6 +1,7 @@
 #include "porthole/calib/calibrate.h"
 
 #include <ceres/ceres.h>
+#include <glog/logging.h>
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
@@ -364,6 +365,7 @@ class Adjustment {
     ceres::Problem problem;
     Build(free, form, &scaled, &problem);
     ceres::Solver::Options so;
+    so.logging_type = ceres::SILENT;  // no Ceres lines on stderr (issue 24)
     // Schur elimination of the poses (and free target points): the reduced camera system is
     // small, so the dense variant is the fastest; large free targets use the sparse one.
     so.linear_solver_type = (o_.target_free && used_.size() > 200) ? ceres::SPARSE_SCHUR
@@ -654,6 +656,7 @@ void RefinePose(const camera::Camera& cam, const ImageDetections& d,
   }
   problem.SetParameterBlockConstant(params.data());
   ceres::Solver::Options so;
+  so.logging_type = ceres::SILENT;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = 50;
   ceres::Solver::Summary summary;
@@ -1022,10 +1025,13 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     im.rotation_rad = Eigen::Vector3d(s.rotation[i].data());
     im.translation_mm = Eigen::Vector3d(s.translation[i].data());
   }
-  res.message = !options.statistics ? "ok (statistics not computed)"
+  const std::string poor = PoorFitStatus(res.rms_px, options.max_ok_rms_px);
+  res.message = !poor.empty()          ? poor
+                : !options.statistics ? "ok (statistics not computed)"
                 : res.covariance_ok   ? "ok"
                                       : "the covariance is singular: some free parameters are not "
                                         "determined by these images (fix them with --free)";
+  if (!poor.empty()) say("warning: " + poor);
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   say(fmt::format("done: sigma0 {:.4f} px, RMS {:.4f} px, {} iterations, {:.3f} s", res.sigma0_px,
                   res.rms_px, res.iterations, res.seconds));
@@ -1033,6 +1039,14 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
 }
 
 }  // namespace
+
+std::string PoorFitStatus(double rms_px, double max_ok_rms_px) {
+  if (rms_px <= max_ok_rms_px) return "";
+  return fmt::format("poor: RMS {:.3g} px is above {:g} px ({:g} times the detectors' noise of about {:g} px): the "
+                     "model does not fit these detections (another target or camera, mixed sets, wrong or repeated "
+                     "ids); its values and sigma are not to be trusted",
+                     rms_px, max_ok_rms_px, max_ok_rms_px / kDetectorNoisePx, kDetectorNoisePx);
+}
 
 FreeMask DefaultFree(CameraModelId model) {
   const camera::ModelInfo& m = camera::Info(model);
@@ -1106,8 +1120,20 @@ int KeepTargetPoints(const TargetSpec& target, std::vector<ImageDetections>* det
   return dropped;
 }
 
+void QuietCeresLogs() {
+  // Ceres logs through glog on stderr (296 lines in one calibration: invalid steps, rank-deficient
+  // covariances). Each solve is SILENT, and glog keeps only FATAL: what matters reaches the user
+  // through porthole's own status and progress lines.
+  static const bool once = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)once;
+}
+
 CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
                             const TargetSpec& target, const CalibrationOptions& options) {
+  QuietCeresLogs();
   const auto say = [&](const std::string& m) {
     if (options.progress) options.progress(m);
   };

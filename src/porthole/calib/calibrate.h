@@ -66,6 +66,21 @@ std::string FreeParametersToString(camera::CameraModelId model, const FreeMask& 
 
 enum class LossKind { kNone, kHuber, kCauchy };
 
+// The detectors porthole reads (chessboard, ChArUco, circle grids, coded targets) measure a
+// point to about 0.1 px on an image they can read (docs/calibration.md): a calibration that fits
+// its detections within 3 px at RMS may be blurred or poorly modelled, one beyond fits something
+// else than its detections' noise (another target, mixed sets, wrong ids, points listed twice).
+inline constexpr double kDetectorNoisePx = 0.1;
+inline constexpr double kMaxOkRmsPx = 30 * kDetectorNoisePx;
+
+// "" when rms_px is within max_ok_rms_px, else the one-line status of a poor result:
+// "poor: RMS 35.2 px is above 3 px (30 times the detectors' noise of about 0.1 px): …".
+std::string PoorFitStatus(double rms_px, double max_ok_rms_px = kMaxOkRmsPx);
+
+// Keeps Ceres (glog) quiet on stderr for the rest of the process: only FATAL. Calibrate and the
+// refractive calibration call it.
+void QuietCeresLogs();
+
 struct CalibrationOptions {
   camera::CameraModelId model = camera::CameraModelId::kBrown;  // which model of the list
   // Which camera parameters are adjusted; unset: DefaultFree(model).
@@ -118,6 +133,8 @@ struct CalibrationOptions {
   bool ceres_covariance = false;
   // Progress messages (long runs), e.g. printed on stderr by the CLI. May be empty.
   std::function<void(const std::string&)> progress;
+  // A result whose RMS reprojection is above this (px) is "poor", not "ok" (PoorFitStatus).
+  double max_ok_rms_px = kMaxOkRmsPx;
 
   FreeMask FreeOrDefault() const { return free ? *free : DefaultFree(model); }
 };
@@ -177,7 +194,7 @@ struct CalibrationResult {
   double max_centre_offset_px = 0;  // largest |dot-image centre − projected centre| applied
   double start_focal_px = 0;  // the start camera's focal length (Zhang, DLT, fisheye candidate or initial)
   double start_rms_px = NAN;  // RMS reprojection (px) of the start camera from the start poses
-  std::string message;   // "ok" or what went wrong (e.g. singular covariance)
+  std::string message;   // "ok", "poor: …" (PoorFitStatus) or what went wrong (e.g. singular covariance)
 };
 
 // Coded targets: removes from each image the detections of IDs the target does not carry (its

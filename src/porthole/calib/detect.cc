@@ -5,19 +5,26 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <cerrno>
+#include <condition_variable>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <png.h>
 
 #include "porthole/coded/detect.h"
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 
 namespace porthole::calib {
 namespace fs = std::filesystem;
@@ -27,6 +34,70 @@ uint32_t Be32(const unsigned char* p) { return uint32_t(p[0]) << 24 | uint32_t(p
 uint16_t Be16(const unsigned char* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
 uint32_t Le32(const unsigned char* p) { return uint32_t(p[3]) << 24 | uint32_t(p[2]) << 16 | uint32_t(p[1]) << 8 | p[0]; }
 uint16_t Le16(const unsigned char* p) { return static_cast<uint16_t>(p[1] << 8 | p[0]); }
+
+// PNG through libpng itself rather than cv::imread: OpenCV gives libpng its default handlers,
+// which print "libpng warning: …" and "libpng error: …" on stderr. Here warnings are collected
+// (the first is kept, on one line, for the image's progress line) and an error is the skip
+// reason. libpng's own limits are set to the image's: the size check happens in the decoder's
+// header read too. The transforms are OpenCV's for IMREAD_GRAYSCALE (grfmt_png.cpp), so the
+// pixels are the same: palette expanded, alpha stripped, 16 bits cut to 8, RGB to grey with
+// weights 0.299, 0.587.
+struct PngRead {
+  std::string warning;  // the first libpng warning
+  std::string error;    // why it could not be decoded
+};
+
+void PngWarning(png_structp png, png_const_charp msg) {
+  auto* r = static_cast<PngRead*>(png_get_error_ptr(png));
+  if (r->warning.empty()) r->warning = msg ? msg : "";
+}
+[[noreturn]] void PngError(png_structp png, png_const_charp msg) {
+  auto* r = static_cast<PngRead*>(png_get_error_ptr(png));
+  r->error = msg ? msg : "libpng error";
+  png_longjmp(png, 1);
+}
+
+// Decodes the PNG file `f` (at its start) into 8-bit grey; empty on error (read->error says why).
+cv::Mat DecodePngGray(std::FILE* f, long width, long height, PngRead* read) {
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, read, PngError, PngWarning);
+  if (png == nullptr) {
+    read->error = "libpng could not start";
+    return {};
+  }
+  png_infop info = png_create_info_struct(png);
+  // What changes after setjmp lives on the heap: automatic variables modified between setjmp and
+  // longjmp are indeterminate after it.
+  struct Out {
+    cv::Mat img;
+    std::vector<png_bytep> rows;
+  };
+  const auto out = std::make_unique<Out>();
+  if (info == nullptr || setjmp(png_jmpbuf(png))) {
+    png_destroy_read_struct(&png, info ? &info : nullptr, nullptr);
+    return {};
+  }
+  if (width > 0 && height > 0) png_set_user_limits(png, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height));
+  png_set_chunk_malloc_max(png, 64u << 20);  // a text or ICC chunk cannot ask for more
+  png_init_io(png, f);
+  png_read_info(png, info);
+  const png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+  const int bit_depth = png_get_bit_depth(png, info), color_type = png_get_color_type(png, info);
+  if (bit_depth == 16) png_set_strip_16(png);
+  png_set_strip_alpha(png);
+  if (color_type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+  if ((color_type & PNG_COLOR_MASK_COLOR) == 0 && bit_depth < 8) png_set_expand_gray_1_2_4_to_8(png);
+  if (color_type & PNG_COLOR_MASK_COLOR) png_set_rgb_to_gray(png, 1, 0.299, 0.587);
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  if (png_get_rowbytes(png, info) != w) png_error(png, "unexpected row size after conversion to grey");
+  out->img.create(static_cast<int>(h), static_cast<int>(w), CV_8UC1);
+  out->rows.resize(h);
+  for (png_uint_32 y = 0; y < h; ++y) out->rows[y] = out->img.ptr<png_byte>(static_cast<int>(y));
+  png_read_image(png, out->rows.data());
+  png_read_end(png, nullptr);
+  png_destroy_read_struct(&png, &info, nullptr);
+  return out->img;
+}
 
 // Refines X-junction corners on the full-resolution image: cv::cornerSubPix on a Gaussian-smoothed
 // patch around each corner. Smoothing (sigma 2 px) makes the gradient directions exact enough that a
@@ -309,31 +380,133 @@ bool DetectInImage(const cv::Mat& gray, const TargetSpec& target, std::vector<in
   return FindPoints(gray, target, ids, points, factor, uncoded, coded);
 }
 
+namespace {
+
+bool IsPng(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char h[8] = {};
+  in.read(h, 8);
+  return in.gcount() == 8 && std::memcmp(h, "\x89PNG\r\n\x1a\n", 8) == 0;
+}
+
+// The pixels of the images being decoded and searched at once (DetectAll's threads): an image
+// waits until the others leave room, so memory follows the budget, not the number of cores.
+class PixelBudget {
+ public:
+  explicit PixelBudget(double total) : total_(total) {}
+  void Acquire(double n) {
+    std::unique_lock lock(mutex_);
+    ready_.wait(lock, [&] { return used_ == 0 || used_ + n <= total_; });  // one image alone always runs
+    used_ += n;
+  }
+  void Release(double n) {
+    {
+      std::lock_guard lock(mutex_);
+      used_ -= n;
+    }
+    ready_.notify_all();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable ready_;
+  double total_, used_ = 0;
+};
+
+DetectResult DetectTargetIn(const std::string& path, const TargetSpec& target, const std::string& label,
+                            const DetectOptions& options, PixelBudget* budget);
+
+}  // namespace
+
+// OpenCV logs on stderr ("[ WARN:0@0.1] global loadsave.cpp … imread_(…): can't open/read file"):
+// silenced for the process; each skipped image says why itself, on one line.
+cv::Mat ReadPngGray(const std::string& path, std::string* warning, std::string* error, long max_width,
+                    long max_height) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) {
+    if (error) *error = fmt::format("cannot open: {}", std::strerror(errno));
+    return {};
+  }
+  PngRead read;
+  cv::Mat gray = DecodePngGray(f, max_width, max_height, &read);
+  std::fclose(f);
+  if (warning) *warning = read.warning;
+  if (error) *error = read.error;
+  return gray;
+}
+
+static void QuietOpenCVLogs() {
+  static const bool once = [] {
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+    return true;
+  }();
+  (void)once;
+}
+
 DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
                           const std::string& label, const DetectOptions& options) {
+  QuietOpenCVLogs();
+  return DetectTargetIn(path, target, label, options, nullptr);
+}
+
+namespace {
+
+DetectResult DetectTargetIn(const std::string& path, const TargetSpec& target, const std::string& label,
+                            const DetectOptions& options, PixelBudget* budget) {
   DetectResult r;
-  const auto size = ReadImageSize(path);
-  if (size && (size->first < 1 || size->second < 1)) {
-    r.reason = "unreadable (no pixels in its header)";
+  // Why an image is skipped, before anything is decoded: missing, not an image porthole reads,
+  // too large (from the header's size: decoding a 140 kB PNG declaring 12000 x 12000 px took 2 GB).
+  if (FILE* f = std::fopen(path.c_str(), "rb")) {
+    std::fclose(f);
+  } else {
+    r.reason = errno == ENOENT ? "missing file" : fmt::format("cannot open: {}", std::strerror(errno));
     return r;
   }
-  if (size && (size->first > options.max_side_px || size->second > options.max_side_px ||
-               double(size->first) * double(size->second) > options.max_pixels)) {
+  const auto size = ReadImageSize(path);
+  if (!size) {
+    r.reason = "not an image (no PNG, JPEG, TIFF, BMP or PGM/PPM header porthole can read)";
+    return r;
+  }
+  if (size->first < 1 || size->second < 1) {
+    r.reason = fmt::format("not an image (its header declares {} x {} px)", size->first, size->second);
+    return r;
+  }
+  const double pixels = double(size->first) * double(size->second);
+  if (size->first > options.max_side_px || size->second > options.max_side_px || pixels > options.max_pixels) {
     r.reason = fmt::format("too large: {} x {} px (limit {:g} megapixels, {} px a side)", size->first,
                            size->second, options.max_pixels / 1e6, options.max_side_px);
     return r;
   }
+  struct Hold {
+    PixelBudget* budget;
+    double n;
+    ~Hold() {
+      if (budget) budget->Release(n);
+    }
+  } hold{budget, pixels};
+  if (budget) budget->Acquire(pixels);
   cv::Mat gray;
   std::vector<int> ids;
   std::vector<cv::Point2f> pts;
   try {
-    gray = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    if (IsPng(path)) {
+      std::string warning, error;
+      gray = ReadPngGray(path, &warning, &error, size->first, size->second);
+      if (!warning.empty()) r.warning = "libpng: " + OneLineMessage(warning, 120);
+      if (gray.empty()) {
+        r.reason = "decode error (libpng: " + OneLineMessage(error, 120) + ")";
+        return r;
+      }
+    } else {
+      gray = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    }
     if (gray.empty()) {
-      r.reason = "unreadable";
+      r.reason = "decode error (a damaged or unsupported image)";
       return r;
     }
-    if (double(gray.cols) * gray.rows > options.max_pixels) {  // a format whose header we do not read
-      r.reason = fmt::format("too large: {} x {} px", gray.cols, gray.rows);
+    if (double(gray.cols) * gray.rows > pixels) {  // the decoder read more than the header declared
+      r.reason = fmt::format("decode error ({} x {} px decoded, {} x {} px in its header)", gray.cols, gray.rows,
+                             size->first, size->second);
       return r;
     }
     coded::UncodedCounts uncoded;
@@ -343,14 +516,18 @@ DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
     if (target.kind == TargetKind::kCoded) r.coded = coded;
     if (!found) {
       r.reason = "no target found";
+      if (r.coded && r.coded->detector.over_limit > 0) {
+        r.reason += fmt::format(" ({} more dot-like blobs beyond the limit of {} candidates per image, not tried)",
+                                r.coded->detector.over_limit, coded::CodedDetectOptions{}.max_candidates);
+      }
       return r;
     }
   } catch (const cv::Exception& e) {  // OpenCV's own limits and decoder failures
     std::string what = e.err.empty() ? "OpenCV error" : e.err;
-    r.reason = "unreadable (" + OneLineMessage(what, 120) + ")";
+    r.reason = "decode error (" + OneLineMessage(what, 120) + ")";
     return r;
   } catch (const std::bad_alloc&) {
-    r.reason = "unreadable (out of memory decoding it)";
+    r.reason = "decode error (out of memory decoding it)";
     return r;
   }
   ImageDetections d;
@@ -362,6 +539,8 @@ DetectResult DetectTarget(const std::string& path, const TargetSpec& target,
   r.detections = std::move(d);
   return r;
 }
+
+}  // namespace
 
 std::vector<std::string> ListImages(const std::string& dir, const std::string& field) {
   if (!fs::is_directory(dir)) throw InvalidInput(field, dir + " is not a directory");
@@ -375,12 +554,18 @@ std::vector<std::string> ListImages(const std::string& dir, const std::string& f
   }
   std::sort(out.begin(), out.end());
   if (out.empty()) throw InvalidInput(field, dir + " holds no images (jpg, png, tif, bmp, pgm)");
+  if (out.size() > kMaxImagesPerSet) {
+    throw InvalidInput(field, fmt::format("{} holds {} images, more than the limit of {} images per set", dir,
+                                          out.size(), kMaxImagesPerSet));
+  }
   return out;
 }
 
 DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& target,
                        const std::function<void(const std::string&)>& progress, const DetectOptions& options) {
+  QuietOpenCVLogs();
   std::vector<DetectResult> results(paths.size());
+  PixelBudget budget(options.max_pixels_in_flight);
   std::atomic<std::size_t> next{0};
   std::size_t done = 0;
   std::mutex mutex;
@@ -389,7 +574,7 @@ DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& 
     for (std::size_t i = next++; i < paths.size(); i = next++) {
       const std::string label = fs::path(paths[i]).filename().string();
       try {
-        results[i] = DetectTarget(paths[i], target, label, options);
+        results[i] = DetectTargetIn(paths[i], target, label, options, &budget);
       } catch (...) {  // InvalidInput (a bad target dictionary): stop all, rethrow below
         std::lock_guard lock(mutex);
         if (!error) error = std::current_exception();
@@ -401,8 +586,9 @@ DetectionRun DetectAll(const std::vector<std::string>& paths, const TargetSpec& 
       if (progress) {
         const auto& r = results[i];
         const std::string dots = r.uncoded ? fmt::format(" ({} of {} uncoded dots in view)", r.uncoded->matched, r.uncoded->in_view) : "";
-        progress(r.detections ? fmt::format("[{}/{}] {}: {} points{}", done, paths.size(), label, r.detections->ids.size(), dots)
-                              : fmt::format("[{}/{}] {}: skipped ({})", done, paths.size(), label, r.reason));
+        const std::string note = r.warning.empty() ? "" : "; " + r.warning;
+        progress(r.detections ? fmt::format("[{}/{}] {}: {} points{}{}", done, paths.size(), label, r.detections->ids.size(), dots, note)
+                              : fmt::format("[{}/{}] {}: skipped ({}){}", done, paths.size(), label, r.reason, note));
       }
     }
   };
@@ -434,7 +620,8 @@ nlohmann::ordered_json DetectionRunImageJson(const DetectionRun& run, std::size_
     j["coded_counts"] = {{"candidates", d.candidates}, {"decoded", d.decoded},       {"partial", d.partial},
                          {"no_ring", d.no_ring},       {"unclear", d.unclear},       {"impossible", d.impossible},
                          {"duplicate", d.duplicate},   {"not_elliptic", d.not_elliptic},
-                         {"refine_failed", d.refine_failed}, {"not_in_target", c.not_in_target}};
+                         {"refine_failed", d.refine_failed}, {"over_limit", d.over_limit},
+                         {"not_in_target", c.not_in_target}};
   }
   if (k < run.uncoded.size() && run.uncoded[k]) {
     const coded::UncodedCounts& u = *run.uncoded[k];

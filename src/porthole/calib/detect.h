@@ -8,7 +8,8 @@
 //    target carries a field with uncoded dots (IDs that are no code of the profile), those are
 //    matched from the decoded targets (coded::MatchUncodedDots) and reported with their field IDs.
 // Pixel convention of OpenCV = porthole's: (0, 0) is the centre of the top-left pixel.
-// An unreadable image or one without the target is not an error: it is returned as skipped.
+// An unreadable image or one without the target is not an error: it is returned as skipped, with
+// why: "missing file", "not an image (…)", "too large: …", "decode error (…)", "no target found".
 // Images are untrusted (docs/robustness.md): the dimensions in the file's header are read first and
 // an image over DetectOptions::max_pixels is skipped before anything is decoded.
 // Large chessboard images are searched on a reduced copy (long side ~kDetectLongSidePx) and the
@@ -31,7 +32,12 @@
 namespace porthole::calib {
 
 struct DetectOptions {
-  double max_pixels = 150e6;         // larger images are skipped ("too large"), never decoded
+  // Images over max_pixels are skipped ("too large") from their header, never decoded. DetectAll
+  // decodes and searches images at once only while their pixels sum to max_pixels_in_flight or
+  // less (one image alone always runs): peak memory follows these, not the number of cores
+  // (docs/robustness.md, "Limits").
+  double max_pixels = 64e6;
+  double max_pixels_in_flight = 64e6;
   int max_side_px = 40000;           // likewise for either side
   int reduce_above_px = 2400;        // chessboards: search a reduced copy when the long side is larger
   int reduced_long_side_px = 1600;   // ... of about this long side (integer factor)
@@ -46,6 +52,13 @@ cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const st
 // it; nullopt when the format is not one of these or the header is damaged.
 std::optional<std::pair<long, long>> ReadImageSize(const std::string& path);
 
+// A PNG file as 8-bit grey through libpng, pixel for pixel what cv::imread(IMREAD_GRAYSCALE) gives,
+// but with libpng's messages kept instead of printed on stderr: *warning gets its first warning,
+// *error why it could not be decoded (then the result is empty). libpng's own size limits are set
+// to `max_width` x `max_height` (0: none beyond libpng's).
+cv::Mat ReadPngGray(const std::string& path, std::string* warning = nullptr, std::string* error = nullptr,
+                    long max_width = 0, long max_height = 0);
+
 // Coded targets in one image: the detector's tally of its candidates (what it decoded and why it
 // skipped the rest: partial, no ring, unclear, impossible codes, duplicate IDs; blobs that are no
 // dot), and the decoded IDs that the sheet or field does not have (dropped).
@@ -56,7 +69,9 @@ struct CodedCounts {
 
 struct DetectResult {
   std::optional<ImageDetections> detections;  // set when the target was found
-  std::string reason;                          // why not: "unreadable", "no target found"
+  std::string reason;                          // why not: "missing file", "not an image (…)", "too large: …",
+                                               // "decode error (…)", "no target found"
+  std::string warning;                         // the decoder's first warning, one line ("libpng: …"), or empty
   std::optional<coded::UncodedCounts> uncoded; // a field with uncoded dots: how they were matched
   std::optional<CodedCounts> coded;            // coded targets: set whenever the image was searched
 };
@@ -97,7 +112,8 @@ struct DetectionRun {
 
 // The run as `porthole detect --json` prints it: DetectionSetToJson, each image with
 // `coded_counts` (coded targets: candidates, decoded, partial, no_ring, unclear, impossible,
-// duplicate, not_elliptic, refine_failed, not_in_target) and `uncoded_counts` (a field with
+// duplicate, not_elliptic, refine_failed, over_limit: candidates beyond the per-image limit, not tried;
+// not_in_target) and `uncoded_counts` (a field with
 // uncoded dots: coded, in_view, matched, not_found, ambiguous, rejected, inconsistent) where known.
 nlohmann::ordered_json DetectionRunToJson(const DetectionRun& run, const TargetSpec& target);
 // One image's entry of it (run.detections[k]), as `detect --out-dir` writes it.

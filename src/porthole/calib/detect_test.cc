@@ -1,12 +1,15 @@
 // Detection on rendered chessboards with known corners (render_board.h), a coded target field's
-// uncoded dots found through a TargetSpec carrying the field, and the image-header and size checks
-// that keep hostile images from being decoded (docs/robustness.md).
+// uncoded dots found through a TargetSpec carrying the field, the image-header and size checks
+// that keep hostile images from being decoded, PNG through libpng equal to imread, and the pixel
+// budget of parallel detection (docs/robustness.md).
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <fmt/format.h>
 
 #include "porthole/calib/detect.h"
 #include "porthole/calib/render_board.h"
@@ -78,7 +81,52 @@ TEST(Detect, OversizeImagesAreSkippedBeforeDecoding) {
   EXPECT_NE(r.reason.find("too large: 99999 x 99999"), std::string::npos) << r.reason;
   const DetectResult bad = DetectTarget(Write("porthole_bad.png", "\x89PNG\r\n\x1a\n garbage"), ParseTarget("chessboard:9x6:25"));
   EXPECT_FALSE(bad.detections.has_value());
-  EXPECT_NE(bad.reason.find("unreadable"), std::string::npos) << bad.reason;
+  EXPECT_EQ(bad.reason.rfind("not an image (", 0), 0u) << bad.reason;
+}
+
+// Issue 24: PNG is decoded through libpng itself (its warnings kept, not printed): the pixels are
+// exactly cv::imread's for IMREAD_GRAYSCALE, for grey, colour, alpha and 16-bit files.
+TEST(Detect, PngThroughLibpngEqualsImread) {
+  cv::Mat bgr(37, 53, CV_8UC3), bgra(37, 53, CV_8UC4), grey16(37, 53, CV_16U), bgr16(37, 53, CV_16UC3);
+  cv::RNG rng(3);
+  for (cv::Mat* m : {&bgr, &bgra, &grey16, &bgr16}) rng.fill(*m, cv::RNG::UNIFORM, 0, m->depth() == CV_8U ? 256 : 65536);
+  cv::Mat grey;
+  cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  int k = 0;
+  for (const cv::Mat* m : {&grey, &bgr, &bgra, &grey16, &bgr16}) {
+    const auto p = (std::filesystem::temp_directory_path() / fmt::format("porthole_png_{}.png", k++)).string();
+    ASSERT_TRUE(cv::imwrite(p, *m));
+    std::string warning, error;
+    const cv::Mat mine = ReadPngGray(p, &warning, &error);
+    const cv::Mat theirs = cv::imread(p, cv::IMREAD_GRAYSCALE);
+    ASSERT_EQ(mine.type(), CV_8UC1) << k << error;
+    ASSERT_EQ(mine.size(), theirs.size()) << k;
+    EXPECT_EQ(cv::norm(mine, theirs, cv::NORM_INF), 0) << "image " << k << " (type " << m->type() << ")";
+    EXPECT_EQ(warning, "");
+  }
+  // A size over libpng's limits set from the header check: refused by the decoder itself.
+  const auto p = (std::filesystem::temp_directory_path() / "porthole_png_limit.png").string();
+  ASSERT_TRUE(cv::imwrite(p, bgr));
+  std::string error;
+  EXPECT_TRUE(ReadPngGray(p, nullptr, &error, 50, 50).empty());
+  EXPECT_NE(error, "");
+}
+
+// Images are decoded and searched at once only while their pixels fit the budget: a budget of one
+// pixel still runs every image (one at a time), none is lost or refused.
+TEST(Detect, PixelBudgetRunsImagesOneAtATime) {
+  const auto board = RenderChessboard(900, 600, 9, 6, ObliqueBoardHomography(900, 600, 9, 6, 60));
+  std::vector<std::string> paths;
+  for (int i = 0; i < 4; ++i) {
+    paths.push_back((std::filesystem::temp_directory_path() / fmt::format("porthole_budget_{}.png", i)).string());
+    ASSERT_TRUE(cv::imwrite(paths.back(), board.gray));
+  }
+  DetectOptions o;
+  o.max_pixels_in_flight = 1;
+  o.threads = 4;
+  const DetectionRun run = DetectAll(paths, ParseTarget("chessboard:9x6:25"), {}, o);
+  EXPECT_EQ(run.detections.size(), 4u);
+  EXPECT_TRUE(run.skipped.empty());
 }
 
 // A coded target whose field holds uncoded dots (IDs above the code count): detection through the

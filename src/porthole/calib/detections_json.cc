@@ -4,7 +4,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
+#include <unordered_map>
+
+#include <fmt/format.h>
 
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
@@ -34,10 +38,37 @@ ImageDetections DetectionsFromJson(const nlohmann::json& j, const std::string& w
       *out = static_cast<int>(v);
     }
     reading = "ids";
-    d.ids = j.at("ids").get<std::vector<int>>();
+    const auto& ids = j.at("ids");
+    if (!ids.is_array()) throw InvalidInput(where, "ids: must be a list of point ids");
+    if (ids.size() > kMaxPointsPerImage) {
+      throw InvalidInput(where, fmt::format("ids: {} points in image '{}', more than the limit of {} points per image",
+                                            ids.size(), d.image, kMaxPointsPerImage));
+    }
+    // Whole numbers 0 … 2^31 - 1: get<int>() made 1.9 → 1, 4294967296 → 0, and 1e20 undefined.
+    std::unordered_map<int, std::size_t> first_at;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const auto& v = ids[i];
+      const double x = v.is_number() ? v.get<double>() : NAN;
+      if (!(x >= 0 && x <= std::numeric_limits<int>::max() && x == std::floor(x))) {
+        throw InvalidInput(where, fmt::format("ids[{}]: {} in image '{}' is not a point id (a whole number from 0 to {})",
+                                              i, v.dump().substr(0, 40), d.image, std::numeric_limits<int>::max()));
+      }
+      const int id = static_cast<int>(x);
+      const auto [it, fresh] = first_at.emplace(id, i);
+      if (!fresh) {
+        throw InvalidInput(where, fmt::format("ids[{}]: point {} is listed twice in image '{}' (also ids[{}]); each "
+                                              "point of the target may appear once per image",
+                                              i, id, d.image, it->second));
+      }
+      d.ids.push_back(id);
+    }
     reading = "points_px";
     const auto& points = j.at("points_px");
     if (!points.is_array()) throw InvalidInput(where, "points_px: must be a list of [u, v] pairs");
+    if (points.size() != d.ids.size()) {
+      throw InvalidInput(where, fmt::format("points_px: {} points for {} ids in image '{}' (one pair per id)",
+                                            points.size(), d.ids.size(), d.image));
+    }
     for (std::size_t i = 0; i < points.size(); ++i) {
       const auto& p = points[i];
       const std::string at = "points_px[" + std::to_string(i) + "]";
@@ -45,13 +76,16 @@ ImageDetections DetectionsFromJson(const nlohmann::json& j, const std::string& w
         throw InvalidInput(where, at + ": must be a pair [u, v] of numbers");
       }
       d.points_px.emplace_back(p[0].get<double>(), p[1].get<double>());
-      if (!d.points_px.back().allFinite()) throw InvalidInput(where, at + ": finite numbers");
+      const Eigen::Vector2d& q = d.points_px.back();
+      if (!q.allFinite()) throw InvalidInput(where, at + ": finite numbers");
+      // Pixel centres run from 0 to W - 1: the image covers [-0.5, W - 0.5] × [-0.5, H - 0.5].
+      if (!(q.x() >= -0.5 && q.x() <= d.width_px - 0.5 && q.y() >= -0.5 && q.y() <= d.height_px - 0.5)) {
+        throw InvalidInput(where, fmt::format("{}: point {} at ({:g}, {:g}) px lies outside image '{}' of {} x {} px",
+                                              at, d.ids[i], q.x(), q.y(), d.image, d.width_px, d.height_px));
+      }
     }
   } catch (const nlohmann::json::exception& e) {
     throw InvalidInput(where, reading + ": not a detections object: " + JsonMessage(e));
-  }
-  if (d.ids.size() != d.points_px.size()) {
-    throw InvalidInput(where, "ids and points_px differ in length");
   }
   if (d.width_px < 1 || d.height_px < 1) throw InvalidInput(where, "width_px, height_px >= 1");
   return d;
@@ -92,12 +126,29 @@ std::vector<ImageDetections> LoadDetections(const std::string& path, const std::
     }
     std::sort(files.begin(), files.end());
     if (files.empty()) throw InvalidInput(field, path + " holds no *.json detection files");
+    if (files.size() > kMaxImagesPerSet) {
+      throw InvalidInput(field, fmt::format("{} holds {} detection files, more than the limit of {} images per set",
+                                            path, files.size(), kMaxImagesPerSet));
+    }
   } else if (fs::exists(path)) {
     files.push_back(path);
   } else {
     throw InvalidInput(field, path + " does not exist");
   }
   std::vector<ImageDetections> out;
+  std::size_t n_points = 0;
+  // Counts bound memory and time (a calibration holds every point): checked as each image is read.
+  const auto add = [&](ImageDetections d, const std::string& where) {
+    if (out.size() == kMaxImagesPerSet) {
+      throw InvalidInput(where, fmt::format("more than the limit of {} images per set", kMaxImagesPerSet));
+    }
+    n_points += d.ids.size();
+    if (n_points > kMaxPointsPerSet) {
+      throw InvalidInput(where, fmt::format("image '{}' brings the set to {} points, more than the limit of {} "
+                                            "points per set", d.image, n_points, kMaxPointsPerSet));
+    }
+    out.push_back(std::move(d));
+  };
   for (const auto& f : files) {
     const std::string text = ReadInputFile(f, field, kMaxJsonFileBytes);
     const auto j = ParseJsonText(text, field, f.string());
@@ -107,11 +158,12 @@ std::vector<ImageDetections> LoadDetections(const std::string& path, const std::
         if (j.contains("images")) {  // a set file
           MergeTarget(j, f.string(), field, target);
           for (std::size_t i = 0; i < j.at("images").size(); ++i) {
-            out.push_back(DetectionsFromJson(j["images"][i], f.string() + ".images[" + std::to_string(i) + "]"));
+            const std::string where = f.string() + ".images[" + std::to_string(i) + "]";
+            add(DetectionsFromJson(j["images"][i], where), where);
           }
         } else {
           MergeTarget(j, f.string(), field, target);
-          out.push_back(DetectionsFromJson(j, f.string()));
+          add(DetectionsFromJson(j, f.string()), f.string());
         }
       } catch (const nlohmann::json::exception& e) {  // "images" or "target" of the wrong type
         throw InvalidInput(field, f.string() + ": " + JsonMessage(e));

@@ -178,6 +178,7 @@ class RefractiveAdjustment {
     ceres::Problem problem;
     Build(&scaled, &problem);
     ceres::Solver::Options so;
+    so.logging_type = ceres::SILENT;  // no Ceres lines on stderr (issue 24)
     so.linear_solver_type = ceres::DENSE_SCHUR;
     so.max_num_iterations = max_iterations;
     so.max_num_consecutive_invalid_steps = 50;
@@ -954,7 +955,9 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
 
   const std::string warning = RangeWarning(ranges);
   if (!warning.empty()) say("warning: " + warning);
-  lr.message = warning.empty() ? "ok" : "ok; " + warning;
+  const std::string poor = PoorFitStatus(lr.rms_px);  // a port "consistent with the prediction" at RMS 1362 px is no result
+  if (!poor.empty()) say("warning: " + poor);
+  lr.message = !poor.empty() ? poor : warning.empty() ? "ok" : "ok; " + warning;
   res.message = lr.message;
   lr.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   say(fmt::format("done: sigma0 {:.4f} px, RMS {:.4f} px, {} iterations, {:.3f} s", lr.sigma0_px,

@@ -102,7 +102,7 @@ BrownEstimate LoadBrownJson(const std::string& text_or_path, const std::string& 
   const auto first = text_or_path.find_first_not_of(" \t\r\n");
   const bool is_text = first != std::string::npos && text_or_path[first] == '{';
   const std::string origin = is_text ? "(JSON text)" : text_or_path;
-  const std::string text = is_text ? text_or_path : ReadInputFile(text_or_path, field, kMaxJsonFileBytes);
+  const std::string text = is_text ? text_or_path : ReadInputFile(text_or_path, field, kMaxCalibrationFileBytes);
   const nlohmann::json j = ParseJsonText(text, field, origin);
   // Errors name the key and, for a file, the line it is on (field.camera.K1: file.json:12: …).
   const auto read = [&] {

@@ -196,12 +196,15 @@ Outcome ReadRing(const cv::Mat& g, const Frame& f, const Levels& lv, const Coded
 
 std::string DetectionCounts::ToString() const {
   return fmt::format("{} candidates: {} decoded; skipped {} partial, {} without a ring, {} unclear, {} impossible "
-                     "codes, {} duplicate IDs, {} not elliptic, {} refinement failures",
-                     candidates, decoded, partial, no_ring, unclear, impossible, duplicate, not_elliptic, refine_failed);
+                     "codes, {} duplicate IDs, {} not elliptic, {} refinement failures{}",
+                     candidates, decoded, partial, no_ring, unclear, impossible, duplicate, not_elliptic, refine_failed,
+                     over_limit > 0 ? fmt::format("; {} more beyond the limit of candidates per image, not tried", over_limit)
+                                    : std::string());
 }
 
 CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptions& o) {
   ValidateBits(o.bits, "bits");
+  if (o.max_candidates < 0) throw InvalidInput("max_candidates", "must be >= 0");
   if (gray_in.empty() || gray_in.channels() != 1) throw InvalidInput("image", "expected a non-empty grey image");
   cv::Mat g;
   const int depth = gray_in.depth();
@@ -233,6 +236,10 @@ CodedDetection DetectCodedTargets(const cv::Mat& gray_in, const CodedDetectOptio
       if (!(b > 0) || 2 * a < o.min_dot_diameter_px || a / b > o.max_axis_ratio) continue;
       const double fill = area / (std::numbers::pi * a * b);
       if (fill < 0.7 || fill > 1.2) continue;
+      if (static_cast<int>(candidates.size()) >= o.max_candidates) {  // checked first: the search below is linear
+        ++out.counts.over_limit;
+        continue;
+      }
       const Frame f = FromRect(r, Eigen::Vector2d::Zero());
       bool seen = false;
       for (const auto& c : candidates) seen = seen || (c.c - f.c).norm() < 0.3 * b;

@@ -38,6 +38,10 @@ struct CodedDetectOptions {
   double min_contrast = 0.04;         // |dot − gap| as a fraction of the image type's full range
   double min_bit_clarity = 0.25;      // each bit's level at most this far from 0 or 1 (of dot − gap)
   bool uncoded_dots = false;          // also return the dots that carry no code (CodedDetection::dots)
+  // Candidates tried per image at most (time and memory on a noise image: 42 s of CPU unbounded);
+  // the rest are counted in DetectionCounts::over_limit, never tried. A dense field of 30 000
+  // targets needs more; docs/robustness.md.
+  int max_candidates = 20000;
 };
 
 struct CodedTarget {
@@ -59,6 +63,7 @@ struct DetectionCounts {
   int duplicate = 0;         // an ID seen on two separate targets: both dropped
   int not_elliptic = 0;      // the blob's edge is not an ellipse (ring segments, blots)
   int refine_failed = 0;     // the sub-pixel edge fit did not converge
+  int over_limit = 0;        // dot-like blobs beyond CodedDetectOptions::max_candidates: not tried
   std::string ToString() const;
 };
 

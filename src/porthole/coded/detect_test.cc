@@ -346,6 +346,26 @@ TEST(CodedDetect, DamagedPartialAndLookAlikeTargetsAreSkippedAndCounted) {
 // The centre measured without correction is the image ellipse's centre, which is not the image of
 // the dot's centre: their difference follows the closed-form eccentricity (ellipse.h) within 1 %
 // over tilts 0–70° (a 96 px dot at 150 mm, 200 px off the axis; the eccentricity grows to px).
+// Issue 24: a full-range noise image took 42 s of CPU (every blob a candidate). Candidates beyond
+// max_candidates are counted in over_limit and never tried.
+TEST(CodedDetect, CandidatesPerImageAreBounded) {
+  cv::Mat noise(600, 800, CV_8U);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.5);  // blobs of dot size
+  cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+  CodedDetectOptions o;
+  const CodedDetection all = DetectCodedTargets(noise, o);
+  ASSERT_GT(all.counts.candidates, 40) << all.counts.ToString();
+  EXPECT_EQ(all.counts.over_limit, 0);
+  o.max_candidates = 20;
+  const CodedDetection bounded = DetectCodedTargets(noise, o);
+  EXPECT_EQ(bounded.counts.candidates, 20);
+  EXPECT_GT(bounded.counts.over_limit, 0);
+  EXPECT_NE(bounded.counts.ToString().find("beyond the limit of candidates per image"), std::string::npos);
+  EXPECT_EQ(CodedDetectOptions{}.max_candidates, 20000);
+}
+
 TEST(CodedDetect, UncorrectedErrorFollowsTheClosedFormEccentricity) {
   RasterOptions ro;
   ro.radius_mm = 3;

@@ -18,6 +18,17 @@ namespace porthole {
 inline constexpr std::uintmax_t kMaxTextFileBytes = 16u << 20;    // TOML, YAML: 16 MiB
 inline constexpr std::uintmax_t kMaxJsonFileBytes = 256u << 20;   // calibration, detections: 256 MiB
 inline constexpr int kMaxJsonDepth = 64;                          // nesting of [ and {
+inline constexpr std::uintmax_t kMaxCalibrationFileBytes = 32u << 20;  // a calibration, any format: 32 MiB
+
+// Count limits (docs/robustness.md, "Limits"): memory and time follow what a file holds, not its
+// bytes (a parsed JSON number takes 16 bytes, an object member about 100). Each error names its limit.
+inline constexpr std::size_t kMaxJsonElements = 1'000'000;   // elements of one array or members of one object
+inline constexpr std::size_t kMaxJsonValues = 8'000'000;     // values in one JSON document
+inline constexpr std::size_t kMaxPointsPerImage = 100'000;   // detections of one image
+inline constexpr std::size_t kMaxImagesPerSet = 10'000;      // images of a detection set, `detect --images`
+inline constexpr std::size_t kMaxPointsPerSet = 1'000'000;   // detections of a whole set (a calibration's points)
+inline constexpr double kMaxFramePixels = 100e6;             // a rendered frame (sensor width × height)
+inline constexpr std::size_t kMaxTargetPoints = 20'000;      // points of a rendered target
 
 // The whole content of `path`, at most `max_bytes` (a device such as /dev/zero or a FIFO stops there
 // with an error, not after gigabytes). Throws InvalidInput(field, ...) if it cannot be read, is a

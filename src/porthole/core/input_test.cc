@@ -1,10 +1,13 @@
 // JsonPathLine and WithJsonLines: the line of a key in JSON text, for errors that nlohmann::json
-// (no positions for values) cannot place.
+// (no positions for values) cannot place; JSON count limits refused before anything is parsed.
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "porthole/core/hartley.h"
 #include "porthole/core/input.h"
+
+#include <chrono>
+#include <string>
 
 namespace porthole {
 namespace {
@@ -68,6 +71,55 @@ TEST(WithJsonLines, NamesFileAndLineOfTheKey) {
 // mean distance of √D from it, for any offset and scale; a set of one repeated point is left unscaled.
 namespace porthole {
 namespace {
+// Issue 24: a 250 MB calibration JSON took 5.5 GB and 18 s once parsed. Counts are checked by
+// one pass over the text before nlohmann builds anything, and the error names the limit.
+std::string Repeat(const std::string& item, std::size_t n, char open = '[', char close = ']') {
+  std::string s(1, open);
+  s.reserve(n * (item.size() + 1) + 2);
+  for (std::size_t i = 0; i < n; ++i) s += (i ? "," : "") + item;
+  return s + close;
+}
+
+TEST(JsonLimits, ElementsPerArrayAndMembersPerObject) {
+  EXPECT_NO_THROW(ParseJsonText(Repeat("0", kMaxJsonElements), "f", "a.json"));
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    ParseJsonText("{\"x\":\n" + Repeat("0", kMaxJsonElements + 1) + "}", "--detections", "big.json");
+    FAIL() << "no error";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), "--detections: big.json:2");
+    EXPECT_NE(std::string(e.what()).find("more than the limit of 1000000 elements in one JSON array"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+  std::string members = "{";
+  for (std::size_t i = 0; i <= kMaxJsonElements; ++i) members += (i ? ",\"" : "\"") + std::to_string(i) + "\":0";
+  members += "}";
+  try {
+    ParseJsonText(members, "f", "o.json");
+    FAIL() << "no error";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("members in one JSON object"), std::string::npos) << e.what();
+  }
+  // Commas and brackets inside strings are not counted.
+  EXPECT_NO_THROW(ParseJsonText("[\"" + std::string(2 * kMaxJsonElements, ',') + "[\"]", "f", "s.json"));
+}
+
+TEST(JsonLimits, ValuesPerDocument) {
+  // 9 arrays of 900 000 pairs: each array under the element limit, 16 million values in all.
+  std::string doc = "[";
+  const std::string pairs = Repeat("[1,2]", 900'000);
+  for (int i = 0; i < 9; ++i) doc += (i ? "," : "") + pairs;
+  doc += "]";
+  try {
+    ParseJsonText(doc, "f", "v.json");
+    FAIL() << "no error";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("more than the limit of 8000000 values in one JSON document"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Hartley, CentroidAtTheOriginMeanDistanceSqrtD) {
   std::vector<Eigen::Vector3d> p = {{1000, 2000, 5}, {1040, 1990, -20}, {990, 2070, 11}, {1013, 2011, 40}};
   const Eigen::Matrix4d t = HartleyNormaliser<3>(p);

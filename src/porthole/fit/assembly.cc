@@ -88,9 +88,7 @@ FitJson LoadFitJson(const std::string& path, const std::string& field, const std
   if (!f)
     throw InvalidInput(field,
                        fmt::format("'{}' is neither {} nor a readable file", path, expected));
-  std::stringstream text;
-  text << f.rdbuf();
-  FitJson out{Json(), text.str(), path};
+  FitJson out{Json(), ReadInputFile(path, field, kMaxTextFileBytes), path};  // a fit file: a few kB
   try {
     out.j = Json::parse(out.text);
   } catch (const Json::parse_error& e) {

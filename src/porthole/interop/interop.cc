@@ -1028,7 +1028,7 @@ ReadResult ReadCalibrationFile(const std::string& path, double pixel_pitch_mm, c
       throw InvalidInput(field, "'" + path + "' is a directory without cameras.txt or cameras.bin");
     }
   }
-  const std::string content = ReadInputFile(file, field, kMaxJsonFileBytes);
+  const std::string content = ReadInputFile(file, field, kMaxCalibrationFileBytes);
   const std::string where = field + " '" + file + "'";
   ReadResult r;
   try {

@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 #include "porthole/io/presets.h"
 #include "porthole/optics/batch.h"
 #include "porthole/render/dots.h"
@@ -116,8 +117,9 @@ Eigen::Vector3d TargetCentre(const calib::TargetSpec& target) {
   Vec3 c = Vec3::Zero();
   const auto pts = calib::TargetPoints(target);
   int n = 0;
+  const std::vector<bool> has = calib::TargetPointMask(target);
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (!target.HasPoint(static_cast<int>(i))) continue;  // coded: ids that are no target
+    if (i >= has.size() || !has[i]) continue;  // coded: ids that are no target
     c += pts[i];
     ++n;
   }
@@ -156,6 +158,17 @@ Setup Resolve(const Scene& scene, ColorMode color) {
   for (double l : scene.bands_nm) {
     if (!(std::isfinite(l) && l > 0)) throw InvalidInput("bands_nm", "wavelengths must be numbers > 0 (nm)");
   }
+  const std::size_t n_points = scene.target.kind == calib::TargetKind::kCoded && !scene.target.field.empty()
+                                   ? scene.target.field.size()
+                                   : scene.target.kind == calib::TargetKind::kCoded
+                                         ? static_cast<std::size_t>(std::max(0, scene.target.NumPoints()))
+                                         : std::size_t(std::max(0, scene.target.PointCols())) *
+                                               std::size_t(std::max(0, scene.target.PointRows()));
+  if (n_points > kMaxTargetPoints) {
+    throw InvalidInput("target", fmt::format("{} has {} points, more than the limit of {} points for a rendered "
+                                             "target", scene.target.ToString(), n_points, kMaxTargetPoints));
+  }
+
   Setup s;
   if (scene.focus_distance_mm) {
     const double fd = *scene.focus_distance_mm;
@@ -201,6 +214,20 @@ Setup Resolve(const Scene& scene, ColorMode color) {
       case Projection::kOrthographic: model = CameraModelId::kOrthographic; break;
     }
     s.camera = camera::Camera::Ideal(model, sensor, c / sensor.pixel_pitch_mm);
+  }
+
+  // Bounds on memory and time (docs/robustness.md): the frame is allocated whole, about 19 bytes
+  // a pixel value at worst (4 for the float image, up to 8 for the pixels to refine, 1 for the
+  // refinement flags, 2 each for the 16-bit image, its PNG and the PNG's copy): 64 million values
+  // stay near 1.2 GB.
+  const int channels = color == ColorMode::kRgb ? 3 : 1;
+  const double frame_px = double(s.camera.sensor.width_px) * double(s.camera.sensor.height_px);
+  if (frame_px * channels > kMaxFrameValues) {
+    throw InvalidInput("frame", fmt::format("{} x {} px{} ({:.0f} million pixel values) is more than the limit of {:g} "
+                                            "million pixel values (pixels x channels) for a rendered frame (the camera's "
+                                            "sensor)",
+                                            s.camera.sensor.width_px, s.camera.sensor.height_px,
+                                            channels == 3 ? " RGB" : "", frame_px * channels / 1e6, kMaxFrameValues / 1e6));
   }
 
   for (double k : scene.vignetting_pa) {
@@ -343,8 +370,8 @@ bool SeenAt(const Setup& s, const Band& band, const Pose& pose, const Surfaces& 
 std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s, LeftOut* left_out) {
   const auto pts = calib::TargetPoints(scene.target);
   const Extent e = BoardExtent(scene.target, scene.style);
-  std::vector<bool> has(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) has[i] = scene.target.HasPoint(static_cast<int>(i));  // coded: ids that are no target
+  std::vector<bool> has = calib::TargetPointMask(scene.target);  // coded: ids that are no target
+  has.resize(pts.size(), false);
   std::vector<Vec3> check = {Vec3(e.x_min, e.y_min, 0), Vec3(e.x_max, e.y_min, 0), Vec3(e.x_min, e.y_max, 0),
                              Vec3(e.x_max, e.y_max, 0)};
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -798,8 +825,9 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
   const camera::Sensor& sensor = sw.camera.sensor;
   std::vector<Vec3> pts;  // the target's points (coded: not the ids that are no target)
   const auto all = calib::TargetPoints(scene.target);
+  const std::vector<bool> has = calib::TargetPointMask(scene.target);  // HasPoint per id lays the sheet out each time
   for (std::size_t i = 0; i < all.size(); ++i) {
-    if (scene.target.HasPoint(static_cast<int>(i))) pts.push_back(all[i]);
+    if (i < has.size() && has[i]) pts.push_back(all[i]);
   }
   double span = 0;  // the target's size
   for (const Vec3& p : pts) span = std::max(span, (p - pts.front()).norm());

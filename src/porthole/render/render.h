@@ -104,6 +104,11 @@ struct Scene {
   std::array<double, 3> vignetting_pa = {0, 0, 0};
 };
 
+// A rendered frame holds at most this many pixel values (width x height x channels: 64 megapixels
+// grey, 21 RGB); Resolve refuses a larger sensor (InvalidInput "frame"): the frame is allocated
+// whole before the first ray (docs/robustness.md, "Limits").
+inline constexpr double kMaxFrameValues = 64e6;
+
 struct RenderOptions {
   int samples_per_pixel = 16;  // a square m², m × m strata (and m × m pupil strata)
   // Adaptive refinement, off while 0 (or not above samples_per_pixel): a pixel near an edge — one
