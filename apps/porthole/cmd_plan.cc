@@ -23,9 +23,12 @@ std::string Dist(double v, int decimals) {
   if (std::isnan(v)) return "n/a";
   return Fixed(v, decimals);
 }
+// A distance with its unit: "1234 mm", or "infinity" (no unit) for one at infinity.
+std::string Mm(double v, int decimals) { return std::isinf(v) ? Dist(v, decimals) : Dist(v, decimals) + " mm"; }
 // "focus scale 1234 mm", or what stands for it when the lens cannot reach that focus.
 std::string FocusScale(const std::optional<double>& fd) {
-  return fd ? "focus scale " + Dist(*fd, 0) + " mm" : "beyond the lens's focus range";
+  return fd ? (std::isinf(*fd) ? std::string("focus scale at infinity") : "focus scale " + Dist(*fd, 0) + " mm")
+            : "beyond the lens's focus range";
 }
 // A depth-of-field total: "unlimited" when the far limit is at infinity.
 std::string Total(double v, int decimals) { return std::isinf(v) && v > 0 ? "unlimited" : Dist(v, decimals); }
@@ -42,14 +45,16 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                               s.camera.name, s.lens.name, s.lens.focal_length_mm, projection, sys.spec.name,
                               sys.IsDome() ? "dome" : "flat", sys.n_water, p.f_number, p.coc_mm, p.coc_source);
   t.insert(t.size() - 1, io::DescribeCameraAndLens(s.camera, s.lens));
-  t += fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
-                   Dist(p.d_s2ep_infinity_mm, 1));
+  t += std::isfinite(p.d_s2ep_infinity_mm)
+           ? fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
+                         Dist(p.d_s2ep_infinity_mm, 1))
+           : std::string("virtual image of infinity      at infinity (the port has no power)\n");
   t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm{}, Eq. 2)\n",
                    Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
   if (p.lens_covers_virtual_range) {
     t += fmt::format("minimum working distance       {:>9} mm: the glass (the lens focuses on the whole virtual-image "
-                     "range, {:.1f} to {} mm)\n",
-                     Dist(p.min_wd_mm, 0), p.d_s2ep_touching_mm, Dist(p.d_s2ep_infinity_mm, 1));
+                     "range, {:.1f} mm to {})\n",
+                     Dist(p.min_wd_mm, 0), p.d_s2ep_touching_mm, Mm(p.d_s2ep_infinity_mm, 1));
     t += s.lens.min_focus_assumed ? "  close-up lens                  not needed (with the assumed minimum focus)\n"
                                   : "  close-up lens                  not needed\n";
   } else {
@@ -58,16 +63,16 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                            Dist(p.min_wd_mm, 0), s.lens.min_focus_assumed ? ", assumed" : "")
              : "minimum working distance             none: the lens cannot focus on anything behind this port\n";
     for (const auto& r : p.closeup) {
-      auto mm = [](double v) { return std::isinf(v) ? Dist(v, 0) : Dist(v, 0) + " mm"; };
-      t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {}\n", r.dioptre, mm(r.min_wd_mm), mm(r.max_wd_mm));
+      t += fmt::format("  with a +{:g} dioptre close-up  WD {} to {}\n", r.dioptre, Mm(r.min_wd_mm, 0),
+                       Mm(r.max_wd_mm, 0));
     }
   }
   const auto& i = p.infinity;
-  t += fmt::format("infinity sharp, under water    focus on {} mm ({}): sharp from WD {} mm\n",
-                   Dist(i.water_virtual_focus_mm, 1), FocusScale(i.water_focus_distance_mm),
-                   Dist(i.water_near_wd_mm, 0));
-  t += fmt::format("infinity sharp, in air         hyperfocal {} mm ({}): sharp from {} mm\n",
-                   Dist(i.air_focus_mm, 0), FocusScale(i.air_focus_distance_mm), Dist(i.air_near_mm, 0));
+  t += fmt::format("infinity sharp, under water    focus on {} ({}): sharp from WD {}\n",
+                   Mm(i.water_virtual_focus_mm, 1), FocusScale(i.water_focus_distance_mm),
+                   Mm(i.water_near_wd_mm, 0));
+  t += fmt::format("infinity sharp, in air         hyperfocal {} ({}): sharp from {}\n",
+                   Mm(i.air_focus_mm, 0), FocusScale(i.air_focus_distance_mm), Mm(i.air_near_mm, 0));
   t += fmt::format("field of view (c = {:.2f} mm)   air {}/{}/{} deg, water {}/{}/{} deg (h/v/diagonal)\n",
                    p.principal_distance_mm, Fixed(p.fov.air.horizontal_deg, 1), Fixed(p.fov.air.vertical_deg, 1),
                    Fixed(p.fov.air.diagonal_deg, 1), Fixed(p.fov.water.horizontal_deg, 1),

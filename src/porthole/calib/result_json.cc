@@ -180,7 +180,9 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
       {"target", target.ToString()},
       {"dot_radius_mm", r.dot_radius_mm},
       {"max_centre_offset_px", r.max_centre_offset_px},
-      {"free", FreeParametersToString(r.camera.model, r.free)},
+      {"free", FreeParametersToString(r.camera.model, r.free).empty()  // "none": every parameter held
+                   ? std::string("none")
+                   : FreeParametersToString(r.camera.model, r.free)},
       {"fixed", fixed},
       {"significance_t", options.significance_t},
       {"significance", significance},
