@@ -213,8 +213,17 @@ def test_calibration_out_is_read_by_simulate(detections, tmp_path):
     takes the file calibrate --out writes."""
     out = tmp_path / "air.json"
     run("calibrate", "--detections", detections, "--pixel-pitch-mm", "0.0055", "--out", out, "--quiet")
-    j = run("simulate", "--air-calibration", out, "--json").json()
-    assert j is not None
+    # OpenCV's samples are 640 x 480 (c 535 px x 0.0055 = 2.9 mm): simulate takes the calibration for
+    # a camera it is of, and refuses it for another (the default D300 + 24 mm), naming both sizes.
+    cam = tmp_path / "vga.toml"
+    cam.write_text('name = "vga"\ndescription = "640 x 480"\nsource = "test"\nmount = "fixed"\nwidth_px = 640\n'
+                   'height_px = 480\npixel_pitch_mm = 0.0055\n\n[lens]\nname = "vga-lens"\ndescription = "2.95 mm"\n'
+                   'focal_length_mm = 2.95\nf_number_min = 2.8\nf_number_max = 2.8\nmin_focus_mm = 100.0\n'
+                   'pupil = [ { focus_mm = inf, d_ep2f_mm = 10.0 } ]\n')
+    j = run("simulate", "--camera", cam, "--air-calibration", out, "--json").json()
+    assert j["predicted_water"]["c_mm"] > 0
+    line = run_bad("simulate", "--air-calibration", out)
+    assert "640 x 480" in line and "4288 x 2848" in line, line
 
 
 def test_killed_calibrate_leaves_old_output_or_none_and_no_temporaries(samples, detections, tmp_path):

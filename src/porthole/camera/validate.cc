@@ -147,9 +147,11 @@ void CheckCalibrationFits(const Camera& cal, bool pitch_known, const ExpectedCam
   }
   if (pitch_known && !(std::abs(s.pixel_pitch_mm / e.sensor.pixel_pitch_mm - 1) <= kPixelPitchTolerance)) {
     throw InvalidInput(field, fmt::format("has pixel pitch {:g} mm{}; the {} has {:g} mm", s.pixel_pitch_mm,
-                                          s.pixel_pitch_mm == 1 ? " (pitch 1: its millimetres are pixels, a calibration "
-                                                                  "made without --pixel-pitch-mm)"
-                                                                : "",
+                                          s.pixel_pitch_mm == 1
+                                              ? fmt::format(" (pitch 1: its millimetres are pixels: calibrated in "
+                                                            "pixels; run calibrate with --pixel-pitch-mm {:g})",
+                                                            e.sensor.pixel_pitch_mm)
+                                              : "",
                                           e.name, e.sensor.pixel_pitch_mm));
   }
   if (!(e.focal_length_mm > 0)) return;  // no lens to compare with
