@@ -36,8 +36,10 @@ struct DetectOptions {
   // decodes and searches images at once only while their pixels sum to max_pixels_in_flight or
   // less (one image alone always runs): peak memory follows these, not the number of cores
   // (docs/robustness.md, "Limits").
-  double max_pixels = 64e6;
-  double max_pixels_in_flight = 64e6;
+  // 48 megapixels: coded detection on a full-range noise image peaks at about 35 MB a megapixel
+  // (2.28 GB at 64 megapixels, /usr/bin/time -v), so 48 stay under 2 GB.
+  double max_pixels = 48e6;
+  double max_pixels_in_flight = 48e6;
   int max_side_px = 40000;           // likewise for either side
   int reduce_above_px = 2400;        // chessboards: search a reduced copy when the long side is larger
   int reduced_long_side_px = 1600;   // ... of about this long side (integer factor)
