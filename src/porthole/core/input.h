@@ -16,7 +16,7 @@ namespace porthole {
 
 // Size caps (bytes) for whole-file reads; point clouds and images are streamed and checked apart.
 inline constexpr std::uintmax_t kMaxTextFileBytes = 16u << 20;    // TOML, YAML: 16 MiB
-inline constexpr std::uintmax_t kMaxJsonFileBytes = 256u << 20;   // calibration, detections: 256 MiB
+inline constexpr std::uintmax_t kMaxJsonFileBytes = 256u << 20;   // detection sets: 256 MiB
 inline constexpr int kMaxJsonDepth = 64;                          // nesting of [ and {
 inline constexpr std::uintmax_t kMaxCalibrationFileBytes = 32u << 20;  // a calibration, any format: 32 MiB
 
