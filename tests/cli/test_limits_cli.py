@@ -131,6 +131,8 @@ def test_a_fit_far_above_the_noise_is_poor_not_ok(detset, tmp_path):
     status = [ln for ln in res.out.splitlines() if ln.startswith("status: ")]
     assert len(status) == 1 and status[0].startswith("status: poor: RMS "), res.out
     assert "is above 3 px" in status[0]
+    # Before: Ceres printed through glog ("Step failed to evaluate …", one line per failed step).
+    assert all(ln.startswith("calibrate: ") for ln in res.err.splitlines()), res.err[:2000]
     good = tmp_path / "good.json"
     good.write_text(json.dumps(detset))
     assert "\nstatus: ok\n" in run("calibrate", "--detections", good).out

@@ -16,7 +16,7 @@ namespace porthole {
 
 // Size caps (bytes) for whole-file reads; point clouds and images are streamed and checked apart.
 inline constexpr std::uintmax_t kMaxTextFileBytes = 16u << 20;    // TOML, YAML: 16 MiB
-inline constexpr std::uintmax_t kMaxJsonFileBytes = 256u << 20;   // calibration, detections: 256 MiB
+inline constexpr std::uintmax_t kMaxJsonFileBytes = 256u << 20;   // detection sets: 256 MiB
 inline constexpr int kMaxJsonDepth = 64;                          // nesting of [ and {
 inline constexpr std::uintmax_t kMaxCalibrationFileBytes = 32u << 20;  // a calibration, any format: 32 MiB
 
@@ -27,7 +27,6 @@ inline constexpr std::size_t kMaxJsonValues = 8'000'000;     // values in one JS
 inline constexpr std::size_t kMaxPointsPerImage = 100'000;   // detections of one image
 inline constexpr std::size_t kMaxImagesPerSet = 10'000;      // images of a detection set, `detect --images`
 inline constexpr std::size_t kMaxPointsPerSet = 1'000'000;   // detections of a whole set (a calibration's points)
-inline constexpr double kMaxFramePixels = 100e6;             // a rendered frame (sensor width × height)
 inline constexpr std::size_t kMaxTargetPoints = 20'000;      // points of a rendered target
 
 // The whole content of `path`, at most `max_bytes` (a device such as /dev/zero or a FIFO stops there
