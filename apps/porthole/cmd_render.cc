@@ -211,6 +211,15 @@ void RunRender(const RenderCliOptions& o) {
   if (o.vignetting != "none" && o.vignetting != "natural") throw InvalidInput("--vignetting", "must be none or natural");
   scene.natural_vignetting = o.vignetting == "natural";
   if (!o.vignetting_pa.empty()) scene.vignetting_pa = {o.vignetting_pa[0], o.vignetting_pa[1], o.vignetting_pa[2]};
+  // Outputs are checked before anything is read or rendered: an input named as an output is refused
+  // as that, whatever else is wrong with it.
+  if (o.out.empty()) throw InvalidInput("--out", "is required: the PNG file (single image) or a directory (--set)");
+  const OutputRules rules{.force = o.force, .inputs = o.inputs};
+  if (o.set == 0) {
+    if (fs::path(o.out).extension() != ".png") throw InvalidInput("--out", "must name a .png file");
+    CheckOutput(o.out, "--out", rules);  // before the long work: both files, the .json as a ground truth
+    CheckOutput(TruthPath(o.out), "--out", rules, FileKind::kGroundTruth);
+  }
   if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed);
   scene.c_mm = o.c_mm;
   scene.bands_nm = o.bands;
@@ -229,14 +238,9 @@ void RunRender(const RenderCliOptions& o) {
   render::Validate(ro);
   if (o.bit_depth != 8 && o.bit_depth != 16) throw InvalidInput("--bit-depth", "must be 8 or 16");
   if (o.shift.size() != 2 || o.tilt.size() != 2) throw InvalidInput("--shift", "--shift and --tilt take X,Y");
-  if (o.out.empty()) throw InvalidInput("--out", "is required: the PNG file (single image) or a directory (--set)");
-  const OutputRules rules{.force = o.force, .inputs = o.inputs};
 
   if (o.set == 0) {
     const fs::path png = o.out;
-    if (png.extension() != ".png") throw InvalidInput("--out", "must name a .png file");
-    CheckOutput(png, "--out", rules);  // before the long work: both files, the .json as a ground truth
-    CheckOutput(TruthPath(png), "--out", rules, FileKind::kGroundTruth);
     RequireFinite("--distance", o.distance_mm);
     scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
                                     o.roll_deg);

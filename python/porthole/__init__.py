@@ -21,6 +21,7 @@ import contextlib
 import math
 import os
 import tempfile
+import warnings as _warnings
 from typing import Any, Callable, Iterable, Optional, Union
 
 import numpy as np
@@ -268,7 +269,10 @@ def detect(images, target, **kwargs) -> DetectionSet:
 def calibrate(detections, target, *, port=None, **kwargs) -> Calibration:
     plain = _plain(detections if isinstance(detections, DetectionSet) else list(detections))
     if port is None:
-        return Calibration.from_dict(_porthole.calibrate(plain, target, **kwargs))
+        c = Calibration.from_dict(_porthole.calibrate(plain, target, **kwargs))
+        for text in c.warnings:  # as the CLI prints them on stderr
+            _warnings.warn(text, PortholeWarning, stacklevel=2)
+        return c
     if "air_calibration" in kwargs:
         kwargs["air_calibration"] = _plain(kwargs["air_calibration"])
     kwargs["port"] = port

@@ -217,9 +217,10 @@ class FlatAnalysis(_WarnsRecord):
     maximum FOV, the Eq. 1 table, lateral colour). `warnings` as for Plan."""
 
 
-class Simulation(Record):
+class Simulation(_WarnsRecord):
     """porthole.simulate(): the calibration to expect behind a port, as `porthole simulate --json`
-    (water, air, change, predicted_water, radial_profile; sweep and map when asked)."""
+    (water, air, change, predicted_water, radial_profile; sweep and map when asked). `warnings` as
+    for Plan."""
 
 
 class Comparison(Record):
@@ -353,6 +354,7 @@ class Calibration:
     significance: Optional[Table]  #: per free distortion parameter: parameter, t, significant
     status: Status
     message: str                   #: "ok" or why the result is not usable
+    warnings: List[str]            #: plausibility warnings of the inputs (a pixel pitch in um), as the CLI prints them
     _json: Dict[str, Any] = dataclasses.field(repr=False)
 
     @classmethod
@@ -380,7 +382,7 @@ class Calibration:
                    redundancy=int(d.get("redundancy", 0)), images=[Record(i) for i in d.get("images", [])],
                    significance=Table(signif) if signif else None,
                    status=Status.OK if message.startswith("ok") else Status.NOT_USABLE, message=message,
-                   _json=copy.deepcopy(d))
+                   warnings=[str(w) for w in d.get("warnings") or []], _json=copy.deepcopy(d))
 
     def to_dict(self) -> Dict[str, Any]:
         """The calibration as `porthole calibrate --json` prints it (what every command reads)."""

@@ -109,3 +109,29 @@ def test_flat_port_thickness_in_metres(tmp_path):
 def test_plausible_inputs_warn_nothing():
     assert python_warnings(porthole.plan) == []
     assert python_warnings(porthole.flat) == []
+
+
+def test_simulate_warns_as_the_cli_does(tmp_path):
+    # simulate's result carries the same plausibility warnings (the CLI prints the port's on stderr).
+    port = tmp_path / "flat.toml"
+    port.write_text(FLAT.format(thickness=0.012))
+    py = python_warnings(porthole.simulate, port=str(port), grid_cols=9, grid_rows=7)
+    cli = cli_warnings("simulate", "--port", port, "--grid-cols", "9", "--grid-rows", "7")
+    assert same_warning(py, cli, "port.thickness_mm").endswith("0.012 m is 12 mm")
+    assert python_warnings(porthole.simulate, grid_cols=9, grid_rows=7) == []
+
+
+def test_calibrate_warns_about_a_pitch_in_um():
+    # A calibration's pixel pitch typed in um: the CLI warns on stderr, calibrate() in its result.
+    cam = {"c_mm": 26.208, "x0_mm": -0.058, "y0_mm": -0.207, "K1": 1.663e-4}
+    dets = porthole.synthetic_detections(cam, width_px=4288, height_px=2848, pixel_pitch_mm=0.0055,
+                                         target="chessboard:12x9:40", n_images=6, noise_px=0.1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        c = porthole.calibrate(dets, "chessboard:12x9:40", pixel_pitch_mm=5.5)
+    emitted = [str(w.message) for w in caught if issubclass(w.category, porthole.PortholeWarning)]
+    assert len(c.warnings) == 1 and emitted == c.warnings
+    assert c.warnings[0].startswith("pixel_pitch_mm: 5.5 mm is outside the range")
+    assert c.warnings[0].endswith("5.5 um is 0.0055 mm")
+    plain = porthole.calibrate(dets, "chessboard:12x9:40", pixel_pitch_mm=0.0055)
+    assert plain.warnings == []

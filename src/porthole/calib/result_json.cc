@@ -9,6 +9,7 @@
 #include "porthole/camera/validate.h"
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
+#include "porthole/core/plausible.h"
 
 namespace porthole::calib {
 namespace {
@@ -200,6 +201,12 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
   };
   if (!target.field.empty()) j["field"] = FieldJson(target);
   if (options.target_free && r.datum.a >= 0) j["target_adjusted"] = AdjustedTargetJson(r, target);
+  // Plausibility of the inputs (core/plausible.h): a pitch of 1 means pixels, not a typo.
+  Json warnings = Json::array();
+  if (options.pixel_pitch_mm != 1.0) {
+    if (auto w = PlausibilityWarning("pixel_pitch_mm", options.pixel_pitch_mm, kPixelPitchRange)) warnings.push_back(*w);
+  }
+  j["warnings"] = warnings;
   return j;
 }
 

@@ -9,7 +9,7 @@
 #include "porthole/core/error.h"
 #include "porthole/camera/projection.h"
 #include "porthole/materials/materials.h"
-#include "porthole/planning/plausible.h"
+#include "porthole/housing/plausible.h"
 #include "porthole/planning/thin_lens.h"
 
 namespace porthole::planning {
@@ -150,7 +150,7 @@ FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   a.clear_aperture_needed_mm = 2 * a.corner_outer_radius_mm;
 
   // Values outside what physical cameras and ports have (a unit typed wrong) come first.
-  a.warnings = PlausibilityWarnings(setup);
+  a.warnings = housing::PlausibilityWarnings(setup);
   // A fisheye sees beyond 90 deg: those rays never meet a flat port.
   a.field_cut = FieldCutByPort(sys, setup.camera, setup.lens, c);
   if (a.field_cut.blocked_fraction > 0) {

@@ -28,11 +28,13 @@ Json FieldCutJson(const FieldCut& c) {
 Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
   const auto& cam = s.camera;
   const auto& ln = s.lens;
-  // found_in: which source answered the name ("preset", "file", "lensfun"; io::FindCamera).
-  return {{"camera", {{"name", cam.name}, {"found_in", cam.lookup}, {"source", cam.source}, {"mount", cam.mount},
+  // found_in: which source answered the name ("preset", "file", "lensfun"; io::FindCamera); source:
+  // where its values come from, null when the preset or file states none.
+  const auto source = [](const std::string& v) { return v.empty() ? Json(nullptr) : Json(v); };
+  return {{"camera", {{"name", cam.name}, {"found_in", cam.lookup}, {"source", source(cam.source)}, {"mount", cam.mount},
                       {"width_px", cam.sensor.width_px}, {"height_px", cam.sensor.height_px},
                       {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
-          {"lens", {{"name", ln.name}, {"found_in", ln.lookup}, {"source", ln.source},
+          {"lens", {{"name", ln.name}, {"found_in", ln.lookup}, {"source", source(ln.source)},
                     {"focal_length_mm", ln.focal_length_mm}, {"f_number_min", ln.f_number_min},
                     {"f_number_max", ln.f_number_max}, {"min_focus_mm", ln.min_focus_mm},
                     {"min_focus_assumed", ln.min_focus_assumed}, {"pupil_estimated", ln.pupil_estimated},

@@ -10,7 +10,7 @@
 
 #include "porthole/core/error.h"
 #include "porthole/camera/projection.h"
-#include "porthole/planning/plausible.h"
+#include "porthole/housing/plausible.h"
 #include "porthole/planning/thin_lens.h"
 
 namespace porthole::planning {
@@ -340,8 +340,8 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   // Values outside what physical cameras and ports have (a unit typed wrong), then plain-language
   // warnings, the paper's advice (Sections 2.3, 3.1, 4 and 6).
   auto& warn = plan.warnings;
-  warn = PlausibilityWarnings(setup);
-  if (o.coc_mm) AddPlausibilityWarning(&warn, "coc_mm", *o.coc_mm, kCocRange);
+  warn = housing::PlausibilityWarnings(setup);
+  if (o.coc_mm) housing::AddPlausibilityWarning(&warn, "coc_mm", *o.coc_mm, kCocRange);
   const bool dome = plan.system.IsDome();
   if (ln.min_focus_assumed) {
     warn.push_back(fmt::format("The minimum focus of the {} is assumed, {:g} mm (not known): the minimum working "

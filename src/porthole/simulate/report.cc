@@ -97,6 +97,7 @@ Json PredictionJson(const Prediction& p) {
   j["distances_mm"] = Distances(p.options);
   j["grid"] = {{"cols", p.options.grid_cols}, {"rows", p.options.grid_rows}};
   j["free_rotation"] = p.options.free_rotation;
+  j["warnings"] = p.warnings;
   const FitView water = p.water_view(), air = p.air_view();
   j["model"] = water.model_name();
   j["c_ratio_water_air"] = water.c_mm() / air.c_mm();

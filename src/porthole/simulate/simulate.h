@@ -224,6 +224,9 @@ struct Prediction {
   // A fisheye with air_fisheye_calibration: that calibration, and it + (water − air fit),
   // parameter by parameter, the underwater calibration to expect.
   std::optional<camera::Camera> air_fisheye_calibration, predicted_water_fisheye;
+  // Plausibility warnings of the inputs (housing/plausible.h: pixel pitch, focal length, the port's
+  // radii or thickness), naming the library field; empty when every value is plausible.
+  std::vector<std::string> warnings;
 
   // The water and air fits, whichever model they are (they refer to this prediction).
   FitView water_view() const { return water_fisheye ? FitView(*water_fisheye, lens_projection) : FitView(water); }

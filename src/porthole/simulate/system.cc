@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "porthole/core/error.h"
+#include "porthole/housing/plausible.h"
 #include "porthole/ports/virtual_image.h"
 #include "porthole/simulate/simulate.h"
 
@@ -78,6 +79,7 @@ Prediction Predict(const SystemSpec& spec, const FitOptions& options) {
   const bool fisheye = camera::IsFisheye(spec.lens.projection);
   p.lens_projection = spec.lens.projection;
   p.lens = spec.lens;
+  p.warnings = housing::PlausibilityWarnings(spec);
   if (spec.air_calibration && fisheye) {
     throw InvalidInput("air_calibration", "is a Brown calibration; the " + spec.lens.name + " is a " +
                                               std::string(camera::ProjectionName(spec.lens.projection)) +

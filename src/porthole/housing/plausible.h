@@ -1,7 +1,7 @@
 // The plausibility warnings of a housed camera (core/plausible.h): the values a plan, a flat-port
 // analysis or a simulation rests on that lie outside what physical cameras, lenses and ports have.
 // Each names the library field (pixel_pitch_mm, focal_length_mm, port.outer.radius_mm, …); the
-// results carry them in `warnings`, so the CLI and Python say the same.
+// results carry them in `warnings` (plan, flat, simulate), so the CLI and Python say the same.
 #pragma once
 
 #include <string>
@@ -11,7 +11,7 @@
 #include "porthole/core/plausible.h"
 #include "porthole/housing/housed.h"
 
-namespace porthole::planning {
+namespace porthole::housing {
 
 inline void AddPlausibilityWarning(std::vector<std::string>* warnings, std::string_view field, double value,
                                    const PlausibleRange& range) {
@@ -32,4 +32,4 @@ inline std::vector<std::string> PlausibilityWarnings(const housing::HousedCamera
   return w;
 }
 
-}  // namespace porthole::planning
+}  // namespace porthole::housing
