@@ -8,7 +8,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sys/stat.h>
 #include <cctype>
 
 #include "camera_options.h"
@@ -182,17 +181,8 @@ void ClearEarlierSet(const fs::path& out, const OutputRules& rules) {
       if (!fs::is_regular_file(fs::symlink_status(e.path(), ec))) {
         throw InvalidInput("--out", e.path().string() + " is not a regular file: not removed");
       }
-      if (e.path().extension() == ".json" && KindOfFile(e.path()) != FileKind::kGroundTruth) {
-        throw InvalidInput("--out", e.path().string() + " is not a render ground truth: not removed (move it away)");
-      }
-      struct stat st {};
-      ::stat(e.path().c_str(), &st);
-      for (const fs::path& in : rules.inputs) {
-        struct stat is {};
-        if (::stat(in.c_str(), &is) == 0 && is.st_dev == st.st_dev && is.st_ino == st.st_ino) {
-          throw InvalidInput("--out", e.path().string() + " is an input of this command: the earlier set is not removed");
-        }
-      }
+      // The one overwrite rule (core/output.h) decides: never an input, a .json only a ground truth.
+      CheckOutput(e.path(), "--out", rules, e.path().extension() == ".json" ? FileKind::kGroundTruth : FileKind::kOther);
       remove.push_back(e.path());
     }
   }
