@@ -236,10 +236,13 @@ void RegisterCalib(py::module_& m) {
          std::optional<std::array<double, 3>> port_sigma, bool free_water_index, bool free_shell,
          std::optional<Vec3> ep_mm, const std::string& water, std::optional<double> water_index,
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
-         bool compare_central, bool progress, const py::object& field, const std::string& centre_correction) {
+         bool compare_central, bool progress, const py::object& field, const std::string& centre_correction,
+         const py::object& air_detections, bool air_lens_bare) {
         return WithFieldNames(
             {{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}, {"--port", "port"},
-             {"--air-calibration", "air_calibration"}, {"--intrinsics", "intrinsics"},
+             {"--air-calibration", "air_calibration"}, {"--air-lens-bare", "air_lens_bare"},
+             {"--air-detections", "air_detections"}, {"--air-images", "air_detections"},
+             {"--intrinsics", "intrinsics"},
              {"--free-port", "free_port"}, {"--port-sigma", "port_sigma"},
              {"--free-shell", "free_shell"}},
             [&] {
@@ -252,6 +255,15 @@ void RegisterCalib(py::module_& m) {
                                                              temperature_c, salinity_psu, pressure_dbar);
               o.port = ports::MakeSystem(io::LoadPort(port), env, ep_mm);
               o.air = CalibrationArg(air_calibration, pixel_pitch_mm, o.lens.model, "air_calibration");
+              if (air_lens_bare && !o.air) {
+                throw InvalidInput("air_lens_bare", "says what air_calibration holds: give air_calibration");
+              }
+              o.air_of = air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
+                                       : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
+              if (!air_detections.is_none()) {
+                o.air_detections = DetectionsArg(air_detections.cast<py::list>());
+                calib::KeepTargetPoints(t, &o.air_detections, o.lens.progress);
+              }
               const std::string mode = !intrinsics.empty() ? intrinsics : o.air ? "prior" : "free";
               o.intrinsics = calib::ParseIntrinsicsMode(mode, "intrinsics");
               const auto kind = o.port.IsDome() ? refraction::PortKind::kDome : refraction::PortKind::kFlat;
@@ -276,11 +288,14 @@ void RegisterCalib(py::module_& m) {
       py::arg("water") = "seawater", py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07,
       py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,
       py::arg("compare_central") = true, py::arg("progress") = false, py::arg("field") = py::none(),
-      py::arg("centre_correction") = "auto",
+      py::arg("centre_correction") = "auto", py::arg("air_detections") = py::none(),
+      py::arg("air_lens_bare") = false,
       "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
-      "images. air_calibration: a file of any format or a calibration dict; intrinsics prior (the "
-      "default with one), fixed or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
+      "images. air_detections: detections of the same target in air through the same port (the "
+      "housing on, the paper's protocol), adjusted with the water ones. air_calibration: a file of "
+      "any format or a calibration dict of the lens alone, with air_lens_bare=True (one made with the "
+      "housing on is refused: give its detections); intrinsics prior (the default with one), fixed or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
       "of the predicted port for the chi2 test; free_water_index, free_shell as the CLI's flags. "
       "Returns (the JSON of `porthole calibrate --port --json`, the estimated port).");
 

@@ -231,7 +231,8 @@ void RegisterCalibrate(CLI::App& app) {
     // Refractive calibration (--port).
     PortOptions port;
     WaterOptions water;
-    std::string air, intrinsics, free_port = "all", port_out;
+    std::string air, intrinsics, free_port = "all", port_out, air_detections, air_images;
+    bool air_lens_bare = false;
     std::vector<double> port_sigma;
     bool plan_only = false, free_water_index = false, free_shell = false;
     double plan_sigma_px = 0.3;
@@ -295,9 +296,24 @@ void RegisterCalibrate(CLI::App& app) {
   o->port.Add(cmd);
   o->water.Add(cmd);
   const std::string group = "Refractive calibration (with --port)";
-  cmd->add_option("--air-calibration", o->air,
-                  "In-air calibration of the lens, any format of 'porthole convert' (porthole JSON, OpenCV "
-                  "YAML, COLMAP, mrcal, Metashape, calibmar); a prior needs its sigma")
+  auto* air_det = cmd->add_option("--air-detections", o->air_detections,
+                                  "Detections of the same target in air through the same port (the housing on, "
+                                  "the focus unchanged: the paper's protocol): adjusted with the water images, "
+                                  "the air ones modelled through the port in air; one lens, one port")
+                      ->group(group);
+  auto* air_img = cmd->add_option("--air-images", o->air_images,
+                                  "As --air-detections, from a directory of air images (the target detected here)")
+                      ->group(group);
+  air_det->excludes(air_img);
+  auto* air_cal = cmd->add_option("--air-calibration", o->air,
+                                  "In-air calibration of the lens ALONE, any format of 'porthole convert' "
+                                  "(porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape, calibmar); needs "
+                                  "--air-lens-bare (one made with the housing on sees the port too: give its "
+                                  "images, --air-detections); a prior needs its sigma")
+                      ->group(group);
+  air_cal->excludes(air_det)->excludes(air_img);
+  cmd->add_flag("--air-lens-bare", o->air_lens_bare,
+                "--air-calibration was made without the housing: the bare lens")
       ->group(group);
   cmd->add_option("--intrinsics", o->intrinsics,
                   "Lens under the port: free | fixed (the air calibration) | prior (the air "
@@ -364,10 +380,15 @@ void RegisterCalibrate(CLI::App& app) {
           {"--air-calibration", !o->air.empty()}, {"--intrinsics", !o->intrinsics.empty()},
           {"--port-sigma", !o->port_sigma.empty()}, {"--port-out", !o->port_out.empty()},
           {"--ep", !o->port.ep.empty()}, {"--plan-only", o->plan_only},
-          {"--free-water-index", o->free_water_index}, {"--free-shell", o->free_shell}};
+          {"--free-water-index", o->free_water_index}, {"--free-shell", o->free_shell},
+          {"--air-detections", !o->air_detections.empty()}, {"--air-images", !o->air_images.empty()},
+          {"--air-lens-bare", o->air_lens_bare}};
       for (const auto& [flag, is_given] : given) {
         if (is_given) throw InvalidInput(flag, "only with --port (the refractive calibration)");
       }
+    }
+    if (o->plan_only && (!o->air_images.empty() || !o->air_detections.empty())) {
+      throw InvalidInput("--plan-only", "plans the water images alone: not with air images (--air-images, --air-detections)");
     }
     calib::RefractiveOptions ro;
     std::string air_note;  // how --air-calibration was read (exact, or refit to --model)
@@ -377,10 +398,15 @@ void RegisterCalibrate(CLI::App& app) {
       if (o->calib.target_free) throw InvalidInput("--free-target", "not with --port");
       const ports::Environment env = o->water.ToEnvironment();
       ro.port = ports::MakeSystem(o->port.Spec(), env, o->port.Ep());
+      if (o->air_lens_bare && o->air.empty()) {
+        throw InvalidInput("--air-lens-bare", "says what --air-calibration holds: give --air-calibration");
+      }
       if (!o->air.empty()) {  // any format (docs/interop.md), as the lens model of this calibration
         const auto read = interop::ReadCalibrationFileAs(o->air, o->pitch_mm, o->calib.model, "--air-calibration");
         ro.air = read.calibration;
-        air_note = interop::DescribeRead(read, o->air);
+        ro.air_of = o->air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
+                                     : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
+        air_note = interop::DescribeRead(read, o->air) + ", the bare lens (--air-lens-bare)";
       }
       const std::string mode = !o->intrinsics.empty() ? o->intrinsics : o->air.empty() ? "free" : "prior";
       ro.intrinsics = calib::ParseIntrinsicsMode(mode, "--intrinsics");
@@ -414,6 +440,19 @@ void RegisterCalibrate(CLI::App& app) {
     // Detections of IDs the field does not hold are no points (the refractive calibration needs
     // them gone; Calibrate would drop them too).
     calib::KeepTargetPoints(target, &dets, say);
+    // The air set through the same port (issue 26): the same target, detected here or read.
+    if (!o->air_images.empty()) {
+      if (o->target.empty()) throw InvalidInput("--target", "required with --air-images");
+      const auto say_air = [say](const std::string& m) { say("air images: " + m); };
+      auto run = calib::DetectAll(calib::ListImages(o->air_images, "--air-images"), target, say_air);
+      ro.air_detections = std::move(run.detections);
+      for (auto& s : run.skipped) skipped.push_back({"air: " + s.image, s.reason});
+      if (ro.air_detections.empty()) throw InvalidInput("--air-images", "the target was found in no air image");
+    } else if (!o->air_detections.empty()) {
+      calib::TargetSpec air_target = target;  // detections of another target are refused
+      ro.air_detections = calib::LoadDetections(o->air_detections, "--air-detections", &air_target);
+    }
+    calib::KeepTargetPoints(target, &ro.air_detections, say);
     if (refractive && o->plan_only) {
       ro.lens = o->calib;
       if (!o->port_out.empty()) throw InvalidInput("--port-out", "not with --plan-only (nothing is estimated)");
@@ -442,6 +481,11 @@ void RegisterCalibrate(CLI::App& app) {
       if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       std::string text = CalibrationTable(rr.lens, o->calib, target) + PortTable(rr, ro) + port_note;
       if (!air_note.empty()) text += "air calibration " + air_note + "\n";
+      if (!rr.air_images.empty()) {
+        text += fmt::format("air images: {} through the port in air, adjusted with the water images (one lens): "
+                            "RMS {:.4f} px in air, {:.4f} px in water\n",
+                            rr.air_images.size(), rr.air_rms_px, rr.water_rms_px);
+      }
       for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
       return fmt::print("{}", text);
     }

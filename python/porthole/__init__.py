@@ -275,6 +275,9 @@ def calibrate(detections, target, *, port=None, **kwargs) -> Calibration:
         return c
     if "air_calibration" in kwargs:
         kwargs["air_calibration"] = _plain(kwargs["air_calibration"])
+    if kwargs.get("air_detections") is not None:  # as detections: a DetectionSet or a list
+        air = kwargs["air_detections"]
+        kwargs["air_detections"] = _plain(air if isinstance(air, DetectionSet) else list(air))
     kwargs["port"] = port
     with _port_files(kwargs, "port"):
         d, estimated_port = _porthole.calibrate_refractive(plain, target, **kwargs)

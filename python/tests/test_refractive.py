@@ -29,11 +29,11 @@ def test_refractive_calibration_matches_the_cli(inputs):
     d, water, air = inputs
     # The dome with the in-air calibration as a prior; the flat port with the lens free and the
     # water index adjusted (these in-air images put it near 1/1.341: the images say "air").
-    for port, extra in (("generic-dome-4in", {"air_calibration": air}),
+    for port, extra in (("generic-dome-4in", {"air_calibration": air, "air_lens_bare": True}),
                         ("flat-acrylic-10mm", {"free_water_index": True})):
         ours = porthole.calibrate(water, TARGET, port=port, **extra)
         flags = ["--free-water-index"] if "free_water_index" in extra else [
-            "--air-calibration", d / "air.json"]
+            "--air-calibration", d / "air.json", "--air-lens-bare"]
         theirs = cli_json("calibrate", "--detections", d / "water.json", "--port", port, "--quiet", *flags)
         assert isinstance(ours, porthole.RefractiveCalibration) and isinstance(ours, porthole.Calibration)
         p = ours.port
@@ -68,9 +68,9 @@ def test_refractive_calibration_matches_the_cli(inputs):
 def test_air_calibration_as_a_file_and_errors_name_the_keyword(inputs):
     d, water, air = inputs
     a = porthole.calibrate(water, TARGET, port="flat-acrylic-10mm", air_calibration=d / "air.json",
-                           intrinsics="fixed", compare_central=False)
+                           air_lens_bare=True, intrinsics="fixed", compare_central=False)
     b = porthole.calibrate(water, TARGET, port="flat-acrylic-10mm", air_calibration=air,
-                           intrinsics="fixed", compare_central=False)
+                           air_lens_bare=True, intrinsics="fixed", compare_central=False)
     assert a.port.params == b.port.params
     assert a.port.central_prediction.available is False
     with pytest.raises(ValueError, match="^free_port"):
@@ -83,3 +83,21 @@ def test_air_calibration_as_a_file_and_errors_name_the_keyword(inputs):
         porthole.calibrate(water, TARGET, port="no-such-port")
     with pytest.raises(TypeError):
         porthole.calibrate(water, TARGET, port="flat-acrylic-10mm", free_index=True)
+
+
+def test_air_detections_through_the_port_match_the_cli(sample, inputs, tmp_path):
+    """Issue 26: air detections (the housing on) adjusted with the water ones, as `--air-detections`;
+    a housed-or-bare question left open is refused naming the keyword."""
+    d, water, air = inputs
+    air_dets = porthole.detect(sample / "air", TARGET)
+    (tmp_path / "air_dets.json").write_text(json.dumps(air_dets.to_dict()))
+    ours = porthole.calibrate(water, TARGET, port="generic-dome-4in", air_detections=air_dets, compare_central=False)
+    theirs = cli_json("calibrate", "--detections", d / "water.json", "--air-detections", tmp_path / "air_dets.json",
+                      "--port", "generic-dome-4in", "--quiet")
+    for key, value in theirs["port"]["parameters"].items():
+        assert ours.port.params[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    assert ours.to_dict()["port"]["air"]["n_images"] == theirs["port"]["air"]["n_images"] == len(air_dets.images)
+    with pytest.raises(ValueError, match="^air_calibration"):
+        porthole.calibrate(water, TARGET, port="generic-dome-4in", air_calibration=air)
+    with pytest.raises(ValueError, match="^air_lens_bare"):
+        porthole.calibrate(water, TARGET, port="generic-dome-4in", air_lens_bare=True)

@@ -288,7 +288,7 @@ def test_refractive_central_prediction_block(detections, tmp_path):
     air = tmp_path / "air.json"
     run("calibrate", "--detections", detections, "--out", air, "--quiet")
     j = run("calibrate", "--detections", detections, "--port", "generic-dome-4in",
-            "--air-calibration", air, "--json", "--quiet").json()
+            "--air-calibration", air, "--air-lens-bare", "--json", "--quiet").json()
     cp = j["port"]["central_prediction"]
     assert cp["available"] is True and cp["dof"] == 3 and 0 <= cp["p_value"] <= 1
     for block in ("predicted", "predicted_sigma", "estimated", "estimated_sigma",
@@ -297,7 +297,7 @@ def test_refractive_central_prediction_block(detections, tmp_path):
     assert all(cp["estimated_sigma"][k] > 0 for k in cp["estimated_sigma"])
     assert len(cp["distances_mm"]) == 3
     t = run("calibrate", "--detections", detections, "--port", "generic-dome-4in",
-            "--air-calibration", air, "--quiet").out
+            "--air-calibration", air, "--air-lens-bare", "--quiet").out
     assert "c, x0, y0 estimate vs prediction: chi2" in t
 
 

@@ -31,7 +31,7 @@ def air_files(detections, tmp_path_factory):
 
 def refractive(detections, air, *extra):
     return run("calibrate", "--detections", detections, "--model", "opencv", "--port", PORT,
-               "--air-calibration", air, "--json", "--quiet", *extra).json()
+               "--air-calibration", air, "--air-lens-bare", "--json", "--quiet", *extra).json()
 
 
 def test_air_calibration_in_every_format_gives_the_same_result(detections, air_files):
@@ -53,7 +53,7 @@ def test_a_prior_needs_sigma(detections, air_files):
     saying what to do. porthole JSON holds the covariance: accepted."""
     for name in ("opencv-yaml", "colmap", "mrcal"):
         line = run_bad("calibrate", "--detections", detections, "--model", "opencv", "--port", PORT,
-                       "--air-calibration", air_files[name])
+                       "--air-calibration", air_files[name], "--air-lens-bare")
         assert "--air-calibration" in line and "--intrinsics fixed" in line and "sigma" in line, line
     j = refractive(detections, air_files["json"])
     assert j["port"]["intrinsics"] == "prior"

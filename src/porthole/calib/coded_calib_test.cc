@@ -262,6 +262,7 @@ TEST(CodedCalib, RefractiveCorrectionRecoversTheAsBuiltNi320) {
     const auto views = CodedViewsThroughNi320(cam, target, 0.02, 5, &truth);
     RefractiveOptions o = fixtures::Options(fixtures::Displaced(truth, {-0.4, -1.0, -5.4}), cam.sensor.pixel_pitch_mm);
     o.air = fixtures::AirCalibration(cam, ParseTarget("chessboard:12x9:30"), 0.02);
+    o.air_of = RefractiveOptions::AirCalibrationOf::kLensBare;
     o.intrinsics = IntrinsicsMode::kPrior;
     o.compare_central = false;
     const std::string name(spec);
@@ -283,6 +284,7 @@ TEST(CodedCalib, RefractiveCorrectionRecoversTheAsBuiltNi320) {
 
     // The lens fixed: the port alone.
     o.air = fixtures::ExactLens(cam);
+    o.air_of = RefractiveOptions::AirCalibrationOf::kLensBare;
     o.intrinsics = IntrinsicsMode::kFixed;
     o.lens.centre_correction = CC::kOff;
     const Deviation f_off = DeviationFromTruth((name + ", lens fixed, correction off").c_str(),
@@ -299,6 +301,7 @@ TEST(CodedCalib, RefractiveCorrectionRecoversTheAsBuiltNi320) {
   const auto views = CodedViewsThroughNi320(cam, target, 0.0, 5, &truth);
   RefractiveOptions o = fixtures::Options(fixtures::Displaced(truth, {-0.4, -1.0, -5.4}), cam.sensor.pixel_pitch_mm);
   o.air = fixtures::AirCalibration(cam, ParseTarget("chessboard:12x9:30"), 0.02);
+  o.air_of = RefractiveOptions::AirCalibrationOf::kLensBare;
   o.intrinsics = IntrinsicsMode::kPrior;
   o.compare_central = false;
   o.lens.reject_k = 0;  // σ0 is ~0: nothing to reject

@@ -61,11 +61,20 @@ struct RefractiveCost {
   std::array<double, M::kNumParams> scale;
   refraction::Shell shell;
   Eigen::Vector3d point;
+  // An image taken in air through the port: `shell` is the air shell (outside index 1) and the
+  // water index factor (shell value 0) does not apply.
+  bool in_air = false;
 
   // `shell_values`: nullptr, or the shell's values (refraction::ShellParams).
   template <typename T>
   bool Residual(const T* scaled, const T* port, const T* shell_values, const T* rotation,
                 const T* translation, T* r) const {
+    T air_values[kShellNumParams];
+    if (in_air && shell_values != nullptr) {
+      std::copy(shell_values, shell_values + kShellNumParams, air_values);
+      air_values[0] = T(1);
+      shell_values = air_values;
+    }
     T cam[M::kNumParams];
     for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
     const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
@@ -142,14 +151,23 @@ class RefractiveAdjustment {
   // Rows of the joint covariance: [lens N, port, shell].
   static constexpr int kT = N + kPortNumParams + kShellNumParams;
 
+  // Images [0, n_images − n_air) are in water, the last n_air in air through the same port.
   RefractiveAdjustment(const RefractiveOptions& o, const camera::Sensor& sensor,
                        const refraction::Shell& shell, std::vector<Obs> obs,
-                       std::vector<Eigen::Vector3d> points, std::vector<Eigen::Vector3d> normals, int n_images)
-      : o_(o), sensor_(sensor), shell_(shell), obs_(std::move(obs)), points_(std::move(points)),
-        normals_(std::move(normals)),
-        scale_(ModelScales<M>(sensor)), rotation_(n_images), translation_(n_images) {
+                       std::vector<Eigen::Vector3d> points, std::vector<Eigen::Vector3d> normals, int n_images,
+                       int n_air = 0)
+      : o_(o), sensor_(sensor), shell_(shell), air_shell_(AirShell(shell)), obs_(std::move(obs)),
+        points_(std::move(points)), normals_(std::move(normals)), scale_(ModelScales<M>(sensor)),
+        rotation_(n_images), translation_(n_images), first_air_(n_images - n_air) {
     shell_values = refraction::ShellValues(shell);
   }
+
+  // The shell seen from air: the same glass, air outside (indices are relative to air).
+  static refraction::Shell AirShell(refraction::Shell s) {
+    s.n_water = 1.0;
+    return s;
+  }
+  bool InAir(int image) const { return image >= first_air_; }
 
   std::array<double, N> lens{};
   PortArray port{};
@@ -241,6 +259,11 @@ class RefractiveAdjustment {
     Eigen::Matrix3d r;
     ceres::AngleAxisToRotationMatrix(rotation_[image].data(), r.data());
     const Eigen::Vector3d p = r * point_in_target_mm + Eigen::Vector3d(translation_[image].data());
+    if (InAir(image)) {
+      ShellArray v = shell_values;
+      v[0] = 1;
+      return refraction::Project<M, double>(sensor_, lens.data(), air_shell_, port.data(), p, v.data());
+    }
     return refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p, shell_values.data());
   }
 
@@ -330,7 +353,9 @@ class RefractiveAdjustment {
     const bool with_shell = UsesShell();
     for (const auto& ob : obs_) {
       if (!ob.active) continue;
-      const RefractiveCost<M> f{ob.u_px, ob.v_px, weight, sensor_, scale_, shell_, points_[ob.point]};
+      const bool air = InAir(ob.image);
+      const RefractiveCost<M> f{ob.u_px, ob.v_px, weight, sensor_, scale_, air ? air_shell_ : shell_,
+                                points_[ob.point], air};
       if (with_shell) {
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<RefractiveShellCost<M>, 2, N, kPortNumParams,
@@ -366,12 +391,13 @@ class RefractiveAdjustment {
 
   const RefractiveOptions& o_;
   camera::Sensor sensor_;
-  refraction::Shell shell_;
+  refraction::Shell shell_, air_shell_;
   std::vector<Obs> obs_;
   std::vector<Eigen::Vector3d> points_;
   std::vector<Eigen::Vector3d> normals_;  // of each point's dot (TargetNormals)
   std::array<double, N> scale_;
   std::vector<std::array<double, 3>> rotation_, translation_;
+  int first_air_ = 0;  // the first image in air (n_images: none)
 };
 
 PortArray DefaultPredictedSigma(PortKind kind) {
@@ -583,10 +609,14 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
 // The lens the adjustment starts from: the in-air calibration, or the central calibration of the
 // water images with its distortion zeroed and, behind a flat port, its focal length / n_water.
 camera::Camera StartLens(const RefractiveOptions& o, const CalibrationResult& central,
-                         const refraction::Shell& shell) {
+                         const refraction::Shell& shell, const CalibrationResult* central_air = nullptr) {
   camera::Camera start = central.camera;
   if (o.air) {
     start.params = o.air->camera.params;
+    return start;
+  }
+  if (central_air != nullptr) {  // the air images through the port: close to the lens itself
+    start.params = central_air->camera.params;
     return start;
   }
   const camera::ModelInfo& info = start.info();
@@ -664,7 +694,8 @@ double Bic(double rss, int n, int k) {
 template <typename M>
 RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& detections,
                                           const TargetSpec& target, const RefractiveOptions& o,
-                                          const CalibrationResult& central) {
+                                          const CalibrationResult& central,
+                                          const CalibrationResult* central_air) {
   constexpr int N = M::kNumParams;
   const auto t0 = std::chrono::steady_clock::now();
   const auto say = [&](const std::string& m) {
@@ -686,29 +717,40 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   const std::optional<ShellPrior> shell_prior = ShellPriorFor(o, shell);
   res.shell_free = ShellFreeOf(o, shell_prior);
 
-  // The images the central calibration used, with its poses.
-  std::map<std::string, const ImageDetections*> by_name;
-  for (const auto& d : detections) by_name[d.image] = &d;
+  // The images the central calibrations used, with their poses: the water images, then the air
+  // images (options.air_detections) as images [n_images, n_total).
   std::vector<Obs> obs;
-  const int n_images = static_cast<int>(central.images.size());
-  for (int i = 0; i < n_images; ++i) {
-    const ImageDetections* d = by_name.at(central.images[i].image);
-    for (std::size_t k = 0; k < d->ids.size(); ++k) {
-      const Eigen::Vector2d& uv = d->points_px[k];
-      obs.push_back({i, d->ids[k], uv.x(), uv.y(), true, uv.x(), uv.y()});
+  std::vector<const ImageResult*> start_pose;
+  const auto add_set = [&](const std::vector<ImageDetections>& set, const CalibrationResult& c) {
+    std::map<std::string, const ImageDetections*> by_name;
+    for (const auto& d : set) by_name[d.image] = &d;
+    for (const ImageResult& im : c.images) {
+      const int i = static_cast<int>(start_pose.size());
+      start_pose.push_back(&im);
+      const ImageDetections* d = by_name.at(im.image);
+      for (std::size_t k = 0; k < d->ids.size(); ++k) {
+        const Eigen::Vector2d& uv = d->points_px[k];
+        obs.push_back({i, d->ids[k], uv.x(), uv.y(), true, uv.x(), uv.y()});
+      }
     }
-  }
-  RefractiveAdjustment<M> adj(o, sensor, shell, obs, TargetPoints(target), TargetNormals(target), n_images);
+  };
+  add_set(detections, central);
+  const int n_images = static_cast<int>(start_pose.size());  // in water
+  if (central_air != nullptr) add_set(o.air_detections, *central_air);
+  const int n_total = static_cast<int>(start_pose.size());
+  const int n_air = n_total - n_images;
+  RefractiveAdjustment<M> adj(o, sensor, shell, obs, TargetPoints(target), TargetNormals(target), n_total,
+                              n_air);
   const auto set_poses = [&] {
-    for (int i = 0; i < n_images; ++i) {
-      const auto& im = central.images[i];
+    for (int i = 0; i < n_total; ++i) {
+      const ImageResult& im = *start_pose[i];
       adj.rotation()[i] = {im.rotation_rad.x(), im.rotation_rad.y(), im.rotation_rad.z()};
       adj.translation()[i] = {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()};
     }
   };
 
   // The lens's start and free set.
-  const camera::Camera start = StartLens(o, central, shell);
+  const camera::Camera start = StartLens(o, central, shell, central_air);
   const FreeMask lens_free = LensFree(o);
   adj.lens_free = lens_free;
   adj.port_free = o.port_free;
@@ -774,8 +816,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   for (bool f : lens_free) n_lens_free += f;
   for (bool f : res.shell_free) n_shell_free += f;
   adj.shell_free[0] = res.shell_free[0];
-  const int n_unknowns_first = n_lens_free + n_port_free + adj.shell_free[0] + 6 * n_images;
-  const int n_unknowns = n_lens_free + n_port_free + n_shell_free + 6 * n_images;
+  const int n_unknowns_first = n_lens_free + n_port_free + adj.shell_free[0] + 6 * n_total;
+  const int n_unknowns = n_lens_free + n_port_free + n_shell_free + 6 * n_total;
   double ss = 0;
   int n_active = 0;
   for (int round = 0;; ++round) {
@@ -784,7 +826,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     const int redundancy = 2 * n_active - n_unknowns_first;
     if (redundancy <= 0) {
       throw InvalidInput("--images", fmt::format("{} points in {} images give {} observations for "
-                                                 "{} unknowns: add images", n_active, n_images,
+                                                 "{} unknowns: add images", n_active, n_total,
                                                  2 * n_active, n_unknowns_first));
     }
     const double sigma0 = std::sqrt(ss / redundancy);
@@ -819,7 +861,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   lr.free = lens_free;
   lr.dot_radius_mm = dot_r;
   lr.max_centre_offset_px = adj.max_centre_offset_px;
-  lr.n_images = n_images;
+  lr.n_images = n_total;
   lr.n_points = n_active;
   lr.n_unknowns = n_unknowns;
   lr.redundancy = 2 * n_active + n_prior - n_unknowns;
@@ -866,11 +908,13 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     res.shell_sigma[i] = res.shell_free[i] ? std::sqrt(cov(S + i, S + i)) : NAN;
   }
   res.n_water = o.port.n_water * res.shell[0];
-  // Per image.
-  std::vector<double> image_ss(n_images, 0);
-  lr.images.resize(n_images);
+  // Per image; the water images' sum of squares alone for the model choice.
+  std::vector<double> image_ss(n_total, 0);
+  std::vector<ImageResult> all_images(n_total);
+  double water_ss = 0;
+  int n_water_active = 0;
   for (const auto& ob : adj.obs()) {
-    auto& im = lr.images[ob.image];
+    auto& im = all_images[ob.image];
     if (!ob.active) {
       ++im.n_rejected;
       ++lr.n_rejected;
@@ -878,16 +922,26 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     }
     const auto r = adj.Residual(ob);
     image_ss[ob.image] += r ? r->squaredNorm() : 0;
+    if (ob.image < n_images) water_ss += r ? r->squaredNorm() : 0, ++n_water_active;
     ++im.n_points;
   }
-  std::vector<double> ranges;
-  for (int i = 0; i < n_images; ++i) {
-    auto& im = lr.images[i];
-    im.image = central.images[i].image;
+  std::vector<double> ranges;  // of the water images: where the port's axial parameter shows
+  for (int i = 0; i < n_total; ++i) {
+    auto& im = all_images[i];
+    im.image = start_pose[i]->image;
     im.rms_px = im.n_points > 0 ? std::sqrt(image_ss[i] / im.n_points) : NAN;
     im.rotation_rad = Eigen::Vector3d(adj.rotation()[i].data());
     im.translation_mm = Eigen::Vector3d(adj.translation()[i].data());
-    ranges.push_back(im.translation_mm.norm());
+    if (i < n_images) ranges.push_back(im.translation_mm.norm());
+  }
+  lr.images.assign(all_images.begin(), all_images.begin() + n_images);
+  res.air_images.assign(all_images.begin() + n_images, all_images.end());
+  if (n_air > 0) {
+    double air_ss = 0;
+    int n_air_points = 0;
+    for (int i = n_images; i < n_total; ++i) air_ss += image_ss[i], n_air_points += all_images[i].n_points;
+    res.air_rms_px = std::sqrt(air_ss / n_air_points);
+    res.water_rms_px = std::sqrt(water_ss / n_water_active);
   }
   lr.target_points_mm = TargetPoints(target);
 
@@ -916,11 +970,18 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
         std::atan2(ge.normal.cross(gp.normal).norm(), ge.normal.dot(gp.normal)) * 180 / M_PI;
   }
 
-  // Model choice against the central calibration of the same images.
-  const int n_c = 2 * central.n_points;
-  res.central_rms_px = central.rms_px;
+  // Model choice against the central calibration of the same images: with air images, against
+  // the usual practice of two central calibrations (one of the air set, one of the water set).
+  double central_rss = central.rms_px * central.rms_px * central.n_points;
+  int central_n = central.n_points;
   res.central_k = central.n_unknowns;
-  res.central_bic = Bic(central.rms_px * central.rms_px * central.n_points, n_c, res.central_k);
+  if (central_air != nullptr) {
+    central_rss += central_air->rms_px * central_air->rms_px * central_air->n_points;
+    central_n += central_air->n_points;
+    res.central_k += central_air->n_unknowns;
+  }
+  res.central_rms_px = std::sqrt(central_rss / central_n);
+  res.central_bic = Bic(central_rss, 2 * central_n, res.central_k);
   res.k = n_unknowns;
   res.bic = Bic(ss, 2 * n_active, n_unknowns);
   res.preferred = res.bic < res.central_bic ? "refractive" : "central";
@@ -945,7 +1006,9 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   res.estimated_port.source = "porthole calibrate --port: estimated from images";
   res.estimated_port.name = o.port.spec.name + "-as-calibrated";
 
-  if (o.compare_central) {
+  if (o.compare_central && n_air > 0) {
+    res.central_prediction.why_not = "the lens was adjusted with the air images, not taken from an in-air calibration";
+  } else if (o.compare_central) {
     say("comparing the simulate prediction of c, x0, y0");
     res.central_prediction = CompareCentral(o, central, lr.camera, res.port, res.shell,
                                             res.predicted_sigma, cov, used_prior, shell_prior, ranges);
@@ -1061,6 +1124,19 @@ void CheckOptions(const RefractiveOptions& o) {
   if (o.intrinsics != IntrinsicsMode::kFree && !o.air) {
     throw InvalidInput("--intrinsics", ToString(o.intrinsics) + " needs --air-calibration");
   }
+  if (o.air && !o.air_detections.empty()) {
+    throw InvalidInput("--air-calibration",
+                       "not with --air-detections: the lens comes from the air images adjusted with the water "
+                       "ones; give one of them");
+  }
+  if (o.air && o.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort) {
+    throw InvalidInput(
+        "--air-calibration",
+        "was it made with the housing on (through this port in air) or of the lens alone? Through the port "
+        "a dome still refracts, and taken as the bare lens it biases the port by millimetres: give the air "
+        "images instead (--air-detections or --air-images, modelled through the port), or --air-lens-bare "
+        "if it was made without the housing");
+  }
   if (o.air) {
     if (o.air->camera.model != o.lens.model) {
       throw InvalidInput("--air-calibration",
@@ -1082,14 +1158,15 @@ void CheckOptions(const RefractiveOptions& o) {
 
 // The central calibration of the same images (CalibrateRefractive's first step).
 CalibrationResult CentralOf(const std::vector<ImageDetections>& detections,
-                            const TargetSpec& target, const RefractiveOptions& o) {
+                            const TargetSpec& target, const RefractiveOptions& o,
+                            const std::string& which = "") {
   CalibrationOptions co = o.lens;
   co.drop_insignificant = false;
   co.initial.reset();
   co.free.reset();
   co.target_free = false;
   co.progress = [&](const std::string& m) {
-    if (o.lens.progress) o.lens.progress("central: " + m);
+    if (o.lens.progress) o.lens.progress(which + "central: " + m);
   };
   const CalibrationResult central = Calibrate(detections, target, co);
   if (o.air) {
@@ -1131,6 +1208,9 @@ RefractivePlan PlanRefractiveFromImages(const std::vector<ImageDetections>& dete
   const QuietGlog quiet;
   RequirePositive("--plan-sigma-px", sigma0_px);
   CheckOptions(o);
+  if (!o.air_detections.empty()) {
+    throw InvalidInput("--plan-only", "plans the water images alone: not with --air-detections");
+  }
   const CalibrationResult central = CentralOf(detections, target, o);
   const camera::Camera lens = StartLens(o, central, refraction::ShellOf(o.port));
   return PlanRefractive(central.images, target, lens, o, sigma0_px);
@@ -1229,10 +1309,23 @@ RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detecti
   if (o.predicted_sigma) {
     for (double s : *o.predicted_sigma) RequirePositive("--port-sigma", s);
   }
-  // The central calibration of the same images: the poses, the start, and the model choice.
+  // The central calibration of the same images: the poses, the start, and the model choice; the
+  // same of the air images.
   const CalibrationResult central = CentralOf(detections, target, o);
+  std::optional<CalibrationResult> central_air;
+  if (!o.air_detections.empty()) {
+    central_air = CentralOf(o.air_detections, target, o, "air: ");
+    const camera::Sensor& a = central_air->camera.sensor;
+    const camera::Sensor& w = central.camera.sensor;
+    if (a.width_px != w.width_px || a.height_px != w.height_px) {
+      throw InvalidInput("--air-detections",
+                         fmt::format("the air images are {}x{} px, the water images {}x{} px: one "
+                                     "camera takes both", a.width_px, a.height_px, w.width_px, w.height_px));
+    }
+  }
   RefractiveResult r = camera::VisitModel(o.lens.model, [&](auto m) {
-    return CalibrateRefractiveModel<decltype(m)>(detections, target, o, central);
+    return CalibrateRefractiveModel<decltype(m)>(detections, target, o, central,
+                                                 central_air ? &*central_air : nullptr);
   });
   r.lens.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
@@ -1352,6 +1445,27 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
                  {"refractive_k", r.k},
                  {"refractive_bic", num(r.bic)},
                  {"preferred", r.preferred}}}};
+  // What the lens was measured with (issue 26): the water images alone, with air images through
+  // the same port, or with an in-air calibration of the lens alone.
+  Json air = {{"lens_from", !r.air_images.empty()   ? "air and water images through the port, adjusted together"
+                            : !options.air          ? "the water images alone"
+                                                    : "an in-air calibration of the lens without the housing (--air-lens-bare)"}};
+  if (!r.air_images.empty()) {
+    Json images = Json::array();
+    for (const auto& im : r.air_images) {
+      images.push_back({{"image", im.image},
+                        {"n_points", im.n_points},
+                        {"n_rejected", im.n_rejected},
+                        {"rms_px", num(im.rms_px)},
+                        {"rotation_rad", {im.rotation_rad.x(), im.rotation_rad.y(), im.rotation_rad.z()}},
+                        {"translation_mm", {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()}}});
+    }
+    air["n_images"] = r.air_images.size();
+    air["rms_px"] = num(r.air_rms_px);
+    air["water_rms_px"] = num(r.water_rms_px);
+    air["images"] = images;
+  }
+  j["port"]["air"] = air;
   return j;
 }
 

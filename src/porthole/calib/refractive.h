@@ -77,8 +77,20 @@ struct RefractiveOptions {
   // PREDICTED port parameters (refraction::ParamsOf) the estimate is tested against.
   ports::PortSystem port;
   IntrinsicsMode intrinsics = IntrinsicsMode::kFree;
-  // The in-air calibration of the lens (same model; its sensor is checked against the images').
+  // An in-air calibration (same model; its sensor is checked against the images'), and what it is
+  // of. A calibration made in air with the housing on sees the lens through the port in air, and
+  // a thick or decentred dome still refracts there (it is a weak meniscus lens): taken as the bare
+  // lens it biases the port (issue 26). kThroughPort (the paper's protocol, the default) is
+  // refused here: give the air images themselves (air_detections) so that they are modelled
+  // through the port; kLensBare: made without the housing, the lens alone (kFixed, kPrior).
+  enum class AirCalibrationOf { kThroughPort, kLensBare };
   std::optional<CalibrationRecord> air;
+  AirCalibrationOf air_of = AirCalibrationOf::kThroughPort;
+  // The paper's protocol: images of the target taken in air through the same port (the housing on,
+  // the focus unchanged), each modelled as the lens behind the port with air outside (index 1; the
+  // water index factor does not apply), adjusted together with the water images: one lens, one
+  // port, each image its own pose. Not with `air` (two sources of the same lens).
+  std::vector<ImageDetections> air_detections;
   // Which port parameters are adjusted (the others stay at the predicted value).
   std::array<bool, refraction::kPortNumParams> port_free{true, true, true};
   // 1σ of the predicted port parameters (the χ² test): dome pupil position 0.5 mm per axis (a
@@ -137,8 +149,13 @@ struct CentralPrediction {
 
 struct RefractiveResult {
   // The lens: model, sensor, parameters, free set, covariance/σ/correlation of the lens
-  // parameters, σ0, RMS, counts, per-image poses and RMS (CalibrationResult's meaning).
+  // parameters, σ0, RMS, counts, per-image poses and RMS (CalibrationResult's meaning). With air
+  // images the counts and σ0 are of both sets, lens.images the water images alone.
   CalibrationResult lens;
+  // The air images (RefractiveOptions::air_detections), per image; the RMS of each set (NaN
+  // without air images).
+  std::vector<ImageResult> air_images;
+  double air_rms_px = NAN, water_rms_px = NAN;
   IntrinsicsMode intrinsics = IntrinsicsMode::kFree;
   refraction::PortKind kind = refraction::PortKind::kDome;
   std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, predicted{},
@@ -161,7 +178,8 @@ struct RefractiveResult {
   // Flat port: the angle (deg) between the estimated and the predicted normal, and its σ.
   double normal_tilt_from_predicted_deg = NAN;
   // Model choice against the central calibration of the same images (same model, its default
-  // free set): its RMS, both BICs, and the preferred model ("refractive" or "central").
+  // free set; with air images, two central calibrations: one per set, as usual practice): its RMS,
+  // both BICs, and the preferred model ("refractive" or "central").
   double central_rms_px = NAN, central_bic = NAN, bic = NAN;
   int central_k = 0, k = 0;
   std::string preferred;

@@ -77,6 +77,21 @@ inline std::vector<ImageDetections> Views(const camera::Camera& cam, const PortS
   return all;
 }
 
+// The same port with air outside: a calibration set taken in air with the housing on (the
+// paper's protocol).
+inline PortSystem InAir(const PortSystem& water) {
+  return ports::Place(water.spec, water.ep_in_housing_mm, water.n_glass, 1.0);
+}
+
+// Views in air through `truth` (InAir), named air0, air1, … (other poses than Views' by the seed).
+inline std::vector<ImageDetections> AirViews(const camera::Camera& cam, const PortSystem& truth,
+                                             const TargetSpec& target, uint64_t noise_seed,
+                                             double noise_px = 0.3) {
+  auto views = Views(cam, InAir(truth), target, noise_seed, nullptr, {0.9, 0.5}, noise_px);
+  for (auto& v : views) v.image = "air" + v.image.substr(4);
+  return views;
+}
+
 inline RefractiveOptions Options(const PortSystem& predicted, double pitch_mm) {
   RefractiveOptions o;
   o.lens.model = camera::CameraModelId::kBrown;
