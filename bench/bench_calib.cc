@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 
@@ -145,6 +146,78 @@ void BM_CalibMrcal(benchmark::State& state) {
   state.counters["fx_px"] = j["intrinsics"]["fx"].get<double>();
 }
 BENCHMARK(BM_CalibMrcal)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(3);
+
+// ---------------------------------------------------------------------------------------------
+// Many views (issue 26: a calibration from video has thousands of frames): synthetic views of a
+// 10 × 7 chessboard (70 points) by a D300 + 24 mm Brown camera at 0.3 px, 150 / 1,000 / 10,000
+// views, porthole with its statistics (covariance included) against mrcal (LENSMODEL_OPENCV5,
+// the same detections through bench_calib_mrcal.py) at 150 and 1,000. Acceptance: 1,000 views in
+// ≤ 1 s and 10,000 in ≤ 10 s, the time per view flat (a solve linear in the views).
+struct ManyViews {
+  TargetSpec target = ParseTarget("chessboard:10x7:30");
+  std::vector<ImageDetections> detections;
+  std::string json_path;
+};
+
+const ManyViews& GetManyViews(int n) {
+  static std::map<int, ManyViews> sets;
+  auto it = sets.find(n);
+  if (it != sets.end()) return it->second;
+  ManyViews& out = sets[n];
+  SyntheticOptions o;
+  o.camera = {porthole::camera::CameraModelId::kBrown, {4288, 2848, 0.0055},
+              {25.8, 0.05, -0.03, 1.8e-4, -3e-7, 0, 1e-5, -1e-5, 0, 0}};
+  o.target = out.target;
+  o.n_images = n;
+  o.noise_seed = 3;
+  out.detections = MakeSyntheticSet(o).detections;
+  out.json_path = (fs::temp_directory_path() / ("porthole_bench_views_" + std::to_string(n) + ".json")).string();
+  std::ofstream(out.json_path) << DetectionSetToJson(out.detections, {}, out.target).dump();
+  return out;
+}
+
+void BM_CalibManyViewsPorthole(benchmark::State& state) {
+  const ManyViews& s = GetManyViews(static_cast<int>(state.range(0)));
+  CalibrationOptions o;
+  o.pixel_pitch_mm = 0.0055;
+  o.reject_k = 0;  // the same points as mrcal
+  CalibrationResult r;
+  for (auto _ : state) {
+    r = Calibrate(s.detections, s.target, o);
+    const double rms = r.rms_px;
+    benchmark::DoNotOptimize(rms);
+  }
+  state.counters["views"] = static_cast<double>(r.n_images);
+  state.counters["rms_px"] = r.rms_px;
+  state.counters["sigma_c_mm"] = r.sigma[porthole::camera::kBrownC];
+  state.counters["ms_per_view"] = 1e3 * r.seconds / r.n_images;
+}
+BENCHMARK(BM_CalibManyViewsPorthole)->Arg(150)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond)
+    ->Iterations(1)->UseRealTime();
+
+void BM_CalibManyViewsMrcal(benchmark::State& state) {
+  const ManyViews& s = GetManyViews(static_cast<int>(state.range(0)));
+  const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_calib_mrcal.py " + s.json_path + " 2>/dev/null";
+  nlohmann::json j;
+  for (auto _ : state) {
+    std::string out;
+    if (FILE* p = popen(cmd.c_str(), "r")) {
+      char buf[4096];
+      while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
+      if (pclose(p) != 0) out.clear();
+    }
+    try {
+      j = nlohmann::json::parse(out);
+    } catch (const nlohmann::json::exception&) {
+      state.SkipWithError("mrcal peer failed (scripts/install-deps --bench: mrcal python3-mrcal)");
+      return;
+    }
+    state.SetIterationTime(j["seconds"].get<double>());
+  }
+  state.counters["views"] = static_cast<double>(s.detections.size());
+  state.counters["rms_px"] = j["rms_px"].get<double>();
+}
+BENCHMARK(BM_CalibManyViewsMrcal)->Arg(150)->Arg(1000)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(1);
 
 // ---------------------------------------------------------------------------------------------
 // A fisheye: porthole's Kannala–Brandt calibration (automatic differentiation, with statistics)

@@ -6,12 +6,14 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "commands.h"
 #include "common.h"
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
 #include "porthole/calib/refractive.h"
+#include "porthole/calib/rig.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/camera/camera.h"
 #include "porthole/camera/validate.h"
@@ -219,31 +221,158 @@ void RequirePossibleCalibration(const calib::CalibrationResult& r, const std::st
   }
 }
 
+// The options of `porthole calibrate` as parsed.
+struct CalibrateCliOptions {
+  std::vector<std::string> image_dirs, detection_paths;  // one per camera (a rig: several)
+  std::string images, detections, target, field, model = "brown", free = "default", loss = "none", out,
+                                                          yaml, field_out;
+  double pitch_mm = 1.0;
+  calib::CalibrationOptions calib;
+  bool json = false, quiet = false, force = false;
+  // Refractive calibration (--port).
+  PortOptions port;
+  WaterOptions water;
+  std::string air, intrinsics, free_port = "all", port_out, air_detections, air_images;
+  bool air_lens_bare = false;
+  std::vector<double> port_sigma;
+  bool plan_only = false, free_water_index = false, free_shell = false;
+  double plan_sigma_px = 0.3;
+  std::string centre_correction = "auto";
+};
+
+// A rig (issue 26): --images or --detections repeated, one per camera; frames matched by file name.
+// --model takes one model for all or a comma list, one per camera; --pixel-pitch-mm one value for all.
+void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRules& rules) {
+  const bool from_images = !o.image_dirs.empty();
+  if (from_images && !o.detection_paths.empty()) {
+    throw InvalidInput("--images", "a rig's cameras come all from --images or all from --detections");
+  }
+  const std::vector<std::string>& sources = from_images ? o.image_dirs : o.detection_paths;
+  const std::pair<const char*, bool> not_in_rig[] = {
+      {"--port", !o.port.port.empty()}, {"--air-calibration", !o.air.empty()},
+      {"--air-images", !o.air_images.empty()}, {"--air-detections", !o.air_detections.empty()},
+      {"--free-target", o.calib.target_free}, {"--opencv-yaml", !o.yaml.empty()}, {"--field-out", !o.field_out.empty()},
+      {"--plan-only", o.plan_only}, {"--drop-insignificant", o.calib.drop_insignificant}};
+  for (const auto& [flag, given] : not_in_rig) {
+    if (given) throw InvalidInput(flag, "not with a rig (several --images or --detections) yet");
+  }
+  if (from_images && o.target.empty()) throw InvalidInput("--target", "required with --images");
+  calib::TargetSpec target;
+  if (!o.target.empty()) {
+    target = calib::ParseTarget(o.target);
+    if (!o.field.empty()) calib::LoadTargetField(o.field, &target);
+  }
+  const int n = static_cast<int>(sources.size());
+  std::vector<std::string> models;
+  for (std::size_t a = 0, b; a <= o.model.size(); a = b + 1) {
+    b = o.model.find(',', a);
+    if (b == std::string::npos) b = o.model.size();
+    models.push_back(o.model.substr(a, b - a));
+  }
+  if (models.size() != 1 && static_cast<int>(models.size()) != n) {
+    throw InvalidInput("--model", fmt::format("{} models for {} cameras: give one for all or one per camera",
+                                              models.size(), n));
+  }
+  if (o.free != "default" && models.size() > 1) {
+    throw InvalidInput("--free", "names one model's parameters: not with a model per camera");
+  }
+  o.calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o.pitch_mm);
+  if (o.pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o.pitch_mm, kPixelPitchRange);
+  if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
+  using CC = calib::CalibrationOptions::CentreCorrection;
+  o.calib.centre_correction = o.centre_correction == "on" ? CC::kOn : o.centre_correction == "off" ? CC::kOff : CC::kAuto;
+  o.calib.loss = o.loss == "huber" ? calib::LossKind::kHuber : o.loss == "cauchy" ? calib::LossKind::kCauchy : calib::LossKind::kNone;
+  const auto say = [quiet = o.quiet](const std::string& m) {
+    if (!quiet) fmt::print(stderr, "calibrate: {}\n", m);
+  };
+  calib::RigOptions ro;
+  for (const std::string& m : models) {
+    calib::CalibrationOptions c = o.calib;
+    c.model = camera::ModelFromName(m, "--model");
+    c.free = calib::ParseFreeParameters(c.model, o.free);
+    c.progress = say;
+    ro.cameras.push_back(c);
+  }
+  std::vector<std::vector<calib::ImageDetections>> per_camera;
+  std::vector<calib::SkippedImage> skipped;
+  for (int k = 0; k < n; ++k) {
+    ro.names.push_back(std::filesystem::path(sources[k]).filename().string());
+    if (ro.names.back().empty()) ro.names.back() = std::filesystem::path(sources[k]).parent_path().filename().string();
+    std::vector<calib::ImageDetections> dets;
+    if (from_images) {
+      const auto say_k = [say, name = ro.names.back()](const std::string& m) { say(name + ": " + m); };
+      auto run = calib::DetectAll(calib::ListImages(sources[k], "--images"), target, say_k);
+      dets = std::move(run.detections);
+      for (auto& s : run.skipped) skipped.push_back({sources[k] + ": " + s.image, s.reason});
+    } else {
+      calib::TargetSpec t = target;  // detections of another target than the first camera's are refused
+      dets = calib::LoadDetections(sources[k], "--detections", &t);
+      if (t.cols == 0) throw InvalidInput("--target", "the detections name no target");
+      if (k == 0) target = t;
+      if (!o.field.empty() && target.field.empty()) calib::LoadTargetField(o.field, &target);
+    }
+    calib::KeepTargetPoints(target, &dets, say);
+    per_camera.push_back(std::move(dets));
+  }
+  const calib::RigResult r = calib::CalibrateRig(per_camera, target, ro);
+  for (const auto& c : r.cameras) {
+    camera::RequirePossibleResult(c.calibration.camera, c.calibration.rms_px, from_images ? "--images" : "--detections",
+                                  "the calibration of camera " + c.name);
+  }
+  auto j = calib::RigToJson(r, target, ro);
+  Json skip = Json::array();
+  for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
+  j["skipped"] = skip;
+  if (!o.out.empty()) WriteOutput(o.out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+  if (o.json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
+  std::string t = fmt::format("rig of {} cameras (rig frame: camera {}'s), {} frames, {} points ({} rejected), "
+                              "sigma0 {:.4f} px, RMS {:.4f} px ({} iterations, {:.3f} s)\n",
+                              r.cameras.size(), r.cameras[0].name, r.frames.size(), r.n_points, r.n_rejected,
+                              r.sigma0_px, r.rms_px, r.iterations, r.seconds);
+  t += fmt::format("{:<14} {:<15} {:>6} {:>9} {:>22} {:>18}\n", "camera", "model", "frames", "RMS px", "baseline mm",
+                   "convergence deg");
+  for (std::size_t k = 0; k < r.cameras.size(); ++k) {
+    const auto& c = r.cameras[k];
+    t += fmt::format("{:<14} {:<15} {:>6} {:>9.4f} {:>22} {:>18}\n", c.name, c.calibration.camera.model_name(),
+                     c.n_frames, c.calibration.rms_px,
+                     k == 0 ? "-" : fmt::format("{:.3f} +- {:.3f}", c.baseline_mm, c.baseline_sigma_mm),
+                     k == 0 ? "-" : fmt::format("{:.4f}", c.convergence_deg));
+  }
+  for (std::size_t k = 1; k < r.cameras.size(); ++k) {
+    const auto& c = r.cameras[k];
+    const double deg = 180 / M_PI;
+    t += fmt::format("cam_from_rig {}: rotation ({:.5f}, {:.5f}, {:.5f}) +- ({:.5f}, {:.5f}, {:.5f}) deg, "
+                     "translation ({:.3f}, {:.3f}, {:.3f}) +- ({:.3f}, {:.3f}, {:.3f}) mm\n",
+                     c.name, c.rotation_rad.x() * deg, c.rotation_rad.y() * deg, c.rotation_rad.z() * deg,
+                     c.pose_sigma(0) * deg, c.pose_sigma(1) * deg, c.pose_sigma(2) * deg, c.translation_mm.x(),
+                     c.translation_mm.y(), c.translation_mm.z(), c.pose_sigma(3), c.pose_sigma(4), c.pose_sigma(5));
+  }
+  for (std::size_t k = 0; k < r.cameras.size(); ++k) {
+    t += fmt::format("--- {} ---\n", r.cameras[k].name) +
+         CalibrationTable(r.cameras[k].calibration, ro.cameras[ro.cameras.size() == 1 ? 0 : k], target);
+  }
+  t += "rig status: " + r.message + "\n";
+  for (const auto& s : skipped) t += fmt::format("skipped {}: {}\n", s.image, s.reason);
+  fmt::print("{}", t);
+  (void)cmd;
+}
+
 }  // namespace
 
 void RegisterCalibrate(CLI::App& app) {
-  struct Options {
-    std::string images, detections, target, field, model = "brown", free = "default", loss = "none", out,
-                                                            yaml, field_out;
-    double pitch_mm = 1.0;
-    calib::CalibrationOptions calib;
-    bool json = false, quiet = false, force = false;
-    // Refractive calibration (--port).
-    PortOptions port;
-    WaterOptions water;
-    std::string air, intrinsics, free_port = "all", port_out, air_detections, air_images;
-    bool air_lens_bare = false;
-    std::vector<double> port_sigma;
-    bool plan_only = false, free_water_index = false, free_shell = false;
-    double plan_sigma_px = 0.3;
-    std::string centre_correction = "auto";
-  };
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<CalibrateCliOptions>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate", "Self-calibrate a camera (bundle adjustment, any camera model) with statistics");
-  auto* img = cmd->add_option("--images", o->images, "Directory of images: detect the target");
-  auto* det = cmd->add_option("--detections", o->detections,
-                              "Detections from 'porthole detect' (set file, file or directory)");
+  auto* img = cmd->add_option("--images", o->image_dirs,
+                              "Directory of images: detect the target. Repeated, one per camera of a rig (frames "
+                              "matched by file name)")
+                  ->expected(1)
+                  ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  auto* det = cmd->add_option("--detections", o->detection_paths,
+                              "Detections from 'porthole detect' (set file, file or directory). Repeated, one per "
+                              "camera of a rig")
+                  ->expected(1)
+                  ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   img->excludes(det);
   cmd->add_option("--target", o->target,
                   "Target spec (required with --images), e.g. chessboard:9x6:25 or coded:14:2.5 (porthole detect --help)");
@@ -346,6 +475,9 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->callback([o, cmd] {
     const OutputRules rules{.force = o->force,
                             .inputs = InputFiles(cmd, {"--out", "--opencv-yaml", "--field-out", "--port-out"})};
+    if (o->image_dirs.size() > 1 || o->detection_paths.size() > 1) return CalibrateRigCommand(*o, cmd, rules);
+    if (!o->image_dirs.empty()) o->images = o->image_dirs.front();
+    if (!o->detection_paths.empty()) o->detections = o->detection_paths.front();
     if (o->images.empty() && o->detections.empty()) {
       throw InvalidInput("--images", "give --images DIR or --detections PATH");
     }

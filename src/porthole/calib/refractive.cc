@@ -53,7 +53,7 @@ struct Obs {
 };
 
 // The image residual through the port (refraction::Project), px times `weight`. Blocks: scaled
-// lens [N], port [3], rotation [3], translation [3]; the shell's values at the shell's own.
+// lens [N], port [3], pose [6] (angle-axis rad, translation mm); the shell's values at the shell's own.
 template <typename M>
 struct RefractiveCost {
   double u_px, v_px, weight;
@@ -67,8 +67,9 @@ struct RefractiveCost {
 
   // `shell_values`: nullptr, or the shell's values (refraction::ShellParams).
   template <typename T>
-  bool Residual(const T* scaled, const T* port, const T* shell_values, const T* rotation,
-                const T* translation, T* r) const {
+  bool Residual(const T* scaled, const T* port, const T* shell_values, const T* pose, T* r) const {
+    const T* rotation = pose;
+    const T* translation = pose + 3;
     T air_values[kShellNumParams];
     if (in_air && shell_values != nullptr) {
       std::copy(shell_values, shell_values + kShellNumParams, air_values);
@@ -89,9 +90,8 @@ struct RefractiveCost {
     return true;
   }
   template <typename T>
-  bool operator()(const T* scaled, const T* port, const T* rotation, const T* translation,
-                  T* r) const {
-    return Residual<T>(scaled, port, nullptr, rotation, translation, r);
+  bool operator()(const T* scaled, const T* port, const T* pose, T* r) const {
+    return Residual<T>(scaled, port, nullptr, pose, r);
   }
 };
 
@@ -100,9 +100,8 @@ struct RefractiveCost {
 template <typename M>
 struct RefractiveShellCost : RefractiveCost<M> {
   template <typename T>
-  bool operator()(const T* scaled, const T* port, const T* shell_values, const T* rotation,
-                  const T* translation, T* r) const {
-    return this->template Residual<T>(scaled, port, shell_values, rotation, translation, r);
+  bool operator()(const T* scaled, const T* port, const T* shell_values, const T* pose, T* r) const {
+    return this->template Residual<T>(scaled, port, shell_values, pose, r);
   }
 };
 
@@ -158,7 +157,7 @@ class RefractiveAdjustment {
                        int n_air = 0)
       : o_(o), sensor_(sensor), shell_(shell), air_shell_(AirShell(shell)), obs_(std::move(obs)),
         points_(std::move(points)), normals_(std::move(normals)), scale_(ModelScales<M>(sensor)),
-        rotation_(n_images), translation_(n_images), first_air_(n_images - n_air) {
+        pose_(n_images), first_air_(n_images - n_air) {
     shell_values = refraction::ShellValues(shell);
   }
 
@@ -179,8 +178,14 @@ class RefractiveAdjustment {
   std::optional<Prior> prior;
   std::optional<ShellPrior> shell_prior;
 
-  std::vector<std::array<double, 3>>& rotation() { return rotation_; }
-  std::vector<std::array<double, 3>>& translation() { return translation_; }
+  // cam_from_target of each image: angle-axis (rad) then translation (mm), one Ceres block (so
+  // that the Schur solver eliminates every pose: calibrate.cc's PoseBlockCost).
+  void SetPose(int image, const Eigen::Vector3d& rotation_rad, const Eigen::Vector3d& translation_mm) {
+    pose_[image] = {rotation_rad.x(), rotation_rad.y(), rotation_rad.z(),
+                    translation_mm.x(), translation_mm.y(), translation_mm.z()};
+  }
+  Eigen::Vector3d Rotation(int image) const { return Eigen::Vector3d(pose_[image].data()); }
+  Eigen::Vector3d Translation(int image) const { return Eigen::Vector3d(pose_[image].data() + 3); }
   std::vector<Obs>& obs() { return obs_; }
 
   // Adjusts; returns the iterations and the final cost (½Σr², weighted; infinite when some
@@ -207,6 +212,15 @@ class RefractiveAdjustment {
     so.parameter_tolerance = 1e-9;
     so.gradient_tolerance = 1e-12;
     so.num_threads = o_.lens.num_threads;
+    // The poses eliminated first (a reduced system of the lens, port and shell alone).
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (double* block : {scaled.data(), port.data(), shell_values.data()}) {
+      if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, 1);
+    }
+    for (auto& pose : pose_) {
+      if (problem.HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), 0);
+    }
+    so.linear_solver_ordering = ordering;
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
     for (int i = 0; i < N; ++i) lens[i] = scaled[i] * scale_[i];
@@ -257,8 +271,8 @@ class RefractiveAdjustment {
   // estimate; nullopt where it cannot be projected.
   std::optional<Eigen::Vector2d> ProjectPoint(int image, const Eigen::Vector3d& point_in_target_mm) const {
     Eigen::Matrix3d r;
-    ceres::AngleAxisToRotationMatrix(rotation_[image].data(), r.data());
-    const Eigen::Vector3d p = r * point_in_target_mm + Eigen::Vector3d(translation_[image].data());
+    ceres::AngleAxisToRotationMatrix(pose_[image].data(), r.data());
+    const Eigen::Vector3d p = r * point_in_target_mm + Translation(image);
     if (InAir(image)) {
       ShellArray v = shell_values;
       v[0] = 1;
@@ -359,15 +373,13 @@ class RefractiveAdjustment {
       if (with_shell) {
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<RefractiveShellCost<M>, 2, N, kPortNumParams,
-                                            kShellNumParams, 3, 3>(new RefractiveShellCost<M>{f}),
-            nullptr, scaled->data(), port.data(), shell_values.data(), rotation_[ob.image].data(),
-            translation_[ob.image].data());
+                                            kShellNumParams, 6>(new RefractiveShellCost<M>{f}),
+            nullptr, scaled->data(), port.data(), shell_values.data(), pose_[ob.image].data());
       } else {
         problem->AddResidualBlock(
-            new ceres::AutoDiffCostFunction<RefractiveCost<M>, 2, N, kPortNumParams, 3, 3>(
+            new ceres::AutoDiffCostFunction<RefractiveCost<M>, 2, N, kPortNumParams, 6>(
                 new RefractiveCost<M>(f)),
-            nullptr, scaled->data(), port.data(), rotation_[ob.image].data(),
-            translation_[ob.image].data());
+            nullptr, scaled->data(), port.data(), pose_[ob.image].data());
       }
     }
     if (prior) {
@@ -396,7 +408,7 @@ class RefractiveAdjustment {
   std::vector<Eigen::Vector3d> points_;
   std::vector<Eigen::Vector3d> normals_;  // of each point's dot (TargetNormals)
   std::array<double, N> scale_;
-  std::vector<std::array<double, 3>> rotation_, translation_;
+  std::vector<std::array<double, 6>> pose_;
   int first_air_ = 0;  // the first image in air (n_images: none)
 };
 
@@ -744,8 +756,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   const auto set_poses = [&] {
     for (int i = 0; i < n_total; ++i) {
       const ImageResult& im = *start_pose[i];
-      adj.rotation()[i] = {im.rotation_rad.x(), im.rotation_rad.y(), im.rotation_rad.z()};
-      adj.translation()[i] = {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()};
+      adj.SetPose(i, im.rotation_rad, im.translation_mm);
     }
   };
 
@@ -930,8 +941,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     auto& im = all_images[i];
     im.image = start_pose[i]->image;
     im.rms_px = im.n_points > 0 ? std::sqrt(image_ss[i] / im.n_points) : NAN;
-    im.rotation_rad = Eigen::Vector3d(adj.rotation()[i].data());
-    im.translation_mm = Eigen::Vector3d(adj.translation()[i].data());
+    im.rotation_rad = adj.Rotation(i);
+    im.translation_mm = adj.Translation(i);
     if (i < n_images) ranges.push_back(im.translation_mm.norm());
   }
   lr.images.assign(all_images.begin(), all_images.begin() + n_images);
@@ -1073,8 +1084,7 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   RefractiveAdjustment<M> adj(o, sensor, shell, obs, points, TargetNormals(target), plan.n_images);
   for (int i = 0; i < plan.n_images; ++i) {
     const auto& p = *used[i];
-    adj.rotation()[i] = {p.rotation_rad.x(), p.rotation_rad.y(), p.rotation_rad.z()};
-    adj.translation()[i] = {p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z()};
+    adj.SetPose(i, p.rotation_rad, p.translation_mm);
   }
   std::copy(lens.params.begin(), lens.params.end(), adj.lens.begin());
   adj.port = port;

@@ -116,7 +116,7 @@ FileKind KindOfText(std::string_view text) {
   if (has("porthole_report")) return FileKind::kReport;
   if (has("points", 'a') && has("pose", 'o') && has("camera", 'o')) return FileKind::kGroundTruth;
   if (has("ids", 'a') && has("points_px", 'a')) return FileKind::kDetections;
-  if (has("camera", 'o')) return FileKind::kCalibration;
+  if (has("camera", 'o') || has("rig", 'o')) return FileKind::kCalibration;  // a camera's or a rig's
   if (has("images", 'a') && has("target", 's')) return FileKind::kDetectionSet;
   return FileKind::kOther;
 }

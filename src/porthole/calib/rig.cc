@@ -1,0 +1,534 @@
+// CalibrateRig (rig.h): the start from each camera's own calibration, one Ceres adjustment of every
+// camera's intrinsics, cam_from_rig and the frames' poses, and its statistics.
+#include "porthole/calib/rig.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "porthole/calib/result_json.h"
+#include "porthole/calib/scales.h"
+#include "porthole/core/error.h"
+
+namespace porthole::calib {
+namespace {
+
+using Pose6 = std::array<double, 6>;  // angle-axis (rad), translation (mm)
+
+struct Rt {
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+};
+
+Rt ToRt(const Pose6& p) {
+  Rt x;
+  ceres::AngleAxisToRotationMatrix(p.data(), x.r.data());  // column-major, as Eigen
+  x.t = Eigen::Vector3d(p[3], p[4], p[5]);
+  return x;
+}
+Rt ToRt(const Eigen::Vector3d& rotation_rad, const Eigen::Vector3d& translation_mm) {
+  return ToRt(Pose6{rotation_rad.x(), rotation_rad.y(), rotation_rad.z(), translation_mm.x(), translation_mm.y(),
+                    translation_mm.z()});
+}
+Pose6 ToPose(const Rt& x) {
+  Pose6 p;
+  ceres::RotationMatrixToAngleAxis(x.r.data(), p.data());
+  p[3] = x.t.x(), p[4] = x.t.y(), p[5] = x.t.z();
+  return p;
+}
+Rt Compose(const Rt& a, const Rt& b) { return {a.r * b.r, a.r * b.t + a.t}; }  // a ∘ b
+Rt Inverse(const Rt& a) { return {a.r.transpose(), -a.r.transpose() * a.t}; }
+
+// Project_k(cam_from_rig · rig_from_target · X) − observed, px. Blocks: scaled intrinsics [N],
+// cam_from_rig [6] (cameras k > 0 only), rig_from_target [6].
+template <typename M>
+struct RigResidual {
+  double u_px, v_px;
+  camera::Sensor sensor;
+  std::array<double, M::kNumParams> scale;
+  Eigen::Vector3d point;
+
+  template <typename T>
+  bool Evaluate(const T* scaled, const T* cam_from_rig, const T* rig_from_target, T* r) const {
+    T cam[M::kNumParams];
+    for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
+    const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
+    T q[3], p[3];
+    ceres::AngleAxisRotatePoint(rig_from_target, x, q);
+    for (int k = 0; k < 3; ++k) q[k] += rig_from_target[3 + k];
+    if (cam_from_rig != nullptr) {
+      ceres::AngleAxisRotatePoint(cam_from_rig, q, p);
+      for (int k = 0; k < 3; ++k) p[k] += cam_from_rig[3 + k];
+    } else {
+      std::copy(q, q + 3, p);
+    }
+    const auto uv = M::template Project<T>(sensor, cam, camera::Vec3<T>(p[0], p[1], p[2]));
+    if (!uv) return false;
+    r[0] = (*uv)(0) - T(u_px);
+    r[1] = (*uv)(1) - T(v_px);
+    return true;
+  }
+  template <typename T>
+  bool operator()(const T* scaled, const T* rig_from_target, T* r) const {
+    return Evaluate<T>(scaled, nullptr, rig_from_target, r);
+  }
+  template <typename T>
+  bool operator()(const T* scaled, const T* cam_from_rig, const T* rig_from_target, T* r) const {
+    return Evaluate<T>(scaled, cam_from_rig, rig_from_target, r);
+  }
+};
+
+struct Cam {
+  camera::Camera camera;      // model, sensor, parameters (current estimate)
+  FreeMask free;
+  std::vector<double> scale, scaled;
+  Pose6 extrinsic{};          // cam_from_rig
+  CalibrationResult alone;    // its own calibration (the start)
+  const CalibrationOptions* options = nullptr;
+  std::string name;
+};
+
+struct Obs {
+  int cam = 0, frame = 0, point = 0, image = 0;  // image: index in the camera's detections
+  double u_px = 0, v_px = 0;
+  bool active = true;
+};
+
+std::vector<double> Scales(const camera::Camera& c) {
+  return camera::VisitModel(c.model, [&](auto m) {
+    using M = decltype(m);
+    const auto s = ModelScales<M>(c.sensor);
+    return std::vector<double>(s.begin(), s.end());
+  });
+}
+
+// The residual (px) of one observation at the current estimate; nullopt where it cannot project.
+std::optional<Eigen::Vector2d> Residual(const Cam& c, int cam_index, const Pose6& frame, const Eigen::Vector3d& x,
+                                        const Obs& ob) {
+  return camera::VisitModel(c.camera.model, [&](auto m) -> std::optional<Eigen::Vector2d> {
+    using M = decltype(m);
+    RigResidual<M> f{ob.u_px, ob.v_px, c.camera.sensor, {}, x};
+    std::copy(c.scale.begin(), c.scale.end(), f.scale.begin());
+    double r[2];
+    const bool ok = f.Evaluate(c.scaled.data(), cam_index == 0 ? nullptr : c.extrinsic.data(), frame.data(), r);
+    if (!ok) return std::nullopt;
+    return Eigen::Vector2d(r[0], r[1]);
+  });
+}
+
+Eigen::Matrix3d ChordalMean(const std::vector<Eigen::Matrix3d>& rs) {
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (const auto& r : rs) sum += r;
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() > 0 ? 1 : -1;
+  return svd.matrixU() * d * svd.matrixV().transpose();
+}
+
+}  // namespace
+
+std::string FrameName(const std::string& image) {
+  return std::filesystem::path(image).stem().string();
+}
+
+RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_camera, const TargetSpec& target,
+                       const RigOptions& options) {
+  QuietCeresLogs();
+  const auto t0 = std::chrono::steady_clock::now();
+  const int n_cams = static_cast<int>(per_camera.size());
+  if (n_cams < 2) throw InvalidInput("cameras", "a rig needs 2 or more cameras (one set of images per camera)");
+  const int n_opt = static_cast<int>(options.cameras.size());
+  if (n_opt != 1 && n_opt != n_cams) {
+    throw InvalidInput("camera_options", fmt::format("{} sets of camera options for {} cameras: give 1 or {}", n_opt,
+                                                     n_cams, n_cams));
+  }
+  const CalibrationOptions& first = options.cameras.front();
+  const auto say = [&](const std::string& m) {
+    if (first.progress) first.progress(m);
+  };
+  if (!options.names.empty() && static_cast<int>(options.names.size()) != n_cams) {
+    throw InvalidInput("names", fmt::format("{} names for {} cameras", options.names.size(), n_cams));
+  }
+
+  // Frames by name; each camera's own calibration (the start).
+  std::map<std::string, int> frame_index;
+  for (const auto& set : per_camera) {
+    for (const auto& d : set) frame_index.emplace(FrameName(d.image), 0);
+  }
+  RigResult res;
+  for (auto& [name, index] : frame_index) {
+    index = static_cast<int>(res.frames.size());
+    res.frames.push_back(name);
+  }
+  const int n_frames = static_cast<int>(res.frames.size());
+  std::vector<Cam> cams(n_cams);
+  // Per camera: frame → the pose of its own calibration (cam_from_target), for the start.
+  std::vector<std::map<int, Rt>> seen(n_cams);
+  for (int k = 0; k < n_cams; ++k) {
+    Cam& c = cams[k];
+    c.options = &options.cameras[n_opt == 1 ? 0 : k];
+    c.name = options.names.empty() ? fmt::format("camera{}", k) : options.names[k];
+    std::set<std::string> names;
+    for (const auto& d : per_camera[k]) {
+      if (!names.insert(FrameName(d.image)).second) {
+        throw InvalidInput("cameras", fmt::format("{}: two images are frame {} (frames are matched by file name "
+                                                  "without extension)", c.name, FrameName(d.image)));
+      }
+    }
+    CalibrationOptions co = *c.options;
+    if (co.target_free) throw InvalidInput("target_free", "not in a rig calibration");
+    co.progress = [&, k](const std::string& m) { say(fmt::format("{}: {}", cams[k].name, m)); };
+    c.alone = Calibrate(per_camera[k], target, co);
+    c.camera = c.alone.camera;
+    c.free = c.alone.free;
+    c.scale = Scales(c.camera);
+    for (const auto& im : c.alone.images) seen[k][frame_index.at(FrameName(im.image))] = ToRt(im.rotation_rad, im.translation_mm);
+  }
+
+  // cam_from_rig of each camera: breadth first from camera 0 over shared frames.
+  std::vector<std::optional<Rt>> placed(n_cams);
+  placed[0] = Rt{};
+  std::deque<int> queue{0};
+  while (!queue.empty()) {
+    const int j = queue.front();
+    queue.pop_front();
+    for (int k = 0; k < n_cams; ++k) {
+      if (placed[k]) continue;
+      std::vector<Eigen::Matrix3d> rs;
+      std::vector<Eigen::Vector3d> ts;
+      for (const auto& [f, k_from_target] : seen[k]) {
+        const auto it = seen[j].find(f);
+        if (it == seen[j].end()) continue;
+        const Rt x = Compose(Compose(k_from_target, Inverse(it->second)), *placed[j]);
+        rs.push_back(x.r);
+        ts.push_back(x.t);
+      }
+      if (rs.empty()) continue;
+      Rt x;
+      x.r = ChordalMean(rs);
+      for (const auto& t : ts) x.t += t / static_cast<double>(ts.size());
+      placed[k] = x;
+      queue.push_back(k);
+    }
+  }
+  for (int k = 0; k < n_cams; ++k) {
+    if (!placed[k]) {
+      throw InvalidInput("cameras", fmt::format("{} shares no frame with {} nor with a camera linked to it: give images "
+                                                "of the target seen by both at once (frames are matched by file name)",
+                                                cams[k].name, cams[0].name));
+    }
+    cams[k].extrinsic = ToPose(*placed[k]);
+  }
+  // Each frame's rig_from_target from the first camera that has its pose.
+  std::vector<Pose6> frame_pose(n_frames);
+  std::vector<bool> has_pose(n_frames, false);
+  for (int f = 0; f < n_frames; ++f) {
+    for (int k = 0; k < n_cams && !has_pose[f]; ++k) {
+      const auto it = seen[k].find(f);
+      if (it == seen[k].end()) continue;
+      frame_pose[f] = ToPose(Compose(Inverse(*placed[k]), it->second));
+      has_pose[f] = true;
+    }
+  }
+
+  // Observations: every point of every image whose frame has a pose.
+  const std::vector<Eigen::Vector3d> points = TargetPoints(target);
+  std::vector<Obs> obs;
+  for (int k = 0; k < n_cams; ++k) {
+    for (std::size_t i = 0; i < per_camera[k].size(); ++i) {
+      const ImageDetections& d = per_camera[k][i];
+      const int f = frame_index.at(FrameName(d.image));
+      if (!has_pose[f]) continue;
+      for (std::size_t p = 0; p < d.ids.size(); ++p) {
+        if (d.ids[p] < 0 || d.ids[p] >= static_cast<int>(points.size())) continue;
+        obs.push_back({k, f, d.ids[p], static_cast<int>(i), d.points_px[p].x(), d.points_px[p].y(), true});
+      }
+    }
+  }
+  for (auto& c : cams) {
+    c.scaled.resize(c.scale.size());
+    for (std::size_t i = 0; i < c.scale.size(); ++i) c.scaled[i] = c.camera.params[i] / c.scale[i];
+  }
+
+  // The adjustment: poses eliminated first, then every camera's intrinsics and extrinsics.
+  const auto build = [&](ceres::Problem* problem) {
+    for (const Obs& ob : obs) {
+      if (!ob.active) continue;
+      Cam& c = cams[ob.cam];
+      camera::VisitModel(c.camera.model, [&](auto m) {
+        using M = decltype(m);
+        auto* f = new RigResidual<M>{ob.u_px, ob.v_px, c.camera.sensor, {}, points[ob.point]};
+        std::copy(c.scale.begin(), c.scale.end(), f->scale.begin());
+        if (ob.cam == 0) {
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigResidual<M>, 2, M::kNumParams, 6>(f), nullptr,
+                                    c.scaled.data(), frame_pose[ob.frame].data());
+        } else {
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigResidual<M>, 2, M::kNumParams, 6, 6>(f),
+                                    nullptr, c.scaled.data(), c.extrinsic.data(), frame_pose[ob.frame].data());
+        }
+      });
+    }
+    for (auto& c : cams) {
+      if (!problem->HasParameterBlock(c.scaled.data())) continue;
+      std::vector<int> fixed;
+      for (std::size_t i = 0; i < c.free.size(); ++i) {
+        if (!c.free[i]) fixed.push_back(static_cast<int>(i));
+      }
+      if (fixed.size() == c.free.size()) {
+        problem->SetParameterBlockConstant(c.scaled.data());
+      } else if (!fixed.empty()) {
+        problem->SetManifold(c.scaled.data(), new ceres::SubsetManifold(static_cast<int>(c.free.size()), fixed));
+      }
+    }
+  };
+  int iterations = 0;
+  const auto solve = [&] {
+    ceres::Problem problem;
+    build(&problem);
+    ceres::Solver::Options so;
+    so.logging_type = ceres::SILENT;
+    so.linear_solver_type = ceres::DENSE_SCHUR;
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (auto& pose : frame_pose) {
+      if (problem.HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), 0);
+    }
+    for (int k = 0; k < n_cams; ++k) {
+      if (problem.HasParameterBlock(cams[k].scaled.data())) ordering->AddElementToGroup(cams[k].scaled.data(), 1);
+      if (k > 0 && problem.HasParameterBlock(cams[k].extrinsic.data())) {
+        ordering->AddElementToGroup(cams[k].extrinsic.data(), 1);
+      }
+    }
+    so.linear_solver_ordering = ordering;
+    so.max_num_iterations = first.max_iterations;
+    so.max_num_consecutive_invalid_steps = 50;
+    so.initial_trust_region_radius = 1e8;  // the start is each camera's own optimum: close
+    so.function_tolerance = 1e-12;
+    so.parameter_tolerance = 1e-12;
+    so.gradient_tolerance = 1e-14;
+    so.num_threads = first.num_threads;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    iterations += static_cast<int>(summary.iterations.size());
+  };
+  int n_unknowns = 6 * (n_cams - 1);
+  for (const auto& c : cams) n_unknowns += static_cast<int>(std::count(c.free.begin(), c.free.end(), true));
+  int n_used_frames = 0;
+  {
+    std::set<int> used;
+    for (const Obs& ob : obs) used.insert(ob.frame);
+    n_used_frames = static_cast<int>(used.size());
+  }
+  n_unknowns += 6 * n_used_frames;
+  double ss = 0;
+  int n_active = 0;
+  const auto sum_squares = [&] {
+    ss = 0, n_active = 0;
+    for (const Obs& ob : obs) {
+      if (!ob.active) continue;
+      const auto r = Residual(cams[ob.cam], ob.cam, frame_pose[ob.frame], points[ob.point], ob);
+      ss += r ? r->squaredNorm() : 0;
+      ++n_active;
+    }
+  };
+  const int reject_rounds = first.reject_k > 0 ? first.max_reject_rounds : 0;
+  for (int round = 0;; ++round) {
+    solve();
+    sum_squares();
+    if (2 * n_active - n_unknowns <= 0) {
+      throw InvalidInput("cameras", fmt::format("{} points in {} frames give {} observations for {} unknowns: add "
+                                                "frames", n_active, n_used_frames, 2 * n_active, n_unknowns));
+    }
+    const double sigma0 = std::sqrt(ss / (2 * n_active - n_unknowns));
+    if (round >= reject_rounds) break;
+    int rejected = 0;
+    for (Obs& ob : obs) {
+      if (!ob.active) continue;
+      const auto r = Residual(cams[ob.cam], ob.cam, frame_pose[ob.frame], points[ob.point], ob);
+      if (!r || r->norm() > first.reject_k * sigma0) ob.active = false, ++rejected;
+    }
+    if (rejected == 0) break;
+    say(fmt::format("rig: rejected {} points beyond {:g} sigma0 ({:.3f} px); readjusting", rejected, first.reject_k,
+                    sigma0));
+  }
+  res.n_points = n_active;
+  res.n_rejected = static_cast<int>(obs.size()) - n_active;
+  res.n_unknowns = n_unknowns;
+  res.redundancy = 2 * n_active - n_unknowns;
+  res.iterations = iterations;
+  res.sigma0_px = std::sqrt(ss / res.redundancy);
+  res.rms_px = std::sqrt(ss / n_active);
+  for (auto& c : cams) {
+    for (std::size_t i = 0; i < c.scale.size(); ++i) c.camera.params[i] = c.scaled[i] * c.scale[i];
+  }
+
+  // Statistics: each camera's intrinsics and cam_from_rig, marginal over the frames.
+  say("rig: covariance");
+  ceres::Problem problem;
+  build(&problem);
+  ceres::Covariance::Options co;
+  co.num_threads = first.num_threads;
+  ceres::Covariance covariance(co);
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (int k = 0; k < n_cams; ++k) {
+    pairs.push_back({cams[k].scaled.data(), cams[k].scaled.data()});
+    if (k > 0) pairs.push_back({cams[k].extrinsic.data(), cams[k].extrinsic.data()});
+  }
+  const bool cov_ok = covariance.Compute(pairs, &problem);
+  if (!cov_ok) {
+    throw InvalidInput("cameras", "the rig is not determined by these frames (singular covariance): add frames seen "
+                                  "by the cameras together, at other ranges and angles");
+  }
+  const double s02 = res.sigma0_px * res.sigma0_px;
+  for (int k = 0; k < n_cams; ++k) {
+    Cam& c = cams[k];
+    const int n = static_cast<int>(c.scale.size());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> cs(n, n);
+    covariance.GetCovarianceBlock(c.scaled.data(), c.scaled.data(), cs.data());
+    const Eigen::Map<const Eigen::VectorXd> sv(c.scale.data(), n);
+    const Eigen::MatrixXd cov = s02 * (sv.asDiagonal() * Eigen::MatrixXd(cs) * sv.asDiagonal());
+
+    RigCamera rc;
+    rc.name = c.name;
+    CalibrationResult& cr = rc.calibration;
+    cr.camera = c.camera;
+    cr.free = c.free;
+    cr.covariance = cov;
+    cr.covariance_ok = cov.allFinite();
+    cr.sigma.assign(n, NAN);
+    cr.correlation = Eigen::MatrixXd::Constant(n, n, NAN);
+    const camera::ModelInfo& info = c.camera.info();
+    for (int i = 0; i < n; ++i) {
+      if (!c.free[i]) continue;
+      cr.sigma[i] = std::sqrt(cov(i, i));
+      for (int j = 0; j < n; ++j) {
+        if (c.free[j]) cr.correlation(i, j) = cov(i, j) / std::sqrt(cov(i, i) * cov(j, j));
+      }
+      if (i >= info.first_distortion) {
+        const double t = std::abs(c.camera.params[i]) / cr.sigma[i];
+        cr.significance.push_back({i, t, t >= c.options->significance_t});
+      }
+    }
+    cr.sigma0_px = res.sigma0_px;
+    cr.n_unknowns = res.n_unknowns;
+    cr.redundancy = res.redundancy;
+    cr.iterations = res.iterations;
+    cr.target_points_mm = points;
+    cr.start_focal_px = c.alone.start_focal_px;
+    cr.start_rms_px = c.alone.start_rms_px;
+    // Per image: its residuals and cam_from_target = cam_from_rig ∘ rig_from_target.
+    const Rt extr = ToRt(c.extrinsic);
+    std::map<int, std::pair<double, int>> per_image;  // image index → (Σ|r|², n)
+    std::map<int, int> rejected_in;
+    double cam_ss = 0;
+    for (const Obs& ob : obs) {
+      if (ob.cam != k) continue;
+      if (!ob.active) {
+        ++rejected_in[ob.image];
+        ++cr.n_rejected;
+        continue;
+      }
+      const auto r = Residual(c, k, frame_pose[ob.frame], points[ob.point], ob);
+      const double r2 = r ? r->squaredNorm() : 0;
+      per_image[ob.image].first += r2;
+      ++per_image[ob.image].second;
+      cam_ss += r2;
+      ++cr.n_points;
+    }
+    cr.rms_px = cr.n_points > 0 ? std::sqrt(cam_ss / cr.n_points) : NAN;
+    for (const auto& [i, sn] : per_image) {
+      const ImageDetections& d = per_camera[k][i];
+      const Rt pose = Compose(k == 0 ? Rt{} : extr, ToRt(frame_pose[frame_index.at(FrameName(d.image))]));
+      const Pose6 p = ToPose(pose);
+      ImageResult im;
+      im.image = d.image;
+      im.n_points = sn.second;
+      im.n_rejected = rejected_in[i];
+      im.rms_px = std::sqrt(sn.first / sn.second);
+      im.rotation_rad = Eigen::Vector3d(p[0], p[1], p[2]);
+      im.translation_mm = Eigen::Vector3d(p[3], p[4], p[5]);
+      cr.images.push_back(im);
+    }
+    cr.n_images = static_cast<int>(cr.images.size());
+    rc.n_frames = cr.n_images;
+    const std::string poor = PoorFitStatus(cr.rms_px);
+    cr.message = poor.empty() ? "ok" : poor;
+    if (k > 0) {
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> pc;
+      covariance.GetCovarianceBlock(c.extrinsic.data(), c.extrinsic.data(), pc.data());
+      rc.pose_covariance = s02 * pc;
+      for (int i = 0; i < 6; ++i) rc.pose_sigma(i) = std::sqrt(rc.pose_covariance(i, i));
+      rc.rotation_rad = Eigen::Vector3d(c.extrinsic[0], c.extrinsic[1], c.extrinsic[2]);
+      rc.translation_mm = Eigen::Vector3d(c.extrinsic[3], c.extrinsic[4], c.extrinsic[5]);
+      // |centre| = |−Rᵀt| = |t|: its σ from the translation's covariance alone.
+      rc.baseline_mm = rc.translation_mm.norm();
+      const Eigen::Vector3d u = rc.translation_mm / rc.baseline_mm;
+      rc.baseline_sigma_mm = std::sqrt(u.dot(rc.pose_covariance.bottomRightCorner<3, 3>() * u));
+      const Eigen::Vector3d axis = extr.r.transpose() * Eigen::Vector3d::UnitZ();  // in the rig frame
+      rc.convergence_deg = std::acos(std::clamp(axis.z(), -1.0, 1.0)) * 180 / M_PI;
+    }
+    res.cameras.push_back(std::move(rc));
+  }
+  const std::string poor = PoorFitStatus(res.rms_px);
+  res.message = poor.empty() ? "ok" : poor;
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  say(fmt::format("rig: {} cameras, {} frames, sigma0 {:.4f} px, RMS {:.4f} px, {} iterations, {:.3f} s", n_cams,
+                  n_used_frames, res.sigma0_px, res.rms_px, res.iterations, res.seconds));
+  return res;
+}
+
+nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, const RigOptions& options) {
+  using Json = nlohmann::ordered_json;
+  const auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  Json cameras = Json::array();
+  for (std::size_t k = 0; k < r.cameras.size(); ++k) {
+    const RigCamera& c = r.cameras[k];
+    const CalibrationOptions& o = options.cameras[options.cameras.size() == 1 ? 0 : k];
+    Json j = CalibrationToJson(c.calibration, target, o);
+    Json cov = Json::array();
+    for (int i = 0; i < 6; ++i) {
+      Json row = Json::array();
+      for (int m = 0; m < 6; ++m) row.push_back(num(c.pose_covariance(i, m)));
+      cov.push_back(row);
+    }
+    Json out = {{"name", c.name},
+                {"cam_from_rig",
+                 {{"rotation_rad", {c.rotation_rad.x(), c.rotation_rad.y(), c.rotation_rad.z()}},
+                  {"translation_mm", {c.translation_mm.x(), c.translation_mm.y(), c.translation_mm.z()}},
+                  {"sigma", {{"rotation_rad", {num(c.pose_sigma(0)), num(c.pose_sigma(1)), num(c.pose_sigma(2))}},
+                             {"translation_mm", {num(c.pose_sigma(3)), num(c.pose_sigma(4)), num(c.pose_sigma(5))}}}},
+                  {"covariance", cov},
+                  {"order", "rotation_rad x y z, translation_mm x y z"}}},
+                {"baseline_mm", c.baseline_mm},
+                {"baseline_sigma_mm", c.baseline_sigma_mm},
+                {"convergence_deg", c.convergence_deg},
+                {"n_frames", c.n_frames}};
+    out.update(j);
+    cameras.push_back(out);
+  }
+  return {{"rig",
+           {{"frame", "camera 0's camera frame (X right, Y down, Z forward, mm); cam_from_rig maps it into each "
+                      "camera: x_cam = R(rotation_rad) x_rig + translation_mm"},
+            {"n_cameras", r.cameras.size()},
+            {"n_frames", r.frames.size()},
+            {"n_points", r.n_points},
+            {"n_rejected", r.n_rejected},
+            {"n_unknowns", r.n_unknowns},
+            {"redundancy", r.redundancy},
+            {"iterations", r.iterations},
+            {"sigma0_px", num(r.sigma0_px)},
+            {"rms_px", num(r.rms_px)},
+            {"seconds", r.seconds},
+            {"status", r.message},
+            {"cameras", cameras}}}};
+}
+
+}  // namespace porthole::calib

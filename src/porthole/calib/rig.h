@@ -1,0 +1,86 @@
+// Calibration of a rig of cameras (issue 26): several cameras fixed to one another see the same
+// target in synchronised frames; one bundle adjustment gives each camera's intrinsics (any model of
+// the camera list, each its own) and its pose in the rig, with σ and correlations.
+//
+// Contract:
+//  - Observations: per camera, the detections of its images (observations.h). Frames are matched
+//    by image name: the file name without its folder and extension ("f012.png" of camera 0 and
+//    "f012.jpg" of camera 1 are one frame). A frame seen by one camera only still counts (it
+//    constrains that camera's intrinsics); every camera must share at least one frame with a
+//    camera already linked to camera 0, else the rig is not connected and is refused.
+//  - Frames: the rig frame is camera 0's camera frame (docs/conventions.md: X right, Y down, Z
+//    forward, mm). Unknowns: each camera's free intrinsics (CalibrationOptions::free, scaled as
+//    calibrate.cc does), each camera k > 0's cam_from_rig (angle-axis rad, translation mm; camera
+//    0's is the identity), and each frame's rig_from_target. A point X of the target is seen by
+//    camera k in frame f at Project_k(cam_from_rig_k · rig_from_target_f · X); the residual is
+//    projected − observed, px, by automatic differentiation through the model's Project.
+//  - Start: each camera calibrated alone (calib::Calibrate, its own start); cam_from_rig of each
+//    camera from its poses and those of a camera already placed over the frames they share
+//    (breadth first from camera 0; the chordal mean of the rotations, the mean of the
+//    translations); each frame's pose from the first placed camera that sees it.
+//  - Adjustment: Ceres, Schur elimination of the frame poses (one 6-parameter block each), outlier
+//    rejection at reject_k·σ0 as Calibrate, the first camera's options for iterations and threads.
+//  - Statistics: σ0 = sqrt(Σ|r|²/(2n − u)) over all cameras; the covariance σ0²·(JᵀJ)⁻¹ of every
+//    camera's intrinsics and cam_from_rig, marginal over the frames (Ceres Covariance); each
+//    camera's RMS and per-image RMS; baselines (|t| of cam_from_rig, the camera centre's distance
+//    from camera 0's) and convergence angles (between each optical axis and camera 0's).
+// Bad input throws InvalidInput naming the field: fewer than 2 cameras, options whose count is
+// neither 1 nor the cameras', a camera whose images' size differs between frames, cameras with
+// no frame name in common (not connected), too few frames or points.
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "porthole/calib/calibrate.h"
+
+namespace porthole::calib {
+
+struct RigOptions {
+  // One per camera, or one for all (model, free set, pixel pitch, outlier rejection, iterations,
+  // threads, progress; target_free is not supported in a rig).
+  std::vector<CalibrationOptions> cameras;
+  // Names of the cameras in the output (their folders or files); unset: camera0, camera1, …
+  std::vector<std::string> names;
+};
+
+struct RigCamera {
+  std::string name;
+  // The camera's calibration: model, sensor, parameters, free set, σ, correlation, σ0 and RMS of
+  // its own residuals, per-image RMS and cam_from_target poses (CalibrationResult's meaning).
+  CalibrationResult calibration;
+  // cam_from_rig (rig frame = camera 0's): x_cam = R(rotation_rad)·x_rig + translation_mm.
+  Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();
+  Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
+  // σ0²-scaled covariance of (rotation_rad, translation_mm) (6 × 6; zero for camera 0), σ.
+  Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> pose_sigma = Eigen::Matrix<double, 6, 1>::Zero();
+  double baseline_mm = 0;      // distance of its centre from camera 0's
+  double baseline_sigma_mm = 0;
+  double convergence_deg = 0;  // angle between its optical axis and camera 0's
+  int n_frames = 0;            // frames it sees
+};
+
+struct RigResult {
+  std::vector<RigCamera> cameras;
+  std::vector<std::string> frames;  // every frame name, sorted
+  int n_points = 0, n_rejected = 0, n_unknowns = 0, redundancy = 0, iterations = 0;
+  double sigma0_px = 0, rms_px = 0, seconds = 0;
+  std::string message;  // "ok", "poor: …" (PoorFitStatus)
+};
+
+// The frame name of an image: its file name without folder and extension.
+std::string FrameName(const std::string& image);
+
+// Calibrates the rig from `per_camera[k]`, the detections of camera k's images.
+RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_camera, const TargetSpec& target,
+                       const RigOptions& options);
+
+// {"cameras": [each camera's calibration JSON (CalibrationToJson) with "name" and "cam_from_rig"
+// {rotation_rad, translation_mm, sigma, covariance}, baseline_mm, convergence_deg, n_frames],
+// "frame": "camera 0", n_frames, sigma0_px, rms_px, counts, status}.
+nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, const RigOptions& options);
+
+}  // namespace porthole::calib

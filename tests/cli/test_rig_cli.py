@@ -1,0 +1,133 @@
+"""A stereo rig through the CLI (issue 26): `porthole calibrate --detections L --detections R --model
+opencv` against OpenCV's own `cv2.stereoCalibrate` on the same points (the real peer, Debian's
+python3-opencv, run to convergence: 200 iterations, eps 1e-12): the relative pose R, T and both
+cameras' intrinsics agree within 1e-4 relative (the distortion within 1e-4 of its value or 1e-7
+absolute). The synthetic rig (two 4288 x 2848 px cameras 300 mm apart, 5 deg convergence, 15
+frames of a 16 x 12 chessboard at 0.8-1.8 m, 0.3 px noise) is projected by cv2.projectPoints, not by
+porthole. Bad rig input is refused in one line."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import run, run_bad
+
+cv2 = pytest.importorskip("cv2")
+
+TARGET = "chessboard:16x12:50"
+COLS, ROWS, SQUARE = 16, 12, 50.0
+W, H = 4288, 2848
+K = [np.array([[2000.0, 0, 2150], [0, 2002, 1420], [0, 0, 1]]),
+     np.array([[1990.0, 0, 2130], [0, 1991, 1430], [0, 0, 1]])]
+D = [np.array([-0.08, 0.05, 2e-4, -1e-4, 0.0]), np.array([-0.07, 0.04, -1e-4, 2e-4, 0.0])]
+R1, _ = cv2.Rodrigues(np.array([0.0, -5 * math.pi / 180, 0.0]))
+T1 = -R1 @ np.array([300.0, 0, 0])  # camera 1's centre 300 mm right of camera 0's
+
+
+def board():
+    return np.array([[c * SQUARE, r * SQUARE, 0.0] for r in range(ROWS) for c in range(COLS)])
+
+
+def frames(n=15, seed=5, noise=0.3):
+    """Per frame: the ids seen by both cameras and their pixels in each (OpenCV's stereoCalibrate
+    needs every point in both)."""
+    rng = np.random.default_rng(seed)
+    pts = board()
+    centre = pts.mean(axis=0)
+    out = []
+    while len(out) < n:
+        rvec = rng.uniform(-1, 1, 3) * np.array([0.6, 0.6, 0.3])
+        r, _ = cv2.Rodrigues(rvec)
+        aim = np.array([150 + 250 * rng.uniform(-1, 1), 200 * rng.uniform(-1, 1), 800 + 1000 * rng.uniform()])
+        t = aim - r @ centre
+        uv = []
+        for k in range(2):
+            rk, tk = (r, t) if k == 0 else (R1 @ r, R1 @ t + T1)
+            p, _ = cv2.projectPoints(pts, cv2.Rodrigues(rk)[0], tk, K[k], D[k])
+            uv.append(p.reshape(-1, 2) + rng.normal(0, noise, (len(pts), 2)))
+        inside = np.all([(u[:, 0] > 0) & (u[:, 0] < W - 1) & (u[:, 1] > 0) & (u[:, 1] < H - 1) for u in uv], axis=0)
+        if inside.sum() >= 20:
+            ids = np.nonzero(inside)[0]
+            out.append((ids, uv[0][ids], uv[1][ids]))
+    return out
+
+
+def write_detections(path, data, k):
+    images = [{"image": f"f{i:03d}.png", "width_px": W, "height_px": H, "ids": [int(x) for x in ids],
+               "points_px": (uv0 if k == 0 else uv1).tolist()} for i, (ids, uv0, uv1) in enumerate(data)]
+    path.write_text(json.dumps({"target": TARGET, "images": images}))
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rig")
+    data = frames()
+    for k, name in enumerate(("left.json", "right.json")):
+        write_detections(d / name, data, k)
+    return d, data
+
+
+def test_rig_matches_cv2_stereo_calibrate(rig):
+    d, data = rig
+    j = run("calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "opencv",
+            "--reject-k", "0", "--json", "--quiet").json()["rig"]
+    obj = [board()[ids].astype(np.float32) for ids, _, _ in data]
+    img = [[uv.astype(np.float32).reshape(-1, 1, 2) for uv in (uv0, uv1)] for _, uv0, uv1 in data]
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+    start = []
+    for k in range(2):
+        _, kk, dd, _, _ = cv2.calibrateCamera(obj, [i[k] for i in img], (W, H), None, None,
+                                              flags=cv2.CALIB_FIX_K3, criteria=crit)
+        start += [kk, dd]
+    rms, k0, d0, k1, d1, r, t, _, _ = cv2.stereoCalibrate(
+        obj, [i[0] for i in img], [i[1] for i in img], start[0], start[1], start[2], start[3], (W, H),
+        flags=cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_K3, criteria=crit)
+    cams = j["cameras"]
+    ours_r, _ = cv2.Rodrigues(np.array(cams[1]["cam_from_rig"]["rotation_rad"]))
+    ours_t = np.array(cams[1]["cam_from_rig"]["translation_mm"])
+    dr = np.linalg.norm(ours_r - r)
+    dt = np.linalg.norm(ours_t - t.ravel()) / np.linalg.norm(t)
+    print(f"rig vs cv2.stereoCalibrate: |R - R_cv| {dr:.2e}, |T - T_cv|/|T| {dt:.2e}, OpenCV RMS {rms:.5f} px, "
+          f"porthole sigma0 {j['sigma0_px']:.5f} px; baseline {cams[1]['baseline_mm']:.3f} +- "
+          f"{cams[1]['baseline_sigma_mm']:.3f} mm (true 300), convergence {cams[1]['convergence_deg']:.4f} deg (true 5)")
+    assert dr < 1e-4 and dt < 1e-4
+    worst = 0.0
+    for cam, kk, dd in ((cams[0], k0, d0), (cams[1], k1, d1)):
+        c = cam["camera"]
+        for ours, theirs in ((c["fx_px"], kk[0, 0]), (c["fy_px"], kk[1, 1]), (c["cx_px"], kk[0, 2]),
+                             (c["cy_px"], kk[1, 2])):
+            worst = max(worst, abs(ours / theirs - 1))
+            assert ours == pytest.approx(theirs, rel=1e-4)
+        for key, theirs in zip(("k1", "k2", "p1", "p2"), dd.ravel()[:4]):
+            assert c[key] == pytest.approx(theirs, rel=1e-4, abs=1e-7), key
+    print(f"intrinsics: worst relative difference {worst:.2e}")
+    # OpenCV's RMS is sqrt(sum |r|^2 / n) over both cameras' points, as porthole's rms_px.
+    assert j["rms_px"] == pytest.approx(rms, rel=1e-4)
+    assert j["n_cameras"] == 2 and j["n_frames"] == 15 and j["status"] == "ok"
+
+
+def test_rig_text_and_out_file(rig, tmp_path):
+    d, _ = rig
+    out = tmp_path / "rig.json"
+    t = run("calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "opencv",
+            "--out", out, "--quiet").out
+    assert "rig of 2 cameras" in t and "cam_from_rig right.json" in t and "baseline mm" in t
+    assert json.loads(out.read_text())["rig"]["cameras"][1]["name"] == "right.json"
+    # The rig file is a calibration: another command will not overwrite it without --force.
+    line = run_bad("calibrate", "--detections", d / "left.json", "--out", out, "--quiet")
+    assert "--out" in line, line
+
+
+def test_bad_rig_input_is_refused(rig, tmp_path):
+    d, data = rig
+    base = ["calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--quiet"]
+    assert "--model" in run_bad(*base, "--model", "opencv,brown,opencv")
+    assert "--port" in run_bad(*base, "--port", "nimar-ni320")
+    apart = tmp_path / "apart.json"
+    det = json.loads((d / "right.json").read_text())
+    for im in det["images"]:
+        im["image"] = "other_" + im["image"]
+    apart.write_text(json.dumps(det))
+    line = run_bad("calibrate", "--detections", d / "left.json", "--detections", apart, "--model", "opencv", "--quiet")
+    assert "shares no frame" in line, line
