@@ -249,8 +249,9 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
   }
   const std::vector<std::string>& sources = from_images ? o.image_dirs : o.detection_paths;
   const std::pair<const char*, bool> not_in_rig[] = {
-      {"--port", !o.port.port.empty()}, {"--air-calibration", !o.air.empty()},
       {"--air-images", !o.air_images.empty()}, {"--air-detections", !o.air_detections.empty()},
+      {"--ep", !o.port.ep.empty()}, {"--intrinsics", !o.intrinsics.empty()}, {"--port-out", !o.port_out.empty()},
+      {"--free-water-index", o.free_water_index}, {"--free-shell", o.free_shell}, {"--port-sigma", !o.port_sigma.empty()},
       {"--free-target", o.calib.target_free}, {"--opencv-yaml", !o.yaml.empty()}, {"--field-out", !o.field_out.empty()},
       {"--plan-only", o.plan_only}, {"--drop-insignificant", o.calib.drop_insignificant}};
   for (const auto& [flag, given] : not_in_rig) {
@@ -263,15 +264,41 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
     if (!o.field.empty()) calib::LoadTargetField(o.field, &target);
   }
   const int n = static_cast<int>(sources.size());
-  std::vector<std::string> models;
-  for (std::size_t a = 0, b; a <= o.model.size(); a = b + 1) {
-    b = o.model.find(',', a);
-    if (b == std::string::npos) b = o.model.size();
-    models.push_back(o.model.substr(a, b - a));
-  }
+  const auto split = [](const std::string& list) {
+    std::vector<std::string> items;
+    for (std::size_t a = 0, b; a <= list.size(); a = b + 1) {
+      b = list.find(',', a);
+      if (b == std::string::npos) b = list.size();
+      items.push_back(list.substr(a, b - a));
+    }
+    return items;
+  };
+  const std::vector<std::string> models = split(o.model);
   if (models.size() != 1 && static_cast<int>(models.size()) != n) {
     throw InvalidInput("--model", fmt::format("{} models for {} cameras: give one for all or one per camera",
                                               models.size(), n));
+  }
+  // Cameras behind ports, in water: --port one for all or a comma list; --air-calibration a comma
+  // list, one per camera, of each lens alone (--air-lens-bare), as a prior.
+  std::vector<std::string> port_names, air_files;
+  if (!o.port.port.empty()) port_names = split(o.port.port);
+  if (!o.air.empty()) air_files = split(o.air);
+  if (port_names.size() > 1 && static_cast<int>(port_names.size()) != n) {
+    throw InvalidInput("--port", fmt::format("{} ports for {} cameras: give one for all or one per camera",
+                                             port_names.size(), n));
+  }
+  if (!air_files.empty() && port_names.empty()) throw InvalidInput("--air-calibration", "only with --port");
+  if (!air_files.empty() && static_cast<int>(air_files.size()) != n) {
+    throw InvalidInput("--air-calibration", fmt::format("{} in-air calibrations for {} cameras: one per camera "
+                                                        "(a comma list)", air_files.size(), n));
+  }
+  if (!air_files.empty() && !o.air_lens_bare) {
+    throw InvalidInput("--air-calibration",
+                       "were they made with the housings on or of the lenses alone? A rig takes each lens alone "
+                       "(--air-lens-bare); through a port a dome still refracts and would bias the ports");
+  }
+  if (o.air_lens_bare && air_files.empty()) {
+    throw InvalidInput("--air-lens-bare", "says what --air-calibration holds: give --air-calibration");
   }
   if (o.free != "default" && models.size() > 1) {
     throw InvalidInput("--free", "names one model's parameters: not with a model per camera");
@@ -292,6 +319,16 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
     c.free = calib::ParseFreeParameters(c.model, o.free);
     c.progress = say;
     ro.cameras.push_back(c);
+  }
+  const ports::Environment env = o.water.ToEnvironment();
+  for (const std::string& name : port_names) {
+    PortOptions one = o.port;
+    one.port = name;
+    ro.ports.push_back(ports::MakeSystem(one.Spec(), env, std::nullopt));
+  }
+  for (int k = 0; k < static_cast<int>(air_files.size()); ++k) {
+    const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
+    ro.air_lens.push_back(interop::ReadCalibrationFileAs(air_files[k], o.pitch_mm, model, "--air-calibration").calibration);
   }
   std::vector<std::vector<calib::ImageDetections>> per_camera;
   std::vector<calib::SkippedImage> skipped;
@@ -348,8 +385,18 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
                      c.translation_mm.y(), c.translation_mm.z(), c.pose_sigma(3), c.pose_sigma(4), c.pose_sigma(5));
   }
   for (std::size_t k = 0; k < r.cameras.size(); ++k) {
-    t += fmt::format("--- {} ---\n", r.cameras[k].name) +
-         CalibrationTable(r.cameras[k].calibration, ro.cameras[ro.cameras.size() == 1 ? 0 : k], target);
+    const auto& c = r.cameras[k];
+    t += fmt::format("--- {} ---\n", c.name) +
+         CalibrationTable(c.calibration, ro.cameras[ro.cameras.size() == 1 ? 0 : k], target);
+    if (c.has_port) {
+      const auto& names = refraction::PortParams(c.port_kind);
+      t += fmt::format("port {} in water:", ro.ports[ro.ports.size() == 1 ? 0 : k].spec.name);
+      for (int i = 0; i < refraction::kPortNumParams; ++i) {
+        t += fmt::format(" {} {:.4f} +- {:.2g} (predicted {:.4f});", names[i].json_key, c.port[i], c.port_sigma[i],
+                         c.port_predicted[i]);
+      }
+      t += "\n";
+    }
   }
   t += "rig status: " + r.message + "\n";
   for (const auto& s : skipped) t += fmt::format("skipped {}: {}\n", s.image, s.reason);

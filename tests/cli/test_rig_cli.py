@@ -123,7 +123,6 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     d, data = rig
     base = ["calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--quiet"]
     assert "--model" in run_bad(*base, "--model", "opencv,brown,opencv")
-    assert "--port" in run_bad(*base, "--port", "nimar-ni320")
     apart = tmp_path / "apart.json"
     det = json.loads((d / "right.json").read_text())
     for im in det["images"]:
@@ -131,3 +130,14 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     apart.write_text(json.dumps(det))
     line = run_bad("calibrate", "--detections", d / "left.json", "--detections", apart, "--model", "opencv", "--quiet")
     assert "shares no frame" in line, line
+    # Behind ports: one port for all or one per camera; in-air calibrations one per camera, of the
+    # lenses alone (calib_refractive_test Rig.CamerasBehindTheirOwnDomes checks the numbers).
+    assert "--port" in run_bad(*base, "--port", "nimar-ni320,nimar-ni320,nimar-ni320")
+    cal = tmp_path / "lens.json"
+    run("calibrate", "--detections", d / "left.json", "--model", "opencv", "--out", cal, "--quiet")
+    line = run_bad(*base, "--model", "opencv", "--port", "nimar-ni320", "--air-calibration", f"{cal},{cal}")
+    assert "--air-calibration" in line and "--air-lens-bare" in line, line
+    line = run_bad(*base, "--model", "opencv", "--port", "nimar-ni320", "--air-calibration", cal, "--air-lens-bare")
+    assert "one per camera" in line, line
+    assert "only with --port" in run_bad(*base, "--model", "opencv", "--air-calibration", f"{cal},{cal}",
+                                         "--air-lens-bare")

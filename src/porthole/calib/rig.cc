@@ -15,6 +15,7 @@
 #include <map>
 #include <set>
 
+#include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/scales.h"
 #include "porthole/core/error.h"
@@ -48,17 +49,19 @@ Pose6 ToPose(const Rt& x) {
 Rt Compose(const Rt& a, const Rt& b) { return {a.r * b.r, a.r * b.t + a.t}; }  // a ∘ b
 Rt Inverse(const Rt& a) { return {a.r.transpose(), -a.r.transpose() * a.t}; }
 
-// Project_k(cam_from_rig · rig_from_target · X) − observed, px. Blocks: scaled intrinsics [N],
-// cam_from_rig [6] (cameras k > 0 only), rig_from_target [6].
+// Project_k(cam_from_rig · rig_from_target · X) − observed, px; behind a port (shell non-null) the
+// exact forward projection through it (refraction::Project) with the port parameters `port`.
 template <typename M>
 struct RigResidual {
   double u_px, v_px;
   camera::Sensor sensor;
   std::array<double, M::kNumParams> scale;
   Eigen::Vector3d point;
+  const refraction::Shell* shell = nullptr;
+  double weight = 1;  // 1/σ of the image residuals (with priors)
 
   template <typename T>
-  bool Evaluate(const T* scaled, const T* cam_from_rig, const T* rig_from_target, T* r) const {
+  bool Evaluate(const T* scaled, const T* port, const T* cam_from_rig, const T* rig_from_target, T* r) const {
     T cam[M::kNumParams];
     for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
     const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
@@ -71,19 +74,64 @@ struct RigResidual {
     } else {
       std::copy(q, q + 3, p);
     }
-    const auto uv = M::template Project<T>(sensor, cam, camera::Vec3<T>(p[0], p[1], p[2]));
+    std::optional<camera::Vec2<T>> uv;
+    if (shell != nullptr) {
+      uv = refraction::Project<M, T>(sensor, cam, *shell, port, refraction::Vec3T<T>(p[0], p[1], p[2]), nullptr);
+    } else {
+      uv = M::template Project<T>(sensor, cam, camera::Vec3<T>(p[0], p[1], p[2]));
+    }
     if (!uv) return false;
-    r[0] = (*uv)(0) - T(u_px);
-    r[1] = (*uv)(1) - T(v_px);
+    r[0] = ((*uv)(0) - T(u_px)) * T(weight);
+    r[1] = ((*uv)(1) - T(v_px)) * T(weight);
     return true;
   }
+};
+
+// A Gaussian prior on the scaled intrinsics, whitened: r = A·scaled − b.
+class PriorCost final : public ceres::CostFunction {
+ public:
+  PriorCost(Eigen::MatrixXd a, Eigen::VectorXd b) : a_(std::move(a)), b_(std::move(b)) {
+    set_num_residuals(static_cast<int>(a_.rows()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(a_.cols()));
+  }
+  bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
+    Eigen::Map<Eigen::VectorXd>(residuals, a_.rows()) = a_ * Eigen::Map<const Eigen::VectorXd>(x[0], a_.cols()) - b_;
+    if (jacobians && jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], a_.rows(),
+                                                                                         a_.cols()) = a_;
+    }
+    return true;
+  }
+
+ private:
+  Eigen::MatrixXd a_;
+  Eigen::VectorXd b_;
+};
+
+// Blocks without a port: scaled intrinsics [N], cam_from_rig [6] (cameras k > 0 only),
+// rig_from_target [6].
+template <typename M>
+struct RigCentralCost : RigResidual<M> {
   template <typename T>
   bool operator()(const T* scaled, const T* rig_from_target, T* r) const {
-    return Evaluate<T>(scaled, nullptr, rig_from_target, r);
+    return this->template Evaluate<T>(scaled, nullptr, nullptr, rig_from_target, r);
   }
   template <typename T>
   bool operator()(const T* scaled, const T* cam_from_rig, const T* rig_from_target, T* r) const {
-    return Evaluate<T>(scaled, cam_from_rig, rig_from_target, r);
+    return this->template Evaluate<T>(scaled, nullptr, cam_from_rig, rig_from_target, r);
+  }
+};
+
+// Behind a port: scaled intrinsics [N], port [3], cam_from_rig [6] (k > 0 only), rig_from_target [6].
+template <typename M>
+struct RigPortCost : RigResidual<M> {
+  template <typename T>
+  bool operator()(const T* scaled, const T* port, const T* rig_from_target, T* r) const {
+    return this->template Evaluate<T>(scaled, port, nullptr, rig_from_target, r);
+  }
+  template <typename T>
+  bool operator()(const T* scaled, const T* port, const T* cam_from_rig, const T* rig_from_target, T* r) const {
+    return this->template Evaluate<T>(scaled, port, cam_from_rig, rig_from_target, r);
   }
 };
 
@@ -92,6 +140,13 @@ struct Cam {
   FreeMask free;
   std::vector<double> scale, scaled;
   Pose6 extrinsic{};          // cam_from_rig
+  // Behind a port: its system, shell, parameters (adjusted), predicted parameters.
+  std::optional<ports::PortSystem> system;
+  std::optional<refraction::Shell> shell;
+  std::array<double, refraction::kPortNumParams> port{}, predicted{};
+  // The in-air prior on the scaled intrinsics (RigOptions::air_lens): r = a·scaled − b; rows 0: none.
+  Eigen::MatrixXd prior_a;
+  Eigen::VectorXd prior_b;
   CalibrationResult alone;    // its own calibration (the start)
   const CalibrationOptions* options = nullptr;
   std::string name;
@@ -116,10 +171,11 @@ std::optional<Eigen::Vector2d> Residual(const Cam& c, int cam_index, const Pose6
                                         const Obs& ob) {
   return camera::VisitModel(c.camera.model, [&](auto m) -> std::optional<Eigen::Vector2d> {
     using M = decltype(m);
-    RigResidual<M> f{ob.u_px, ob.v_px, c.camera.sensor, {}, x};
+    RigResidual<M> f{ob.u_px, ob.v_px, c.camera.sensor, {}, x, c.shell ? &*c.shell : nullptr};
     std::copy(c.scale.begin(), c.scale.end(), f.scale.begin());
     double r[2];
-    const bool ok = f.Evaluate(c.scaled.data(), cam_index == 0 ? nullptr : c.extrinsic.data(), frame.data(), r);
+    const bool ok = f.Evaluate(c.scaled.data(), c.port.data(), cam_index == 0 ? nullptr : c.extrinsic.data(),
+                               frame.data(), r);
     if (!ok) return std::nullopt;
     return Eigen::Vector2d(r[0], r[1]);
   });
@@ -158,6 +214,15 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   if (!options.names.empty() && static_cast<int>(options.names.size()) != n_cams) {
     throw InvalidInput("names", fmt::format("{} names for {} cameras", options.names.size(), n_cams));
   }
+  const int n_ports = static_cast<int>(options.ports.size());
+  if (n_ports != 0 && n_ports != 1 && n_ports != n_cams) {
+    throw InvalidInput("ports", fmt::format("{} ports for {} cameras: give 1 or {}", n_ports, n_cams, n_cams));
+  }
+  const int n_air = static_cast<int>(options.air_lens.size());
+  if (n_air != 0 && n_air != n_cams) {
+    throw InvalidInput("air_lens", fmt::format("{} in-air calibrations for {} cameras: one per camera", n_air, n_cams));
+  }
+  if (n_air > 0 && n_ports == 0) throw InvalidInput("air_lens", "a prior on the lens behind a port: give the ports");
 
   // Frames by name; each camera's own calibration (the start).
   std::map<std::string, int> frame_index;
@@ -187,10 +252,54 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     CalibrationOptions co = *c.options;
     if (co.target_free) throw InvalidInput("target_free", "not in a rig calibration");
     co.progress = [&, k](const std::string& m) { say(fmt::format("{}: {}", cams[k].name, m)); };
-    c.alone = Calibrate(per_camera[k], target, co);
+    if (n_ports > 0) {  // the lens behind its port, calibrated alone through it (the start)
+      RefractiveOptions ro;
+      ro.lens = co;
+      ro.port = options.ports[n_ports == 1 ? 0 : k];
+      ro.compare_central = false;
+      if (n_air > 0) {
+        ro.air = options.air_lens[k];
+        ro.air_of = RefractiveOptions::AirCalibrationOf::kLensBare;
+        ro.intrinsics = IntrinsicsMode::kPrior;
+      }
+      const RefractiveResult alone = CalibrateRefractive(per_camera[k], target, ro);
+      c.alone = alone.lens;
+      c.system = ro.port;
+      c.shell = refraction::ShellOf(ro.port);
+      c.port = alone.port;
+      c.predicted = refraction::ParamsOf(ro.port);
+    } else {
+      c.alone = Calibrate(per_camera[k], target, co);
+    }
     c.camera = c.alone.camera;
     c.free = c.alone.free;
     c.scale = Scales(c.camera);
+    if (n_air > 0) {  // every parameter the air calibration adjusted but the focal length(s)
+      const CalibrationRecord& air = options.air_lens[k];
+      const camera::ModelInfo& info = c.camera.info();
+      std::vector<int> idx;
+      for (int i = info.num_focal; i < info.num_params; ++i) {
+        if (air.free[i]) idx.push_back(i);
+      }
+      const int m = static_cast<int>(idx.size());
+      if (m > 0) {
+        Eigen::MatrixXd cov(m, m);
+        Eigen::VectorXd mean(m);
+        for (int a = 0; a < m; ++a) {
+          mean(a) = air.camera.params[idx[a]];
+          for (int b = 0; b < m; ++b) cov(a, b) = air.covariance(idx[a], idx[b]);
+        }
+        const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+        if (llt.info() != Eigen::Success) {
+          throw InvalidInput("air_lens", c.name + ": its covariance is not positive definite");
+        }
+        const Eigen::MatrixXd w = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
+        Eigen::MatrixXd e = Eigen::MatrixXd::Zero(m, info.num_params);
+        for (int a = 0; a < m; ++a) e(a, idx[a]) = c.scale[idx[a]];
+        c.prior_a = w * e;
+        c.prior_b = w * mean;
+      }
+    }
     for (const auto& im : c.alone.images) seen[k][frame_index.at(FrameName(im.image))] = ToRt(im.rotation_rad, im.translation_mm);
   }
 
@@ -259,26 +368,52 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     for (std::size_t i = 0; i < c.scale.size(); ++i) c.scaled[i] = c.camera.params[i] / c.scale[i];
   }
 
-  // The adjustment: poses eliminated first, then every camera's intrinsics and extrinsics.
+  // The adjustment: poses eliminated first, then every camera's intrinsics and extrinsics. With
+  // in-air priors: a first pass without them gives σ0, then the images are weighted by 1/σ0 and the
+  // priors added (RefractiveOptions' kPrior).
+  double weight = 1;
+  bool with_priors = false;
+  int n_prior = 0;
+  for (const auto& c : cams) n_prior += static_cast<int>(c.prior_a.rows());
   const auto build = [&](ceres::Problem* problem) {
     for (const Obs& ob : obs) {
       if (!ob.active) continue;
       Cam& c = cams[ob.cam];
       camera::VisitModel(c.camera.model, [&](auto m) {
         using M = decltype(m);
-        auto* f = new RigResidual<M>{ob.u_px, ob.v_px, c.camera.sensor, {}, points[ob.point]};
-        std::copy(c.scale.begin(), c.scale.end(), f->scale.begin());
-        if (ob.cam == 0) {
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigResidual<M>, 2, M::kNumParams, 6>(f), nullptr,
-                                    c.scaled.data(), frame_pose[ob.frame].data());
+        constexpr int N = M::kNumParams;
+        constexpr int P = refraction::kPortNumParams;
+        const RigResidual<M> base{ob.u_px, ob.v_px, c.camera.sensor, {}, points[ob.point], c.shell ? &*c.shell : nullptr,
+                                  weight};
+        const auto with_scale = [&](auto* f) {
+          std::copy(c.scale.begin(), c.scale.end(), f->scale.begin());
+          return f;
+        };
+        double* frame = frame_pose[ob.frame].data();
+        if (c.shell && ob.cam == 0) {
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigPortCost<M>, 2, N, P, 6>(
+                                        with_scale(new RigPortCost<M>{base})),
+                                    nullptr, c.scaled.data(), c.port.data(), frame);
+        } else if (c.shell) {
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigPortCost<M>, 2, N, P, 6, 6>(
+                                        with_scale(new RigPortCost<M>{base})),
+                                    nullptr, c.scaled.data(), c.port.data(), c.extrinsic.data(), frame);
+        } else if (ob.cam == 0) {
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigCentralCost<M>, 2, N, 6>(
+                                        with_scale(new RigCentralCost<M>{base})),
+                                    nullptr, c.scaled.data(), frame);
         } else {
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigResidual<M>, 2, M::kNumParams, 6, 6>(f),
-                                    nullptr, c.scaled.data(), c.extrinsic.data(), frame_pose[ob.frame].data());
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigCentralCost<M>, 2, N, 6, 6>(
+                                        with_scale(new RigCentralCost<M>{base})),
+                                    nullptr, c.scaled.data(), c.extrinsic.data(), frame);
         }
       });
     }
     for (auto& c : cams) {
       if (!problem->HasParameterBlock(c.scaled.data())) continue;
+      if (with_priors && c.prior_a.rows() > 0) {
+        problem->AddResidualBlock(new PriorCost(c.prior_a, c.prior_b), nullptr, c.scaled.data());
+      }
       std::vector<int> fixed;
       for (std::size_t i = 0; i < c.free.size(); ++i) {
         if (!c.free[i]) fixed.push_back(static_cast<int>(i));
@@ -306,6 +441,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       if (k > 0 && problem.HasParameterBlock(cams[k].extrinsic.data())) {
         ordering->AddElementToGroup(cams[k].extrinsic.data(), 1);
       }
+      if (problem.HasParameterBlock(cams[k].port.data())) ordering->AddElementToGroup(cams[k].port.data(), 1);
     }
     so.linear_solver_ordering = ordering;
     so.max_num_iterations = first.max_iterations;
@@ -320,7 +456,10 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     iterations += static_cast<int>(summary.iterations.size());
   };
   int n_unknowns = 6 * (n_cams - 1);
-  for (const auto& c : cams) n_unknowns += static_cast<int>(std::count(c.free.begin(), c.free.end(), true));
+  for (const auto& c : cams) {
+    n_unknowns += static_cast<int>(std::count(c.free.begin(), c.free.end(), true));
+    if (c.shell) n_unknowns += refraction::kPortNumParams;
+  }
   int n_used_frames = 0;
   {
     std::set<int> used;
@@ -359,12 +498,18 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     say(fmt::format("rig: rejected {} points beyond {:g} sigma0 ({:.3f} px); readjusting", rejected, first.reject_k,
                     sigma0));
   }
+  if (n_prior > 0) {  // the images weighted by 1/σ0 of the adjustment above, the priors added
+    weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns));
+    with_priors = true;
+    solve();
+    sum_squares();
+  }
   res.n_points = n_active;
   res.n_rejected = static_cast<int>(obs.size()) - n_active;
   res.n_unknowns = n_unknowns;
-  res.redundancy = 2 * n_active - n_unknowns;
+  res.redundancy = 2 * n_active + n_prior - n_unknowns;
   res.iterations = iterations;
-  res.sigma0_px = std::sqrt(ss / res.redundancy);
+  res.sigma0_px = std::sqrt(ss / (2 * n_active - n_unknowns));  // of the images (px)
   res.rms_px = std::sqrt(ss / n_active);
   for (auto& c : cams) {
     for (std::size_t i = 0; i < c.scale.size(); ++i) c.camera.params[i] = c.scaled[i] * c.scale[i];
@@ -381,13 +526,22 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   for (int k = 0; k < n_cams; ++k) {
     pairs.push_back({cams[k].scaled.data(), cams[k].scaled.data()});
     if (k > 0) pairs.push_back({cams[k].extrinsic.data(), cams[k].extrinsic.data()});
+    if (cams[k].shell) pairs.push_back({cams[k].port.data(), cams[k].port.data()});
   }
   const bool cov_ok = covariance.Compute(pairs, &problem);
   if (!cov_ok) {
     throw InvalidInput("cameras", "the rig is not determined by these frames (singular covariance): add frames seen "
                                   "by the cameras together, at other ranges and angles");
   }
-  const double s02 = res.sigma0_px * res.sigma0_px;
+  // σ0² of the (weighted) adjustment: the images' Σ r²·w² and the priors' squared residuals.
+  double prior_ss = 0;
+  for (const auto& c : cams) {
+    if (c.prior_a.rows() > 0) {
+      prior_ss += (c.prior_a * Eigen::Map<const Eigen::VectorXd>(c.scaled.data(), c.scaled.size()) - c.prior_b).squaredNorm();
+    }
+  }
+  const double s02 = with_priors ? (ss * weight * weight + prior_ss) / res.redundancy
+                                 : res.sigma0_px * res.sigma0_px;
   for (int k = 0; k < n_cams; ++k) {
     Cam& c = cams[k];
     const int n = static_cast<int>(c.scale.size());
@@ -475,6 +629,17 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       const Eigen::Vector3d axis = extr.r.transpose() * Eigen::Vector3d::UnitZ();  // in the rig frame
       rc.convergence_deg = std::acos(std::clamp(axis.z(), -1.0, 1.0)) * 180 / M_PI;
     }
+    if (c.shell) {
+      Eigen::Matrix<double, refraction::kPortNumParams, refraction::kPortNumParams, Eigen::RowMajor> pc;
+      covariance.GetCovarianceBlock(c.port.data(), c.port.data(), pc.data());
+      rc.has_port = true;
+      rc.port_kind = c.shell->kind;
+      rc.port = c.port;
+      rc.port_predicted = c.predicted;
+      for (int i = 0; i < refraction::kPortNumParams; ++i) rc.port_sigma[i] = std::sqrt(s02 * pc(i, i));
+      refraction::ValidateParams(*c.shell, c.port.data(), "port");
+      rc.estimated_port = refraction::SpecWithParams(*c.system, c.port);
+    }
     res.cameras.push_back(std::move(rc));
   }
   const std::string poor = PoorFitStatus(res.rms_px);
@@ -511,6 +676,22 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
                 {"baseline_sigma_mm", c.baseline_sigma_mm},
                 {"convergence_deg", c.convergence_deg},
                 {"n_frames", c.n_frames}};
+    if (c.has_port) {
+      const auto& names = refraction::PortParams(c.port_kind);
+      Json params = Json::object(), sigma = Json::object(), predicted = Json::object();
+      for (int i = 0; i < refraction::kPortNumParams; ++i) {
+        const std::string key(names[i].json_key);
+        params[key] = c.port[i];
+        sigma[key] = num(c.port_sigma[i]);
+        predicted[key] = c.port_predicted[i];
+      }
+      out["port"] = {{"name", options.ports[options.ports.size() == 1 ? 0 : k].spec.name},
+                     {"kind", c.port_kind == refraction::PortKind::kDome ? "dome" : "flat"},
+                     {"n_water", options.ports[options.ports.size() == 1 ? 0 : k].n_water},
+                     {"parameters", params},
+                     {"sigma", sigma},
+                     {"predicted", predicted}};
+    }
     out.update(j);
     cameras.push_back(out);
   }

@@ -14,7 +14,11 @@
 //    0's is the identity), and each frame's rig_from_target. A point X of the target is seen by
 //    camera k in frame f at Project_k(cam_from_rig_k · rig_from_target_f · X); the residual is
 //    projected − observed, px, by automatic differentiation through the model's Project.
-//  - Start: each camera calibrated alone (calib::Calibrate, its own start); cam_from_rig of each
+//  - Behind ports (RigOptions::ports): each camera is its lens model behind its port in water
+//    (refraction::Project), its port parameters adjusted too; with in-air calibrations of the
+//    lenses alone (RigOptions::air_lens) as priors (every parameter but the focal length).
+//  - Start: each camera calibrated alone (calib::Calibrate, its own start; behind a port
+//    calib::CalibrateRefractive, with its prior); cam_from_rig of each
 //    camera from its poses and those of a camera already placed over the frames they share
 //    (breadth first from camera 0; the chordal mean of the rotations, the mean of the
 //    translations); each frame's pose from the first placed camera that sees it.
@@ -35,6 +39,9 @@
 #include <vector>
 
 #include "porthole/calib/calibrate.h"
+#include "porthole/calib/result_json.h"
+#include "porthole/ports/port.h"
+#include "porthole/refraction/refraction.h"
 
 namespace porthole::calib {
 
@@ -44,6 +51,19 @@ struct RigOptions {
   std::vector<CalibrationOptions> cameras;
   // Names of the cameras in the output (their folders or files); unset: camera0, camera1, …
   std::vector<std::string> names;
+  // Cameras behind ports, in water: one port system for all or one per camera (empty: no port, in
+  // air). Each camera is then the lens model behind its port (refraction::Project, the exact
+  // forward projection); its three port parameters (refraction::PortParams: a dome's pupil
+  // position, a flat port's normal and distance) are adjusted with everything else, starting from
+  // its own refractive calibration (calib::CalibrateRefractive, lens free, the axial search); the
+  // system's values are the predicted ones the estimate is reported beside.
+  std::vector<ports::PortSystem> ports;
+  // With ports: an in-air calibration of each camera's lens ALONE (without the housing; one per
+  // camera), as a Gaussian prior with its covariance on every parameter it adjusted except the
+  // focal length(s) (RefractiveOptions' kPrior: the lens refocuses behind a dome), the image
+  // residuals weighted by 1/σ0 of a first pass. Without it a dome's axial pupil offset is nearly
+  // undetermined (it trades with the focal length and the cameras' positions).
+  std::vector<CalibrationRecord> air_lens;
 };
 
 struct RigCamera {
@@ -61,6 +81,12 @@ struct RigCamera {
   double baseline_sigma_mm = 0;
   double convergence_deg = 0;  // angle between its optical axis and camera 0's
   int n_frames = 0;            // frames it sees
+  // Behind a port (RigOptions::ports): its kind, the estimated port parameters with σ, the
+  // predicted ones, and the port as estimated (housing frame).
+  bool has_port = false;
+  refraction::PortKind port_kind = refraction::PortKind::kDome;
+  std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, port_predicted{};
+  ports::PortSpec estimated_port;
 };
 
 struct RigResult {

@@ -14,7 +14,9 @@
 #include <cstdlib>
 #include <random>
 
+#include "porthole/calib/test_refractive.h"
 #include "porthole/core/error.h"
+#include "porthole/refraction/test_camera.h"
 
 namespace porthole::calib {
 namespace {
@@ -22,6 +24,15 @@ namespace {
 struct Truth {
   std::vector<camera::Camera> cams;
   std::vector<Eigen::Isometry3d> cam_from_rig;
+  std::vector<ports::PortSystem> ports;  // empty: in air, no port
+
+  std::optional<Eigen::Vector2d> Project(int k, const Eigen::Vector3d& p_cam) const {
+    if (ports.empty()) return cams[k].Project(p_cam);
+    const auto shell = refraction::ShellOf(ports[k]);
+    const auto port = refraction::ParamsOf(ports[k]);
+    return refraction::Project<camera::BrownModel, double>(cams[k].sensor, cams[k].params.data(), shell, port.data(),
+                                                           p_cam);
+  }
 };
 
 // Two OpenCV-model cameras (D300-like 4288 × 2848 px at 2 000 px focal length, different
@@ -68,7 +79,7 @@ std::vector<std::vector<ImageDetections>> Frames(const Truth& truth, const Targe
       d.width_px = truth.cams[k].sensor.width_px;
       d.height_px = truth.cams[k].sensor.height_px;
       for (std::size_t id = 0; id < points.size(); ++id) {
-        const auto uv = truth.cams[k].Project(truth.cam_from_rig[k] * (rig_from_target * points[id]));
+        const auto uv = truth.Project(k, truth.cam_from_rig[k] * (rig_from_target * points[id]));
         if (!uv || uv->x() < 0 || uv->y() < 0 || uv->x() > d.width_px - 1 || uv->y() > d.height_px - 1) continue;
         d.ids.push_back(static_cast<int>(id));
         d.points_px.push_back(*uv + Eigen::Vector2d(g(noise_rng), g(noise_rng)));
@@ -161,6 +172,58 @@ TEST(Rig, SigmaMatchesMonteCarloSpread) {
                 sigma[i] / spread);
     EXPECT_GT(sigma[i] / spread, 1 / 1.5) << names[i];
     EXPECT_LT(sigma[i] / spread, 1.5) << names[i];
+  }
+}
+
+// Two D300 + 24 mm cameras, each behind its own as-built NI320 dome with its own pupil offset
+// ((0.4, 1.0, 5.4) and (−0.3, 0.5, 3.0) mm from the outer centre), 300 mm apart with 5°
+// convergence, 15 synchronised frames in water at 0.3 px, the ports predicted at the domes'
+// centres (millimetres off), each lens's calibration in air (without the housing) as a prior: the
+// relative pose and each camera's port within 3σ, the translation within 0.2 mm, each pupil within
+// the single-camera bounds (0.1 mm laterally, 0.3 mm axially).
+Truth TwoDomeRig() {
+  Truth t = TwoCameraRig();
+  const camera::Camera lens = refraction::testing::D300Brown();
+  t.cams = {lens, lens};
+  t.cams[1].params[camera::kBrownC] += 0.2;  // another lens of the same kind
+  const ports::PortSystem dome = fixtures::AsBuiltNi320();
+  t.ports = {dome, fixtures::Displaced(dome, {-0.7, -0.5, -2.4})};
+  return t;
+}
+
+TEST(Rig, CamerasBehindTheirOwnDomes) {
+  const Truth truth = TwoDomeRig();
+  const TargetSpec target = ParseTarget("chessboard:16x12:50");
+  const auto sets = Frames(truth, target, 15, 9);
+  RigOptions o;
+  CalibrationOptions c;
+  c.pixel_pitch_mm = truth.cams[0].sensor.pixel_pitch_mm;
+  o.cameras = {c};
+  for (int k = 0; k < 2; ++k) {
+    const auto t = refraction::ParamsOf(truth.ports[k]);
+    o.ports.push_back(fixtures::Displaced(truth.ports[k], {-t[0], -t[1], -t[2]}));  // predicted: the pupil at the centre
+    o.air_lens.push_back(fixtures::AirCalibration(truth.cams[k], target));  // each lens alone, in air
+  }
+  const RigResult r = CalibrateRig(sets, target, o);
+  const RigCamera& c1 = r.cameras[1];
+  const double dt = (c1.translation_mm - truth.cam_from_rig[1].translation()).norm();
+  const double dr = AngleDeg(c1.rotation_rad, truth.cam_from_rig[1].linear());
+  std::printf("dome rig: translation error %.4f mm (sigma %.4f %.4f %.4f), rotation error %.5f deg, sigma0 %.4f px\n",
+              dt, c1.pose_sigma(3), c1.pose_sigma(4), c1.pose_sigma(5), dr, r.sigma0_px);
+  EXPECT_LT(dt, 0.2);
+  EXPECT_NEAR(r.sigma0_px, 0.3, 0.03);
+  for (int k = 0; k < 2; ++k) {
+    const auto& cam = r.cameras[k];
+    ASSERT_TRUE(cam.has_port);
+    const auto t = refraction::ParamsOf(truth.ports[k]);
+    std::printf("dome rig camera %d: pupil %.3f %.3f %.3f +- %.3f %.3f %.3f (true %.1f %.1f %.1f)\n", k, cam.port[0],
+                cam.port[1], cam.port[2], cam.port_sigma[0], cam.port_sigma[1], cam.port_sigma[2], t[0], t[1], t[2]);
+    for (int i = 0; i < 3; ++i) EXPECT_LE(std::abs(cam.port[i] - t[i]), 3 * cam.port_sigma[i]) << k << " " << i;
+    EXPECT_LE(std::hypot(cam.port[0] - t[0], cam.port[1] - t[1]), 0.1) << k;
+    EXPECT_LE(std::abs(cam.port[2] - t[2]), 0.3) << k;
+  }
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LE(std::abs(c1.translation_mm(i) - truth.cam_from_rig[1].translation()(i)), 3 * c1.pose_sigma(3 + i)) << i;
   }
 }
 
