@@ -5,6 +5,8 @@
 // the port, calib/refractive.h): the port block in the JSON, --port-out as-calibrated.toml.
 #include <fmt/format.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <filesystem>
 
@@ -20,6 +22,7 @@
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
 #include "porthole/interop/interop.h"
+#include "porthole/interop/opencv_storage.h"
 #include "porthole/io/presets.h"
 
 namespace porthole::cli {
@@ -232,7 +235,7 @@ struct CalibrateCliOptions {
   // Refractive calibration (--port).
   PortOptions port;
   WaterOptions water;
-  std::string air, intrinsics, free_port = "all", port_out, air_detections, air_images;
+  std::string air, intrinsics, free_port = "all", port_out, air_detections, air_images, stereo_out;
   bool air_lens_bare = false;
   std::vector<double> port_sigma;
   bool plan_only = false, free_water_index = false, free_shell = false;
@@ -306,6 +309,7 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
   o.calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o.pitch_mm);
   if (o.pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o.pitch_mm, kPixelPitchRange);
   if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
+  if (!o.stereo_out.empty()) CheckOutput(o.stereo_out, "--stereo-out", rules);
   using CC = calib::CalibrationOptions::CentreCorrection;
   o.calib.centre_correction = o.centre_correction == "on" ? CC::kOn : o.centre_correction == "off" ? CC::kOff : CC::kAuto;
   o.calib.loss = o.loss == "huber" ? calib::LossKind::kHuber : o.loss == "cauchy" ? calib::LossKind::kCauchy : calib::LossKind::kNone;
@@ -357,6 +361,40 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
                                   "the calibration of camera " + c.name);
   }
   auto j = calib::RigToJson(r, target, ro);
+  std::string stereo_note;
+  if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T
+    interop::OpenCVStereo st;
+    for (int k = 0; k < 2; ++k) {
+      const auto& c = r.cameras[k];
+      if (c.calibration.camera.model != camera::CameraModelId::kOpenCV || c.has_port) {
+        throw InvalidInput("--stereo-out", fmt::format("writes two cameras of the opencv model without a port; {} is {}{}",
+                                                       c.name, c.calibration.camera.model_name(),
+                                                       c.has_port ? " behind a port" : ": give --model opencv"));
+      }
+      const std::vector<double>& p = c.calibration.camera.params;
+      interop::OpenCVStorageCalibration& oc = k == 0 ? st.first : st.second;
+      oc.camera_matrix = {p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1};
+      const bool rational = p[9] != 0 || p[10] != 0 || p[11] != 0;
+      oc.distortion.assign(p.begin() + 4, p.begin() + (rational ? 12 : 9));
+      oc.width_px = c.calibration.camera.sensor.width_px;
+      oc.height_px = c.calibration.camera.sensor.height_px;
+    }
+    const auto& c1 = r.cameras[1];
+    const Eigen::Matrix3d rot =
+        c1.rotation_rad.norm() > 0 ? Eigen::AngleAxisd(c1.rotation_rad.norm(), c1.rotation_rad.normalized()).toRotationMatrix()
+                                   : Eigen::Matrix3d::Identity();
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) st.r[3 * a + b] = rot(a, b);
+      st.t[a] = c1.translation_mm(a);
+    }
+    const bool xml = std::filesystem::path(o.stereo_out).extension() == ".xml";
+    WriteOutput(o.stereo_out,
+                interop::OpenCVStereoText(st, xml, "porthole calibrate: stereo rig " + c1.name + " from " +
+                                                       r.cameras[0].name + " (x2 = R x1 + T, mm)"),
+                "--stereo-out", rules);
+    j["rig"]["stereo_out"] = o.stereo_out;
+    stereo_note = fmt::format("OpenCV stereo file (K1 D1 K2 D2 R T) written to {}\n", o.stereo_out);
+  }
   Json skip = Json::array();
   for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
   j["skipped"] = skip;
@@ -398,7 +436,7 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
       t += "\n";
     }
   }
-  t += "rig status: " + r.message + "\n";
+  t += "rig status: " + r.message + "\n" + stereo_note;
   for (const auto& s : skipped) t += fmt::format("skipped {}: {}\n", s.image, s.reason);
   fmt::print("{}", t);
   (void)cmd;
@@ -462,6 +500,9 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_option("--field-out", o->field_out,
                   "Coded targets with --free-target: write the adjusted target field to this file ('id x_mm y_mm "
                   "z_mm' lines, the sigma in comments), for --field of the next calibration or render");
+  cmd->add_option("--stereo-out", o->stereo_out,
+                  "A rig of opencv-model cameras: write the first two as OpenCV's stereo file (K1 D1 K2 D2 R T, as "
+                  "cv::stereoCalibrate gives and cv::stereoRectify takes; .xml for XML, else YAML)");
   cmd->add_option("--opencv-yaml", o->yaml,
                   "Write an OpenCV YAML: exact for --model opencv; a Brown calibration refit to k1 k2 p1 p2 k3 "
                   "(RMS reported)");
@@ -521,8 +562,10 @@ void RegisterCalibrate(CLI::App& app) {
   AddForceFlag(cmd, &o->force);
   cmd->callback([o, cmd] {
     const OutputRules rules{.force = o->force,
-                            .inputs = InputFiles(cmd, {"--out", "--opencv-yaml", "--field-out", "--port-out"})};
+                            .inputs = InputFiles(cmd, {"--out", "--opencv-yaml", "--field-out", "--port-out",
+                                                       "--stereo-out"})};
     if (o->image_dirs.size() > 1 || o->detection_paths.size() > 1) return CalibrateRigCommand(*o, cmd, rules);
+    if (!o->stereo_out.empty()) throw InvalidInput("--stereo-out", "only for a rig (--detections or --images repeated)");
     if (!o->image_dirs.empty()) o->images = o->image_dirs.front();
     if (!o->detection_paths.empty()) o->detections = o->detection_paths.front();
     if (o->images.empty() && o->detections.empty()) {

@@ -141,3 +141,33 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     assert "one per camera" in line, line
     assert "only with --port" in run_bad(*base, "--model", "opencv", "--air-calibration", f"{cal},{cal}",
                                          "--air-lens-bare")
+
+
+@pytest.mark.parametrize("ext", ["yml", "xml"])
+def test_stereo_file_is_read_by_opencv(rig, tmp_path, ext):
+    """--stereo-out: cv2.FileStorage reads K1 D1 K2 D2 R T (the values of the rig JSON) and
+    cv2.stereoRectify takes them: the rectified baseline is the rig's."""
+    d, _ = rig
+    f = tmp_path / f"stereo.{ext}"
+    j = run("calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "opencv",
+            "--stereo-out", f, "--json", "--quiet").json()["rig"]
+    fs = cv2.FileStorage(str(f), cv2.FILE_STORAGE_READ)
+    k1, d1, k2, d2, r, t = (fs.getNode(n).mat() for n in ("K1", "D1", "K2", "D2", "R", "T"))
+    size = (int(fs.getNode("image_width").real()), int(fs.getNode("image_height").real()))
+    fs.release()
+    assert size == (W, H)
+    cams = j["cameras"]
+    for cam, kk, dd in ((cams[0], k1, d1), (cams[1], k2, d2)):
+        c = cam["camera"]
+        assert [kk[0, 0], kk[1, 1], kk[0, 2], kk[1, 2]] == pytest.approx([c["fx_px"], c["fy_px"], c["cx_px"], c["cy_px"]],
+                                                                         rel=1e-15)
+        assert dd.ravel()[:5] == pytest.approx([c[k] or 0.0 for k in ("k1", "k2", "p1", "p2", "k3")], rel=1e-15)
+    ours_r, _ = cv2.Rodrigues(np.array(cams[1]["cam_from_rig"]["rotation_rad"]))
+    assert r == pytest.approx(ours_r, abs=1e-14)
+    assert t.ravel() == pytest.approx(cams[1]["cam_from_rig"]["translation_mm"], rel=1e-15)
+    r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(k1, d1, k2, d2, size, r, t)
+    baseline = -p2[0, 3] / p2[0, 0]
+    assert baseline == pytest.approx(cams[1]["baseline_mm"], rel=1e-9)
+    line = run_bad("calibrate", "--detections", d / "left.json", "--detections", d / "right.json",
+                   "--stereo-out", tmp_path / "brown.yml", "--quiet")
+    assert "--stereo-out" in line and "opencv" in line, line

@@ -284,4 +284,37 @@ std::string OpenCVStorageText(const OpenCVStorageCalibration& c, bool xml, std::
                      matrix("distortion_coefficients", static_cast<int>(n), 1, list(c.distortion, ", ")));
 }
 
+std::string OpenCVStereoText(const OpenCVStereo& s, bool xml, std::string_view comment) {
+  const auto list = [&](const auto& values, std::string_view sep) {
+    std::string out;
+    for (double v : values) out += (out.empty() ? "" : std::string(sep)) + Num(v);
+    return out;
+  };
+  const auto matrix = [&](std::string_view name, int rows, int cols, const auto& values) {
+    if (xml) {
+      return fmt::format("<{0} type_id=\"opencv-matrix\">\n  <rows>{1}</rows>\n  <cols>{2}</cols>\n  <dt>d</dt>\n"
+                         "  <data>\n    {3}</data></{0}>\n",
+                         name, rows, cols, list(values, " "));
+    }
+    return fmt::format("{}: !!opencv-matrix\n   rows: {}\n   cols: {}\n   dt: d\n   data: [ {} ]\n", name, rows, cols,
+                       list(values, ", "));
+  };
+  const auto d = [&](const OpenCVStorageCalibration& c) { return static_cast<int>(c.distortion.size()); };
+  const std::string body = matrix("K1", 3, 3, s.first.camera_matrix) + matrix("D1", d(s.first), 1, s.first.distortion) +
+                           matrix("K2", 3, 3, s.second.camera_matrix) +
+                           matrix("D2", d(s.second), 1, s.second.distortion) + matrix("R", 3, 3, s.r) +
+                           matrix("T", 3, 1, s.t);
+  if (xml) {
+    return fmt::format("<?xml version=\"1.0\"?>\n<opencv_storage>\n<!-- {} -->\n<image_width>{}</image_width>\n"
+                       "<image_height>{}</image_height>\n{}</opencv_storage>\n",
+                       XmlCommentText(comment), s.first.width_px, s.first.height_px, body);
+  }
+  std::string safe(comment);
+  for (char& ch : safe) {
+    if (ch == '\n') ch = ' ';
+  }
+  return fmt::format("%YAML:1.0\n---\n# {}\nimage_width: {}\nimage_height: {}\n{}", safe, s.first.width_px,
+                     s.first.height_px, body);
+}
+
 }  // namespace porthole::interop

@@ -41,4 +41,15 @@ OpenCVStorageCalibration ParseOpenCVStorage(std::string_view text, bool xml, con
 // Writes it (what cv::FileStorage reads), with `comment` as a YAML/XML comment.
 std::string OpenCVStorageText(const OpenCVStorageCalibration& c, bool xml, std::string_view comment);
 
+// A stereo pair as cv::stereoCalibrate returns it and cv::stereoRectify takes it: K1 D1 K2 D2 (the
+// camera matrices and distortion of each camera, as above), R (3 × 3, row-major) and T (mm) taking
+// camera 1's frame into camera 2's (x2 = R·x1 + T), and the image size.
+struct OpenCVStereo {
+  OpenCVStorageCalibration first, second;
+  std::array<double, 9> r{};
+  std::array<double, 3> t{};
+};
+// Writes it as a FileStorage file (YAML or XML): image_width, image_height, K1, D1, K2, D2, R, T.
+std::string OpenCVStereoText(const OpenCVStereo& s, bool xml, std::string_view comment);
+
 }  // namespace porthole::interop
