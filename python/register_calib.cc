@@ -13,6 +13,7 @@
 #include "porthole/calib/detect.h"
 #include "porthole/calib/detections_json.h"
 #include "porthole/calib/refractive.h"
+#include "porthole/calib/rig.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/synthetic.h"
 #include "porthole/camera/json.h"
@@ -298,6 +299,80 @@ void RegisterCalib(py::module_& m) {
       "housing on is refused: give its detections); intrinsics prior (the default with one), fixed or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
       "of the predicted port for the chi2 test; free_water_index, free_shell as the CLI's flags. "
       "Returns (the JSON of `porthole calibrate --port --json`, the estimated port).");
+
+  m.def(
+      "calibrate_rig",
+      [](const py::list& cameras, const std::string& target, const py::object& model, double pixel_pitch_mm,
+         const std::string& free, double reject_k, const py::object& port, const py::object& air_calibration,
+         bool air_lens_bare, const std::string& water, std::optional<double> water_index, double lambda_nm,
+         double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
+         const std::vector<std::string>& names) {
+        return WithFieldNames(
+            {{"cameras", "cameras"}, {"--images", "cameras"}, {"--model", "model"}, {"--pixel-pitch-mm", "pixel_pitch_mm"},
+             {"--port", "port"}, {"--air-calibration", "air_calibration"}, {"air_lens", "air_calibration"},
+             {"ports", "port"}, {"camera_options", "model"}},
+            [&] {
+              const auto t = TargetArg(target, py::none());
+              std::vector<std::vector<calib::ImageDetections>> per_camera;
+              for (const auto& c : cameras) {
+                auto dets = DetectionsArg(c.cast<py::list>());
+                calib::KeepTargetPoints(t, &dets);
+                per_camera.push_back(std::move(dets));
+              }
+              const auto list_of = [](const py::object& v) {
+                std::vector<py::object> out;
+                if (v.is_none()) return out;
+                if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) {
+                  for (const auto& x : v) out.push_back(py::reinterpret_borrow<py::object>(x));
+                } else {
+                  out.push_back(v);
+                }
+                return out;
+              };
+              calib::RigOptions o;
+              o.names = names;
+              for (const auto& m : list_of(model)) {
+                o.cameras.push_back(LensOptions(m.cast<std::string>(), pixel_pitch_mm, free, reject_k, "none", 1.0,
+                                                progress, "auto"));
+              }
+              if (o.cameras.empty()) throw InvalidInput("model", "give a model (one for all or one per camera)");
+              const ports::Environment env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c,
+                                                             salinity_psu, pressure_dbar);
+              for (const auto& p : list_of(port)) {
+                o.ports.push_back(ports::MakeSystem(io::LoadPort(p.cast<std::string>()), env, std::nullopt));
+              }
+              const auto airs = list_of(air_calibration);
+              if (!airs.empty() && !air_lens_bare) {
+                throw InvalidInput("air_calibration", "were they made with the housings on or of the lenses alone? A "
+                                                      "rig takes each lens alone (air_lens_bare=True)");
+              }
+              if (air_lens_bare && airs.empty()) {
+                throw InvalidInput("air_lens_bare", "says what air_calibration holds: give air_calibration");
+              }
+              for (std::size_t k = 0; k < airs.size(); ++k) {
+                const auto& lens = o.cameras[o.cameras.size() == 1 ? 0 : k];
+                auto rec = CalibrationArg(airs[k], pixel_pitch_mm, lens.model, "air_calibration");
+                if (rec) o.air_lens.push_back(*rec);
+              }
+              calib::RigResult r;
+              {
+                py::gil_scoped_release release;
+                r = calib::CalibrateRig(per_camera, t, o);
+              }
+              return JsonToPython(calib::RigToJson(r, t, o));
+            });
+      },
+      py::arg("cameras"), py::arg("target"), py::kw_only(), py::arg("model") = "brown", py::arg("pixel_pitch_mm") = 1.0,
+      py::arg("free") = "default", py::arg("reject_k") = 5.0, py::arg("port") = py::none(),
+      py::arg("air_calibration") = py::none(), py::arg("air_lens_bare") = false, py::arg("water") = "seawater",
+      py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07, py::arg("temperature_c") = 20.0,
+      py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("progress") = false,
+      py::arg("names") = std::vector<std::string>{},
+      "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
+      "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
+      "all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
+      "water; air_calibration a list, one per camera, of each lens alone (with air_lens_bare=True) as a prior. "
+      "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}}.");
 
   m.def(
       "synthetic_detections",

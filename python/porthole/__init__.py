@@ -30,7 +30,7 @@ from . import _porthole
 from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detections, DomeFit, FlatAnalysis,
                        HousingAssembly,
                        Medium, Plan, PortCalibration, PortFocal, PortholeWarning, PortType, Preset, RayStatus,
-                       RefractiveCalibration,
+                       RefractiveCalibration, RigCalibration, RigCamera,
                        Record, ReportSummary, Simulation,
                        SkippedImage, SphereFit, Status, Table, TraceResult, VirtualImage, VirtualImageTable)
 
@@ -284,6 +284,21 @@ def calibrate(detections, target, *, port=None, **kwargs) -> Calibration:
     return RefractiveCalibration.from_dict(d, estimated_port)
 
 
+@_wraps(_porthole.calibrate_rig, "porthole.RigCalibration",
+        "cameras: one entry per camera, each detect()'s DetectionSet or a list of Detections or of dicts; "
+        "air_calibration: one Calibration or file per camera.")
+def calibrate_rig(cameras, target, **kwargs) -> "RigCalibration":
+    plain = [_plain(c if isinstance(c, DetectionSet) else list(c)) for c in cameras]
+    if kwargs.get("air_calibration") is not None:
+        air = kwargs["air_calibration"]
+        kwargs["air_calibration"] = [_plain(a) for a in (air if isinstance(air, (list, tuple)) else [air])]
+    r = RigCalibration.from_dict(_porthole.calibrate_rig(plain, target, **kwargs))
+    for cam in r.cameras:
+        for text in cam.warnings:
+            _warnings.warn(f"{cam.name}: {text}", PortholeWarning, stacklevel=2)
+    return r
+
+
 def calibrate_images(images, target: str, *, threads: int = 0, field=None, **calibrate_options) -> Calibration:
     """Detects `target` in the images (a folder or a list of files) and calibrates from what was
     found: calibrate(detect(images, target, threads=threads, field=field), target, field=field,
@@ -359,7 +374,7 @@ def report(out, **kwargs) -> ReportSummary:
 __all__ = [
     "__version__", "index", "media", "depth_to_pressure_dbar", "load_port", "presets", "place", "PortSpec",
     "PortSystem", "virtual_image_table", "plan", "flat", "simulate", "camera_models", "project", "unproject",
-    "detect", "calibrate", "calibrate_images", "synthetic_detections", "compare", "load_calibration",
+    "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "synthetic_detections", "compare", "load_calibration",
     "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
     "PortType", "CameraModel",
     "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",

@@ -462,6 +462,61 @@ class RefractiveCalibration(Calibration):
         return cls(**fields, port=PortCalibration.from_dict(d["port"], estimated_port))
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class RigCamera(Calibration):
+    """One camera of a rig (calibrate_rig()): its Calibration (params, sigma, ... of its lens model)
+    plus its name, cam_from_rig (x_cam = R(rotation_rad)·x_rig + translation_mm; the rig frame is the
+    first camera's) with sigma (6: rotation rad, then translation mm), the baseline from the first
+    camera (mm) with its sigma, the convergence angle (deg), the frames it sees, and, behind a port,
+    `port` (name, kind, parameters, sigma, predicted)."""
+    name: str = ""
+    rotation_rad: np.ndarray = dataclasses.field(default=None)
+    translation_mm: np.ndarray = dataclasses.field(default=None)
+    pose_sigma: np.ndarray = dataclasses.field(default=None)
+    baseline_mm: float = 0.0
+    baseline_sigma_mm: float = 0.0
+    convergence_deg: float = 0.0
+    n_frames: int = 0
+    port: Optional[Record] = None
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "RigCamera":
+        base = Calibration.from_dict(d)
+        fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(Calibration)}
+        pose = d["cam_from_rig"]
+        sigma = pose["sigma"]
+        return cls(**fields, name=d["name"], rotation_rad=np.array(pose["rotation_rad"], dtype=float),
+                   translation_mm=np.array(pose["translation_mm"], dtype=float),
+                   pose_sigma=np.array([_float(x) for x in sigma["rotation_rad"] + sigma["translation_mm"]]),
+                   baseline_mm=_float(d["baseline_mm"]), baseline_sigma_mm=_float(d["baseline_sigma_mm"]),
+                   convergence_deg=_float(d["convergence_deg"]), n_frames=int(d["n_frames"]),
+                   port=Record(d["port"]) if "port" in d else None)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RigCalibration:
+    """calibrate_rig(): a rig of cameras (`porthole calibrate --detections A --detections B ...`):
+    `cameras` (RigCamera each), the frames, sigma0_px and rms_px over all cameras, status.
+    to_dict() gives the JSON of the CLI."""
+    cameras: List[RigCamera]
+    n_frames: int
+    n_points: int
+    sigma0_px: float
+    rms_px: float
+    status: str
+    _dict: Dict[str, Any] = dataclasses.field(repr=False)
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "RigCalibration":
+        rig = d["rig"]
+        return cls(cameras=[RigCamera.from_dict(c) for c in rig["cameras"]], n_frames=int(rig["n_frames"]),
+                   n_points=int(rig["n_points"]), sigma0_px=_float(rig["sigma0_px"]), rms_px=_float(rig["rms_px"]),
+                   status=rig["status"], _dict=d)
+
+    def to_dict(self) -> Dict[str, Any]:
+        return copy.deepcopy(self._dict)
+
+
 @dataclasses.dataclass(frozen=True)
 class VirtualImage:
     """Where a port images an axial object at wd_mm (object to the outer vertex): d_s2ep_mm from the

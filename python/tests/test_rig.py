@@ -1,0 +1,75 @@
+"""Proves porthole.calibrate_rig() is the rig calibration of `porthole calibrate --detections A
+--detections B` (issue 26): the same cam_from_rig, baseline and intrinsics (1e-9 relative) as the
+CLI's JSON for the same detections, as typed results (RigCalibration of RigCamera, each a
+Calibration), and errors naming the keyword. The stereo pair is projected by cv2.projectPoints
+(tests/cli/test_rig_cli.py compares the CLI with cv2.stereoCalibrate)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+import porthole
+from test_notebook import cli_json
+
+cv2 = pytest.importorskip("cv2")
+
+TARGET = "chessboard:16x12:50"
+W, H = 4288, 2848
+
+
+def stereo(n=12, seed=3):
+    rng = np.random.default_rng(seed)
+    pts = np.array([[c * 50.0, r * 50.0, 0.0] for r in range(12) for c in range(16)])
+    k = np.array([[2000.0, 0, 2150], [0, 2000, 1420], [0, 0, 1]])
+    dist = np.array([-0.08, 0.05, 0, 0, 0.0])
+    r1, _ = cv2.Rodrigues(np.array([0.0, -5 * math.pi / 180, 0.0]))
+    t1 = -r1 @ np.array([300.0, 0, 0])
+    cams = [[], []]
+    for f in range(n):
+        r, _ = cv2.Rodrigues(rng.uniform(-1, 1, 3) * np.array([0.6, 0.6, 0.3]))
+        t = np.array([150 + 250 * rng.uniform(-1, 1), 200 * rng.uniform(-1, 1), 800 + 1000 * rng.uniform()])
+        t = t - r @ pts.mean(axis=0)
+        for c, (rc, tc) in enumerate(((r, t), (r1 @ r, r1 @ t + t1))):
+            uv, _ = cv2.projectPoints(pts, cv2.Rodrigues(rc)[0], tc, k, dist)
+            uv = uv.reshape(-1, 2) + rng.normal(0, 0.3, (len(pts), 2))
+            ok = (uv[:, 0] > 0) & (uv[:, 0] < W - 1) & (uv[:, 1] > 0) & (uv[:, 1] < H - 1)
+            cams[c].append({"image": f"f{f:03d}.png", "width_px": W, "height_px": H,
+                            "ids": [int(i) for i in np.nonzero(ok)[0]], "points_px": uv[ok].tolist()})
+    return cams
+
+
+def test_calibrate_rig_matches_the_cli(tmp_path):
+    cams = stereo()
+    files = []
+    for c, name in zip(cams, ("left", "right")):
+        files.append(tmp_path / f"{name}.json")
+        files[-1].write_text(json.dumps({"target": TARGET, "images": c}))
+    ours = porthole.calibrate_rig(cams, TARGET, model="opencv", names=["left.json", "right.json"])
+    theirs = cli_json("calibrate", "--detections", files[0], "--detections", files[1], "--model", "opencv",
+                      "--quiet")["rig"]
+    assert isinstance(ours, porthole.RigCalibration) and len(ours.cameras) == 2
+    right = ours.cameras[1]
+    assert isinstance(right, porthole.RigCamera) and isinstance(right, porthole.Calibration)
+    t = theirs["cameras"][1]
+    assert right.name == t["name"] == "right.json"
+    assert right.rotation_rad == pytest.approx(t["cam_from_rig"]["rotation_rad"], rel=1e-9, abs=1e-12)
+    assert right.translation_mm == pytest.approx(t["cam_from_rig"]["translation_mm"], rel=1e-9)
+    assert right.baseline_mm == pytest.approx(t["baseline_mm"], rel=1e-9)
+    assert right.pose_sigma[3:] == pytest.approx(t["cam_from_rig"]["sigma"]["translation_mm"], rel=1e-6)
+    for key, value in t["camera"].items():
+        if value is not None:
+            assert right.params[key] == pytest.approx(value, rel=1e-9, abs=1e-15), key
+    assert ours.sigma0_px == pytest.approx(theirs["sigma0_px"], rel=1e-9)
+    assert abs(right.baseline_mm - 300) < 3 * right.baseline_sigma_mm + 0.5
+    assert ours.to_dict()["rig"]["n_frames"] == theirs["n_frames"]
+
+
+def test_rig_errors_name_the_keyword():
+    cams = stereo(n=6)
+    with pytest.raises(ValueError, match="^model"):
+        porthole.calibrate_rig(cams, TARGET, model=["opencv", "opencv", "brown"])
+    with pytest.raises(ValueError, match="^cameras"):
+        porthole.calibrate_rig(cams[:1], TARGET, model="opencv")
+    with pytest.raises(ValueError, match="^air_lens_bare"):
+        porthole.calibrate_rig(cams, TARGET, model="opencv", port="nimar-ni320", air_lens_bare=True)
