@@ -257,6 +257,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       ro.lens = co;
       ro.port = options.ports[n_ports == 1 ? 0 : k];
       ro.compare_central = false;
+      ro.search = options.port_search;
       if (n_air > 0) {
         ro.air = options.air_lens[k];
         ro.air_of = RefractiveOptions::AirCalibrationOf::kLensBare;

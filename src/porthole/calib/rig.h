@@ -64,6 +64,9 @@ struct RigOptions {
   // residuals weighted by 1/σ0 of a first pass. Without it a dome's axial pupil offset is nearly
   // undetermined (it trades with the focal length and the cameras' positions).
   std::vector<CalibrationRecord> air_lens;
+  // Each camera's start behind its port searches the axial port parameter (RefractiveOptions::search);
+  // off when the predicted ports are known to be close (Monte-Carlo runs).
+  bool port_search = true;
 };
 
 struct RigCamera {

@@ -227,6 +227,53 @@ TEST(Rig, CamerasBehindTheirOwnDomes) {
   }
 }
 
+// The dome rig's reported σ (translation, baseline, each pupil's axial offset) against the
+// spread over 30 noise draws: within [1/1.5, 1.5] (issue 26).
+TEST(Rig, DomeRigSigmaMatchesMonteCarloSpread) {
+  const Truth truth = TwoDomeRig();
+  const TargetSpec target = ParseTarget("chessboard:16x12:50");
+  RigOptions o;
+  CalibrationOptions c;
+  c.pixel_pitch_mm = truth.cams[0].sensor.pixel_pitch_mm;
+  o.cameras = {c};
+  o.port_search = false;  // the predicted ports are 0.5 mm off: no axial search needed
+  for (int k = 0; k < 2; ++k) {
+    o.ports.push_back(fixtures::Displaced(truth.ports[k], {0.3, -0.3, 0.5}));
+    o.air_lens.push_back(fixtures::AirCalibration(truth.cams[k], target));
+  }
+  const int runs = std::getenv("PORTHOLE_MC_RUNS") ? std::atoi(std::getenv("PORTHOLE_MC_RUNS")) : 30;
+  constexpr int kN = 7;  // tx, ty, tz, baseline, pupil z of camera 0 and 1, pupil x of camera 1
+  std::array<double, kN> sum{}, sum2{}, sigma{};
+  for (int run = 0; run < runs; ++run) {
+    // The in-air calibrations are measurements too: drawn again in every run, so that the spread
+    // holds the prior's share of the σ.
+    for (int k = 0; k < 2; ++k) o.air_lens[k] = fixtures::AirCalibration(truth.cams[k], target, 0.3, 900 + 2 * run + k);
+    const RigResult r = CalibrateRig(Frames(truth, target, 15, 500 + run), target, o);
+    const RigCamera& c1 = r.cameras[1];
+    const auto t0 = refraction::ParamsOf(truth.ports[0]);
+    const auto t1 = refraction::ParamsOf(truth.ports[1]);
+    const std::array<double, kN> e = {c1.translation_mm.x() - truth.cam_from_rig[1].translation().x(),
+                                      c1.translation_mm.y() - truth.cam_from_rig[1].translation().y(),
+                                      c1.translation_mm.z() - truth.cam_from_rig[1].translation().z(),
+                                      c1.baseline_mm - 300,
+                                      r.cameras[0].port[2] - t0[2],
+                                      c1.port[2] - t1[2],
+                                      c1.port[0] - t1[0]};
+    const std::array<double, kN> s = {c1.pose_sigma(3), c1.pose_sigma(4), c1.pose_sigma(5), c1.baseline_sigma_mm,
+                                      r.cameras[0].port_sigma[2], c1.port_sigma[2], c1.port_sigma[0]};
+    for (int i = 0; i < kN; ++i) sum[i] += e[i], sum2[i] += e[i] * e[i], sigma[i] += s[i] / runs;
+  }
+  const char* names[] = {"tx", "ty", "tz", "baseline", "pupil z 0", "pupil z 1", "pupil x 1"};
+  for (int i = 0; i < kN; ++i) {
+    const double mean = sum[i] / runs;
+    const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
+    std::printf("dome rig %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f\n", names[i], sigma[i], spread,
+                sigma[i] / spread);
+    EXPECT_GT(sigma[i] / spread, 1 / 1.5) << names[i];
+    EXPECT_LT(sigma[i] / spread, 1.5) << names[i];
+  }
+}
+
 TEST(Rig, BadInputIsRefused) {
   const Truth truth = TwoCameraRig();
   const TargetSpec target = ParseTarget("chessboard:16x12:50");

@@ -107,14 +107,14 @@ inline RefractiveOptions Options(const PortSystem& predicted, double pitch_mm) {
 
 // The in-air calibration of the lens: 20 synthetic views of the target in air, σ noise_px (0.3 px).
 inline CalibrationRecord AirCalibration(const camera::Camera& cam, const TargetSpec& target,
-                                        double noise_px = 0.3) {
+                                        double noise_px = 0.3, uint64_t noise_seed = 22) {
   SyntheticOptions so;
   so.camera = cam;
   so.target = target;
   so.n_images = 20;
   so.noise_px = noise_px;
   so.pose_seed = 21;
-  so.noise_seed = 22;
+  so.noise_seed = noise_seed;
   CalibrationOptions co;
   co.pixel_pitch_mm = cam.sensor.pixel_pitch_mm;
   const CalibrationResult r = Calibrate(MakeSyntheticSet(so).detections, target, co);
