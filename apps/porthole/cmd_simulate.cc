@@ -97,6 +97,7 @@ std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Predic
   for (double r : {5.0, 10.0, simulate::ProfileRadiiMm(p.camera.sensor).back()}) {
     t += fmt::format(" {:.1f} um at r = {:.1f} mm;", 1000 * (water.RadialProfileMm(r) - air.RadialProfileMm(r)), r);
   }
+  if (p.predicted_water_fisheye) t += std::string("\nin-air calibration taken as ") + simulate::kAirCalibrationTakenAs;
   return t + "\n";
 }
 
@@ -121,6 +122,9 @@ std::string BrownText(const simulate::SystemSpec& spec, const simulate::Predicti
   for (double r : radii) {
     t += fmt::format(" {:.1f} um at r = {:.1f} mm;",
                      1000 * (camera::RadialProfileMm(p.water.params, r) - camera::RadialProfileMm(p.air.params, r)), r);
+  }
+  if (p.predicted_water || p.predicted_water_fisheye) {
+    t += std::string("\nin-air calibration taken as ") + simulate::kAirCalibrationTakenAs;
   }
   t += "\n\nfitted water model at other distances from the pupil:\n";
   for (const auto& e : errors) {

@@ -97,3 +97,14 @@ def test_bad_air_input_is_refused_in_one_line(renders, tmp_path):
     empty = tmp_path / "empty"
     empty.mkdir()
     assert "--air-images" in run_bad(*base, "--port", "nimar-ni320", "--air-images", empty)
+
+
+def test_simulate_says_what_its_air_calibration_is():
+    """One meaning of --air-calibration for every command (issue 26): simulate predicts from a
+    calibration made with the housing on, and says so in its text and JSON."""
+    table6 = '{"c_mm":25.801,"x0_mm":-0.026,"y0_mm":-0.144,"K1":1.842e-4,"K2":-3.030e-7}'
+    j = run("simulate", "--air-calibration", table6, "--json").json()
+    assert j["air_calibration_taken_as"].startswith("made with the housing on")
+    t = run("simulate", "--air-calibration", table6).out
+    assert "in-air calibration taken as made with the housing on" in t
+    assert "air_calibration_taken_as" not in run("simulate", "--json").json()  # no calibration, no claim

@@ -122,13 +122,17 @@ Json PredictionJson(const Prediction& p) {
         j[key] = CameraParamsJson(*cam);
         j[key]["model"] = cam->model_name();
       }
+      j["air_calibration_taken_as"] = kAirCalibrationTakenAs;
     }
     return j;
   }
   j["water"] = FitJson(p.water);
   j["air"] = FitJson(p.air);
   j["change"] = FittedParamsJson(p.change);
-  if (p.predicted_water) j["predicted_water"] = FittedParamsJson(*p.predicted_water);
+  if (p.predicted_water) {
+    j["predicted_water"] = FittedParamsJson(*p.predicted_water);
+    j["air_calibration_taken_as"] = kAirCalibrationTakenAs;
+  }
   Json units = FitUnitsJson();
   units["rms_um"] = "um";
   units["max_um"] = "um";

@@ -25,7 +25,14 @@ Json FitUnitsJson();
 // Radial distances (image mm) at which profiles are reported: 1 mm steps to the frame corner.
 std::vector<double> ProfileRadiiMm(const camera::Sensor& sensor);
 
-// {focus, camera, water, air, change, c_ratio, radial_profile, [predicted_water], units}.
+// What a prediction takes its in-air calibration to be (issue 26: one meaning for every command):
+// a calibration made with the housing on, through the port in air, as the paper's.
+inline constexpr const char* kAirCalibrationTakenAs =
+    "made with the housing on: the camera through the port in air, as the paper calibrated; predicted "
+    "water = it + (water fit - air fit). A calibration of the lens alone is not what this predicts from.";
+
+// {focus, camera, water, air, change, c_ratio, radial_profile, [predicted_water,
+// air_calibration_taken_as], units}.
 Json PredictionJson(const Prediction& p);
 
 // Sweep rows: offset, water and air fits, Δc, c ratio, radial profile change at the listed
