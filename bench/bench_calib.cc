@@ -17,11 +17,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
+
+#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
+#include "porthole/calib/rig.h"
 #include "porthole/calib/synthetic.h"
 
 namespace {
@@ -122,11 +126,10 @@ BENCHMARK(BM_CalibOpenCVWithStdDev)->Unit(benchmark::kMillisecond);
 
 // mrcal through its Python API: the script times itself (seed + optimisation, without the
 // interpreter start-up), reported as the manual iteration time.
-void BM_CalibMrcal(benchmark::State& state) {
-  if (!HaveSamples(state)) return;
-  const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_calib_mrcal.py " +
-                          GetSamples().json_path + " 2>/dev/null";
-  nlohmann::json j;
+// Runs bench_calib_mrcal.py on a detections file once per iteration, its own timing as the
+// iteration time; false (the benchmark skipped with the reason) if the peer failed.
+bool RunMrcalPeer(benchmark::State& state, const std::string& json_path, nlohmann::json* j) {
+  const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_calib_mrcal.py " + json_path + " 2>/dev/null";
   for (auto _ : state) {
     std::string out;
     if (FILE* p = popen(cmd.c_str(), "r")) {
@@ -135,13 +138,20 @@ void BM_CalibMrcal(benchmark::State& state) {
       if (pclose(p) != 0) out.clear();
     }
     try {
-      j = nlohmann::json::parse(out);
+      *j = nlohmann::json::parse(out);
     } catch (const nlohmann::json::exception&) {
       state.SkipWithError("mrcal peer failed (scripts/install-deps --bench: mrcal python3-mrcal)");
-      return;
+      return false;
     }
-    state.SetIterationTime(j["seconds"].get<double>());
+    state.SetIterationTime((*j)["seconds"].get<double>());
   }
+  return true;
+}
+
+void BM_CalibMrcal(benchmark::State& state) {
+  if (!HaveSamples(state)) return;
+  nlohmann::json j;
+  if (!RunMrcalPeer(state, GetSamples().json_path, &j)) return;
   state.counters["rms_px"] = j["rms_px"].get<double>();
   state.counters["fx_px"] = j["intrinsics"]["fx"].get<double>();
 }
@@ -197,27 +207,114 @@ BENCHMARK(BM_CalibManyViewsPorthole)->Arg(150)->Arg(1000)->Arg(10000)->Unit(benc
 
 void BM_CalibManyViewsMrcal(benchmark::State& state) {
   const ManyViews& s = GetManyViews(static_cast<int>(state.range(0)));
-  const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_calib_mrcal.py " + s.json_path + " 2>/dev/null";
   nlohmann::json j;
-  for (auto _ : state) {
-    std::string out;
-    if (FILE* p = popen(cmd.c_str(), "r")) {
-      char buf[4096];
-      while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
-      if (pclose(p) != 0) out.clear();
-    }
-    try {
-      j = nlohmann::json::parse(out);
-    } catch (const nlohmann::json::exception&) {
-      state.SkipWithError("mrcal peer failed (scripts/install-deps --bench: mrcal python3-mrcal)");
-      return;
-    }
-    state.SetIterationTime(j["seconds"].get<double>());
-  }
+  if (!RunMrcalPeer(state, s.json_path, &j)) return;
   state.counters["views"] = static_cast<double>(s.detections.size());
   state.counters["rms_px"] = j["rms_px"].get<double>();
 }
 BENCHMARK(BM_CalibManyViewsMrcal)->Arg(150)->Arg(1000)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(1);
+
+// ---------------------------------------------------------------------------------------------
+// A stereo rig (issue 26): porthole's rig calibration (calib/rig.h: both cameras alone, then one
+// adjustment of both intrinsics, cam_from_rig and the frames, covariance included) against OpenCV's
+// cv::calibrateCamera of each camera followed by cv::stereoCalibrate (CALIB_USE_INTRINSIC_GUESS |
+// CALIB_FIX_K3, 200 iterations, ε 1e-12: the whole pipeline a user runs), on the same points: two
+// opencv-model cameras 300 mm apart with 5° convergence, 15 frames of a 16 × 12 chessboard, every
+// point seen by both (stereoCalibrate needs that), 0.3 px. Counters: rms_px, baseline_mm.
+struct StereoSet {
+  TargetSpec target = ParseTarget("chessboard:16x12:50");
+  std::vector<std::vector<ImageDetections>> cameras{2};
+};
+
+const StereoSet& GetStereoSet() {
+  static const StereoSet s = [] {
+    StereoSet out;
+    const porthole::camera::Sensor sensor{4288, 2848, 0.0055};
+    const porthole::camera::Camera cams[2] = {
+        {porthole::camera::CameraModelId::kOpenCV, sensor, {2000, 2002, 2150, 1420, -0.08, 0.05, 2e-4, -1e-4, 0, 0, 0, 0}},
+        {porthole::camera::CameraModelId::kOpenCV, sensor, {1990, 1991, 2130, 1430, -0.07, 0.04, -1e-4, 2e-4, 0, 0, 0, 0}}};
+    const Eigen::Matrix3d r1 = Eigen::AngleAxisd(-5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Vector3d t1 = -r1 * Eigen::Vector3d(300, 0, 0);
+    const auto points = TargetPoints(out.target);
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& p : points) centre += p / static_cast<double>(points.size());
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::normal_distribution<double> g(0, 0.3);
+    for (int f = 0; f < 15; ++f) {
+      const Eigen::Matrix3d r = (Eigen::AngleAxisd(0.6 * u(rng), Eigen::Vector3d::UnitX()) *
+                                 Eigen::AngleAxisd(0.6 * u(rng), Eigen::Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(0.3 * u(rng), Eigen::Vector3d::UnitZ()))
+                                    .toRotationMatrix();
+      const Eigen::Vector3d aim(150 + 250 * u(rng), 200 * u(rng), 800 + 500 * (1 + u(rng)));
+      const Eigen::Vector3d t = aim - r * centre;
+      ImageDetections d[2];
+      for (int k = 0; k < 2; ++k) {
+        d[k].image = "f" + std::to_string(100 + f) + ".png";
+        d[k].width_px = sensor.width_px, d[k].height_px = sensor.height_px;
+      }
+      for (std::size_t id = 0; id < points.size(); ++id) {
+        const Eigen::Vector3d p0 = r * points[id] + t;
+        const auto a = cams[0].Project(p0), b = cams[1].Project(r1 * p0 + t1);
+        const auto in = [&](const std::optional<Eigen::Vector2d>& q) {
+          return q && q->x() > 0 && q->y() > 0 && q->x() < sensor.width_px - 1 && q->y() < sensor.height_px - 1;
+        };
+        if (!in(a) || !in(b)) continue;
+        d[0].ids.push_back(static_cast<int>(id)), d[1].ids.push_back(static_cast<int>(id));
+        d[0].points_px.push_back(*a + Eigen::Vector2d(g(rng), g(rng)));
+        d[1].points_px.push_back(*b + Eigen::Vector2d(g(rng), g(rng)));
+      }
+      if (d[0].ids.size() < 20) continue;
+      out.cameras[0].push_back(d[0]), out.cameras[1].push_back(d[1]);
+    }
+    return out;
+  }();
+  return s;
+}
+
+void BM_CalibStereoPorthole(benchmark::State& state) {
+  const StereoSet& s = GetStereoSet();
+  RigOptions o;
+  CalibrationOptions c;
+  c.model = porthole::camera::CameraModelId::kOpenCV;
+  c.reject_k = 0;  // the same points as OpenCV
+  o.cameras = {c};
+  RigResult r;
+  for (auto _ : state) {
+    r = CalibrateRig(s.cameras, s.target, o);
+    const double rms = r.rms_px;
+    benchmark::DoNotOptimize(rms);
+  }
+  state.counters["rms_px"] = r.rms_px;
+  state.counters["baseline_mm"] = r.cameras[1].baseline_mm;
+}
+BENCHMARK(BM_CalibStereoPorthole)->Unit(benchmark::kMillisecond);
+
+void BM_CalibStereoOpenCV(benchmark::State& state) {
+  const StereoSet& s = GetStereoSet();
+  std::vector<std::vector<cv::Point3f>> object;
+  std::vector<std::vector<cv::Point2f>> image[2];
+  ToOpenCVCorrespondences(s.cameras[0], s.target, &object, &image[0]);
+  ToOpenCVCorrespondences(s.cameras[1], s.target, &object, &image[1]);
+  const cv::Size size(4288, 2848);
+  const cv::TermCriteria crit(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
+  double rms = 0;
+  cv::Mat r, t;
+  for (auto _ : state) {
+    cv::Mat k[2], d[2];
+    for (int c = 0; c < 2; ++c) {
+      std::vector<cv::Mat> rv, tv;
+      cv::calibrateCamera(object, image[c], size, k[c], d[c], rv, tv, cv::CALIB_FIX_K3, crit);
+    }
+    cv::Mat e, f;
+    rms = cv::stereoCalibrate(object, image[0], image[1], k[0], d[0], k[1], d[1], size, r, t, e, f,
+                              cv::CALIB_USE_INTRINSIC_GUESS | cv::CALIB_FIX_K3, crit);
+    benchmark::DoNotOptimize(rms);
+  }
+  state.counters["rms_px"] = rms;
+  state.counters["baseline_mm"] = cv::norm(t);
+}
+BENCHMARK(BM_CalibStereoOpenCV)->Unit(benchmark::kMillisecond);
 
 // ---------------------------------------------------------------------------------------------
 // A fisheye: porthole's Kannala–Brandt calibration (automatic differentiation, with statistics)

@@ -514,6 +514,7 @@ class RigCalibration:
                    status=rig["status"], _dict=d)
 
     def to_dict(self) -> Dict[str, Any]:
+        """The JSON of `porthole calibrate --json` for the rig ({"rig": {...}})."""
         return copy.deepcopy(self._dict)
 
 

@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "porthole/calib/compare.h"
+#include "porthole/calib/prior_cost.h"
 #include "porthole/calib/scales.h"
 #include "porthole/coded/ellipse.h"
 #include "porthole/core/error.h"
@@ -103,28 +104,6 @@ struct RefractiveShellCost : RefractiveCost<M> {
   bool operator()(const T* scaled, const T* port, const T* shell_values, const T* pose, T* r) const {
     return this->template Residual<T>(scaled, port, shell_values, pose, r);
   }
-};
-
-// A Gaussian prior on one parameter block x, whitened: r = A·x − b.
-class LinearPriorCost final : public ceres::CostFunction {
- public:
-  LinearPriorCost(Eigen::MatrixXd a, Eigen::VectorXd b) : a_(std::move(a)), b_(std::move(b)) {
-    set_num_residuals(static_cast<int>(a_.rows()));
-    mutable_parameter_block_sizes()->push_back(static_cast<int>(a_.cols()));
-  }
-  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    const Eigen::Map<const Eigen::VectorXd> x(params[0], a_.cols());
-    Eigen::Map<Eigen::VectorXd>(residuals, a_.rows()) = a_ * x - b_;
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-          jacobians[0], a_.rows(), a_.cols()) = a_;
-    }
-    return true;
-  }
-
- private:
-  Eigen::MatrixXd a_;
-  Eigen::VectorXd b_;
 };
 
 // The in-air calibration as a Gaussian prior on the lens parameters `idx`: r = L⁻¹(p − μ) with
@@ -1461,19 +1440,10 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
                             : !options.air          ? "the water images alone"
                                                     : "an in-air calibration of the lens without the housing (--air-lens-bare)"}};
   if (!r.air_images.empty()) {
-    Json images = Json::array();
-    for (const auto& im : r.air_images) {
-      images.push_back({{"image", im.image},
-                        {"n_points", im.n_points},
-                        {"n_rejected", im.n_rejected},
-                        {"rms_px", num(im.rms_px)},
-                        {"rotation_rad", {im.rotation_rad.x(), im.rotation_rad.y(), im.rotation_rad.z()}},
-                        {"translation_mm", {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()}}});
-    }
     air["n_images"] = r.air_images.size();
     air["rms_px"] = num(r.air_rms_px);
     air["water_rms_px"] = num(r.water_rms_px);
-    air["images"] = images;
+    air["images"] = ImagesJson(r.air_images);
   }
   j["port"]["air"] = air;
   return j;

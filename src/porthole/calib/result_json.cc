@@ -128,6 +128,19 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
          body;
 }
 
+Json ImagesJson(const std::vector<ImageResult>& images) {
+  Json out = Json::array();
+  for (const auto& im : images) {
+    out.push_back({{"image", im.image},
+                   {"n_points", im.n_points},
+                   {"n_rejected", im.n_rejected},
+                   {"rms_px", Number(im.rms_px)},
+                   {"rotation_rad", {im.rotation_rad.x(), im.rotation_rad.y(), im.rotation_rad.z()}},
+                   {"translation_mm", {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()}}});
+  }
+  return out;
+}
+
 Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                        const CalibrationOptions& options) {
   const camera::ModelInfo& m = r.camera.info();
@@ -151,15 +164,7 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                        {"sigma", Number(d.sigma)},
                        {"t", Number(d.t)}});
   }
-  for (const auto& im : r.images) {
-    images.push_back({{"image", im.image},
-                      {"n_points", im.n_points},
-                      {"n_rejected", im.n_rejected},
-                      {"rms_px", Number(im.rms_px)},
-                      {"rotation_rad", {im.rotation_rad.x(), im.rotation_rad.y(), im.rotation_rad.z()}},
-                      {"translation_mm",
-                       {im.translation_mm.x(), im.translation_mm.y(), im.translation_mm.z()}}});
-  }
+  images = ImagesJson(r.images);
   const bool px = m.caps.image_mm && options.pixel_pitch_mm == 1.0;
   const camera::Sensor& sensor = r.camera.sensor;
   Json j = {

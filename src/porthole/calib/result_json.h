@@ -59,6 +59,10 @@ nlohmann::ordered_json AdjustedTargetJson(const CalibrationResult& r, const Targ
 // InvalidInput("--field-out") unless the target is coded and the result adjusted it.
 std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& target);
 
+// The per-image array of a calibration JSON: image, n_points, n_rejected, rms_px, rotation_rad and
+// translation_mm (cam_from_target).
+nlohmann::ordered_json ImagesJson(const std::vector<ImageResult>& images);
+
 nlohmann::ordered_json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
                                          const CalibrationOptions& options);
 // Reads what CalibrationToJson wrote, or a hand-written {"camera": {…}, "sigma": {…}, "sensor":

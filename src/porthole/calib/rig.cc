@@ -15,6 +15,7 @@
 #include <map>
 #include <set>
 
+#include "porthole/calib/prior_cost.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/scales.h"
@@ -85,27 +86,6 @@ struct RigResidual {
     r[1] = ((*uv)(1) - T(v_px)) * T(weight);
     return true;
   }
-};
-
-// A Gaussian prior on the scaled intrinsics, whitened: r = A·scaled − b.
-class PriorCost final : public ceres::CostFunction {
- public:
-  PriorCost(Eigen::MatrixXd a, Eigen::VectorXd b) : a_(std::move(a)), b_(std::move(b)) {
-    set_num_residuals(static_cast<int>(a_.rows()));
-    mutable_parameter_block_sizes()->push_back(static_cast<int>(a_.cols()));
-  }
-  bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
-    Eigen::Map<Eigen::VectorXd>(residuals, a_.rows()) = a_ * Eigen::Map<const Eigen::VectorXd>(x[0], a_.cols()) - b_;
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], a_.rows(),
-                                                                                         a_.cols()) = a_;
-    }
-    return true;
-  }
-
- private:
-  Eigen::MatrixXd a_;
-  Eigen::VectorXd b_;
 };
 
 // Blocks without a port: scaled intrinsics [N], cam_from_rig [6] (cameras k > 0 only),
@@ -413,7 +393,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     for (auto& c : cams) {
       if (!problem->HasParameterBlock(c.scaled.data())) continue;
       if (with_priors && c.prior_a.rows() > 0) {
-        problem->AddResidualBlock(new PriorCost(c.prior_a, c.prior_b), nullptr, c.scaled.data());
+        problem->AddResidualBlock(new LinearPriorCost(c.prior_a, c.prior_b), nullptr, c.scaled.data());
       }
       std::vector<int> fixed;
       for (std::size_t i = 0; i < c.free.size(); ++i) {

@@ -103,6 +103,22 @@ double AngleDeg(const Eigen::Vector3d& rotation_rad, const Eigen::Matrix3d& trut
   return Eigen::AngleAxisd(r * truth.transpose()).angle() * 180 / M_PI;
 }
 
+// Checks the mean reported σ of each quantity against its spread over the runs (sums of the
+// errors, of their squares, and of the σ / runs): the ratio within [1/1.5, 1.5].
+template <std::size_t K>
+void ExpectSigmaMatchesSpread(const char* what, const std::array<const char*, K>& names, int runs,
+                              const std::array<double, K>& sum, const std::array<double, K>& sum2,
+                              const std::array<double, K>& sigma) {
+  for (std::size_t i = 0; i < K; ++i) {
+    const double mean = sum[i] / runs;
+    const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
+    std::printf("%s %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f\n", what, names[i], sigma[i], spread,
+                sigma[i] / spread);
+    EXPECT_GT(sigma[i] / spread, 1 / 1.5) << names[i];
+    EXPECT_LT(sigma[i] / spread, 1.5) << names[i];
+  }
+}
+
 TEST(Rig, RecoversATwoCameraRig) {
   const Truth truth = TwoCameraRig();
   const TargetSpec target = ParseTarget("chessboard:16x12:50");
@@ -164,15 +180,7 @@ TEST(Rig, SigmaMatchesMonteCarloSpread) {
                                      c.calibration.sigma[0]};
     for (int i = 0; i < 5; ++i) sum[i] += e[i], sum2[i] += e[i] * e[i], sigma[i] += s[i] / runs;
   }
-  const char* names[] = {"tx", "ty", "tz", "baseline", "fx1"};
-  for (int i = 0; i < 5; ++i) {
-    const double mean = sum[i] / runs;
-    const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
-    std::printf("rig %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f\n", names[i], sigma[i], spread,
-                sigma[i] / spread);
-    EXPECT_GT(sigma[i] / spread, 1 / 1.5) << names[i];
-    EXPECT_LT(sigma[i] / spread, 1.5) << names[i];
-  }
+  ExpectSigmaMatchesSpread<5>("rig", {"tx", "ty", "tz", "baseline", "fx1"}, runs, sum, sum2, sigma);
 }
 
 // Two D300 + 24 mm cameras, each behind its own as-built NI320 dome with its own pupil offset
@@ -263,15 +271,8 @@ TEST(Rig, DomeRigSigmaMatchesMonteCarloSpread) {
                                       r.cameras[0].port_sigma[2], c1.port_sigma[2], c1.port_sigma[0]};
     for (int i = 0; i < kN; ++i) sum[i] += e[i], sum2[i] += e[i] * e[i], sigma[i] += s[i] / runs;
   }
-  const char* names[] = {"tx", "ty", "tz", "baseline", "pupil z 0", "pupil z 1", "pupil x 1"};
-  for (int i = 0; i < kN; ++i) {
-    const double mean = sum[i] / runs;
-    const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
-    std::printf("dome rig %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f\n", names[i], sigma[i], spread,
-                sigma[i] / spread);
-    EXPECT_GT(sigma[i] / spread, 1 / 1.5) << names[i];
-    EXPECT_LT(sigma[i] / spread, 1.5) << names[i];
-  }
+  ExpectSigmaMatchesSpread<kN>("dome rig", {"tx", "ty", "tz", "baseline", "pupil z 0", "pupil z 1", "pupil x 1"},
+                               runs, sum, sum2, sigma);
 }
 
 TEST(Rig, BadInputIsRefused) {
