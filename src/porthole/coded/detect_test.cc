@@ -307,7 +307,7 @@ TEST(CodedDetect, DamagedPartialAndLookAlikeTargetsAreSkippedAndCounted) {
               "%d of 48 cut by the border | %s\n", flipped, plain, full, ringless, cut, d.counts.ToString().c_str());
   for (const auto& [id, c] : good) {
     const Eigen::Vector3d q = h * Eigen::Vector3d(c.x(), c.y(), 1);
-    const auto it = std::find_if(d.targets.begin(), d.targets.end(), [&](const CodedTarget& t) { return t.id == id; });
+    const auto it = std::find_if(d.targets.begin(), d.targets.end(), [id = id](const CodedTarget& t) { return t.id == id; });
     if (inside(c)) {
       EXPECT_NE(it, d.targets.end()) << id;
     }

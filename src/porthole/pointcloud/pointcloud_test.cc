@@ -186,6 +186,18 @@ TEST(PlyRead, Errors) {
                 {"line 9", "not finite"});
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("cnt.ply", head + "1 2 3 4\n4 5 6\n")); },
                 {"line 8", "4 values where the header declares 3"});
+  // ASCII list counts beyond the line's values, up to ones no integer holds (1e20 and inf became
+  // INT64_MIN, an empty list, and the line was accepted; under clang's UBSan a float-cast-overflow).
+  const std::string list_head =
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+      "property float z\nproperty list uchar int extra\nend_header\n";
+  for (const std::string count : {"1e20", "inf", "9223372036854775808", "1"}) {
+    ExpectInvalid([&] { ReadPointCloud(WriteBytes("listcount.ply", list_head + "1 2 3 " + count + "\n")); },
+                  {"line 9", "list count " + count + " is more than the 0 values left"});
+  }
+  ExpectInvalid([&] { ReadPointCloud(WriteBytes("listcount.ply", list_head + "1 2 3 3 7 8\n")); },
+                {"line 9", "list count 3 is more than the 2 values left"});
+  EXPECT_EQ(ReadPointCloud(WriteBytes("list.ply", list_head + "1 2 3 2 7 8\n")).points.cols(), 1);
   // Header problems.
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("magic.ply", "plx\n")); }, {"line 1", "magic"});
   ExpectInvalid([&] { ReadPointCloud(WriteBytes("noend.ply", "ply\nformat ascii 1.0\n")); },

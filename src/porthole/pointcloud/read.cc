@@ -426,6 +426,12 @@ void ReadPlyAscii(const std::filesystem::path& path, const PlyHeader& h, LineRea
           const auto c = ParseNumber(tok[t++]);
           if (!c || *c < 0 || *c != std::floor(*c))
             FailLine(path, ln, "list count is not a non-negative integer");
+          // Before the conversion: a count of 1e20 or inf does not fit int64_t (undefined; g++ made
+          // it INT64_MIN, an empty list, and the line was accepted).
+          if (*c > static_cast<double>(tok.size() - t))
+            FailLine(path, ln,
+                     fmt::format("list count {} is more than the {} values left on the line", tok[t - 1],
+                                 tok.size() - t));
           n_values = static_cast<int64_t>(*c);
         }
         for (int64_t v = 0; v < n_values; ++v) {
