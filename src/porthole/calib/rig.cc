@@ -231,6 +231,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     }
     CalibrationOptions co = *c.options;
     if (co.target_free) throw InvalidInput("target_free", "not in a rig calibration");
+    co.statistics = false;  // a start: its covariance is not used
     co.progress = [&, k](const std::string& m) { say(fmt::format("{}: {}", cams[k].name, m)); };
     if (n_ports > 0) {  // the lens behind its port, calibrated alone through it (the start)
       RefractiveOptions ro;
