@@ -171,3 +171,65 @@ def test_stereo_file_is_read_by_opencv(rig, tmp_path, ext):
     line = run_bad("calibrate", "--detections", d / "left.json", "--detections", d / "right.json",
                    "--stereo-out", tmp_path / "brown.yml", "--quiet")
     assert "--stereo-out" in line and "opencv" in line, line
+
+
+def test_opencv_stereo_sample_matches_cv2_stereo_calibrate(tmp_path):
+    """Real images: OpenCV's own stereo sample (opencv-doc left01-14 / right01-14.jpg, a 9 x 6
+    chessboard, the pair its stereo_calib sample calibrates). Each camera's images are linked under one
+    frame name per pair (f01.jpg ...: frames are matched by file name), porthole detects and calibrates
+    the rig (status ok); then both tools calibrate the pairs both cameras saw from porthole's own
+    detections of them: R, T and the intrinsics agree within 1e-4 relative."""
+    data = "/usr/share/doc/opencv-doc/examples/data"
+    import os
+    pairs = [n[4:6] for n in sorted(os.listdir(data)) if n.startswith("left") and n.endswith(".jpg")
+             and os.path.exists(os.path.join(data, f"right{n[4:6]}.jpg"))]
+    if len(pairs) < 10:
+        pytest.skip("opencv-doc sample images not installed (scripts/install-deps)")
+    for side in ("left", "right"):
+        (tmp_path / side).mkdir()
+        for p in pairs:
+            os.symlink(os.path.join(data, f"{side}{p}.jpg"), tmp_path / side / f"f{p}.jpg")
+    j = run("calibrate", "--images", tmp_path / "left", "--images", tmp_path / "right", "--target",
+            "chessboard:9x6:25", "--model", "opencv", "--reject-k", "0", "--json", "--quiet").json()["rig"]
+    assert j["status"] == "ok" and j["n_cameras"] == 2
+    dets = [run("detect", "--images", tmp_path / side, "--target", "chessboard:9x6:25", "--json", "--quiet").json()
+            for side in ("left", "right")]
+    by_frame = [{os.path.basename(im["image"]): im for im in d["images"]} for d in dets]
+    common = sorted(set(by_frame[0]) & set(by_frame[1]))
+    # cv2.stereoCalibrate takes the frames both saw; porthole's rig also uses a frame one camera saw
+    # alone. The comparison gives both the frames both saw: porthole from detection files of those.
+    assert len(common) >= 10
+    for k, side in enumerate(("left", "right")):
+        (tmp_path / f"{side}.json").write_text(json.dumps({"target": "chessboard:9x6:25",
+                                                         "images": [by_frame[k][n] for n in common]}))
+    j = run("calibrate", "--detections", tmp_path / "left.json", "--detections", tmp_path / "right.json",
+            "--model", "opencv", "--reject-k", "0", "--json", "--quiet").json()["rig"]
+    obj, img = [], [[], []]
+    for name in common:
+        ids = sorted(set(by_frame[0][name]["ids"]) & set(by_frame[1][name]["ids"]))
+        assert len(ids) == 54  # whole boards: the same points in both
+        obj.append(np.array([[(i % 9) * 25.0, (i // 9) * 25.0, 0] for i in ids], np.float32))
+        for k in range(2):
+            pts = dict(zip(by_frame[k][name]["ids"], by_frame[k][name]["points_px"]))
+            img[k].append(np.array([pts[i] for i in ids], np.float32).reshape(-1, 1, 2))
+    size = (dets[0]["images"][0]["width_px"], dets[0]["images"][0]["height_px"])
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+    start = []
+    for k in range(2):
+        _, kk, dd, _, _ = cv2.calibrateCamera(obj, img[k], size, None, None, flags=cv2.CALIB_FIX_K3, criteria=crit)
+        start += [kk, dd]
+    rms, k0, d0, k1, d1, r, t, _, _ = cv2.stereoCalibrate(obj, img[0], img[1], *start, size,
+                                                          flags=cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_K3,
+                                                          criteria=crit)
+    cams = j["cameras"]
+    ours_r, _ = cv2.Rodrigues(np.array(cams[1]["cam_from_rig"]["rotation_rad"]))
+    dt = np.linalg.norm(np.array(cams[1]["cam_from_rig"]["translation_mm"]) - t.ravel()) / np.linalg.norm(t)
+    print(f"OpenCV stereo sample: {len(common)} pairs, baseline {cams[1]['baseline_mm']:.3f} +- "
+          f"{cams[1]['baseline_sigma_mm']:.3f} mm, |R - R_cv| {np.linalg.norm(ours_r - r):.1e}, |T - T_cv|/|T| {dt:.1e}, "
+          f"RMS {j['rms_px']:.5f} (OpenCV {rms:.5f}) px")
+    assert np.linalg.norm(ours_r - r) < 1e-4 and dt < 1e-4
+    for cam, kk in ((cams[0], k0), (cams[1], k1)):
+        c = cam["camera"]
+        assert [c["fx_px"], c["fy_px"], c["cx_px"], c["cy_px"]] == pytest.approx(
+            [kk[0, 0], kk[1, 1], kk[0, 2], kk[1, 2]], rel=1e-4)
+    assert j["rms_px"] == pytest.approx(rms, rel=1e-4)
