@@ -66,11 +66,14 @@ std::vector<std::vector<ImageDetections>> Frames(const Truth& truth, const Targe
   for (int f = 0; f < n + only0 + only1; ++f) {
     const double range = 800 + 1000 * (0.5 + 0.5 * u(pose_rng));
     Eigen::Isometry3d rig_from_target = Eigen::Isometry3d::Identity();
-    rig_from_target.linear() = (Eigen::AngleAxisd(0.6 * u(pose_rng), Eigen::Vector3d::UnitX()) *
-                                Eigen::AngleAxisd(0.6 * u(pose_rng), Eigen::Vector3d::UnitY()) *
-                                Eigen::AngleAxisd(0.3 * u(pose_rng), Eigen::Vector3d::UnitZ()))
+    // One draw per statement (argument and operand order is unspecified: the same on every compiler).
+    const double wz = u(pose_rng), wy = u(pose_rng), wx = u(pose_rng);
+    rig_from_target.linear() = (Eigen::AngleAxisd(0.6 * wx, Eigen::Vector3d::UnitX()) *
+                                Eigen::AngleAxisd(0.6 * wy, Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(0.3 * wz, Eigen::Vector3d::UnitZ()))
                                    .toRotationMatrix();
-    const Eigen::Vector3d aim(150 + 250 * u(pose_rng), 200 * u(pose_rng), range);
+    const double aim_y = u(pose_rng), aim_x = u(pose_rng);
+    const Eigen::Vector3d aim(150 + 250 * aim_x, 200 * aim_y, range);
     rig_from_target.translation() = aim - rig_from_target.linear() * centre;
     for (int k = 0; k < 2; ++k) {
       if ((k == 1 && f >= n && f < n + only0) || (k == 0 && f >= n + only0)) continue;
@@ -82,7 +85,8 @@ std::vector<std::vector<ImageDetections>> Frames(const Truth& truth, const Targe
         const auto uv = truth.Project(k, truth.cam_from_rig[k] * (rig_from_target * points[id]));
         if (!uv || uv->x() < 0 || uv->y() < 0 || uv->x() > d.width_px - 1 || uv->y() > d.height_px - 1) continue;
         d.ids.push_back(static_cast<int>(id));
-        d.points_px.push_back(*uv + Eigen::Vector2d(g(noise_rng), g(noise_rng)));
+        const double nv = g(noise_rng), nu = g(noise_rng);
+        d.points_px.push_back(*uv + Eigen::Vector2d(nu, nv));
       }
       if (d.ids.size() >= 8) out[k].push_back(d);
     }
