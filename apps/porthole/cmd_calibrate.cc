@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -94,8 +95,21 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
     }
   }
   if (!high.empty()) t += "correlations beyond 0.9:" + high + "\n";
-  t += "per-image RMS (px):";
-  for (const auto& im : r.images) t += fmt::format(" {} {:.3f};", im.image, im.rms_px);
+  // Every image up to 30; beyond (a calibration from video has thousands of frames) the median and
+  // the five worst, every image in the JSON.
+  constexpr std::size_t kListImages = 30;
+  if (r.images.size() <= kListImages) {
+    t += "per-image RMS (px):";
+    for (const auto& im : r.images) t += fmt::format(" {} {:.3f};", im.image, im.rms_px);
+  } else {
+    std::vector<const calib::ImageResult*> by_rms;
+    for (const auto& im : r.images) by_rms.push_back(&im);
+    std::sort(by_rms.begin(), by_rms.end(), [](const auto* a, const auto* b) { return a->rms_px > b->rms_px; });
+    t += fmt::format("per-image RMS (px), {} images: median {:.3f}; the 5 worst:", r.images.size(),
+                     by_rms[by_rms.size() / 2]->rms_px);
+    for (std::size_t k = 0; k < 5; ++k) t += fmt::format(" {} {:.3f};", by_rms[k]->image, by_rms[k]->rms_px);
+    t += " every image in --json";
+  }
   t += "\nstatus: " + r.message + "\n";
   return t;
 }

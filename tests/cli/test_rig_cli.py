@@ -233,3 +233,19 @@ def test_opencv_stereo_sample_matches_cv2_stereo_calibrate(tmp_path):
         assert [c["fx_px"], c["fy_px"], c["cx_px"], c["cy_px"]] == pytest.approx(
             [kk[0, 0], kk[1, 1], kk[0, 2], kk[1, 2]], rel=1e-4)
     assert j["rms_px"] == pytest.approx(rms, rel=1e-4)
+
+
+def test_many_images_are_summarised_in_the_text(tmp_path):
+    """Beyond 30 images (a calibration from video) the text gives the median per-image RMS and the
+    five worst images instead of every image; the JSON keeps every one, and the text's figures are
+    its."""
+    data = frames(n=40, seed=11)
+    write_detections(tmp_path / "many.json", data, 0)
+    args = ["calibrate", "--detections", tmp_path / "many.json", "--model", "opencv", "--quiet"]
+    t = run(*args).out
+    j = run(*args, "--json").json()
+    rms = sorted((im["rms_px"] for im in j["images"]), reverse=True)
+    assert len(rms) == 40
+    line = next(l for l in t.splitlines() if l.startswith("per-image RMS"))
+    assert line.startswith(f"per-image RMS (px), 40 images: median {rms[20]:.3f}; the 5 worst:"), line
+    assert line.count(";") == 6 and f"{rms[0]:.3f}" in line and line.endswith("every image in --json")
