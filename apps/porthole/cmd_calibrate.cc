@@ -259,7 +259,7 @@ struct CalibrateCliOptions {
 
 // A rig (issue 26): --images or --detections repeated, one per camera; frames matched by file name.
 // --model takes one model for all or a comma list, one per camera; --pixel-pitch-mm one value for all.
-void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRules& rules) {
+void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   const bool from_images = !o.image_dirs.empty();
   if (from_images && !o.detection_paths.empty()) {
     throw InvalidInput("--images", "a rig's cameras come all from --images or all from --detections");
@@ -348,6 +348,16 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
     const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
     ro.air_lens.push_back(interop::ReadCalibrationFileAs(air_files[k], o.pitch_mm, model, "--air-calibration").calibration);
   }
+  if (!o.stereo_out.empty()) {  // refused before the work: the first two cameras as OpenCV knows them
+    for (int k = 0; k < 2; ++k) {
+      const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
+      if (model != camera::CameraModelId::kOpenCV || !ro.ports.empty()) {
+        throw InvalidInput("--stereo-out", fmt::format("writes two cameras of the opencv model without a port; camera "
+                                                       "{} is {}{}", k, camera::Info(model).name,
+                                                       ro.ports.empty() ? ": give --model opencv" : " behind a port"));
+      }
+    }
+  }
   std::vector<std::vector<calib::ImageDetections>> per_camera;
   std::vector<calib::SkippedImage> skipped;
   for (int k = 0; k < n; ++k) {
@@ -378,13 +388,8 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
   std::string stereo_note;
   if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T
     interop::OpenCVStereo st;
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < 2; ++k) {  // opencv models without a port (checked above)
       const auto& c = r.cameras[k];
-      if (c.calibration.camera.model != camera::CameraModelId::kOpenCV || c.has_port) {
-        throw InvalidInput("--stereo-out", fmt::format("writes two cameras of the opencv model without a port; {} is {}{}",
-                                                       c.name, c.calibration.camera.model_name(),
-                                                       c.has_port ? " behind a port" : ": give --model opencv"));
-      }
       const std::vector<double>& p = c.calibration.camera.params;
       interop::OpenCVStorageCalibration& oc = k == 0 ? st.first : st.second;
       oc.camera_matrix = {p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1};
@@ -453,7 +458,6 @@ void CalibrateRigCommand(CalibrateCliOptions& o, CLI::App* cmd, const OutputRule
   t += "rig status: " + r.message + "\n" + stereo_note;
   for (const auto& s : skipped) t += fmt::format("skipped {}: {}\n", s.image, s.reason);
   fmt::print("{}", t);
-  (void)cmd;
 }
 
 }  // namespace
@@ -578,7 +582,7 @@ void RegisterCalibrate(CLI::App& app) {
     const OutputRules rules{.force = o->force,
                             .inputs = InputFiles(cmd, {"--out", "--opencv-yaml", "--field-out", "--port-out",
                                                        "--stereo-out"})};
-    if (o->image_dirs.size() > 1 || o->detection_paths.size() > 1) return CalibrateRigCommand(*o, cmd, rules);
+    if (o->image_dirs.size() > 1 || o->detection_paths.size() > 1) return CalibrateRigCommand(*o, rules);
     if (!o->stereo_out.empty()) throw InvalidInput("--stereo-out", "only for a rig (--detections or --images repeated)");
     if (!o->image_dirs.empty()) o->images = o->image_dirs.front();
     if (!o->detection_paths.empty()) o->detections = o->detection_paths.front();
