@@ -488,7 +488,11 @@ void RegisterCalibrate(CLI::App& app) {
       ->capture_default_str();
   std::string models;
   for (const auto& m : camera::CameraModels()) models += (models.empty() ? "" : " | ") + std::string(m.name);
-  cmd->add_option("--model", o->model, "Camera model: " + models)->capture_default_str();
+  cmd->add_option("--model", o->model,
+                  "Camera model: " + models +
+                      ". A rig: one for all or a comma list, one per camera (so too --port, and --air-calibration "
+                      "one file per camera)")
+      ->capture_default_str();
   cmd->add_option("--free", o->free,
                   "Adjusted parameters, by name (brown: c,x0,y0,K1,K2,K3,P1,P2,B1,B2; opencv: "
                   "fx,fy,cx,cy,k1..k6,p1,p2; kannala-brandt: fx,fy,cx,cy,k1..k4), all, or default "
