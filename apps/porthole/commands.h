@@ -24,5 +24,6 @@ void RegisterCompare(CLI::App& app);
 void RegisterConvert(CLI::App& app);
 void RegisterReport(CLI::App& app);
 void RegisterRender(CLI::App& app);
+void RegisterMeasure(CLI::App& app);
 
 }  // namespace porthole::cli

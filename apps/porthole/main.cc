@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterCompare(app);
   porthole::cli::RegisterConvert(app);
   porthole::cli::RegisterReport(app);
+  porthole::cli::RegisterMeasure(app);
   porthole::cli::RegisterRender(app);
 
   try {

@@ -505,10 +505,42 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   co.num_threads = first.num_threads;
   ceres::Covariance covariance(co);
   std::vector<std::pair<const double*, const double*>> pairs;
+  // Every block of every camera, and every pair of them (the joint covariance RigResult::covariance).
+  struct Block {
+    const double* data;
+    int size;
+    std::vector<double> scale;  // physical = scaled · scale
+    std::vector<std::string> names;
+  };
+  std::vector<Block> blocks;
   for (int k = 0; k < n_cams; ++k) {
-    pairs.push_back({cams[k].scaled.data(), cams[k].scaled.data()});
-    if (k > 0) pairs.push_back({cams[k].extrinsic.data(), cams[k].extrinsic.data()});
-    if (cams[k].shell) pairs.push_back({cams[k].port.data(), cams[k].port.data()});
+    const Cam& c = cams[k];
+    if (problem.HasParameterBlock(c.scaled.data())) {
+      Block b{c.scaled.data(), static_cast<int>(c.scaled.size()), c.scale, {}};
+      for (const auto& p : c.camera.info().params) b.names.push_back(c.name + "." + std::string(p.json_key));
+      blocks.push_back(std::move(b));
+    }
+    if (c.shell && problem.HasParameterBlock(c.port.data())) {
+      Block b{c.port.data(), refraction::kPortNumParams, std::vector<double>(refraction::kPortNumParams, 1.0), {}};
+      for (const auto& p : refraction::PortParams(c.shell->kind)) b.names.push_back(c.name + "." + std::string(p.json_key));
+      blocks.push_back(std::move(b));
+    }
+    if (k > 0 && problem.HasParameterBlock(c.extrinsic.data())) {
+      Block b{c.extrinsic.data(), 6, std::vector<double>(6, 1.0), {}};
+      for (const char* key : {"rx_rad", "ry_rad", "rz_rad", "tx_mm", "ty_mm", "tz_mm"}) {
+        b.names.push_back(c.name + ".cam_from_rig." + key);
+      }
+      blocks.push_back(std::move(b));
+    }
+  }
+  for (std::size_t a = 0; a < blocks.size(); ++a) {
+    for (std::size_t b = a; b < blocks.size(); ++b) {
+      if (problem.IsParameterBlockConstant(const_cast<double*>(blocks[a].data)) ||
+          problem.IsParameterBlockConstant(const_cast<double*>(blocks[b].data))) {
+        continue;
+      }
+      pairs.push_back({blocks[a].data, blocks[b].data});
+    }
   }
   const bool cov_ok = covariance.Compute(pairs, &problem);
   if (!cov_ok) {
@@ -524,6 +556,31 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   }
   const double s02 = with_priors ? (ss * weight * weight + prior_ss) / res.redundancy
                                  : res.sigma0_px * res.sigma0_px;
+  {
+    int n_joint = 0;
+    std::vector<int> offset;
+    for (const Block& b : blocks) {
+      offset.push_back(n_joint);
+      n_joint += b.size;
+      res.covariance_parameters.insert(res.covariance_parameters.end(), b.names.begin(), b.names.end());
+    }
+    res.covariance = Eigen::MatrixXd::Zero(n_joint, n_joint);
+    for (std::size_t a = 0; a < blocks.size(); ++a) {
+      for (std::size_t b = a; b < blocks.size(); ++b) {
+        const Block &ba = blocks[a], &bb = blocks[b];
+        if (problem.IsParameterBlockConstant(const_cast<double*>(ba.data)) ||
+            problem.IsParameterBlockConstant(const_cast<double*>(bb.data))) {
+          continue;
+        }
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> m(ba.size, bb.size);
+        covariance.GetCovarianceBlock(ba.data, bb.data, m.data());
+        const Eigen::Map<const Eigen::VectorXd> sa(ba.scale.data(), ba.size), sb(bb.scale.data(), bb.size);
+        const Eigen::MatrixXd phys = s02 * (sa.asDiagonal() * Eigen::MatrixXd(m) * sb.asDiagonal());
+        res.covariance.block(offset[a], offset[b], ba.size, bb.size) = phys;
+        res.covariance.block(offset[b], offset[a], bb.size, ba.size) = phys.transpose();
+      }
+    }
+  }
   for (int k = 0; k < n_cams; ++k) {
     Cam& c = cams[k];
     const int n = static_cast<int>(c.scale.size());
@@ -621,6 +678,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       for (int i = 0; i < refraction::kPortNumParams; ++i) rc.port_sigma[i] = std::sqrt(s02 * pc(i, i));
       refraction::ValidateParams(*c.shell, c.port.data(), "port");
       rc.estimated_port = refraction::SpecWithParams(*c.system, c.port);
+      rc.shell = *c.shell;
     }
     res.cameras.push_back(std::move(rc));
   }
@@ -631,6 +689,42 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
                   n_used_frames, res.sigma0_px, res.rms_px, res.iterations, res.seconds));
   return res;
 }
+
+namespace {
+
+nlohmann::ordered_json ShellJson(const refraction::Shell& s) {
+  using Json = nlohmann::ordered_json;
+  Json j = {{"frame", "cam (origin at the entrance pupil, axes of the housing)"},
+            {"n_glass", s.n_glass},
+            {"n_water", s.n_water}};
+  if (s.kind == refraction::PortKind::kDome) {
+    j["outer_radius_mm"] = s.outer_radius_mm;
+    j["inner_radius_mm"] = s.inner_radius_mm;
+    j["inner_from_outer_mm"] = {s.inner_from_outer_mm.x(), s.inner_from_outer_mm.y(), s.inner_from_outer_mm.z()};
+    j["rim_from_outer_z_mm"] = s.rim_from_outer_z_mm;
+  } else {
+    j["thickness_mm"] = s.thickness_mm;
+  }
+  return j;
+}
+
+nlohmann::ordered_json JointCovarianceJson(const RigResult& r) {
+  using Json = nlohmann::ordered_json;
+  Json m = Json::array();
+  for (int i = 0; i < r.covariance.rows(); ++i) {
+    Json row = Json::array();
+    for (int j = 0; j < r.covariance.cols(); ++j) {
+      row.push_back(std::isfinite(r.covariance(i, j)) ? Json(r.covariance(i, j)) : Json(nullptr));
+    }
+    m.push_back(row);
+  }
+  return {{"meaning", "sigma0^2-scaled covariance of every camera's intrinsics, port and cam_from_rig, marginal "
+                      "over the frames (fixed parameters: zero rows)"},
+          {"parameters", r.covariance_parameters},
+          {"matrix", m}};
+}
+
+}  // namespace
 
 nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, const RigOptions& options) {
   using Json = nlohmann::ordered_json;
@@ -672,7 +766,8 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
                      {"n_water", options.ports[options.ports.size() == 1 ? 0 : k].n_water},
                      {"parameters", params},
                      {"sigma", sigma},
-                     {"predicted", predicted}};
+                     {"predicted", predicted},
+                     {"shell", ShellJson(c.shell)}};
     }
     out.update(j);
     cameras.push_back(out);
@@ -691,7 +786,8 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
             {"rms_px", num(r.rms_px)},
             {"seconds", r.seconds},
             {"status", r.message},
-            {"cameras", cameras}}}};
+            {"cameras", cameras},
+            {"covariance", JointCovarianceJson(r)}}}};
 }
 
 }  // namespace porthole::calib

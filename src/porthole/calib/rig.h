@@ -90,11 +90,20 @@ struct RigCamera {
   refraction::PortKind port_kind = refraction::PortKind::kDome;
   std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, port_predicted{};
   ports::PortSpec estimated_port;
+  refraction::Shell shell;  // its fixed part (radii, thickness, indices), cam-frame axes
 };
 
 struct RigResult {
   std::vector<RigCamera> cameras;
   std::vector<std::string> frames;  // every frame name, sorted
+  // The joint σ0²-scaled covariance of every camera's adjusted parameters, marginal over the
+  // frames: per camera in order its intrinsics (model order, physical units; fixed ones zero), its
+  // port parameters (behind a port) and its cam_from_rig (k > 0: rotation_rad x y z, translation_mm
+  // x y z). covariance_parameters names each row "<camera name>.<key>" (the model's json_key, the
+  // port's json_key, cam_from_rig.rx_rad … tz_mm). What measure/ propagates: the cameras'
+  // errors are correlated, through the frames they share.
+  Eigen::MatrixXd covariance;
+  std::vector<std::string> covariance_parameters;
   int n_points = 0, n_rejected = 0, n_unknowns = 0, redundancy = 0, iterations = 0;
   double sigma0_px = 0, rms_px = 0, seconds = 0;
   std::string message;  // "ok", "poor: …" (PoorFitStatus)
@@ -108,8 +117,10 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
                        const RigOptions& options);
 
 // {"cameras": [each camera's calibration JSON (CalibrationToJson) with "name" and "cam_from_rig"
-// {rotation_rad, translation_mm, sigma, covariance}, baseline_mm, convergence_deg, n_frames],
-// "frame": "camera 0", n_frames, sigma0_px, rms_px, counts, status}.
+// {rotation_rad, translation_mm, sigma, covariance}, baseline_mm, convergence_deg, n_frames, and
+// behind a port "port" {name, kind, n_water, parameters, sigma, predicted, shell {its fixed part}}],
+// "frame": "camera 0", n_frames, sigma0_px, rms_px, counts, status, "covariance" {parameters,
+// matrix} (RigResult::covariance)}.
 nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, const RigOptions& options);
 
 }  // namespace porthole::calib

@@ -1,0 +1,89 @@
+// `measure`: object points seen by two or more cameras of a calibrated rig → 3-D points in the rig
+// frame and lengths between them, each with σ (triangulate.h). What the CLI and Python both call.
+//
+// Input: image points, each (frame, camera, id, pixel): from porthole detections (one set per
+// camera; frames matched by image file name without folder and extension, as the rig calibration
+// matches them) or from a CSV `frame,camera,id,u_px,v_px` as measurement tools export (camera by
+// its name in the rig or its index; a header line and lines starting with # are skipped). Every
+// (frame, id) seen by two or more cameras is triangulated; lengths are asked for by id pairs and
+// measured in every frame that holds both.
+//
+// Bad input throws InvalidInput naming the field and, for a file, the file and line: a pixel
+// outside its camera's image, the same (frame, camera, id) twice, a point seen by one camera only
+// (by frame and id; MeasureOptions::skip_unpaired skips them instead, counted), a length between
+// ids no frame holds both of.
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "porthole/calib/observations.h"
+#include "porthole/measure/triangulate.h"
+
+namespace porthole::measure {
+
+struct ImagePoint {
+  std::string frame;
+  int camera = 0;  // index in the rig
+  int id = 0;
+  Eigen::Vector2d pixel_px = Eigen::Vector2d::Zero();
+  std::string where;  // "file:line" or "file, image …" for messages
+};
+
+// The CSV `frame,camera,id,u_px,v_px` (text already read from `origin`); throws
+// InvalidInput(field, "origin:line: …").
+std::vector<ImagePoint> ParsePointsCsv(std::string_view text, const Rig& rig, const std::string& field,
+                                       const std::string& origin);
+// Detections of one camera (calib::LoadDetections) as image points of camera `camera`.
+std::vector<ImagePoint> PointsFromDetections(const std::vector<calib::ImageDetections>& detections, int camera,
+                                             const std::string& origin);
+
+struct MeasureOptions {
+  // Image-point σ (px) of the points measured; 0: the rig calibration's σ0 (the detector's noise on
+  // the calibration target; points clicked by hand are usually worse: give their σ).
+  double sigma_px = 0;
+  bool calibration_sigma = true;  // add the rig calibration's uncertainty
+  double mismatch_p = 1e-3;
+  std::vector<std::pair<int, int>> lengths;  // id pairs
+  bool skip_unpaired = false;                // skip points seen by one camera only (counted)
+};
+
+struct MeasuredPoint {
+  std::string frame;
+  int id = 0;
+  std::vector<int> cameras;
+  Point point;
+};
+
+struct MeasuredLength {
+  std::string frame;
+  int id_a = 0, id_b = 0;
+  bool ok = false;
+  std::string why;
+  Length length;
+};
+
+struct MeasureResult {
+  std::vector<MeasuredPoint> points;  // by frame, then id
+  std::vector<MeasuredLength> lengths;
+  double sigma_px = 0;
+  std::string sigma_px_from;  // "given", "the rig calibration's sigma0"
+  int n_unpaired = 0;         // points seen by one camera only, skipped
+  int n_failed = 0;           // points that could not be triangulated (why in each)
+  int n_mismatched = 0;
+  std::vector<std::string> warnings;
+  std::string covariance_note;
+};
+
+MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, const MeasureOptions& options);
+
+// {"measure": {sigma_px, sigma_px_from, counts, covariance_note, warnings, frame: "rig …",
+//  points: [{frame, id, cameras, x_mm, sigma_mm, sigma_image_mm, covariance_mm2, miss_mm,
+//  residual_px, range_mm, chi2, dof, p_value, mismatched | ok:false, why}], lengths: [{frame,
+//  id_a, id_b, length_mm, sigma_mm, sigma_percent, sigma_image_mm, sigma_calibration_mm}]}}.
+nlohmann::ordered_json MeasureToJson(const MeasureResult& r, const Rig& rig);
+
+}  // namespace porthole::measure

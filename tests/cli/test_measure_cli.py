@@ -1,0 +1,171 @@
+"""`porthole measure` through the CLI (issue 27), on a stereo rig calibrated by `porthole calibrate`
+from synthetic detections projected by OpenCV (test_rig_cli's rig: two 4288 x 2848 px cameras 300 mm
+apart, 5 deg convergence, 0.3 px noise):
+- against the real peer, OpenCV's `cv2.triangulatePoints` (on points undistorted by
+  `cv2.undistortPointsIter` to 1e-14) with the same calibrated rig: the same 3-D points within 1e-6 mm
+  on image points projected through that rig by `cv2.projectPoints`;
+- the board's 750 mm edges (15 squares of 50 mm) measured in 15 frames of fresh 0.3 px points: every
+  error within 4 sigma and the RMS of error/sigma within [0.5, 1.5];
+- a CSV `frame,camera,id,u_px,v_px` gives the same points as detection files; JSON and text agree;
+- bad input gets one line and exit 2: a point seen by one camera only (named by id), a camera not in
+  the rig, a CSV with a bad line (file and line named), a length between ids not measured, a
+  single camera's calibration as the rig, detection files that are not one per camera."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import run, run_bad
+from test_rig_cli import D, H, K, R1, T1, TARGET, W, board, frames, write_detections
+
+cv2 = pytest.importorskip("cv2")
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    d = tmp_path_factory.mktemp("measure")
+    data = frames()
+    for k, name in enumerate(("left.json", "right.json")):
+        write_detections(d / name, data, k)
+    run("calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "opencv",
+        "--out", d / "rig.json", "--quiet")
+    return d, json.loads((d / "rig.json").read_text())["rig"]
+
+
+def opencv_of(cam):
+    c = cam["camera"]
+    k = np.array([[c["fx_px"], 0, c["cx_px"]], [0, c["fy_px"], c["cy_px"]], [0, 0, 1.0]])
+    dist = np.array([c[key] or 0.0 for key in ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")])
+    r, _ = cv2.Rodrigues(np.array(cam["cam_from_rig"]["rotation_rad"]))
+    return k, dist, r, np.array(cam["cam_from_rig"]["translation_mm"])
+
+
+def write_points(path, frames_uv):
+    """frames_uv: list of (frame name, ids, uv0, uv1) → one detection file per camera."""
+    for k, name in enumerate(("m_left.json", "m_right.json")):
+        images = [{"image": f"{f}.png", "width_px": W, "height_px": H, "ids": [int(i) for i in ids],
+                   "points_px": (uv0 if k == 0 else uv1).tolist()} for f, ids, uv0, uv1 in frames_uv]
+        (path / name).write_text(json.dumps({"target": TARGET, "images": images}))
+    return path / "m_left.json", path / "m_right.json"
+
+
+def test_points_match_cv2_triangulate_points(rig):
+    d, j = rig
+    cams = [opencv_of(c) for c in j["cameras"]]
+    rng = np.random.default_rng(4)
+    x = np.column_stack([rng.uniform(-400, 600, 40), rng.uniform(-300, 300, 40), rng.uniform(900, 3000, 40)])
+    uv = []
+    for k, dist, r, t in cams:
+        p, _ = cv2.projectPoints(x, cv2.Rodrigues(r)[0], t, k, dist)
+        uv.append(p.reshape(-1, 2))
+    left, right = write_points(d, [("p", range(len(x)), uv[0], uv[1])])
+    out = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--json").json()["measure"]
+    ours = np.array([p["x_mm"] for p in sorted(out["points"], key=lambda p: p["id"])])
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-14)
+    n = [cv2.undistortPointsIter(uv[i].reshape(-1, 1, 2), cams[i][0], cams[i][1], None, None, crit).reshape(-1, 2)
+         for i in range(2)]
+    p0 = np.hstack([np.eye(3), np.zeros((3, 1))])
+    p1 = np.hstack([cams[1][2], cams[1][3].reshape(3, 1)])
+    h = cv2.triangulatePoints(p0, p1, n[0].T, n[1].T)
+    theirs = (h[:3] / h[3]).T
+    print(f"vs cv2.triangulatePoints: max {np.abs(ours - theirs).max():.3g} mm; vs truth max "
+          f"{np.abs(ours - x).max():.3g} mm")
+    assert np.abs(ours - x).max() < 1e-6
+    assert np.abs(theirs - x).max() < 1e-6
+    assert all(not p["mismatched"] for p in out["points"])
+
+
+def test_board_edges_within_sigma(rig):
+    d, j = rig
+    rng = np.random.default_rng(21)
+    pts = board()
+    frames_uv = []
+    for f in range(15):
+        rvec = rng.uniform(-1, 1, 3) * np.array([0.4, 0.4, 0.2])
+        r, _ = cv2.Rodrigues(rvec)
+        aim = np.array([150 + 150 * rng.uniform(-1, 1), 100 * rng.uniform(-1, 1), 1200 + 1500 * rng.uniform()])
+        t = aim - r @ pts.mean(axis=0)
+        uv = []
+        for k in range(2):  # the true rig (test_rig_cli's), fresh 0.3 px noise
+            rk, tk = (r, t) if k == 0 else (R1 @ r, R1 @ t + T1)
+            p, _ = cv2.projectPoints(pts, cv2.Rodrigues(rk)[0], tk, K[k], D[k])
+            uv.append(p.reshape(-1, 2) + rng.normal(0, 0.3, (len(pts), 2)))
+        frames_uv.append((f"m{f:02d}", range(len(pts)), uv[0], uv[1]))
+    left, right = write_points(d, frames_uv)
+    # Ids 0-15 and 176-191: the board's top and bottom edges, 750 mm; 0-176: 550 mm.
+    res = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--sigma-px", "0.3",
+              "--length", "0,15", "--length", "176,191", "--length", "0,176", "--json")
+    out = res.json()["measure"]
+    z = []
+    for ln in out["lengths"]:
+        true = 550.0 if (ln["id_a"], ln["id_b"]) == (0, 176) else 750.0
+        z.append((ln["length_mm"] - true) / ln["sigma_mm"])
+        assert ln["sigma_percent"] == pytest.approx(100 * ln["sigma_mm"] / ln["length_mm"])
+    z = np.array(z)
+    print(f"{len(z)} lengths: max |error|/sigma {np.abs(z).max():.2f}, RMS {math.sqrt((z ** 2).mean()):.2f}")
+    assert len(z) == 45
+    assert np.abs(z).max() < 4
+    assert 0.5 < math.sqrt((z ** 2).mean()) < 1.5
+    # The text output says the same lengths.
+    text = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--sigma-px", "0.3",
+               "--length", "0,15").out
+    first = next(ln for ln in out["lengths"] if (ln["id_a"], ln["id_b"]) == (0, 15))
+    assert f"{first['length_mm']:.3f}" in text
+
+
+def test_csv_gives_the_same_points(rig):
+    d, j = rig
+    left, right = d / "m_left.json", d / "m_right.json"
+    if not left.exists():
+        pytest.skip("needs the points of the test before")
+    rows = ["frame,camera,id,u_px,v_px"]
+    for k, (f, name) in enumerate(((left, j["cameras"][0]["name"]), (right, "1"))):
+        for im in json.loads(f.read_text())["images"]:
+            frame = im["image"].rsplit(".", 1)[0]
+            rows += [f"{frame},{name},{i},{u!r},{v!r}" for i, (u, v) in zip(im["ids"], im["points_px"])]
+    (d / "points.csv").write_text("\n".join(rows) + "\n")
+    a = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--json").json()["measure"]
+    b = run("measure", "--rig", d / "rig.json", "--points", d / "points.csv", "--json").json()["measure"]
+    assert len(a["points"]) == len(b["points"]) > 0
+    for p, q in zip(a["points"], b["points"]):
+        assert (p["frame"], p["id"]) == (q["frame"], q["id"])
+        assert p["x_mm"] == q["x_mm"]
+
+
+def test_bad_input_is_refused(rig, tmp_path):
+    d, j = rig
+    names = [c["name"] for c in j["cameras"]]
+    csv = tmp_path / "p.csv"
+    csv.write_text(f"frame,camera,id,u_px,v_px\nf1,{names[0]},7,100.5,200\nf1,{names[1]},7,90,201\n"
+                   f"f1,{names[0]},8,300,200\n")
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", csv)
+    assert f"id 8: seen by {names[0]} only (" in line and "p.csv:4)" in line and "--skip-unpaired" in line, line
+    csv.write_text("frame,camera,id,u_px,v_px\nf1,middle,7,100,200\n")
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", csv)
+    assert "p.csv:2: no camera middle in the rig" in line and names[0] in line, line
+    csv.write_text(f"f1,{names[0][:-1]},7,100,200\n")  # a name typed slightly wrong: refused, the nearest named
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", csv)
+    assert f"did you mean {names[0]}?" in line, line
+    csv.write_text(f"frame,camera,id,u_px,v_px\nf1,{names[0]},7,100,200\nf1,{names[1]},7,abc,200\n")
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", csv)
+    assert "p.csv:3" in line, line
+    uv = []
+    for k, dist, r, t in (opencv_of(c) for c in j["cameras"]):  # a point 2 m in front of the rig
+        p, _ = cv2.projectPoints(np.array([[150.0, 0, 2000]]), cv2.Rodrigues(r)[0], t, k, dist)
+        uv.append(p.reshape(2))
+    csv.write_text(f"f1,{names[0]},7,{uv[0][0]},{uv[0][1]}\nf1,{names[1]},7,{uv[1][0]},{uv[1][1]}\n")
+    assert run("measure", "--rig", d / "rig.json", "--points", csv, "--json").json()["measure"]["points"][0]["ok"]
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--length", "7,9")
+    assert "--length: 7,9: id 9 is not measured" in line, line
+    csv.write_text(f"f1,{names[0]},7,100,200\nf1,{names[1]},7,4000,200\n")  # rays meeting behind the cameras
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", csv)
+    assert "no point could be triangulated" in line, line
+    single = tmp_path / "one.json"
+    run("calibrate", "--detections", d / "left.json", "--model", "opencv", "--out", single, "--quiet")
+    line = run_bad("measure", "--rig", single, "--points", csv)
+    assert "not a rig" in line, line
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--sigma-px", "0")
+    assert "--sigma-px" in line, line
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", d / "left.json")
+    assert "one per camera" in line, line
