@@ -28,4 +28,5 @@ PYBIND11_MODULE(_porthole, m) {
   porthole::python::RegisterSimulate(m);
   porthole::python::RegisterFit(m);
   porthole::python::RegisterReport(m);
+  porthole::python::RegisterMeasure(m);
 }

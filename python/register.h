@@ -100,5 +100,6 @@ void RegisterPlanning(pybind11::module_& m);
 void RegisterSimulate(pybind11::module_& m);
 void RegisterFit(pybind11::module_& m);
 void RegisterReport(pybind11::module_& m);
+void RegisterMeasure(pybind11::module_& m);
 
 }  // namespace porthole::python

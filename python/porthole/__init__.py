@@ -30,7 +30,7 @@ from . import _porthole
 from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detections, DomeFit, FlatAnalysis,
                        HousingAssembly,
                        Medium, Plan, PortCalibration, PortFocal, PortholeWarning, PortType, Preset, RayStatus,
-                       RefractiveCalibration, RigCalibration, RigCamera,
+                       RefractiveCalibration, RigCalibration, RigCamera, Measurement, MeasuredPoint, MeasuredLength,
                        Record, ReportSummary, Simulation,
                        SkippedImage, SphereFit, Status, Table, TraceResult, VirtualImage, VirtualImageTable)
 
@@ -299,6 +299,27 @@ def calibrate_rig(cameras, target, **kwargs) -> "RigCalibration":
     return r
 
 
+@_wraps(_porthole.measure, "porthole.Measurement",
+        "rig may be a RigCalibration; points may hold DetectionSet or Detections objects per camera.")
+def measure(rig, points, **kwargs) -> "Measurement":
+    if isinstance(rig, RigCalibration):
+        rig = rig.to_dict()
+    if not isinstance(points, (str, os.PathLike)):
+        points = [_plain(c if isinstance(c, DetectionSet) else list(c)) if _is_camera_list(c) else tuple(c)
+                  for c in points]
+    r = Measurement.from_dict(_porthole.measure(rig, points, **kwargs))
+    for text in r.warnings:
+        _warnings.warn(text, PortholeWarning, stacklevel=2)
+    return r
+
+
+def _is_camera_list(c) -> bool:
+    """One camera's detections (a DetectionSet, or a list of Detections/dicts), not a point tuple."""
+    if isinstance(c, DetectionSet):
+        return True
+    return isinstance(c, list) and len(c) > 0 and (isinstance(c[0], dict) or isinstance(c[0], Detections))
+
+
 def calibrate_images(images, target: str, *, threads: int = 0, field=None, **calibrate_options) -> Calibration:
     """Detects `target` in the images (a folder or a list of files) and calibrates from what was
     found: calibrate(detect(images, target, threads=threads, field=field), target, field=field,
@@ -374,7 +395,7 @@ def report(out, **kwargs) -> ReportSummary:
 __all__ = [
     "__version__", "index", "media", "depth_to_pressure_dbar", "load_port", "presets", "place", "PortSpec",
     "PortSystem", "virtual_image_table", "plan", "flat", "simulate", "camera_models", "project", "unproject",
-    "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "synthetic_detections", "compare", "load_calibration",
+    "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "measure", "Measurement", "MeasuredPoint", "MeasuredLength", "synthetic_detections", "compare", "load_calibration",
     "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
     "PortType", "CameraModel",
     "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",

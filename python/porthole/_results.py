@@ -519,6 +519,97 @@ class RigCalibration:
 
 
 @dataclasses.dataclass(frozen=True)
+class MeasuredPoint:
+    """One object point triangulated through the rig (measure()): frame, id, the cameras that saw
+    it, x_mm (rig frame, np.ndarray of 3), sigma_mm and sigma_image_mm (3 each), covariance_mm2 (3x3),
+    miss_mm (the largest distance from one of its rays), residual_px and range_mm per camera, chi2,
+    dof, p_value, mismatched (the rays do not meet within the image noise); ok False with `why` when
+    it could not be triangulated (then the arrays are None)."""
+    frame: str
+    id: int
+    cameras: List[str]
+    ok: bool
+    why: str = ""
+    x_mm: Optional[np.ndarray] = None
+    sigma_mm: Optional[np.ndarray] = None
+    sigma_image_mm: Optional[np.ndarray] = None
+    covariance_mm2: Optional[np.ndarray] = None
+    miss_mm: float = math.nan
+    residual_px: Optional[np.ndarray] = None
+    range_mm: Optional[np.ndarray] = None
+    chi2: float = math.nan
+    dof: int = 0
+    p_value: float = math.nan
+    mismatched: bool = False
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "MeasuredPoint":
+        if not d["ok"]:
+            return cls(frame=d["frame"], id=int(d["id"]), cameras=list(d["cameras"]), ok=False, why=d["why"])
+        arr = lambda k: np.array([_float(x) for x in d[k]])
+        return cls(frame=d["frame"], id=int(d["id"]), cameras=list(d["cameras"]), ok=True, x_mm=arr("x_mm"),
+                   sigma_mm=arr("sigma_mm"), sigma_image_mm=arr("sigma_image_mm"),
+                   covariance_mm2=np.array([[_float(x) for x in row] for row in d["covariance_mm2"]]),
+                   miss_mm=_float(d["miss_mm"]), residual_px=arr("residual_px"), range_mm=arr("range_mm"),
+                   chi2=_float(d["chi2"]), dof=int(d["dof"]), p_value=_float(d["p_value"]),
+                   mismatched=bool(d["mismatched"]))
+
+
+@dataclasses.dataclass(frozen=True)
+class MeasuredLength:
+    """A length between two ids in one frame (measure()): length_mm with sigma_mm (and in %),
+    sigma_image_mm and sigma_calibration_mm; ok False with `why` when a point was not triangulated."""
+    frame: str
+    id_a: int
+    id_b: int
+    ok: bool
+    why: str = ""
+    length_mm: float = math.nan
+    sigma_mm: float = math.nan
+    sigma_percent: float = math.nan
+    sigma_image_mm: float = math.nan
+    sigma_calibration_mm: float = math.nan
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "MeasuredLength":
+        if not d["ok"]:
+            return cls(frame=d["frame"], id_a=int(d["id_a"]), id_b=int(d["id_b"]), ok=False, why=d["why"])
+        return cls(frame=d["frame"], id_a=int(d["id_a"]), id_b=int(d["id_b"]), ok=True,
+                   length_mm=_float(d["length_mm"]), sigma_mm=_float(d["sigma_mm"]),
+                   sigma_percent=_float(d["sigma_percent"]), sigma_image_mm=_float(d["sigma_image_mm"]),
+                   sigma_calibration_mm=_float(d["sigma_calibration_mm"]))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Measurement:
+    """measure(): the points and lengths measured through a rig, the image sigma used (sigma_px and
+    where it came from), what the calibration's uncertainty covers, counts and warnings. to_dict()
+    gives the JSON of `porthole measure --json`."""
+    points: List[MeasuredPoint]
+    lengths: List[MeasuredLength]
+    sigma_px: float
+    sigma_px_from: str
+    covariance: str
+    n_failed: int
+    n_mismatched: int
+    n_unpaired_skipped: int
+    warnings: List[str]
+    _dict: Dict[str, Any] = dataclasses.field(repr=False)
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "Measurement":
+        m = d["measure"]
+        return cls(points=[MeasuredPoint.from_dict(p) for p in m["points"]],
+                   lengths=[MeasuredLength.from_dict(x) for x in m["lengths"]], sigma_px=_float(m["sigma_px"]),
+                   sigma_px_from=m["sigma_px_from"], covariance=m["covariance"], n_failed=int(m["n_failed"]),
+                   n_mismatched=int(m["n_mismatched"]), n_unpaired_skipped=int(m["n_unpaired_skipped"]),
+                   warnings=list(m["warnings"]), _dict=d)
+
+    def to_dict(self) -> Dict[str, Any]:
+        return copy.deepcopy(self._dict)
+
+
+@dataclasses.dataclass(frozen=True)
 class VirtualImage:
     """Where a port images an axial object at wd_mm (object to the outer vertex): d_s2ep_mm from the
     entrance pupil, vwd_mm from the outer vertex (the paper's D_S2EP and VWD), lateral magnification,

@@ -129,7 +129,7 @@ MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, con
   to.calibration_sigma = options.calibration_sigma;
   to.mismatch_p = options.mismatch_p;
   std::map<std::pair<std::string, int>, int> index;  // (frame, id) → res.points
-  std::vector<std::string> unpaired;
+  std::vector<std::vector<Observation>> all_obs;
   for (const auto& [key, cams] : by_point) {
     if (cams.size() < 2) {
       if (!options.skip_unpaired) {
@@ -149,11 +149,15 @@ MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, con
       obs.push_back({k, p->pixel_px});
       m.cameras.push_back(k);
     }
-    m.point = Triangulate(rig, obs, to);
-    if (!m.point.ok) ++res.n_failed;
-    if (m.point.ok && m.point.mismatched) ++res.n_mismatched;
+    all_obs.push_back(std::move(obs));
     index[key] = static_cast<int>(res.points.size());
     res.points.push_back(std::move(m));
+  }
+  std::vector<Point> tri = TriangulateMany(rig, all_obs, to, options.num_threads);
+  for (std::size_t i = 0; i < tri.size(); ++i) {
+    res.points[i].point = std::move(tri[i]);
+    if (!res.points[i].point.ok) ++res.n_failed;
+    if (res.points[i].point.ok && res.points[i].point.mismatched) ++res.n_mismatched;
   }
   if (res.points.empty() && res.n_unpaired > 0) {
     throw InvalidInput("points", fmt::format("no point is seen by two cameras ({} seen by one only): are the frames "

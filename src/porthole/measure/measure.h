@@ -49,6 +49,7 @@ struct MeasureOptions {
   double mismatch_p = 1e-3;
   std::vector<std::pair<int, int>> lengths;  // id pairs
   bool skip_unpaired = false;                // skip points seen by one camera only (counted)
+  int num_threads = 0;                       // 0: the machine's cores
 };
 
 struct MeasuredPoint {

@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <exception>
+#include <thread>
 
 #include "porthole/calib/compare.h"
 #include "porthole/camera/models.h"
@@ -220,6 +222,30 @@ Point Triangulate(const Rig& rig, const std::vector<Observation>& obs, const Tri
     p.covariance_mm2 += p.d_x_d_theta * rig.covariance * p.d_x_d_theta.transpose();
   }
   return p;
+}
+
+std::vector<Point> TriangulateMany(const Rig& rig, const std::vector<std::vector<Observation>>& points,
+                                   const TriangulateOptions& options, int num_threads) {
+  const int n = static_cast<int>(points.size());
+  std::vector<Point> out(n);
+  int threads = num_threads > 0 ? num_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = std::min(threads, std::max(1, n / 256));  // small batches: one thread
+  std::vector<std::exception_ptr> errors(threads);
+  const auto work = [&](int t) {
+    try {
+      for (int i = t; i < n; i += threads) out[i] = Triangulate(rig, points[i], options);
+    } catch (...) {
+      errors[t] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
+  work(0);
+  for (auto& th : pool) th.join();
+  for (const auto& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+  return out;
 }
 
 Length MeasureLength(const Rig& rig, const Point& a, const Point& b) {

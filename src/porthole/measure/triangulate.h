@@ -69,6 +69,11 @@ struct Point {
 // ok = false and why (never an exception for the data; InvalidInput for a camera index outside the rig).
 Point Triangulate(const Rig& rig, const std::vector<Observation>& obs, const TriangulateOptions& options);
 
+// Triangulate for each set of observations, over `num_threads` threads (0: the machine's cores);
+// results in the input's order.
+std::vector<Point> TriangulateMany(const Rig& rig, const std::vector<std::vector<Observation>>& points,
+                                   const TriangulateOptions& options, int num_threads = 0);
+
 struct Length {
   double length_mm = 0;
   double sigma_mm = 0;              // total

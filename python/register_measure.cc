@@ -1,0 +1,108 @@
+// Python bindings of measure/ (docs/python.md): measure() over a rig (file or dict) and image points
+// (a CSV file, (frame, camera, id, u_px, v_px) tuples, or detections per camera).
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "porthole/calib/detections_json.h"
+#include "porthole/core/input.h"
+#include "porthole/measure/measure.h"
+#include "register.h"
+
+namespace py = pybind11;
+
+namespace porthole::python {
+
+void RegisterMeasure(py::module_& m) {
+  m.def(
+      "measure",
+      [](const py::object& rig, const py::object& points, const std::vector<std::pair<int, int>>& lengths,
+         double sigma_px, bool calibration_sigma, bool skip_unpaired, int threads) {
+        return WithFieldNames({{"points", "points"}, {"lengths", "lengths"}, {"sigma_px", "sigma_px"},
+                               {"skip_unpaired", "skip_unpaired"}, {"camera", "points"}},
+                              [&] {
+          const auto is_path = [](const py::object& o) {
+            return py::isinstance<py::str>(o) || py::hasattr(o, "__fspath__");
+          };
+          const auto path_of = [](const py::object& o) {
+            return py::str(py::module_::import("os").attr("fspath")(o)).cast<std::string>();
+          };
+          measure::Rig r;
+          if (is_path(rig)) {
+            r = measure::LoadRig(path_of(rig), "rig");
+          } else if (py::isinstance<py::dict>(rig)) {
+            r = measure::RigFromJson(PythonToJson(rig), "rig");
+          } else {
+            throw InvalidInput("rig", "a rig JSON file or calibrate_rig()'s dict");
+          }
+          std::vector<measure::ImagePoint> pts;
+          if (is_path(points)) {
+            const std::string path = path_of(points);
+            pts = measure::ParsePointsCsv(ReadInputFile(path, "points"), r, "points", path);
+          } else if (py::isinstance<py::list>(points) || py::isinstance<py::tuple>(points)) {
+            const py::sequence seq = points.cast<py::sequence>();
+            const bool per_camera = seq.size() > 0 && (py::isinstance<py::list>(seq[0]) && !py::isinstance<py::str>(seq[0]) &&
+                                                       py::len(seq[0]) > 0 && py::isinstance<py::dict>(seq[0].cast<py::list>()[0]));
+            if (per_camera) {  // detections per camera, in the rig's order
+              if (seq.size() != r.cameras.size()) {
+                throw InvalidInput("points", fmt::format("{} detection lists for the rig's {} cameras: one per camera, "
+                                                         "in the rig's order", seq.size(), r.cameras.size()));
+              }
+              for (std::size_t k = 0; k < seq.size(); ++k) {
+                std::vector<calib::ImageDetections> dets;
+                const py::list l = seq[k].cast<py::list>();
+                for (std::size_t i = 0; i < l.size(); ++i) {
+                  dets.push_back(calib::DetectionsFromJson(PythonToJson(l[i]), fmt::format("points[{}][{}]", k, i)));
+                }
+                const auto got = measure::PointsFromDetections(dets, static_cast<int>(k), fmt::format("points[{}]", k));
+                pts.insert(pts.end(), got.begin(), got.end());
+              }
+            } else {  // (frame, camera, id, u_px, v_px) tuples
+              for (std::size_t i = 0; i < seq.size(); ++i) {
+                const py::sequence t = seq[i].cast<py::sequence>();
+                if (t.size() != 5) {
+                  throw InvalidInput("points", fmt::format("points[{}]: (frame, camera, id, u_px, v_px), not {} values",
+                                                           i, t.size()));
+                }
+                measure::ImagePoint p;
+                p.where = fmt::format("points[{}]", i);
+                p.frame = py::str(t[0]).cast<std::string>();
+                p.camera = measure::CameraIndex(r, py::str(t[1]).cast<std::string>(), "points");
+                p.id = t[2].cast<int>();
+                if (p.id < 0) throw InvalidInput("points", p.where + ": id must be >= 0");
+                p.pixel_px = Eigen::Vector2d(t[3].cast<double>(), t[4].cast<double>());
+                if (!p.pixel_px.allFinite()) throw InvalidInput("points", p.where + ": u_px, v_px must be finite");
+                pts.push_back(p);
+              }
+            }
+          } else {
+            throw InvalidInput("points", "a CSV file, (frame, camera, id, u_px, v_px) tuples, or detections per camera");
+          }
+          measure::MeasureOptions o;
+          o.sigma_px = sigma_px;
+          o.calibration_sigma = calibration_sigma;
+          o.skip_unpaired = skip_unpaired;
+          o.lengths = lengths;
+          o.num_threads = threads;
+          if (sigma_px < 0 || !std::isfinite(sigma_px)) throw InvalidInput("sigma_px", "must be a positive number of pixels");
+          measure::MeasureResult res;
+          {
+            py::gil_scoped_release release;
+            res = measure::Measure(r, pts, o);
+          }
+          return JsonToPython(measure::MeasureToJson(res, r));
+        });
+      },
+      py::arg("rig"), py::arg("points"), py::kw_only(), py::arg("lengths") = std::vector<std::pair<int, int>>{},
+      py::arg("sigma_px") = 0.0, py::arg("calibration_sigma") = true, py::arg("skip_unpaired") = false,
+      py::arg("threads") = 0,
+      "3-D points and lengths through a calibrated rig (`porthole measure`). rig: a rig JSON file or "
+      "calibrate_rig().to_dict(); points: a CSV file frame,camera,id,u_px,v_px, a list of (frame, camera, id, "
+      "u_px, v_px) tuples (camera by name or index), or one list of detections per camera in the rig's order; "
+      "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0). Returns the JSON of "
+      "`porthole measure --json`.");
+}
+
+}  // namespace porthole::python

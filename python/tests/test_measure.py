@@ -1,0 +1,64 @@
+"""Proves porthole.measure() is `porthole measure` (issue 27): on a rig from calibrate_rig() (a
+stereo pair projected by cv2.projectPoints), the same points and lengths with the same sigma (1e-9
+relative) as the CLI's JSON for the same rig file and detections, from detections per camera or from
+(frame, camera, id, u_px, v_px) tuples; typed results (Measurement of MeasuredPoint and
+MeasuredLength); errors naming the keyword."""
+import json
+
+import numpy as np
+import pytest
+
+import porthole
+from test_notebook import cli_json
+from test_rig import TARGET, stereo
+
+
+def test_measure_matches_the_cli(tmp_path):
+    cams = stereo()
+    rig = porthole.calibrate_rig(cams, TARGET, model="opencv", names=["left.json", "right.json"])
+    (tmp_path / "rig.json").write_text(json.dumps(rig.to_dict()))
+    files = []
+    for c, name in zip(cams, ("left", "right")):
+        files.append(tmp_path / f"{name}.json")
+        files[-1].write_text(json.dumps({"target": TARGET, "images": c}))
+    ours = porthole.measure(rig, cams, lengths=[(0, 15)], sigma_px=0.3, skip_unpaired=True)
+    theirs = cli_json("measure", "--rig", tmp_path / "rig.json", "--points", files[0], "--points", files[1],
+                      "--length", "0,15", "--sigma-px", "0.3", "--skip-unpaired")["measure"]
+    assert isinstance(ours, porthole.Measurement)
+    assert len(ours.points) == len(theirs["points"]) > 100
+    for p, q in zip(ours.points, theirs["points"]):
+        assert isinstance(p, porthole.MeasuredPoint)
+        assert (p.frame, p.id) == (q["frame"], q["id"])
+        assert p.x_mm == pytest.approx(q["x_mm"], rel=1e-9)
+        assert p.sigma_mm == pytest.approx(q["sigma_mm"], rel=1e-9)
+        assert p.covariance_mm2.shape == (3, 3)
+    assert len(ours.lengths) == len(theirs["lengths"]) > 5
+    for a, b in zip(ours.lengths, theirs["lengths"]):
+        assert isinstance(a, porthole.MeasuredLength)
+        assert a.length_mm == pytest.approx(b["length_mm"], rel=1e-9)
+        assert a.sigma_mm == pytest.approx(b["sigma_mm"], rel=1e-9)
+        assert abs(a.length_mm - 750) < 5 * a.sigma_mm  # 15 squares of 50 mm
+    # The same points as tuples, camera by name and by index.
+    tuples = [(im["image"].rsplit(".", 1)[0], name, i, u, v)
+              for name, c in zip(("left.json", "1"), cams) for im in c[:2]
+              for i, (u, v) in zip(im["ids"], im["points_px"])]
+    again = porthole.measure(tmp_path / "rig.json", tuples, sigma_px=0.3, skip_unpaired=True)
+    first = {(p.frame, p.id): p for p in ours.points}
+    assert len(again.points) > 50
+    for p in again.points:
+        assert p.x_mm == pytest.approx(first[(p.frame, p.id)].x_mm, rel=1e-12)
+
+
+def test_errors_name_the_keyword(tmp_path):
+    cams = stereo(n=6)
+    rig = porthole.calibrate_rig(cams, TARGET, model="opencv")
+    im = cams[0][0]
+    one = [(im["image"], "camera0", im["ids"][0], *im["points_px"][0])]
+    with pytest.raises(ValueError, match="^points: .*seen by camera0 only.*`?skip_unpaired`? skips"):
+        porthole.measure(rig, one)
+    with pytest.raises(ValueError, match="^points: .*no camera middle in the rig"):
+        porthole.measure(rig, [(im["image"], "middle", 0, 10.0, 10.0)])
+    with pytest.raises(ValueError, match="^sigma_px"):
+        porthole.measure(rig, one, sigma_px=-1)
+    with pytest.raises(ValueError, match="^lengths: 100000,9: id 100000 is not measured"):
+        porthole.measure(rig, cams, lengths=[(100000, 9)], skip_unpaired=True)
