@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <optional>
+#include <tuple>
 
 #include "porthole/calib/detections_json.h"
 #include "porthole/core/input.h"
@@ -19,7 +21,8 @@ void RegisterMeasure(py::module_& m) {
   m.def(
       "measure",
       [](const py::object& rig, const py::object& points, const std::vector<std::pair<int, int>>& lengths,
-         double sigma_px, bool calibration_sigma, bool skip_unpaired, int threads) {
+         double sigma_px, bool calibration_sigma, bool skip_unpaired, int threads,
+         std::optional<std::tuple<int, int, double>> scale_bar) {
         return WithFieldNames({{"points", "points"}, {"lengths", "lengths"}, {"sigma_px", "sigma_px"},
                                {"skip_unpaired", "skip_unpaired"}, {"camera", "points"}},
                               [&] {
@@ -85,6 +88,7 @@ void RegisterMeasure(py::module_& m) {
           o.calibration_sigma = calibration_sigma;
           o.skip_unpaired = skip_unpaired;
           o.lengths = lengths;
+          if (scale_bar) o.lengths.push_back({std::get<0>(*scale_bar), std::get<1>(*scale_bar)});
           o.num_threads = threads;
           if (sigma_px < 0 || !std::isfinite(sigma_px)) throw InvalidInput("sigma_px", "must be a positive number of pixels");
           measure::MeasureResult res;
@@ -92,16 +96,21 @@ void RegisterMeasure(py::module_& m) {
             py::gil_scoped_release release;
             res = measure::Measure(r, pts, o);
           }
-          return JsonToPython(measure::MeasureToJson(res, r));
+          auto j = measure::MeasureToJson(res, r);
+          if (scale_bar) {
+            j["measure"]["scale_bar"] = measure::ScaleBarToJson(measure::CheckScaleBar(
+                res, {std::get<0>(*scale_bar), std::get<1>(*scale_bar), std::get<2>(*scale_bar)}));
+          }
+          return JsonToPython(j);
         });
       },
       py::arg("rig"), py::arg("points"), py::kw_only(), py::arg("lengths") = std::vector<std::pair<int, int>>{},
       py::arg("sigma_px") = 0.0, py::arg("calibration_sigma") = true, py::arg("skip_unpaired") = false,
-      py::arg("threads") = 0,
+      py::arg("threads") = 0, py::arg("scale_bar") = py::none(),
       "3-D points and lengths through a calibrated rig (`porthole measure`). rig: a rig JSON file or "
       "calibrate_rig().to_dict(); points: a CSV file frame,camera,id,u_px,v_px, a list of (frame, camera, id, "
       "u_px, v_px) tuples (camera by name or index), or one list of detections per camera in the rig's order; "
-      "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0). Returns the JSON of "
+      "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0); scale_bar: (id_a, id_b, length_mm), the check of `--scale-bar`. Returns the JSON of "
       "`porthole measure --json`.");
 }
 

@@ -2,7 +2,10 @@
 // each with σ (measure/measure.h). The CLI reads the files and prints; the library does the rest.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "commands.h"
 #include "common.h"
@@ -22,7 +25,7 @@ bool IsCsv(const std::string& path) {
   return ext == ".csv" || ext == ".txt";
 }
 
-std::pair<int, int> ParsePair(const std::string& s) {
+std::pair<int, int> ParsePair(const std::string& s, const std::string& field, const std::string& what) {
   const auto comma = s.find(',');
   const auto whole = [&](const std::string& t) {
     std::size_t used = 0;
@@ -32,10 +35,10 @@ std::pair<int, int> ParsePair(const std::string& s) {
     } catch (const std::exception&) {
       used = 0;
     }
-    if (used != t.size() || v < 0) throw InvalidInput("--length", fmt::format("'{}': give two point ids A,B", s));
+    if (used != t.size() || v < 0) throw InvalidInput(field, fmt::format("'{}': give {}", s, what));
     return v;
   };
-  if (comma == std::string::npos) throw InvalidInput("--length", fmt::format("'{}': give two point ids A,B", s));
+  if (comma == std::string::npos) throw InvalidInput(field, fmt::format("'{}': give {}", s, what));
   return {whole(s.substr(0, comma)), whole(s.substr(comma + 1))};
 }
 
@@ -45,6 +48,7 @@ void RegisterMeasure(CLI::App& app) {
   struct Options {
     std::string rig, out;
     std::vector<std::string> points, lengths;
+    std::string scale_bar;
     measure::MeasureOptions measure;
     bool no_calibration_sigma = false, json = false, force = false;
   };
@@ -58,6 +62,9 @@ void RegisterMeasure(CLI::App& app) {
                   "detections (file or folder) per camera, as CAMERA=PATH or in the rig's camera order; repeat")
       ->required();
   cmd->add_option("--length", o->lengths, "Length between point ids A,B (in every frame holding both); repeat");
+  cmd->add_option("--scale-bar", o->scale_bar,
+                  "A,B,LENGTH_MM: a bar of known length between ids A and B: its error in every frame, by range, "
+                  "and whether the rig calibration holds");
   cmd->add_option("--sigma-px", o->measure.sigma_px,
                   "Image-point sigma of the points, px (default: the rig calibration's sigma0)");
   cmd->add_flag("--no-calibration-sigma", o->no_calibration_sigma,
@@ -81,7 +88,29 @@ void RegisterMeasure(CLI::App& app) {
       }
       const measure::Rig rig = measure::LoadRig(o->rig, "--rig");
       o->measure.calibration_sigma = !o->no_calibration_sigma;
-      for (const auto& l : o->lengths) o->measure.lengths.push_back(ParsePair(l));
+      for (const auto& l : o->lengths) o->measure.lengths.push_back(ParsePair(l, "--length", "two point ids A,B"));
+      std::optional<measure::ScaleBar> bar;
+      if (!o->scale_bar.empty()) {
+        const std::string what = "A,B,LENGTH_MM (two point ids and the bar's length in mm)";
+        if (std::count(o->scale_bar.begin(), o->scale_bar.end(), ',') != 2) {
+          throw InvalidInput("--scale-bar", fmt::format("'{}': give {}", o->scale_bar, what));
+        }
+        const auto last = o->scale_bar.rfind(',');
+        const auto ids = last == std::string::npos ? std::pair<int, int>{-1, -1}
+                                                   : ParsePair(o->scale_bar.substr(0, last), "--scale-bar", what);
+        double len = NAN;
+        try {
+          std::size_t used = 0;
+          len = std::stod(o->scale_bar.substr(last + 1), &used);
+          if (used != o->scale_bar.size() - last - 1) len = NAN;
+        } catch (const std::exception&) {
+        }
+        if (last == std::string::npos || ids.first < 0 || !(len > 0) || !std::isfinite(len)) {
+          throw InvalidInput("--scale-bar", fmt::format("'{}': give {}", o->scale_bar, what));
+        }
+        bar = measure::ScaleBar{ids.first, ids.second, len};
+        o->measure.lengths.push_back(ids);
+      }
       // Inputs: CSVs, or detections per camera (CAMERA=PATH, or in order).
       std::vector<measure::ImagePoint> points;
       int n_csv = 0, n_det = 0, n_named = 0;
@@ -134,7 +163,12 @@ void RegisterMeasure(CLI::App& app) {
         points.insert(points.end(), got.begin(), got.end());
       }
       const measure::MeasureResult r = measure::Measure(rig, points, o->measure);
-      const Json j = measure::MeasureToJson(r, rig);
+      Json j = measure::MeasureToJson(r, rig);
+      std::optional<measure::ScaleBarCheck> check;
+      if (bar) {
+        check = measure::CheckScaleBar(r, *bar);
+        j["measure"]["scale_bar"] = measure::ScaleBarToJson(*check);
+      }
       if (!o->out.empty()) WriteOutput(o->out, PrintableJson(j) + "\n", "--out", rules);
       for (const auto& w : r.warnings) {
         fmt::print(stderr, "porthole: warning: {}\n", RenameQuotedFields({{"sigma_px", "--sigma-px"}}, w));
@@ -162,11 +196,13 @@ void RegisterMeasure(CLI::App& app) {
                    m.point.mismatched ? "  rays do not meet" : "");
       }
       if (show < r.points.size()) fmt::print("… {} more points (--json or --out for all)\n", r.points.size() - show);
-      if (!r.lengths.empty()) {
+      const bool only_bar = check && o->lengths.empty();
+      if (!r.lengths.empty() && !only_bar) {
         fmt::print("lengths:\n{:>10} {:>6} {:>6} {:>11} {:>9} {:>8} {:>9} {:>9}\n", "frame", "A", "B", "length_mm",
                    "sigma_mm", "sigma_%", "image_mm", "calib_mm");
       }
       for (const auto& l : r.lengths) {
+        if (only_bar) break;  // the scale bar's table below
         if (!l.ok) {
           fmt::print("{:>10} {:>6} {:>6}  not measured: {}\n", l.frame, l.id_a, l.id_b, l.why);
           continue;
@@ -174,6 +210,18 @@ void RegisterMeasure(CLI::App& app) {
         fmt::print("{:>10} {:>6} {:>6} {:>11.3f} {:>9.3f} {:>8.3f} {:>9.3f} {:>9.3f}\n", l.frame, l.id_a, l.id_b,
                    l.length.length_mm, l.length.sigma_mm, 100 * l.length.sigma_mm / l.length.length_mm,
                    l.length.sigma_image_mm, l.length.sigma_calibration_mm);
+      }
+      if (check) {
+        const auto& c = *check;
+        fmt::print("scale bar {}-{}, {:g} mm, in {} frames, by range from the rig:\n{:>15} {:>4} {:>14} {:>13} "
+                   "{:>13}\n", c.bar.id_a, c.bar.id_b, c.bar.length_mm, c.rows.size(), "range_mm", "n", "mean_error_mm",
+                   "rms_error_mm", "rms_sigma_mm");
+        for (const auto& b : c.by_range) {
+          fmt::print("{:>7.0f}-{:<7.0f} {:>4} {:>14.3f} {:>13.3f} {:>13.3f}\n", b.range_min_mm, b.range_max_mm, b.n,
+                     b.mean_error_mm, b.rms_error_mm, b.rms_sigma_mm);
+        }
+        fmt::print("{}\n", c.verdict);
+        if (!c.consistent) fmt::print(stderr, "porthole: warning: {}\n", c.verdict);
       }
     });
   });

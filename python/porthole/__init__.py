@@ -310,6 +310,8 @@ def measure(rig, points, **kwargs) -> "Measurement":
     r = Measurement.from_dict(_porthole.measure(rig, points, **kwargs))
     for text in r.warnings:
         _warnings.warn(text, PortholeWarning, stacklevel=2)
+    if r.scale_bar is not None and not r.scale_bar.consistent:
+        _warnings.warn(r.scale_bar.verdict, PortholeWarning, stacklevel=2)
     return r
 
 

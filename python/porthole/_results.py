@@ -583,7 +583,9 @@ class MeasuredLength:
 @dataclasses.dataclass(frozen=True, eq=False)
 class Measurement:
     """measure(): the points and lengths measured through a rig, the image sigma used (sigma_px and
-    where it came from), what the calibration's uncertainty covers, counts and warnings. to_dict()
+    where it came from), what the calibration's uncertainty covers, counts and warnings, and with
+    scale_bar=(a, b, length_mm) the check (a Record: mean_error_mm, z, consistent, verdict, by_range,
+    frames). to_dict()
     gives the JSON of `porthole measure --json`."""
     points: List[MeasuredPoint]
     lengths: List[MeasuredLength]
@@ -594,6 +596,7 @@ class Measurement:
     n_mismatched: int
     n_unpaired_skipped: int
     warnings: List[str]
+    scale_bar: Optional[Record]
     _dict: Dict[str, Any] = dataclasses.field(repr=False)
 
     @classmethod
@@ -603,9 +606,11 @@ class Measurement:
                    lengths=[MeasuredLength.from_dict(x) for x in m["lengths"]], sigma_px=_float(m["sigma_px"]),
                    sigma_px_from=m["sigma_px_from"], covariance=m["covariance"], n_failed=int(m["n_failed"]),
                    n_mismatched=int(m["n_mismatched"]), n_unpaired_skipped=int(m["n_unpaired_skipped"]),
-                   warnings=list(m["warnings"]), _dict=d)
+                   warnings=list(m["warnings"]), scale_bar=Record(m["scale_bar"]) if "scale_bar" in m else None,
+                   _dict=d)
 
     def to_dict(self) -> Dict[str, Any]:
+        """The JSON of `porthole measure --json` ({"measure": {...}})."""
         return copy.deepcopy(self._dict)
 
 

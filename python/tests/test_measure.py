@@ -38,6 +38,14 @@ def test_measure_matches_the_cli(tmp_path):
         assert a.length_mm == pytest.approx(b["length_mm"], rel=1e-9)
         assert a.sigma_mm == pytest.approx(b["sigma_mm"], rel=1e-9)
         assert abs(a.length_mm - 750) < 5 * a.sigma_mm  # 15 squares of 50 mm
+    # The scale-bar check: as the CLI's.
+    bar = porthole.measure(rig, cams, sigma_px=0.3, skip_unpaired=True, scale_bar=(0, 15, 750.0)).scale_bar
+    cli_bar = cli_json("measure", "--rig", tmp_path / "rig.json", "--points", files[0], "--points", files[1],
+                       "--sigma-px", "0.3", "--skip-unpaired", "--scale-bar", "0,15,750")["measure"]["scale_bar"]
+    assert bar.mean_error_mm == pytest.approx(cli_bar["mean_error_mm"], rel=1e-9)
+    assert bar.consistent == cli_bar["consistent"]
+    with pytest.warns(porthole.PortholeWarning, match="does not hold"):
+        porthole.measure(rig, cams, sigma_px=0.3, skip_unpaired=True, scale_bar=(0, 15, 760.0))
     # The same points as tuples, camera by name and by index.
     tuples = [(im["image"].rsplit(".", 1)[0], name, i, u, v)
               for name, c in zip(("left.json", "1"), cams) for im in c[:2]

@@ -76,7 +76,9 @@ def test_points_match_cv2_triangulate_points(rig):
     assert all(not p["mismatched"] for p in out["points"])
 
 
-def test_board_edges_within_sigma(rig):
+@pytest.fixture(scope="module")
+def fresh(rig):
+    """15 fresh frames of the board seen by the true rig at 0.3 px: m_left.json, m_right.json."""
     d, j = rig
     rng = np.random.default_rng(21)
     pts = board()
@@ -92,7 +94,12 @@ def test_board_edges_within_sigma(rig):
             p, _ = cv2.projectPoints(pts, cv2.Rodrigues(rk)[0], tk, K[k], D[k])
             uv.append(p.reshape(-1, 2) + rng.normal(0, 0.3, (len(pts), 2)))
         frames_uv.append((f"m{f:02d}", range(len(pts)), uv[0], uv[1]))
-    left, right = write_points(d, frames_uv)
+    return write_points(d, frames_uv)
+
+
+def test_board_edges_within_sigma(rig, fresh):
+    d, j = rig
+    left, right = fresh
     # Ids 0-15 and 176-191: the board's top and bottom edges, 750 mm; 0-176: 550 mm.
     res = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--sigma-px", "0.3",
               "--length", "0,15", "--length", "176,191", "--length", "0,176", "--json")
@@ -114,11 +121,9 @@ def test_board_edges_within_sigma(rig):
     assert f"{first['length_mm']:.3f}" in text
 
 
-def test_csv_gives_the_same_points(rig):
+def test_csv_gives_the_same_points(rig, fresh):
     d, j = rig
-    left, right = d / "m_left.json", d / "m_right.json"
-    if not left.exists():
-        pytest.skip("needs the points of the test before")
+    left, right = fresh
     rows = ["frame,camera,id,u_px,v_px"]
     for k, (f, name) in enumerate(((left, j["cameras"][0]["name"]), (right, "1"))):
         for im in json.loads(f.read_text())["images"]:
@@ -131,6 +136,28 @@ def test_csv_gives_the_same_points(rig):
     for p, q in zip(a["points"], b["points"]):
         assert (p["frame"], p["id"]) == (q["frame"], q["id"])
         assert p["x_mm"] == q["x_mm"]
+
+
+def test_scale_bar(rig, fresh):
+    """The board's top edge (ids 0-15, 750 mm) as a scale bar in the 15 fresh frames: the rig holds;
+    told 752 mm, the check says it does not (a warning line, the verdict in the JSON)."""
+    d, j = rig
+    left, right = fresh
+    res = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--sigma-px", "0.3",
+              "--scale-bar", "0,15,750")
+    assert "the rig calibration holds" in res.out and "range_mm" in res.out, res.out
+    out = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--sigma-px", "0.3",
+              "--scale-bar", "0,15,750", "--json").json()["measure"]["scale_bar"]
+    assert out["n_frames"] == 15 and out["consistent"]
+    assert sum(b["n"] for b in out["by_range"]) == 15
+    errors = [f["error_mm"] for f in out["frames"]]
+    assert out["mean_error_mm"] == pytest.approx(np.mean(errors), abs=1e-9)
+    print(f"scale bar 750 mm: mean error {out['mean_error_mm']:+.3f} mm, z {out['z']:.2f}")
+    wrong = run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--sigma-px", "0.3",
+                "--scale-bar", "0,15,752")
+    assert "does not hold" in wrong.out and "porthole: warning:" in wrong.err
+    assert run_bad("measure", "--rig", d / "rig.json", "--points", left, "--points", right,
+                   "--scale-bar", "0,15").startswith("porthole: error: --scale-bar: '0,15': give A,B,LENGTH_MM")
 
 
 def test_bad_input_is_refused(rig, tmp_path):

@@ -148,6 +148,7 @@ MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, con
     for (const auto& [k, p] : cams) {
       obs.push_back({k, p->pixel_px});
       m.cameras.push_back(k);
+      m.pixels_px.push_back(p->pixel_px);
     }
     all_obs.push_back(std::move(obs));
     index[key] = static_cast<int>(res.points.size());
@@ -220,6 +221,114 @@ MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, con
     res.warnings.push_back(w);
   }
   return res;
+}
+
+ScaleBarCheck CheckScaleBar(const MeasureResult& r, const ScaleBar& bar) {
+  if (!(bar.length_mm > 0) || !std::isfinite(bar.length_mm)) {
+    throw InvalidInput("scale_bar", fmt::format("{},{},{}: the length must be a positive number of mm", bar.id_a,
+                                                bar.id_b, bar.length_mm));
+  }
+  if (bar.id_a == bar.id_b) throw InvalidInput("scale_bar", "the two ends must be different ids");
+  ScaleBarCheck c;
+  c.bar = bar;
+  std::map<std::string, std::pair<const MeasuredPoint*, const MeasuredPoint*>> ends;
+  for (const auto& p : r.points) {
+    if (!p.point.ok) continue;
+    if (p.id == bar.id_a) ends[p.frame].first = &p;
+    if (p.id == bar.id_b) ends[p.frame].second = &p;
+  }
+  for (const auto& l : r.lengths) {
+    if (!l.ok || !((l.id_a == bar.id_a && l.id_b == bar.id_b) || (l.id_a == bar.id_b && l.id_b == bar.id_a))) continue;
+    const auto it = ends.find(l.frame);
+    if (it == ends.end() || !it->second.first || !it->second.second) continue;
+    const MeasuredPoint &a = *it->second.first, &b = *it->second.second;
+    ScaleBarCheck::Row row;
+    row.frame = l.frame;
+    row.range_mm = (0.5 * (a.point.x_mm + b.point.x_mm)).norm();
+    // The first camera that saw both ends.
+    row.image_px = Eigen::Vector2d::Constant(NAN);
+    for (std::size_t i = 0; i < a.cameras.size(); ++i) {
+      for (std::size_t j = 0; j < b.cameras.size(); ++j) {
+        if (a.cameras[i] == b.cameras[j] && !row.image_px.allFinite()) row.image_px = 0.5 * (a.pixels_px[i] + b.pixels_px[j]);
+      }
+    }
+    row.length_mm = l.length.length_mm;
+    row.error_mm = l.length.length_mm - bar.length_mm;
+    row.sigma_mm = l.length.sigma_mm;
+    row.sigma_image_mm = l.length.sigma_image_mm;
+    row.sigma_calibration_mm = l.length.sigma_calibration_mm;
+    c.rows.push_back(row);
+  }
+  if (c.rows.empty()) {
+    throw InvalidInput("scale_bar", fmt::format("{},{}: no frame measured both ends (by two cameras)", bar.id_a,
+                                                bar.id_b));
+  }
+  const double n = static_cast<double>(c.rows.size());
+  double sum = 0, sum_cal = 0, sum_img2 = 0;
+  double lo = INFINITY, hi = 0;
+  for (const auto& row : c.rows) {
+    sum += row.error_mm;
+    sum_cal += row.sigma_calibration_mm;
+    sum_img2 += row.sigma_image_mm * row.sigma_image_mm;
+    lo = std::min(lo, row.range_mm);
+    hi = std::max(hi, row.range_mm);
+  }
+  c.mean_error_mm = sum / n;
+  c.mean_error_percent = 100 * c.mean_error_mm / bar.length_mm;
+  c.sigma_mean_mm = std::sqrt(std::pow(sum_cal / n, 2) + sum_img2 / n / n);
+  double ss = 0;
+  for (const auto& row : c.rows) ss += std::pow(row.error_mm - c.mean_error_mm, 2);
+  c.sd_error_mm = c.rows.size() > 1 ? std::sqrt(ss / (n - 1)) : NAN;
+  c.z = c.sigma_mean_mm > 0 ? c.mean_error_mm / c.sigma_mean_mm : INFINITY;
+  c.consistent = std::abs(c.z) <= 3;
+  constexpr double kBin = 500;
+  for (double start = std::floor(lo / kBin) * kBin; start <= hi; start += kBin) {
+    ScaleBarCheck::Bin b;
+    b.range_min_mm = start;
+    b.range_max_mm = start + kBin;
+    double e = 0, e2 = 0, s2 = 0;
+    for (const auto& row : c.rows) {
+      if (row.range_mm < start || row.range_mm >= start + kBin) continue;
+      ++b.n;
+      e += row.error_mm;
+      e2 += row.error_mm * row.error_mm;
+      s2 += row.sigma_mm * row.sigma_mm;
+    }
+    if (b.n == 0) continue;
+    b.mean_error_mm = e / b.n;
+    b.rms_error_mm = std::sqrt(e2 / b.n);
+    b.rms_sigma_mm = std::sqrt(s2 / b.n);
+    c.by_range.push_back(b);
+  }
+  c.verdict = c.consistent
+                  ? fmt::format("the scale bar measures {:+.3f} mm ({:+.3f} %) off over {} frames, within 3 sigma "
+                                "({:.3f} mm): the rig calibration holds",
+                                c.mean_error_mm, c.mean_error_percent, c.rows.size(), c.sigma_mean_mm)
+                  : fmt::format("the scale bar measures {:+.3f} mm ({:+.3f} %) off over {} frames, {:.1f} sigma "
+                                "({:.3f} mm): the rig calibration does not hold for it (a camera moved in its "
+                                "housing, a port changed, or the bar's length is wrong)",
+                                c.mean_error_mm, c.mean_error_percent, c.rows.size(), std::abs(c.z), c.sigma_mean_mm);
+  return c;
+}
+
+nlohmann::ordered_json ScaleBarToJson(const ScaleBarCheck& c) {
+  using Json = nlohmann::ordered_json;
+  const auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  Json rows = Json::array(), bins = Json::array();
+  for (const auto& r : c.rows) {
+    rows.push_back({{"frame", r.frame}, {"range_mm", r.range_mm}, {"image_px", {num(r.image_px.x()), num(r.image_px.y())}},
+                    {"length_mm", r.length_mm}, {"error_mm", r.error_mm}, {"sigma_mm", num(r.sigma_mm)},
+                    {"sigma_image_mm", num(r.sigma_image_mm)}, {"sigma_calibration_mm", num(r.sigma_calibration_mm)}});
+  }
+  for (const auto& b : c.by_range) {
+    bins.push_back({{"range_min_mm", b.range_min_mm}, {"range_max_mm", b.range_max_mm}, {"n", b.n},
+                    {"mean_error_mm", b.mean_error_mm}, {"rms_error_mm", b.rms_error_mm},
+                    {"rms_sigma_mm", b.rms_sigma_mm}});
+  }
+  return {{"id_a", c.bar.id_a}, {"id_b", c.bar.id_b}, {"length_mm", c.bar.length_mm}, {"n_frames", c.rows.size()},
+          {"mean_error_mm", c.mean_error_mm}, {"mean_error_percent", c.mean_error_percent},
+          {"sigma_mean_mm", c.sigma_mean_mm}, {"sd_error_mm", num(c.sd_error_mm)}, {"z", num(c.z)},
+          {"consistent", c.consistent}, {"verdict", c.verdict}, {"by_range", bins}, {"frames", rows}};
 }
 
 nlohmann::ordered_json MeasureToJson(const MeasureResult& r, const Rig& rig) {

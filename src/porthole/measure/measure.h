@@ -56,6 +56,7 @@ struct MeasuredPoint {
   std::string frame;
   int id = 0;
   std::vector<int> cameras;
+  std::vector<Eigen::Vector2d> pixels_px;  // its image in each of `cameras`
   Point point;
 };
 
@@ -80,6 +81,42 @@ struct MeasureResult {
 };
 
 MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, const MeasureOptions& options);
+
+// The scale-bar check users run after a dive: a bar of known length between ids A and B, seen in
+// many frames; each frame's measured length against the known one, by range and position in the
+// field, and whether the errors are what the σ says.
+struct ScaleBar {
+  int id_a = 0, id_b = 0;
+  double length_mm = 0;
+};
+
+struct ScaleBarCheck {
+  ScaleBar bar;
+  struct Row {
+    std::string frame;
+    double range_mm = 0;        // the bar's centre from the rig origin (the first camera's pupil)
+    Eigen::Vector2d image_px;   // the bar's centre in the first camera that saw both ends (mean of the ends)
+    double length_mm = 0, error_mm = 0, sigma_mm = 0, sigma_image_mm = 0, sigma_calibration_mm = 0;
+  };
+  std::vector<Row> rows;  // frames holding both ends, by frame
+  struct Bin {
+    double range_min_mm = 0, range_max_mm = 0;
+    int n = 0;
+    double mean_error_mm = 0, rms_error_mm = 0, rms_sigma_mm = 0;
+  };
+  std::vector<Bin> by_range;  // 500 mm bins over the ranges seen
+  // The mean error and its σ: the calibration part of the σ is common to every frame (it does not
+  // average out), the image part falls as 1/√n: σ_mean² = mean(σ_cal)² + mean(σ_img²)/n.
+  double mean_error_mm = 0, mean_error_percent = 0, sigma_mean_mm = 0, sd_error_mm = 0;
+  double z = 0;           // mean_error / sigma_mean
+  bool consistent = true;  // |z| <= 3
+  std::string verdict;
+};
+
+// Throws InvalidInput("scale_bar", …) when the length is not positive, the ids are equal, or no
+// frame measured both ends.
+ScaleBarCheck CheckScaleBar(const MeasureResult& r, const ScaleBar& bar);
+nlohmann::ordered_json ScaleBarToJson(const ScaleBarCheck& c);
 
 // {"measure": {sigma_px, sigma_px_from, counts, covariance_note, warnings, frame: "rig …",
 //  points: [{frame, id, cameras, x_mm, sigma_mm, sigma_image_mm, covariance_mm2, miss_mm,

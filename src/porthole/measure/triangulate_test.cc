@@ -17,6 +17,7 @@
 
 #include "porthole/calib/rig.h"
 #include "porthole/calib/test_rig.h"
+#include "porthole/measure/measure.h"
 #include "porthole/measure/rig_model.h"
 
 namespace porthole::measure {
@@ -271,6 +272,49 @@ TEST(Triangulate, WronglyMatchedPointsAreFlaggedAndFailuresSaySo) {
   TriangulateOptions bad;
   bad.sigma_px = 0;
   EXPECT_THROW(Triangulate(rig, oa, bad), InvalidInput);
+}
+
+// The scale-bar check: a 500 mm bar in 20 frames at 1–4 m through the dome rig, 0.3 px: the exact
+// rig holds (|z| ≤ 3); the rig with camera 1's translation 0.3 % longer (a camera moved) does not.
+TEST(Measure, ScaleBarCheckHoldsForTheRightRigAndNotForAMovedCamera) {
+  const Truth truth = calib::fixtures::TwoDomeRig();
+  Rig rig = RigOf(truth);
+  // A covariance for camera 1's translation (0.05 mm), so that the calibration part is in the σ.
+  for (int i = 0; i < 3; ++i) rig.cameras[1].pose_index[3 + i] = i;
+  rig.covariance = 0.05 * 0.05 * Eigen::Matrix3d::Identity();
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> g(0, 0.3);
+  std::vector<ImagePoint> pts;
+  for (int f = 0; f < 20; ++f) {
+    const double z = 1000 + 3000 * (f + 0.5) / 20;
+    const Eigen::Vector3d c(150 + 0.15 * z * u(rng), 0.1 * z * u(rng), z);
+    const double a = M_PI * u(rng);
+    const Eigen::Vector3d half = 250 * Eigen::Vector3d(std::cos(a), std::sin(a), 0.3 * u(rng)).normalized();
+    for (int end = 0; end < 2; ++end) {
+      for (const auto& ob : Observe(truth, end == 0 ? Eigen::Vector3d(c - half) : Eigen::Vector3d(c + half))) {
+        const double du = g(rng), dv = g(rng);
+        pts.push_back({fmt::format("f{:02d}", f), ob.camera, end == 0 ? 3 : 4, ob.pixel_px + Eigen::Vector2d(du, dv), "test"});
+      }
+    }
+  }
+  MeasureOptions o;
+  o.sigma_px = 0.3;
+  o.lengths = {{3, 4}};
+  const ScaleBarCheck good = CheckScaleBar(Measure(rig, pts, o), {3, 4, 500});
+  ASSERT_EQ(good.rows.size(), 20u);
+  Rig moved = rig;
+  moved.cameras[1].translation_mm *= 1.003;
+  const ScaleBarCheck bad = CheckScaleBar(Measure(moved, pts, o), {3, 4, 500});
+  std::printf("scale bar: right rig %+.3f mm (z %.2f, sigma of the mean %.3f mm); camera 1 moved 0.9 mm: %+.3f mm "
+              "(z %.1f)\n", good.mean_error_mm, good.z, good.sigma_mean_mm, bad.mean_error_mm, bad.z);
+  EXPECT_TRUE(good.consistent) << good.verdict;
+  EXPECT_FALSE(bad.consistent) << bad.verdict;
+  int n = 0;
+  for (const auto& b : good.by_range) n += b.n;
+  EXPECT_EQ(n, 20);
+  EXPECT_THROW(CheckScaleBar(Measure(rig, pts, o), {3, 5, 500}), InvalidInput);
+  EXPECT_THROW(CheckScaleBar(Measure(rig, pts, o), {3, 4, -1}), InvalidInput);
 }
 
 // End to end (issues 26 and 27): the dome rig calibrated 30 times from 15 synchronised frames with
