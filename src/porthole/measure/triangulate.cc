@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <exception>
 #include <thread>
@@ -130,6 +131,26 @@ std::optional<Ray> BackwardRay(const RigCamera& c, const Eigen::Vector2d& pixel_
     }
     return r;
   });
+}
+
+std::optional<Eigen::Vector2d> ProjectPoint(const RigCamera& c, const Eigen::Vector3d& x_rig_mm) {
+  const Eigen::Vector3d p = Eigen::AngleAxisd(c.rotation_rad.norm(), c.rotation_rad.norm() > 0
+                                                                        ? Eigen::Vector3d(c.rotation_rad.normalized())
+                                                                        : Eigen::Vector3d::UnitZ()) *
+                                x_rig_mm +
+                            c.translation_mm;
+  return camera::VisitModel(c.camera.model, [&](auto m) -> std::optional<Eigen::Vector2d> {
+    using M = decltype(m);
+    if (c.shell) {
+      return refraction::Project<M, double>(c.camera.sensor, c.camera.params.data(), *c.shell, c.port.data(), p);
+    }
+    return M::template Project<double>(c.camera.sensor, c.camera.params.data(), p);
+  });
+}
+
+bool InImage(const RigCamera& c, const Eigen::Vector2d& px) {
+  const camera::Sensor& s = c.camera.sensor;
+  return px.x() >= 0 && px.y() >= 0 && px.x() <= s.width_px - 1 && px.y() <= s.height_px - 1;
 }
 
 Point Triangulate(const Rig& rig, const std::vector<Observation>& obs, const TriangulateOptions& options) {

@@ -43,6 +43,13 @@ struct Ray {
 // get out through the port (beyond a dome's rim, total internal reflection).
 std::optional<Ray> BackwardRay(const RigCamera& c, const Eigen::Vector2d& pixel_px);
 
+// The pixel of a point in the rig frame (mm) seen by camera `c`: the exact forward projection through
+// its port (refraction::Project), or the lens model's Project without one; nullopt where it does not
+// project (behind the camera, beyond the port's rim). Not checked against the image's bounds.
+std::optional<Eigen::Vector2d> ProjectPoint(const RigCamera& c, const Eigen::Vector3d& x_rig_mm);
+// True when `pixel_px` lies in camera c's image (centres of the edge pixels included).
+bool InImage(const RigCamera& c, const Eigen::Vector2d& pixel_px);
+
 struct TriangulateOptions {
   double sigma_px = 0.3;              // image-point σ per coordinate (px), > 0
   bool calibration_sigma = true;      // add the rig calibration's uncertainty (∂X/∂θ)
