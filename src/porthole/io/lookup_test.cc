@@ -167,6 +167,37 @@ TEST(Lookup, LensDataLensfunLacksIsAssumedOrGiven) {
   EXPECT_DOUBLE_EQ(FindCameraAndLens(q).lens.min_focus_mm, 100.0);
 }
 
+// lensfun names a camera's built-in lens by a private lower-case "mount" ("goProHero4black"):
+// such a camera is a fixed-lens camera with lensfun's lens for that mount, not an unknown mount.
+TEST(Lookup, LensfunActionCameraBringsItsOwnLens) {
+  EXPECT_EQ(MountFromLensfun("goProHero4black"), "fixed");
+  EXPECT_EQ(MountFromLensfun("Nikon F AF"), "nikon-f");
+  EXPECT_FALSE(MountFromLensfun("Leica M").has_value());
+  CameraLensQuery q;
+  q.camera = "GoPro HERO5 Black";  // lensfun: mount goProHero4black, crop factor 5
+  q.pixel_pitch_mm = 0.00155;
+  const CameraAndLens cl = FindCameraAndLens(q);
+  EXPECT_EQ(cl.camera.mount, "fixed");
+  EXPECT_EQ(cl.camera.lookup, "lensfun");
+  EXPECT_EQ(cl.lens.lookup, "lensfun");
+  EXPECT_EQ(cl.lens.mount, "fixed");
+  EXPECT_EQ(cl.lens.name, "GoPro HERO4 black");  // lensfun's lens of that mount
+  EXPECT_EQ(cl.lens.projection, camera::Projection::kStereographic);  // its recorded type
+  // The sensor: 43.27 mm / 5 across the diagonal, 4:3 from the lens entry's aspect ratio.
+  EXPECT_NEAR(cl.camera.SensorDiagonalMm(), 43.2666 / 5, 0.01);
+  EXPECT_NEAR(cl.camera.SensorWidthMm() / cl.camera.SensorHeightMm(), 4.0 / 3.0, 1e-3);
+  // No aperture recorded: a fixed f/2.8, said to be assumed.
+  EXPECT_EQ(cl.lens.f_number_min, 2.8);
+  EXPECT_EQ(cl.lens.f_number_max, 2.8);
+  EXPECT_NE(cl.lens.description.find("aperture assumed f/2.8"), std::string::npos) << cl.lens.description;
+  EXPECT_EQ(lens::DefaultFNumber(cl.lens), 2.8);
+  // The pupil 68.1 mm / crop factor ahead of the sensor (flange 0: distances from the sensor).
+  EXPECT_NEAR(cl.lens.PupilToFlangeMm(std::numeric_limits<double>::infinity()), 68.1 / 5, 1e-9);
+  // It takes no other lens.
+  q.lens = "nikkor-24mm-f2.8d";
+  EXPECT_THROW(FindCameraAndLens(q), InvalidInput);
+}
+
 TEST(Lookup, LensTomlTakesPupilMm) {
   const lens::LensSpec l = ParseLensToml(
       "mount = \"sony-e\"\nfocal_length_mm = 20\nf_number_min = 1.8\nf_number_max = 16\nmin_focus_mm = 190\n"
