@@ -174,7 +174,7 @@ void RegisterPlan(CLI::App& app) {
     WaterOptions water;
     CameraLensOptions camera;
     std::optional<double> wd_mm, subject_mm, coc_mm;
-    double aperture = 8;
+    std::optional<double> aperture;  // unset: f/8, or the nearest the lens has
     bool json = false;
   };
   auto o = std::make_shared<Options>();
@@ -186,7 +186,8 @@ void RegisterPlan(CLI::App& app) {
   o->water.Add(cmd);
   auto* wd = cmd->add_option("--wd", o->wd_mm, "Working distance: object to the port's outer surface, mm");
   cmd->add_option("--subject-distance", o->subject_mm, "Or: object to the lens's entrance pupil, mm")->excludes(wd);
-  cmd->add_option("--aperture", o->aperture, "f-number N")->capture_default_str();
+  cmd->add_option("--aperture", o->aperture,
+                  "f-number N (default: f/8, or the nearest the lens has: a fixed-aperture lens its own)");
   cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->callback([o] {
@@ -197,7 +198,7 @@ void RegisterPlan(CLI::App& app) {
                      planning::PlanOptions po;
                      po.wd_mm = o->wd_mm;
                      po.subject_distance_mm = o->subject_mm;
-                     po.f_number = o->aperture;
+                     po.f_number = o->aperture.value_or(lens::DefaultFNumber(setup.lens));
                      po.coc_mm = o->coc_mm;
                      if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
                      po.lambda_nm = setup.env.conditions.lambda_nm;

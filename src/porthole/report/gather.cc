@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 
 #include "porthole/core/error.h"
+#include "porthole/housing/housed.h"
+#include "porthole/io/presets.h"
 #include "porthole/planning/thin_lens.h"
 #include "porthole/report/internal.h"
 
@@ -86,6 +88,32 @@ void Steps::Done(const std::string& what, double t0) {
 
 std::string DefaultOtherPort(const ports::PortSpec& port) {
   return port.IsDome() ? "flat-acrylic-10mm" : "nimar-ni320-nominal";
+}
+
+OtherPortChoice ChooseOtherPort(const planning::Setup& setup, double subject_distance_mm) {
+  if (setup.port.IsDome()) return {DefaultOtherPort(setup.port), ""};
+  const std::vector<std::string> domes = {"nimar-ni320-nominal", "generic-dome-8in", "generic-dome-230mm-glass"};
+  std::string refused;
+  for (const std::string& name : domes) {
+    planning::Setup other = setup;
+    other.port = io::LoadPort(name);
+    try {
+      housing::FocusOnSubject(other, subject_distance_mm);
+    } catch (const InvalidInput& e) {
+      const std::string msg = e.what();  // "field: rule"
+      const std::size_t colon = msg.find(": ");
+      refused += fmt::format("{}{}: {}", refused.empty() ? "" : "; ", name,
+                             colon == std::string::npos ? msg : msg.substr(colon + 2));
+      continue;
+    }
+    if (refused.empty()) return {name, ""};
+    return {name, fmt::format("comparison port {}: the {} cannot focus on the virtual image of the subject {:g} mm "
+                              "away behind the smaller domes ({})",
+                              name, setup.lens.name, subject_distance_mm, refused)};
+  }
+  throw InvalidInput("compare_port", fmt::format("no comparison dome fits the {} at a subject {:g} mm away: {}; give "
+                                                 "one that does",
+                                                 setup.lens.name, subject_distance_mm, refused));
 }
 
 Results Gather(const ReportInputs& in, Steps& steps) {
