@@ -49,8 +49,12 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
            ? fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
                          Dist(p.d_s2ep_infinity_mm, 1))
            : std::string("virtual image of infinity      at infinity (the port has no power)\n");
-  t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm{}, Eq. 2)\n",
-                   Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
+  const bool fixed_focus = s.lens.fixed_focus;  // nothing to set: no focus advice
+  t += fixed_focus
+           ? fmt::format("lens's closest sharp subject   {:>9} mm (fixed focus, sharp from {:g} mm{}, Eq. 2)\n",
+                         Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "")
+           : fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm{}, Eq. 2)\n",
+                         Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
   if (p.lens_covers_virtual_range) {
     t += fmt::format("minimum working distance       {:>9} mm: the glass (the lens focuses on the whole virtual-image "
                      "range, {:.1f} mm to {})\n",
@@ -68,11 +72,24 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
     }
   }
   const auto& i = p.infinity;
-  t += fmt::format("infinity sharp, under water    focus on {} ({}): sharp from WD {}\n",
-                   Mm(i.water_virtual_focus_mm, 1), FocusScale(i.water_focus_distance_mm),
-                   Mm(i.water_near_wd_mm, 0));
-  t += fmt::format("infinity sharp, in air         hyperfocal {} ({}): sharp from {}\n",
-                   Mm(i.air_focus_mm, 0), FocusScale(i.air_focus_distance_mm), Mm(i.air_near_mm, 0));
+  if (fixed_focus) {
+    // A fixed-focus lens renders sharp what lies between its closest sharp subject and infinity:
+    // under water, every object whose virtual image lies there.
+    t += std::isfinite(p.min_wd_mm)
+             ? fmt::format("sharp under water              fixed focus, nothing to set: WD {} to {}\n",
+                           Mm(p.min_wd_mm, 0), std::isinf(p.d_s2ep_infinity_mm) ? "infinity"
+                           : fmt::format("infinity (its virtual image at {})", Mm(p.d_s2ep_infinity_mm, 1)))
+             : std::string("sharp under water              nothing: the virtual images lie closer than the lens "
+                           "renders sharp\n");
+    t += fmt::format("sharp in air                   fixed focus, nothing to set: {} to infinity\n",
+                     Mm(p.closest_d_s2ep_mm, 0));
+  } else {
+    t += fmt::format("infinity sharp, under water    focus on {} ({}): sharp from WD {}\n",
+                     Mm(i.water_virtual_focus_mm, 1), FocusScale(i.water_focus_distance_mm),
+                     Mm(i.water_near_wd_mm, 0));
+    t += fmt::format("infinity sharp, in air         hyperfocal {} ({}): sharp from {}\n",
+                     Mm(i.air_focus_mm, 0), FocusScale(i.air_focus_distance_mm), Mm(i.air_near_mm, 0));
+  }
   t += fmt::format("field of view (c = {:.2f} mm)   air {}/{}/{} deg, water {}/{}/{} deg (h/v/diagonal)\n",
                    p.principal_distance_mm, Fixed(p.fov.air.horizontal_deg, 1), Fixed(p.fov.air.vertical_deg, 1),
                    Fixed(p.fov.air.diagonal_deg, 1), Fixed(p.fov.water.horizontal_deg, 1),
@@ -85,7 +102,7 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                                                 c.axial_offset_mm > 0 ? "ahead of" : "behind");
     t += fmt::format("entrance pupil                 {}, {:.1f} mm off its axis ({})\n", where,
                      c.lateral_offset_mm, FocusScale(c.focus_distance_mm));
-    if (std::abs(c.extension_mm) >= 0.05) {
+    if (std::abs(c.extension_mm) >= 0.05 && s.lens.mount != "fixed") {  // no ring fits a built-in lens
       t += fmt::format("  to centre it                 {} (then {}){}\n",
                        c.extension_mm > 0 ? fmt::format("add a {:.1f} mm extension ring", c.extension_mm)
                                           : fmt::format("shorten the extension by {:.1f} mm", -c.extension_mm),
@@ -107,9 +124,21 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
     t += fmt::format("virtual image                  {:>9} mm from the pupil (real rays at f/{:g}: {})\n",
                      Dist(g.virtual_image.d_s2ep_mm, 1), p.f_number,
                      std::isfinite(g.d_s2ep_real_mm) ? Dist(g.d_s2ep_real_mm, 1) + " mm" : "not traced");
-    t += g.focus.focus_distance_mm
-             ? fmt::format("set the focus scale to         {:>9} mm\n", Dist(*g.focus.focus_distance_mm, 0))
-             : fmt::format("NOT REACHABLE: needs a close-up of at least +{:.2f} dioptres\n", g.focus.closeup_dioptre);
+    if (fixed_focus) {
+      t += g.focus.focus_distance_mm
+               ? fmt::format("fixed focus                    nothing to set: the virtual image is within the "
+                             "lens's sharp range ({} to infinity)\n", Mm(p.closest_d_s2ep_mm, 1))
+               : fmt::format("NOT SHARP: the virtual image is closer than the lens renders sharp ({}); move back "
+                             "to WD >= {} or add a close-up of at least +{:.2f} dioptres\n",
+                             Mm(p.closest_d_s2ep_mm, 1), Mm(p.min_wd_mm, 0), g.focus.closeup_dioptre);
+    } else {
+      t += g.focus.focus_distance_mm
+               ? fmt::format("set the focus scale to         {:>9} mm\n", Dist(*g.focus.focus_distance_mm, 0))
+               : fmt::format("NOT REACHABLE: needs a close-up of at least +{:.2f} dioptres\n", g.focus.closeup_dioptre);
+    }
+    // A fixed-focus lens's depth of field is its sharp range above; the table is for a lens focused
+    // on the target.
+    if (!fixed_focus) {
     t += fmt::format("\n{:<22} {:>9} {:>9} {:>9} {:>9}\n", "depth of field, mm", "focus", "near", "far", "total");
     t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "in air", Dist(g.air.focus_mm, 0), Dist(g.air.near_mm, 0),
                      Dist(g.air.far_mm, 0), Total(g.air.total_mm, 0));
@@ -124,6 +153,7 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                      std::isfinite(ratio) ? fmt::format("x{:.2f} of air", ratio)
                      : std::isinf(g.air.total_mm) ? "ratio to air not applicable: unlimited in air"
                                                   : "ratio to air not applicable");
+    }
     t += fmt::format("\nground sample distance         {:.3f} mm/px under water ({:.3f} in air at the same distance)\n",
                      g.gsd_water_mm, g.gsd_air_mm);
     if (g.field) {
@@ -160,7 +190,10 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   // The plausibility warnings (core/plausible.h) went to stderr in the CLI's words; the advice here.
   std::string advice;
   for (const auto& w : p.warnings) {
-    if (w.find(kImplausiblePhrase) == std::string::npos) advice += "! " + w + "\n";
+    if (w.find(kImplausiblePhrase) != std::string::npos) continue;
+    // A fixed-focus lens has no focus scale: planning's focus advice does not apply to it.
+    if (fixed_focus && (w.find("focus scale") != std::string::npos || w.find("pre-focus") != std::string::npos)) continue;
+    advice += "! " + w + "\n";
   }
   if (!advice.empty()) t += "\n" + advice;
   return t;
@@ -203,8 +236,23 @@ void RegisterPlan(CLI::App& app) {
                      if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
                      po.lambda_nm = setup.env.conditions.lambda_nm;
                      const planning::Plan plan = planning::MakePlan(setup, po);
-                     fmt::print("{}", o->json ? planning::PlanToJson(setup, plan).dump(2) + "\n"
-                                              : PlanText(setup, plan));
+                     if (!o->json) {
+                       fmt::print("{}", PlanText(setup, plan));
+                       return;
+                     }
+                     Json j = planning::PlanToJson(setup, plan);
+                     // A fixed-focus lens: nothing to set, so no focus distances to follow.
+                     j["lens"]["fixed_focus"] = setup.lens.fixed_focus;
+                     if (setup.lens.fixed_focus) {
+                       j["warnings"] = Json::array();
+                       for (const auto& w : plan.warnings) {
+                         const std::string ws = w;
+                         if (ws.find("focus scale") == std::string::npos && ws.find("pre-focus") == std::string::npos) {
+                           j["warnings"].push_back(ws);
+                         }
+                       }
+                     }
+                     fmt::print("{}\n", j.dump(2));
                    });
   });
 }
