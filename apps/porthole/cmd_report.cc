@@ -62,6 +62,7 @@ void RegisterReport(CLI::App& app) {
       return HousedWithCalibrationPitch(o->camera, PortOptions{o->port, {}}, o->water, o->air_calibration,
                                         "--air-calibration");
     });
+    std::string why;  // why the comparison port is not the usual one
     if (o->other_port.empty()) {
       // Chosen to fit the camera: a fixed-focus action camera behind a flat port cannot focus through
       // a small dome (docs/report.md); the line says which dome and why.
@@ -70,6 +71,7 @@ void RegisterReport(CLI::App& app) {
                          [&] { return report::ChooseOtherPort(in.setup, o->subject_distance_mm); });
       if (!choice.why.empty()) fmt::print(stderr, "porthole report: {}\n", choice.why);
       in.other_port = io::LoadPort(choice.name);
+      why = choice.why;
     } else {
       in.other_port = io::LoadPort(o->other_port);
     }
@@ -104,6 +106,7 @@ void RegisterReport(CLI::App& app) {
       in.echo.emplace_back(opt->get_name(), v);
     }
     if (in.echo.empty()) in.echo.emplace_back("(defaults)", "the paper's system");
+    if (!why.empty()) in.echo.emplace_back("(comparison port)", why);
 
     report::ReportOptions ro;
     ro.out_dir = o->out;
