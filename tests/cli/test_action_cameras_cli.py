@@ -74,6 +74,8 @@ def test_plan_flat_simulate_render_report_run_with_defaults(camera, tmp_path):
     data = json.loads((tmp_path / "rep" / "report.json").read_text())
     assert data["inputs"]["f_number"] == own_f
     assert data["other_port"]["port"]["name"] == "generic-dome-230mm-glass"
+    # The pupil-offset sweep stops 1 mm short of the window 8 mm ahead (it refused +8 and +10 before).
+    assert [row["offset_mm"] for row in data["sweeps"]["z"]] == [-10, -8, -6, -4, -2, 0, 2, 4, 6]
     lines = [l for l in rep.err.splitlines() if "comparison port" in l]
     assert len(lines) == 1 and "nimar-ni320-nominal" in lines[0], rep.err
 
