@@ -76,6 +76,9 @@ def test_plan_flat_simulate_render_report_run_with_defaults(camera, tmp_path):
     assert data["other_port"]["port"]["name"] == "generic-dome-230mm-glass"
     # The pupil-offset sweep stops 1 mm short of the window 8 mm ahead (it refused +8 and +10 before).
     assert [row["offset_mm"] for row in data["sweeps"]["z"]] == [-10, -8, -6, -4, -2, 0, 2, 4, 6]
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "Set the focus scale" not in page and "pre-focus" not in page  # fixed focus: no focus advice
+    assert "Fixed focus" in page
     lines = [l for l in rep.err.splitlines() if "comparison port" in l]
     assert len(lines) == 1 and "nimar-ni320-nominal" in lines[0], rep.err
 
@@ -146,5 +149,6 @@ def test_lensfun_action_camera_is_usable():
 def test_report_of_a_dome_keeps_the_flat_comparison(tmp_path):
     rep = run("report", "--port", "nimar-ni320-nominal", "--out", tmp_path / "rep")
     assert "comparison port" not in rep.err
+    assert "Set the focus scale" in (tmp_path / "rep" / "index.html").read_text()  # a lens that focuses
     data = json.loads((tmp_path / "rep" / "report.json").read_text())
     assert data["other_port"]["port"]["name"] == "flat-acrylic-10mm"
