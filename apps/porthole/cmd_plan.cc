@@ -33,6 +33,12 @@ std::string FocusScale(const std::optional<double>& fd) {
 // A depth-of-field total: "unlimited" when the far limit is at infinity.
 std::string Total(double v, int decimals) { return std::isinf(v) && v > 0 ? "unlimited" : Dist(v, decimals); }
 
+// Planning's advice about setting the focus (the focus scale, pre-focusing in air): none of it
+// applies to a fixed-focus lens.
+bool IsFocusAdvice(const std::string& w) {
+  return w.find("focus scale") != std::string::npos || w.find("pre-focus") != std::string::npos;
+}
+
 std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   const auto& sys = p.system;
   const std::string projection =
@@ -192,7 +198,7 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   for (const auto& w : p.warnings) {
     if (w.find(kImplausiblePhrase) != std::string::npos) continue;
     // A fixed-focus lens has no focus scale: planning's focus advice does not apply to it.
-    if (fixed_focus && (w.find("focus scale") != std::string::npos || w.find("pre-focus") != std::string::npos)) continue;
+    if (fixed_focus && IsFocusAdvice(w)) continue;
     advice += "! " + w + "\n";
   }
   if (!advice.empty()) t += "\n" + advice;
@@ -243,14 +249,12 @@ void RegisterPlan(CLI::App& app) {
                      Json j = planning::PlanToJson(setup, plan);
                      // A fixed-focus lens: nothing to set, so no focus distances to follow.
                      j["lens"]["fixed_focus"] = setup.lens.fixed_focus;
-                     if (setup.lens.fixed_focus) {
-                       j["warnings"] = Json::array();
-                       for (const auto& w : plan.warnings) {
-                         const std::string ws = w;
-                         if (ws.find("focus scale") == std::string::npos && ws.find("pre-focus") == std::string::npos) {
-                           j["warnings"].push_back(ws);
-                         }
+                     if (setup.lens.fixed_focus && j.contains("warnings")) {
+                       Json kept = Json::array();
+                       for (const Json& w : j["warnings"]) {
+                         if (!w.is_string() || !IsFocusAdvice(w.get<std::string>())) kept.push_back(w);
                        }
+                       j["warnings"] = kept;
                      }
                      fmt::print("{}\n", j.dump(2));
                    });

@@ -121,6 +121,11 @@ def test_fixed_focus_gets_no_focus_advice():
     for advice in ("set the focus scale", "focus scale", "hyperfocal", "pre-focus", "depth of field, mm"):
         assert advice not in text, advice
     assert "fixed focus, nothing to set" in text
+    j = run("plan", "--camera", "gopro-hero9-black", *PORT, "--wd", "1000", "--json").json()
+    assert j["lens"]["fixed_focus"] is True
+    assert not [w for w in j["warnings"] if "pre-focus" in w or "focus scale" in w], j["warnings"]
+    nikon = run("plan", "--port", "flat-acrylic-10mm", "--wd", "1000", "--json").json()
+    assert nikon["lens"]["fixed_focus"] is False and any("pre-focus" in w for w in nikon["warnings"])
     assert "within the lens's sharp range" in text
     too_close = run("plan", "--camera", "gopro-hero9-black", *PORT, "--wd", "150").out
     assert "NOT SHARP" in too_close and "set the focus scale" not in too_close
