@@ -33,6 +33,12 @@ std::string FocusScale(const std::optional<double>& fd) {
 // A depth-of-field total: "unlimited" when the far limit is at infinity.
 std::string Total(double v, int decimals) { return std::isinf(v) && v > 0 ? "unlimited" : Dist(v, decimals); }
 
+// Planning's advice about setting the focus (the focus scale, pre-focusing in air): none of it
+// applies to a fixed-focus lens.
+bool IsFocusAdvice(const std::string& w) {
+  return w.find("focus scale") != std::string::npos || w.find("pre-focus") != std::string::npos;
+}
+
 std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   const auto& sys = p.system;
   const std::string projection =
@@ -49,8 +55,12 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
            ? fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
                          Dist(p.d_s2ep_infinity_mm, 1))
            : std::string("virtual image of infinity      at infinity (the port has no power)\n");
-  t += fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm{}, Eq. 2)\n",
-                   Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
+  const bool fixed_focus = s.lens.fixed_focus;  // nothing to set: no focus advice
+  t += fixed_focus
+           ? fmt::format("lens's closest sharp subject   {:>9} mm (fixed focus, sharp from {:g} mm{}, Eq. 2)\n",
+                         Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "")
+           : fmt::format("lens's closest subject         {:>9} mm (minimum focus {:g} mm{}, Eq. 2)\n",
+                         Dist(p.closest_d_s2ep_mm, 1), s.lens.min_focus_mm, s.lens.min_focus_assumed ? ", assumed" : "");
   if (p.lens_covers_virtual_range) {
     t += fmt::format("minimum working distance       {:>9} mm: the glass (the lens focuses on the whole virtual-image "
                      "range, {:.1f} mm to {})\n",
@@ -68,11 +78,24 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
     }
   }
   const auto& i = p.infinity;
-  t += fmt::format("infinity sharp, under water    focus on {} ({}): sharp from WD {}\n",
-                   Mm(i.water_virtual_focus_mm, 1), FocusScale(i.water_focus_distance_mm),
-                   Mm(i.water_near_wd_mm, 0));
-  t += fmt::format("infinity sharp, in air         hyperfocal {} ({}): sharp from {}\n",
-                   Mm(i.air_focus_mm, 0), FocusScale(i.air_focus_distance_mm), Mm(i.air_near_mm, 0));
+  if (fixed_focus) {
+    // A fixed-focus lens renders sharp what lies between its closest sharp subject and infinity:
+    // under water, every object whose virtual image lies there.
+    t += std::isfinite(p.min_wd_mm)
+             ? fmt::format("sharp under water              fixed focus, nothing to set: WD {} to {}\n",
+                           Mm(p.min_wd_mm, 0), std::isinf(p.d_s2ep_infinity_mm) ? "infinity"
+                           : fmt::format("infinity (its virtual image at {})", Mm(p.d_s2ep_infinity_mm, 1)))
+             : std::string("sharp under water              nothing: the virtual images lie closer than the lens "
+                           "renders sharp\n");
+    t += fmt::format("sharp in air                   fixed focus, nothing to set: {} to infinity\n",
+                     Mm(p.closest_d_s2ep_mm, 0));
+  } else {
+    t += fmt::format("infinity sharp, under water    focus on {} ({}): sharp from WD {}\n",
+                     Mm(i.water_virtual_focus_mm, 1), FocusScale(i.water_focus_distance_mm),
+                     Mm(i.water_near_wd_mm, 0));
+    t += fmt::format("infinity sharp, in air         hyperfocal {} ({}): sharp from {}\n",
+                     Mm(i.air_focus_mm, 0), FocusScale(i.air_focus_distance_mm), Mm(i.air_near_mm, 0));
+  }
   t += fmt::format("field of view (c = {:.2f} mm)   air {}/{}/{} deg, water {}/{}/{} deg (h/v/diagonal)\n",
                    p.principal_distance_mm, Fixed(p.fov.air.horizontal_deg, 1), Fixed(p.fov.air.vertical_deg, 1),
                    Fixed(p.fov.air.diagonal_deg, 1), Fixed(p.fov.water.horizontal_deg, 1),
@@ -85,7 +108,7 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                                                 c.axial_offset_mm > 0 ? "ahead of" : "behind");
     t += fmt::format("entrance pupil                 {}, {:.1f} mm off its axis ({})\n", where,
                      c.lateral_offset_mm, FocusScale(c.focus_distance_mm));
-    if (std::abs(c.extension_mm) >= 0.05) {
+    if (std::abs(c.extension_mm) >= 0.05 && s.lens.mount != "fixed") {  // no ring fits a built-in lens
       t += fmt::format("  to centre it                 {} (then {}){}\n",
                        c.extension_mm > 0 ? fmt::format("add a {:.1f} mm extension ring", c.extension_mm)
                                           : fmt::format("shorten the extension by {:.1f} mm", -c.extension_mm),
@@ -107,9 +130,21 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
     t += fmt::format("virtual image                  {:>9} mm from the pupil (real rays at f/{:g}: {})\n",
                      Dist(g.virtual_image.d_s2ep_mm, 1), p.f_number,
                      std::isfinite(g.d_s2ep_real_mm) ? Dist(g.d_s2ep_real_mm, 1) + " mm" : "not traced");
-    t += g.focus.focus_distance_mm
-             ? fmt::format("set the focus scale to         {:>9} mm\n", Dist(*g.focus.focus_distance_mm, 0))
-             : fmt::format("NOT REACHABLE: needs a close-up of at least +{:.2f} dioptres\n", g.focus.closeup_dioptre);
+    if (fixed_focus) {
+      t += g.focus.focus_distance_mm
+               ? fmt::format("fixed focus                    nothing to set: the virtual image is within the "
+                             "lens's sharp range ({} to infinity)\n", Mm(p.closest_d_s2ep_mm, 1))
+               : fmt::format("NOT SHARP: the virtual image is closer than the lens renders sharp ({}); move back "
+                             "to WD >= {} or add a close-up of at least +{:.2f} dioptres\n",
+                             Mm(p.closest_d_s2ep_mm, 1), Mm(p.min_wd_mm, 0), g.focus.closeup_dioptre);
+    } else {
+      t += g.focus.focus_distance_mm
+               ? fmt::format("set the focus scale to         {:>9} mm\n", Dist(*g.focus.focus_distance_mm, 0))
+               : fmt::format("NOT REACHABLE: needs a close-up of at least +{:.2f} dioptres\n", g.focus.closeup_dioptre);
+    }
+    // A fixed-focus lens's depth of field is its sharp range above; the table is for a lens focused
+    // on the target.
+    if (!fixed_focus) {
     t += fmt::format("\n{:<22} {:>9} {:>9} {:>9} {:>9}\n", "depth of field, mm", "focus", "near", "far", "total");
     t += fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9}\n", "in air", Dist(g.air.focus_mm, 0), Dist(g.air.near_mm, 0),
                      Dist(g.air.far_mm, 0), Total(g.air.total_mm, 0));
@@ -124,6 +159,7 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                      std::isfinite(ratio) ? fmt::format("x{:.2f} of air", ratio)
                      : std::isinf(g.air.total_mm) ? "ratio to air not applicable: unlimited in air"
                                                   : "ratio to air not applicable");
+    }
     t += fmt::format("\nground sample distance         {:.3f} mm/px under water ({:.3f} in air at the same distance)\n",
                      g.gsd_water_mm, g.gsd_air_mm);
     if (g.field) {
@@ -160,7 +196,10 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
   // The plausibility warnings (core/plausible.h) went to stderr in the CLI's words; the advice here.
   std::string advice;
   for (const auto& w : p.warnings) {
-    if (w.find(kImplausiblePhrase) == std::string::npos) advice += "! " + w + "\n";
+    if (w.find(kImplausiblePhrase) != std::string::npos) continue;
+    // A fixed-focus lens has no focus scale: planning's focus advice does not apply to it.
+    if (fixed_focus && IsFocusAdvice(w)) continue;
+    advice += "! " + w + "\n";
   }
   if (!advice.empty()) t += "\n" + advice;
   return t;
@@ -174,7 +213,7 @@ void RegisterPlan(CLI::App& app) {
     WaterOptions water;
     CameraLensOptions camera;
     std::optional<double> wd_mm, subject_mm, coc_mm;
-    double aperture = 8;
+    std::optional<double> aperture;  // unset: f/8, or the nearest the lens has
     bool json = false;
   };
   auto o = std::make_shared<Options>();
@@ -186,7 +225,8 @@ void RegisterPlan(CLI::App& app) {
   o->water.Add(cmd);
   auto* wd = cmd->add_option("--wd", o->wd_mm, "Working distance: object to the port's outer surface, mm");
   cmd->add_option("--subject-distance", o->subject_mm, "Or: object to the lens's entrance pupil, mm")->excludes(wd);
-  cmd->add_option("--aperture", o->aperture, "f-number N")->capture_default_str();
+  cmd->add_option("--aperture", o->aperture,
+                  "f-number N (default: f/8, or the nearest the lens has: a fixed-aperture lens its own)");
   cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->callback([o] {
@@ -197,13 +237,26 @@ void RegisterPlan(CLI::App& app) {
                      planning::PlanOptions po;
                      po.wd_mm = o->wd_mm;
                      po.subject_distance_mm = o->subject_mm;
-                     po.f_number = o->aperture;
+                     po.f_number = o->aperture.value_or(lens::DefaultFNumber(setup.lens));
                      po.coc_mm = o->coc_mm;
                      if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
                      po.lambda_nm = setup.env.conditions.lambda_nm;
                      const planning::Plan plan = planning::MakePlan(setup, po);
-                     fmt::print("{}", o->json ? planning::PlanToJson(setup, plan).dump(2) + "\n"
-                                              : PlanText(setup, plan));
+                     if (!o->json) {
+                       fmt::print("{}", PlanText(setup, plan));
+                       return;
+                     }
+                     Json j = planning::PlanToJson(setup, plan);
+                     // A fixed-focus lens: nothing to set, so no focus distances to follow.
+                     j["lens"]["fixed_focus"] = setup.lens.fixed_focus;
+                     if (setup.lens.fixed_focus && j.contains("warnings")) {
+                       Json kept = Json::array();
+                       for (const Json& w : j["warnings"]) {
+                         if (!w.is_string() || !IsFocusAdvice(w.get<std::string>())) kept.push_back(w);
+                       }
+                       j["warnings"] = kept;
+                     }
+                     fmt::print("{}\n", j.dump(2));
                    });
   });
 }

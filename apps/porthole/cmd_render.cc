@@ -37,7 +37,7 @@ struct RenderCliOptions {
   std::vector<double> shift = {0, 0}, tilt = {0, 0};
   double roll_deg = 0;
   std::string focus = "target";
-  std::string f_number = "8";
+  std::string f_number = "lens";  // f/8, or the nearest the lens has (lens::DefaultFNumber)
   std::string vignetting = "none";
   std::vector<double> vignetting_pa;
   std::string camera_model;
@@ -197,7 +197,7 @@ void RunRender(const RenderCliOptions& o) {
   if (o.medium != "water" && o.medium != "air") throw InvalidInput("--medium", "must be water or air");
   scene.medium = o.medium == "air" ? render::Medium::kAir : render::Medium::kWater;
   if (o.focus != "target") scene.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
-  scene.f_number = ParseFNumber(o.f_number);
+  scene.f_number = o.f_number == "lens" ? lens::DefaultFNumber(scene.housed.lens) : ParseFNumber(o.f_number);
   if (o.vignetting != "none" && o.vignetting != "natural") throw InvalidInput("--vignetting", "must be none or natural");
   scene.natural_vignetting = o.vignetting == "natural";
   if (!o.vignetting_pa.empty()) scene.vignetting_pa = {o.vignetting_pa[0], o.vignetting_pa[1], o.vignetting_pa[2]};
@@ -335,7 +335,7 @@ void RegisterRender(CLI::App& app) {
   cmd->add_option("--roll", o->roll_deg, "Target roll about the optical axis, deg")->group("Pose");
   cmd->add_option("--focus", o->focus, "'target' (focus on the target's virtual image) or the focus-scale distance FD, mm")
       ->capture_default_str()->group("Lens");
-  cmd->add_option("--f-number", o->f_number, "Aperture (inf: a pinhole, no depth of field)")
+  cmd->add_option("--f-number", o->f_number, "Aperture (inf: a pinhole, no depth of field); lens: f/8, or the nearest the lens has (a fixed-aperture lens its own)")
       ->capture_default_str()->group("Lens");
   cmd->add_option("--vignetting", o->vignetting,
                   "The lens's natural vignetting: none, or natural (cos^4 for a rectilinear lens: the solid angle "

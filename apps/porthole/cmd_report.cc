@@ -19,7 +19,8 @@ void RegisterReport(CLI::App& app) {
     CameraLensOptions camera;
     std::string port = "nimar-ni320", other_port;
     WaterOptions water;
-    double subject_distance_mm = 1000, aperture = 8;
+    double subject_distance_mm = 1000;
+    std::optional<double> aperture;  // unset: f/8, or the nearest the lens has
     std::optional<double> coc_mm;
     std::string air_calibration, water_calibration;
     double calibration_pitch_mm = 0;
@@ -36,12 +37,13 @@ void RegisterReport(CLI::App& app) {
   cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
       ->capture_default_str()->group("Port");
   cmd->add_option("--compare-port", o->other_port,
-                  "The port to compare with (default: flat-acrylic-10mm for a dome, nimar-ni320-nominal for a flat port)")
+                  "The port to compare with (default: flat-acrylic-10mm for a dome; for a flat port nimar-ni320-nominal, or the first larger generic dome the lens can focus through)")
       ->group("Port");
   o->water.Add(cmd);
   cmd->add_option("--subject-distance", o->subject_distance_mm, "Target: subject to entrance pupil, mm")
       ->capture_default_str();
-  cmd->add_option("--aperture", o->aperture, "f-number N")->capture_default_str();
+  cmd->add_option("--aperture", o->aperture,
+                  "f-number N (default: f/8, or the nearest the lens has: a fixed-aperture lens its own)");
   cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
   cmd->add_option("--air-calibration", o->air_calibration,
                   "In-air calibration of the camera in its housing: porthole JSON, OpenCV YAML, COLMAP, mrcal or "
@@ -60,9 +62,21 @@ void RegisterReport(CLI::App& app) {
       return HousedWithCalibrationPitch(o->camera, PortOptions{o->port, {}}, o->water, o->air_calibration,
                                         "--air-calibration");
     });
-    in.other_port = io::LoadPort(o->other_port.empty() ? report::DefaultOtherPort(in.setup.port) : o->other_port);
+    std::string why;  // why the comparison port is not the usual one
+    if (o->other_port.empty()) {
+      // Chosen to fit the camera: a fixed-focus action camera behind a flat port cannot focus through
+      // a small dome (docs/report.md); the line says which dome and why.
+      const report::OtherPortChoice choice =
+          WithFieldNames({{"compare_port", "--compare-port"}},
+                         [&] { return report::ChooseOtherPort(in.setup, o->subject_distance_mm); });
+      if (!choice.why.empty()) fmt::print(stderr, "porthole report: {}\n", choice.why);
+      in.other_port = io::LoadPort(choice.name);
+      why = choice.why;
+    } else {
+      in.other_port = io::LoadPort(o->other_port);
+    }
     in.subject_distance_mm = o->subject_distance_mm;
-    in.f_number = o->aperture;
+    in.f_number = o->aperture.value_or(lens::DefaultFNumber(in.setup.lens));
     in.coc_mm = o->coc_mm;
     const double pitch = in.setup.camera.sensor.pixel_pitch_mm;
     // Each calibration checked against the body and lens before it is refit to Brown
@@ -92,6 +106,7 @@ void RegisterReport(CLI::App& app) {
       in.echo.emplace_back(opt->get_name(), v);
     }
     if (in.echo.empty()) in.echo.emplace_back("(defaults)", "the paper's system");
+    if (!why.empty()) in.echo.emplace_back("(comparison port)", why);
 
     report::ReportOptions ro;
     ro.out_dir = o->out;

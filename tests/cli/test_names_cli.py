@@ -11,7 +11,7 @@ SONY_1635 = ["--camera", "sony-a7iv", "--lens", "Sony FE 16-35mm f/4 ZA OSS", "-
 
 
 @pytest.mark.parametrize("cmd", ["plan", "flat", "simulate", "report"])
-@pytest.mark.parametrize("name", ["Sony A7R V", "Nikon Z8", "Olympus OM-1", "gopro-hero12", "GoPro HERO11 Black"])
+@pytest.mark.parametrize("name", ["Sony A7R V", "Nikon Z8", "Olympus OM-1", "gopro-hero12", "GoPro HERO13 Black"])
 def test_wrong_camera_names_refused_with_candidates(cmd, name, tmp_path):
     extra = ["--out", tmp_path / "r"] if cmd == "report" else []
     line = run_bad(cmd, "--camera", name, "--pixel-pitch-mm", "0.004", *extra)

@@ -187,6 +187,10 @@ double FNumber(float v) { return std::round(v * 100.0) / 100.0; }
 
 std::optional<std::string> MountFromLensfun(const std::string& m) {
   auto starts = [&](const char* p) { return m.rfind(p, 0) == 0; };
+  // lensfun names the private "mount" of a camera with a built-in lens (a compact, an action
+  // camera, a drone: "goProHero4black", "olympusTG4") in lower camel case, a real mount with a
+  // capital ("Nikon F AF"): the lens of such an entry is the camera's own.
+  if (!m.empty() && std::islower(static_cast<unsigned char>(m[0]))) return "fixed";
   if (starts("Nikon F")) return "nikon-f";
   if (m == "Canon EF" || m == "Canon EF-S") return "canon-ef";
   if (m == "Sony E") return "sony-e";
@@ -230,6 +234,35 @@ std::vector<const T*> LensfunExact(const T* const* all, const std::string& name,
   return out;
 }
 
+lens::LensSpec LensFromLensfun(const lfLens* l, std::optional<double> focal_mm, const LensData& given);
+
+// The lens lensfun lists for a camera's own mount (a camera with a built-in lens): the one entry
+// of that mount, the smallest crop factor standing for an entry calibrated on several bodies.
+// Throws InvalidInput("camera") when lensfun has none, or several that differ.
+const lfLens* BuiltInLensfunLens(const lfCamera* c, const std::string& camera_name) {
+  std::vector<const lfLens*> found;
+  const std::string mount = c->Mount ? c->Mount : "";
+  for (const lfLens* const* e = lf_db_get_lenses(Db()); e && *e; ++e) {
+    for (char** m = (*e)->Mounts; m && *m; ++m) {
+      if (mount == *m) found.push_back(*e);
+    }
+  }
+  if (found.empty()) {
+    throw InvalidInput("camera", fmt::format("{} has a built-in lens (lensfun mount '{}') that lensfun does not list; "
+                                             "give a camera TOML file with its [lens]", camera_name, mount));
+  }
+  std::stable_sort(found.begin(), found.end(),
+                   [](const lfLens* x, const lfLens* y) { return x->CropFactor < y->CropFactor; });
+  for (const lfLens* o : found) {
+    if (o->MinFocal != found[0]->MinFocal || o->MaxFocal != found[0]->MaxFocal || o->Type != found[0]->Type) {
+      throw InvalidInput("camera", fmt::format("lensfun lists {} different lenses for the built-in lens of the {} "
+                                               "(mount '{}'); porthole cannot tell which: give a camera TOML file",
+                                               found.size(), camera_name, mount));
+    }
+  }
+  return found[0];
+}
+
 }  // namespace
 
 lens::CameraBody FindCamera(const std::string& name, std::optional<double> pitch) {
@@ -262,13 +295,25 @@ lens::CameraBody FindCamera(const std::string& name, std::optional<double> pitch
   RequirePositive("pixel_pitch_mm", *pitch);
   b.mount = *mount;
   const double diag = kFullFrameDiagonalMm / c->CropFactor;
-  const double aspect = *mount == "mft" ? 4.0 / 3.0 : 1.5;
+  // A built-in lens (lensfun's compacts and action cameras) comes with the camera; its entry may
+  // record the frame's aspect ratio (4:3 for the GoPros).
+  const lfLens* own = *mount == "fixed" ? BuiltInLensfunLens(c, b.name) : nullptr;
+  const bool aspect_known = own && own->AspectRatio > 1.0f;
+  const double aspect = aspect_known ? static_cast<double>(own->AspectRatio)
+                        : (*mount == "mft" || *mount == "fixed") ? 4.0 / 3.0 : 1.5;
   const double h = diag / std::hypot(aspect, 1.0);
   b.sensor = {static_cast<int>(std::lround(aspect * h / *pitch)), static_cast<int>(std::lround(h / *pitch)), *pitch};
-  b.description = fmt::format("{} (lensfun: crop factor {:g}, {} aspect assumed)", b.name, c->CropFactor,
-                              *mount == "mft" ? "4:3" : "3:2");
+  const std::string aspect_name = std::abs(aspect - 4.0 / 3.0) < 1e-3 ? "4:3"
+                                  : std::abs(aspect - 1.5) < 1e-3     ? "3:2"
+                                                                      : fmt::format("{:.3g}:1", aspect);
+  b.description = fmt::format("{} (lensfun: crop factor {:g}, {} aspect {})", b.name, c->CropFactor, aspect_name,
+                              aspect_known ? "from its lens entry" : "assumed");
   b.source = "lensfun database (liblensfun-data-v1)";
   b.lookup = "lensfun";
+  if (own) {
+    b.fixed_lens = LensFromLensfun(own, std::nullopt, {});
+    b.fixed_lens->lookup = "lensfun";
+  }
   return b;
 }
 
@@ -293,6 +338,93 @@ lens::LensSpec WithLensData(lens::LensSpec s, const LensData& given) {
   }
   return s;
 }
+
+namespace {
+
+// A lensfun lens as porthole's LensSpec (FindLens; the built-in lens of a lensfun camera whose
+// mount is its own, FindCamera): what lensfun lacks given or assumed and flagged.
+lens::LensSpec LensFromLensfun(const lfLens* l, std::optional<double> focal_mm, const LensData& given) {
+  lens::LensSpec s;
+  s.name = FullName(l->Maker, l->Model);
+  s.lookup = "lensfun";
+  for (char** m = l->Mounts; m && *m; ++m) {
+    const auto mount = MountFromLensfun(*m);
+    if (!mount) continue;
+    if (s.mount.empty()) {
+      s.mount = *mount;
+    } else if (*mount != s.mount) {
+      s.other_mounts.push_back(*mount);
+    }
+  }
+  if (s.mount.empty()) throw InvalidInput("lens", s.name + " has no mount porthole knows");
+  // A built-in lens's translated name is "fixed lens": its own (untranslated) model names it.
+  if (s.mount == "fixed" && l->Model) s.name = FullName(Str(l->Maker), std::string(l->Model));
+  bool estimated = false;
+  const auto projection = ProjectionFromLensfunType(l->Type, &estimated);
+  if (!projection) {
+    throw InvalidInput("lens", fmt::format("{} is a {} lens in lensfun; porthole plans rectilinear and fisheye lenses "
+                                           "only", s.name, l->Type == LF_PANORAMIC ? "panoramic" : "equirectangular"));
+  }
+  s.projection = *projection;
+  s.projection_estimated = estimated;
+  // lensfun's default type is rectilinear: a lens it calls a fisheye but records no type for is
+  // taken as equidistant, and said to be a guess.
+  std::string lower = s.name;
+  for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (s.projection == camera::Projection::kRectilinear && lower.find("fisheye") != std::string::npos) {
+    s.projection = camera::Projection::kEquidistant;
+    s.projection_estimated = true;
+  }
+  if (l->MinFocal != l->MaxFocal && !focal_mm) {
+    throw InvalidInput("focal_length_mm", fmt::format("{} is a zoom ({:g}-{:g} mm): give the focal length", s.name,
+                                              l->MinFocal, l->MaxFocal));
+  }
+  s.focal_length_mm = focal_mm.value_or(l->MinFocal);
+  if (s.focal_length_mm < l->MinFocal - 1e-6 || s.focal_length_mm > l->MaxFocal + 1e-6) {
+    throw InvalidInput("focal_length_mm", fmt::format("{} covers {:g}-{:g} mm", s.name, l->MinFocal, l->MaxFocal));
+  }
+  s.f_number_min = l->MinAperture > 0 ? FNumber(l->MinAperture) : 2.8;
+  s.f_number_max = l->MaxAperture > 0 ? FNumber(l->MaxAperture) : 22;
+  // A camera's own lens without a recorded aperture (lensfun's action cameras): taken as a fixed
+  // f/2.8, the aperture of the GoPro HERO3-HERO8 lenses, and said to be assumed.
+  const bool aperture_assumed = s.mount == "fixed" && !(l->MinAperture > 0);
+  if (aperture_assumed) s.f_number_min = s.f_number_max = 2.8;
+  const double f = s.focal_length_mm;
+  // lensfun records neither the minimum focus nor the entrance pupil: the given values, else
+  // estimates flagged as assumed.
+  s.min_focus_mm = 10 * f;
+  s.min_focus_assumed = true;
+  s = WithLensData(s, {given.min_focus_mm, std::nullopt});  // checks the given minimum focus
+  // The pupil: a fixed distance ahead of the sensor at infinity, then the thin-lens extension.
+  const double ffd = lens::MountByName(s.mount).flange_focal_distance_mm;
+  const double crop = l->CropFactor > 0 ? l->CropFactor : 1.0;
+  const double ep_sensor = given.pupil_mm ? RequirePositive("pupil_mm", *given.pupil_mm) : kEpToSensorFullFrameMm / crop;
+  const double ep_inf = ep_sensor - ffd;
+  for (double fd : {std::numeric_limits<double>::infinity(), 4 * s.min_focus_mm, 2 * s.min_focus_mm, s.min_focus_mm}) {
+    s.pupil.push_back({fd, ep_inf + (std::isinf(fd) ? 0.0 : f * f / (fd - 2 * f))});
+  }
+  s.pupil_estimated = !given.pupil_mm;
+  const std::string min_focus = s.min_focus_assumed
+                                    ? fmt::format("minimum focus assumed 10 f = {:g} mm (lensfun records none)",
+                                                  s.min_focus_mm)
+                                    : fmt::format("minimum focus {:g} mm (given)", s.min_focus_mm);
+  const std::string pupil =
+      given.pupil_mm
+          ? fmt::format("entrance pupil {:g} mm ahead of the sensor at infinity (given)", ep_sensor)
+          : fmt::format("entrance pupil assumed {:.1f} mm ahead of the sensor at infinity (68.1 mm / crop factor {:g}, "
+                        "the mean of the paper's two measured Nikkors)",
+                        ep_sensor, crop);
+  s.description = fmt::format(
+      "lensfun data; {}; {}, moving forward by the thin-lens extension f^2/(FD - 2f) when focusing; {} projection{}{}",
+      min_focus, pupil, camera::ProjectionName(s.projection),
+      s.projection_estimated ? " (estimated: lensfun records no exact type for it)" : " (lensfun's lens type)",
+      aperture_assumed ? "; aperture assumed f/2.8 (lensfun records none)" : "");
+  s.source = given.pupil_mm ? "lensfun database (liblensfun-data-v1); pupil: given"
+                            : "lensfun database (liblensfun-data-v1); pupil: porthole estimate, docs/planning.md";
+  return s;
+}
+
+}  // namespace
 
 lens::LensSpec FindLens(const std::string& name, std::optional<double> focal_mm, const LensData& given) {
   const Preset* preset = IsFile(name) ? nullptr : PresetByKey("lens", name);
@@ -320,77 +452,7 @@ lens::LensSpec FindLens(const std::string& name, std::optional<double> focal_mm,
                                              name, found.size()));
     }
   }
-  lens::LensSpec s;
-  s.name = FullName(l->Maker, l->Model);
-  s.lookup = "lensfun";
-  for (char** m = l->Mounts; m && *m; ++m) {
-    const auto mount = MountFromLensfun(*m);
-    if (!mount) continue;
-    if (s.mount.empty()) {
-      s.mount = *mount;
-    } else if (*mount != s.mount) {
-      s.other_mounts.push_back(*mount);
-    }
-  }
-  if (s.mount.empty()) throw InvalidInput("lens", s.name + " has no mount porthole knows");
-  bool estimated = false;
-  const auto projection = ProjectionFromLensfunType(l->Type, &estimated);
-  if (!projection) {
-    throw InvalidInput("lens", fmt::format("{} is a {} lens in lensfun; porthole plans rectilinear and fisheye lenses "
-                                           "only", s.name, l->Type == LF_PANORAMIC ? "panoramic" : "equirectangular"));
-  }
-  s.projection = *projection;
-  s.projection_estimated = estimated;
-  // lensfun's default type is rectilinear: a lens it calls a fisheye but records no type for is
-  // taken as equidistant, and said to be a guess.
-  std::string lower = s.name;
-  for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (s.projection == camera::Projection::kRectilinear && lower.find("fisheye") != std::string::npos) {
-    s.projection = camera::Projection::kEquidistant;
-    s.projection_estimated = true;
-  }
-  if (l->MinFocal != l->MaxFocal && !focal_mm) {
-    throw InvalidInput("focal_length_mm", fmt::format("{} is a zoom ({:g}-{:g} mm): give the focal length", s.name,
-                                              l->MinFocal, l->MaxFocal));
-  }
-  s.focal_length_mm = focal_mm.value_or(l->MinFocal);
-  if (s.focal_length_mm < l->MinFocal - 1e-6 || s.focal_length_mm > l->MaxFocal + 1e-6) {
-    throw InvalidInput("focal_length_mm", fmt::format("{} covers {:g}-{:g} mm", s.name, l->MinFocal, l->MaxFocal));
-  }
-  s.f_number_min = l->MinAperture > 0 ? FNumber(l->MinAperture) : 2.8;
-  s.f_number_max = l->MaxAperture > 0 ? FNumber(l->MaxAperture) : 22;
-  const double f = s.focal_length_mm;
-  // lensfun records neither the minimum focus nor the entrance pupil: the given values, else
-  // estimates flagged as assumed.
-  s.min_focus_mm = 10 * f;
-  s.min_focus_assumed = true;
-  s = WithLensData(s, {given.min_focus_mm, std::nullopt});  // checks the given minimum focus
-  // The pupil: a fixed distance ahead of the sensor at infinity, then the thin-lens extension.
-  const double ffd = lens::MountByName(s.mount).flange_focal_distance_mm;
-  const double crop = l->CropFactor > 0 ? l->CropFactor : 1.0;
-  const double ep_sensor = given.pupil_mm ? RequirePositive("pupil_mm", *given.pupil_mm) : kEpToSensorFullFrameMm / crop;
-  const double ep_inf = ep_sensor - ffd;
-  for (double fd : {std::numeric_limits<double>::infinity(), 4 * s.min_focus_mm, 2 * s.min_focus_mm, s.min_focus_mm}) {
-    s.pupil.push_back({fd, ep_inf + (std::isinf(fd) ? 0.0 : f * f / (fd - 2 * f))});
-  }
-  s.pupil_estimated = !given.pupil_mm;
-  const std::string min_focus = s.min_focus_assumed
-                                    ? fmt::format("minimum focus assumed 10 f = {:g} mm (lensfun records none)",
-                                                  s.min_focus_mm)
-                                    : fmt::format("minimum focus {:g} mm (given)", s.min_focus_mm);
-  const std::string pupil =
-      given.pupil_mm
-          ? fmt::format("entrance pupil {:g} mm ahead of the sensor at infinity (given)", ep_sensor)
-          : fmt::format("entrance pupil assumed {:.1f} mm ahead of the sensor at infinity (68.1 mm / crop factor {:g}, "
-                        "the mean of the paper's two measured Nikkors)",
-                        ep_sensor, crop);
-  s.description = fmt::format(
-      "lensfun data; {}; {}, moving forward by the thin-lens extension f^2/(FD - 2f) when focusing; {} projection{}",
-      min_focus, pupil, camera::ProjectionName(s.projection),
-      s.projection_estimated ? " (estimated: lensfun records no exact type for it)" : " (lensfun's lens type)");
-  s.source = given.pupil_mm ? "lensfun database (liblensfun-data-v1); pupil: given"
-                            : "lensfun database (liblensfun-data-v1); pupil: porthole estimate, docs/planning.md";
-  return s;
+  return LensFromLensfun(l, focal_mm, given);
 }
 
 std::optional<camera::Projection> ProjectionFromLensfunType(int t, bool* estimated) {

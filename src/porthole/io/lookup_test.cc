@@ -106,7 +106,7 @@ TEST(Lookup, CandidatesAreTheNearNames) {
   EXPECT_NE(sony.find("'Sony Alpha 7R IV' (lensfun)"), std::string::npos) << sony;
   EXPECT_EQ(sony.find("Fujifilm"), std::string::npos) << sony;
   const std::string gopro = Refusal("camera", "gopro-hero12");
-  EXPECT_NE(gopro.find("'gopro-hero4-black' (preset)"), std::string::npos) << gopro;
+  EXPECT_NE(gopro.find("'gopro-hero12-black' (preset)"), std::string::npos) << gopro;
   EXPECT_EQ(gopro.find("PowerShot"), std::string::npos) << gopro;
 }
 
@@ -165,6 +165,44 @@ TEST(Lookup, LensDataLensfunLacksIsAssumedOrGiven) {
   q.camera = "olympus-tg6";
   q.lens_data.min_focus_mm = 100;
   EXPECT_DOUBLE_EQ(FindCameraAndLens(q).lens.min_focus_mm, 100.0);
+}
+
+// lensfun names a camera's built-in lens by a private lower-case "mount" ("goProHero4black"):
+// such a camera is a fixed-lens camera with lensfun's lens for that mount, not an unknown mount.
+TEST(Lookup, LensfunActionCameraBringsItsOwnLens) {
+  EXPECT_EQ(MountFromLensfun("goProHero4black"), "fixed");
+  EXPECT_EQ(MountFromLensfun("Nikon F AF"), "nikon-f");
+  EXPECT_FALSE(MountFromLensfun("Leica M").has_value());
+  CameraLensQuery q;
+  q.camera = "GoPro HERO4 Silver";  // lensfun: mount goProHero4, crop factor 7.66 (no preset)
+  q.pixel_pitch_mm = 0.00112;
+  const CameraAndLens cl = FindCameraAndLens(q);
+  EXPECT_EQ(cl.camera.mount, "fixed");
+  EXPECT_EQ(cl.camera.lookup, "lensfun");
+  EXPECT_EQ(cl.lens.lookup, "lensfun");
+  EXPECT_EQ(cl.lens.mount, "fixed");
+  EXPECT_EQ(cl.lens.name, "GoPro HERO4");  // lensfun's lens of that mount
+  EXPECT_EQ(cl.lens.projection, camera::Projection::kEquisolid);  // its recorded type
+  // The sensor: 43.27 mm / 7.66 across the diagonal (one pixel of rounding), 4:3 from the lens
+  // entry's aspect ratio.
+  EXPECT_NEAR(cl.camera.SensorDiagonalMm(), 43.2666 / 7.66, 0.002);
+  EXPECT_NEAR(cl.camera.SensorWidthMm() / cl.camera.SensorHeightMm(), 4.0 / 3.0, 1e-3);
+  // A lensfun name that a preset also has is the preset (presets come first).
+  q.camera = "GoPro HERO5 Black";
+  q.pixel_pitch_mm.reset();
+  EXPECT_EQ(FindCameraAndLens(q).camera.lookup, "preset");
+  q.camera = "GoPro HERO4 Silver";
+  q.pixel_pitch_mm = 0.00112;
+  // No aperture recorded: a fixed f/2.8, said to be assumed.
+  EXPECT_EQ(cl.lens.f_number_min, 2.8);
+  EXPECT_EQ(cl.lens.f_number_max, 2.8);
+  EXPECT_NE(cl.lens.description.find("aperture assumed f/2.8"), std::string::npos) << cl.lens.description;
+  EXPECT_EQ(lens::DefaultFNumber(cl.lens), 2.8);
+  // The pupil 68.1 mm / crop factor ahead of the sensor (flange 0: distances from the sensor).
+  EXPECT_NEAR(cl.lens.PupilToFlangeMm(std::numeric_limits<double>::infinity()), 68.1 / 7.66, 1e-5);
+  // It takes no other lens.
+  q.lens = "nikkor-24mm-f2.8d";
+  EXPECT_THROW(FindCameraAndLens(q), InvalidInput);
 }
 
 TEST(Lookup, LensTomlTakesPupilMm) {

@@ -375,6 +375,7 @@ lens::LensSpec ReadLens(Reader& r, const std::string& default_name, bool fixed) 
     l.projection = *p;
   }
   if (const toml::node* n = r.Node("projection_estimated")) l.projection_estimated = n->value_or(false);
+  if (const toml::node* n = r.Node("fixed_focus")) l.fixed_focus = n->value_or(false);
   // pupil_mm: the entrance pupil ahead of the sensor at infinity focus (as --pupil-mm), instead of
   // the table against the flange.
   const toml::node* pupil = r.Node("pupil");

@@ -129,6 +129,11 @@ LensSpec MountOn(const LensSpec& lens, const CameraBody& body, bool allow_adapte
   throw InvalidInput("lens", why);
 }
 
+double DefaultFNumber(const LensSpec& l) {
+  if (!(l.f_number_min > 0) || !(l.f_number_max >= l.f_number_min)) return kDefaultFNumber;
+  return std::clamp(kDefaultFNumber, l.f_number_min, l.f_number_max);
+}
+
 void Validate(const LensSpec& l, const std::string& where) {
   RequirePositive(where + ".focal_length_mm", l.focal_length_mm);
   RequirePositive(where + ".f_number_min", l.f_number_min);

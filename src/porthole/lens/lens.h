@@ -52,6 +52,9 @@ struct LensSpec {
   // (tan θ) for ordinary lenses, one of the fisheye projections otherwise.
   camera::Projection projection = camera::Projection::kRectilinear;
   bool projection_estimated = false;          // true when taken from a type guess (say so)
+  // A fixed-focus lens (an action camera's): nothing to set; the focus range min_focus_mm to
+  // infinity is what it renders sharp, and planning gives no focus advice for it.
+  bool fixed_focus = false;
   // Other mounts the same optical design is made for (a lens sold in several mounts, as lensfun
   // lists them). The pupil samples are for `mount`; on another of these mounts the pupil keeps its
   // distance from the sensor.
@@ -105,6 +108,11 @@ std::optional<double> FieldAngleRad(const LensSpec& lens, double c_mm, double im
 // the sensor). A fixed-lens body gives its own lens. Throws InvalidInput("lens") when the lens does
 // not fit (naming the mounts, and --allow-adapter when an adapter would do).
 LensSpec MountOn(const LensSpec& lens, const CameraBody& body, bool allow_adapter = false);
+
+// The f-number a command uses when none is given: f/8 (the paper's Section 4 aperture), or the
+// nearest the lens has — its own aperture for a fixed-aperture lens (an action camera's f/2.8).
+double DefaultFNumber(const LensSpec& lens);
+inline constexpr double kDefaultFNumber = 8;
 
 // Checks a lens (positive focal length, f-number range, sorted finite samples) and a body.
 void Validate(const LensSpec& lens, const std::string& where = "lens");

@@ -53,6 +53,19 @@ TEST(Lens, FocusForSubjectInvertsEq2) {
   EXPECT_FALSE(FocusForSubjectMm(l, f, 150).has_value());  // closer than 176.6 mm: out of reach
 }
 
+TEST(Lens, DefaultFNumberIsF8OrTheNearestTheLensHas) {
+  LensSpec l = Nikkor35();
+  EXPECT_EQ(DefaultFNumber(l), 8.0);  // f/2-22 has f/8
+  l.f_number_min = l.f_number_max = 2.8;  // a fixed aperture (an action camera): its own
+  EXPECT_EQ(DefaultFNumber(l), 2.8);
+  l.f_number_min = 2.8;
+  l.f_number_max = 5.6;  // stops at f/5.6: the nearest to f/8
+  EXPECT_EQ(DefaultFNumber(l), 5.6);
+  l.f_number_min = 11;
+  l.f_number_max = 32;  // a mirror lens at f/11 and beyond
+  EXPECT_EQ(DefaultFNumber(l), 11.0);
+}
+
 TEST(Lens, MountsAndValidation) {
   EXPECT_EQ(MountByName("mft").flange_focal_distance_mm, 19.25);
   EXPECT_EQ(MountByName("pentax-k").flange_focal_distance_mm, 45.46);

@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 
 #include "porthole/core/error.h"
+#include "porthole/housing/housed.h"
+#include "porthole/io/presets.h"
 #include "porthole/planning/thin_lens.h"
 #include "porthole/report/internal.h"
 
@@ -86,6 +88,35 @@ void Steps::Done(const std::string& what, double t0) {
 
 std::string DefaultOtherPort(const ports::PortSpec& port) {
   return port.IsDome() ? "flat-acrylic-10mm" : "nimar-ni320-nominal";
+}
+
+OtherPortChoice ChooseOtherPort(const planning::Setup& setup, double subject_distance_mm) {
+  if (setup.port.IsDome()) return {DefaultOtherPort(setup.port), ""};
+  const std::vector<std::string> domes = {"nimar-ni320-nominal", "generic-dome-8in", "generic-dome-230mm-glass"};
+  std::string refused;
+  for (const std::string& name : domes) {
+    planning::Setup other = setup;
+    other.port = io::LoadPort(name);
+    try {
+      housing::FocusOnSubject(other, subject_distance_mm);
+    } catch (const InvalidInput&) {
+      // The subject's virtual image with the lens at its closest focus (where the solver stopped).
+      const ports::PortSystem sys = housing::SystemAtFocus(other, setup.lens.min_focus_mm);
+      const double wd = subject_distance_mm - housing::PupilToOuterMm(sys);
+      const double d = wd > 0 ? ports::ParaxialVirtualImage(sys, wd).d_s2ep_mm : 0.0;
+      refused += fmt::format("{}{} ({:.1f} mm from the pupil)", refused.empty() ? "" : ", ", name, d);
+      continue;
+    }
+    if (refused.empty()) return {name, ""};
+    const lens::Mount& mount = housing::MountOf(setup);
+    return {name, fmt::format("comparison port {}: the {} cannot focus on the virtual image of a subject {:g} mm away "
+                              "behind {}: its closest is {:.1f} mm",
+                              name, setup.lens.name, subject_distance_mm, refused,
+                              lens::SubjectToPupilMm(setup.lens, mount, setup.lens.min_focus_mm))};
+  }
+  throw InvalidInput("compare_port", fmt::format("no comparison dome fits the {} at a subject {:g} mm away ({}); give "
+                                                 "one that does",
+                                                 setup.lens.name, subject_distance_mm, refused));
 }
 
 Results Gather(const ReportInputs& in, Steps& steps) {
@@ -191,7 +222,15 @@ Results Gather(const ReportInputs& in, Steps& steps) {
   steps.Run("predicted underwater calibration, tolerance sweeps", [&] {
     r.prediction = simulate::Predict(SimSpec(in, in.setup.port));
     r.map = simulate::DistortionMap(r.prediction);
-    r.offsets_z_mm = Range(-10, 10, 2);
+    // Toward the glass the pupil may not reach a flat port's inner face: an action camera's window
+    // is a few mm ahead of it (generic-flat-action-housing: 8 mm), so the sweep stops 1 mm short.
+    double z_max = 10;
+    if (!r.plan.system.IsDome()) {
+      const ports::FlatPort& fp = r.plan.system.flat();
+      const double gap = (fp.inner_point_mm - r.plan.system.ep_in_housing_mm).dot(fp.normal.normalized());
+      z_max = std::min(z_max, 2 * std::floor((gap - 1) / 2));
+    }
+    r.offsets_z_mm = Range(-10, z_max, 2);
     r.offsets_x_mm = Range(-2, 2, 0.5);
     auto z = std::async(std::launch::async, [&] { return simulate::SweepPupilOffset(r.prediction, 2, r.offsets_z_mm); });
     auto x = std::async(std::launch::async, [&] { return simulate::SweepPupilOffset(r.prediction, 0, r.offsets_x_mm); });

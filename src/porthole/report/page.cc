@@ -263,14 +263,25 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
 
   // Summary.
   h += "<section id=\"summary\"><h2>Summary</h2>\n<div class=\"cards\">\n";
-  h += Card("Set the focus scale to", t.focus.focus_distance_mm ? F(*t.focus.focus_distance_mm, 0) + " mm" : "out of reach",
-            fmt::format("virtual image {} mm from the pupil", F(t.virtual_image.d_s2ep_mm, 1)));
+  // A fixed-focus lens has nothing to set: whether the target is in its sharp range instead.
+  const bool fixed_focus = s.lens.fixed_focus;
+  if (fixed_focus) {
+    h += Card("Fixed focus", t.focus.focus_distance_mm ? "sharp" : "not sharp",
+              fmt::format("nothing to set: virtual image {} mm from the pupil, the lens sharp from {} mm",
+                          F(t.virtual_image.d_s2ep_mm, 1), F(p.closest_d_s2ep_mm, 1)));
+  } else {
+    h += Card("Set the focus scale to", t.focus.focus_distance_mm ? F(*t.focus.focus_distance_mm, 0) + " mm" : "out of reach",
+              fmt::format("virtual image {} mm from the pupil", F(t.virtual_image.d_s2ep_mm, 1)));
+  }
   h += Card("Minimum working distance", std::isfinite(p.min_wd_mm) ? F(p.min_wd_mm, 0) + " mm" : "none in reach",
             fmt::format("closest focus {} mm from the pupil", F(p.closest_d_s2ep_mm, 1)));
   const VirtualRow& inf = r.infinity.focused;
   h += Card("Virtual image of infinity", F(inf.d_s2ep_mm, 1) + " mm",
-            fmt::format("from the entrance pupil, the lens focused on it{}; VWD {} mm",
-                        inf.fd_mm ? " (focus scale " + F(*inf.fd_mm, 0) + " mm)" : "", F(inf.vwd_mm, 1)));
+            fmt::format("from the entrance pupil{}; VWD {} mm",
+                        fixed_focus ? std::string()
+                                    : ", the lens focused on it" +
+                                          (inf.fd_mm ? " (focus scale " + F(*inf.fd_mm, 0) + " mm)" : std::string()),
+                        F(inf.vwd_mm, 1)));
   // An unlimited total is "unlimited", and a ratio of two totals exists only when both are finite.
   auto total = [](double v) { return std::isinf(v) ? std::string("unlimited") : F(v, 0) + " mm"; };
   h += Card("Depth of field under water", total(t.water.total_mm),
@@ -299,9 +310,15 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
               fmt::format("χ² = {} with {} dof, p = {}", F(r.compare->chi2, 1), r.compare->dof, G(r.compare->p_value)));
   }
   h += "</div>\n";
-  if (!p.warnings.empty()) {
+  // Planning's focus advice does not apply to a fixed-focus lens (no focus scale to set or pre-set).
+  std::vector<std::string> advice;
+  for (const auto& w : p.warnings) {
+    if (fixed_focus && (w.find("focus scale") != std::string::npos || w.find("pre-focus") != std::string::npos)) continue;
+    advice.push_back(w);
+  }
+  if (!advice.empty()) {
     h += "<h3>Advice</h3>\n<ul class=\"warnings\">\n";
-    for (const auto& w : p.warnings) h += "<li>" + Html(w) + "</li>\n";
+    for (const auto& w : advice) h += "<li>" + Html(w) + "</li>\n";
     h += "</ul>\n";
   }
   h += "</section>\n";

@@ -64,4 +64,18 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
 // nominal NI320 dome for a flat port (preset names).
 std::string DefaultOtherPort(const ports::PortSpec& port);
 
+// The comparison port chosen to fit the camera (`porthole report` without --compare-port): for a
+// dome the generic flat port; for a flat port the first of the domes nimar-ni320-nominal,
+// generic-dome-8in, generic-dome-230mm-glass (growing radius: a larger dome puts the virtual image
+// farther) on whose virtual image of a subject subject_distance_mm from the pupil the lens can
+// focus. A fixed-focus action camera sharp from 300 mm (the GoPro presets) cannot focus on the
+// NI320's image of a subject 1 m away (237.5 mm from the pupil) and gets the 230 mm dome.
+struct OtherPortChoice {
+  std::string name;  // a preset name
+  std::string why;   // one line: why this port (empty for the usual choice, the first candidate)
+};
+// Throws InvalidInput("compare_port") when no candidate fits (naming them and --compare-port's
+// field), and whatever the lens's focus throws for the main port is left to the report.
+OtherPortChoice ChooseOtherPort(const planning::Setup& setup, double subject_distance_mm);
+
 }  // namespace porthole::report
