@@ -7,6 +7,7 @@
 
 #include "porthole/core/field_names.h"
 #include "porthole/planning/json.h"
+#include "porthole/lens/lens.h"
 #include "register.h"
 
 namespace py = pybind11;
@@ -16,7 +17,7 @@ void RegisterPlanning(py::module_& m) {
   m.def(
       "plan",
       [](const std::string& camera, const std::string& lens, const std::string& port, std::optional<double> wd_mm,
-         std::optional<double> subject_distance_mm, double f_number, std::optional<double> coc_mm,
+         std::optional<double> subject_distance_mm, std::optional<double> f_number, std::optional<double> coc_mm,
          const std::string& water, std::optional<double> water_index, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm, std::optional<double> min_focus_mm, std::optional<double> pupil_mm) {
@@ -27,7 +28,7 @@ void RegisterPlanning(py::module_& m) {
           planning::PlanOptions o;
           o.wd_mm = wd_mm;
           o.subject_distance_mm = subject_distance_mm;
-          o.f_number = f_number;
+          o.f_number = f_number.value_or(lens::DefaultFNumber(s.lens));  // f/8, or the nearest the lens has
           o.coc_mm = coc_mm;
           o.lambda_nm = lambda_nm;
           return JsonToPython(planning::PlanToJson(s, planning::MakePlan(s, o)));
@@ -35,7 +36,7 @@ void RegisterPlanning(py::module_& m) {
       },
       py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "",
       py::arg("port") = "nimar-ni320", py::arg("wd_mm") = py::none(), py::arg("subject_distance_mm") = py::none(),
-      py::arg("f_number") = 8.0, py::arg("coc_mm") = py::none(), py::arg("water") = "seawater",
+      py::arg("f_number") = py::none(), py::arg("coc_mm") = py::none(), py::arg("water") = "seawater",
       py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07, py::arg("temperature_c") = 20.0,
       py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("pixel_pitch_mm") = py::none(),
       py::arg("focal_mm") = py::none(), py::arg("min_focus_mm") = py::none(), py::arg("pupil_mm") = py::none(),

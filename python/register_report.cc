@@ -6,6 +6,7 @@
 
 #include "porthole/core/field_names.h"
 #include "porthole/report/report.h"
+#include "porthole/lens/lens.h"
 #include "register.h"
 
 namespace py = pybind11;
@@ -18,7 +19,7 @@ void RegisterReport(py::module_& m) {
       [](const std::string& out, const std::string& camera, const std::string& lens, const std::string& port,
          const std::string& compare_port, const std::string& water, std::optional<double> water_index,
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
-         double subject_distance_mm, double f_number, std::optional<double> coc_mm,
+         double subject_distance_mm, std::optional<double> f_number, std::optional<double> coc_mm,
          const py::object& air_calibration, const py::object& water_calibration, bool force,
          std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm, std::optional<double> min_focus_mm,
          std::optional<double> pupil_mm) {
@@ -26,11 +27,14 @@ void RegisterReport(py::module_& m) {
           report::ReportInputs in;
           in.setup = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c, salinity_psu,
                                pressure_dbar, pixel_pitch_mm, focal_mm, {min_focus_mm, pupil_mm});
+          // Chosen to fit the camera, as the CLI does (a fixed-focus action camera behind a flat port gets a
+          // dome it can focus through).
           in.other_port = WithFieldNames({{"--port", "compare_port"}}, [&] {
-            return io::LoadPort(compare_port.empty() ? report::DefaultOtherPort(in.setup.port) : compare_port);
+            return io::LoadPort(compare_port.empty() ? report::ChooseOtherPort(in.setup, subject_distance_mm).name
+                                                     : compare_port);
           });
           in.subject_distance_mm = subject_distance_mm;
-          in.f_number = f_number;
+          in.f_number = f_number.value_or(lens::DefaultFNumber(in.setup.lens));
           in.coc_mm = coc_mm;
           const double pitch = in.setup.camera.sensor.pixel_pitch_mm;
           in.air_calibration = CalibrationArg(air_calibration, pitch, camera::CameraModelId::kBrown, "air_calibration");
@@ -58,7 +62,7 @@ void RegisterReport(py::module_& m) {
       py::arg("port") = "nimar-ni320", py::arg("compare_port") = "", py::arg("water") = "seawater",
       py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07, py::arg("temperature_c") = 20.0,
       py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("subject_distance_mm") = 1000.0,
-      py::arg("f_number") = 8.0, py::arg("coc_mm") = py::none(), py::arg("air_calibration") = py::none(),
+      py::arg("f_number") = py::none(), py::arg("coc_mm") = py::none(), py::arg("air_calibration") = py::none(),
       py::arg("water_calibration") = py::none(), py::arg("force") = false, py::arg("pixel_pitch_mm") = py::none(),
       py::arg("focal_mm") = py::none(), py::arg("min_focus_mm") = py::none(), py::arg("pupil_mm") = py::none(),
       "Writes the report of a camera-lens-port-water system into the directory `out` (as `porthole "

@@ -10,6 +10,7 @@
 #include "common.h"
 #include "camera_options.h"
 #include "porthole/camera/projection.h"
+#include "porthole/measure/plan_rig.h"
 #include "porthole/planning/json.h"
 
 namespace porthole::cli {
@@ -207,6 +208,86 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
 
 }  // namespace
 
+std::string RigPlanText(const measure::RigPlan& p, const std::string& what) {
+  std::string t = fmt::format("rig plan: {}; a {:g} mm length in {} orientations, image sigma {:g} px; sigma holds: {}\n",
+                              what, p.length_mm, p.orientations, p.sigma_px, p.calibration_sigma);
+  if (p.central) {
+    std::string models;
+    for (const auto& m : p.central_models) models += (models.empty() ? "" : ", ") + m;
+    t += fmt::format("central model: {} without refraction, calibrated with the rig under water at {:g} mm "
+                     "(fit RMS {:.3f} px); its error = its length - the true length\n",
+                     models, p.central_fit_range_mm, p.central_fit_rms_px);
+  }
+  t += fmt::format("\n{:>9} {:>19} {:>8} {:>10} {:>10} {:>8}", "range_mm", "common field mm", "lengths", "sigma_mm",
+                   "p90_mm", "sigma_%");
+  if (p.central) t += fmt::format(" {:>12} {:>12} {:>10}", "central_|e|", "central_max", "central_%");
+  t += "\n";
+  for (const auto& r : p.rows) {
+    if (r.n_lengths == 0) {
+      t += fmt::format("{:>9.0f} {:>19}  no {:g} mm length fits in the common field\n", r.range_mm,
+                       r.common_width_mm > 0 ? fmt::format("{:.0f} x {:.0f}", r.common_width_mm, r.common_height_mm)
+                                             : "none",
+                       p.length_mm);
+      continue;
+    }
+    t += fmt::format("{:>9.0f} {:>19} {:>8} {:>10.3f} {:>10.3f} {:>8.3f}", r.range_mm,
+                     fmt::format("{:.0f} x {:.0f}", r.common_width_mm, r.common_height_mm), r.n_lengths,
+                     r.sigma_median_mm, r.sigma_p90_mm, r.sigma_median_percent);
+    if (p.central) {
+      t += fmt::format(" {:>12.3f} {:>12.3f} {:>10.3f}", r.central_abs_median_mm, r.central_abs_max_mm,
+                       r.central_abs_max_percent);
+    }
+    t += "\n";
+  }
+  t += "(sigma: median and 90th percentile over the field and orientations; central: median and largest |error|)\n";
+  for (const auto& n : p.notes) t += "! " + n + "\n";
+  return t;
+}
+
+template <typename O>
+void RunRigPlan(const O& o, const std::string& rig_file, const std::optional<double>& baseline_mm,
+                double convergence_deg, const std::vector<std::string>& ranges, measure::RigPlanOptions options,
+                bool json) {
+  WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"sigma_px", "--sigma-px"}, {"length_mm", "--length"},
+                  {"ranges_mm", "--ranges"}, {"baseline_mm", "--baseline"}, {"convergence_deg", "--convergence"}},
+                 [&] {
+    if (!ranges.empty()) options.ranges_mm = ParseLengthList(ranges, "ranges_mm");
+    if (!(options.central_fit_range_mm >= 0) || !std::isfinite(options.central_fit_range_mm)) {
+      throw InvalidInput("--central-range", "must be >= 0 mm (0: no comparison)");
+    }
+    measure::Rig rig;
+    std::string what;
+    if (!rig_file.empty()) {
+      rig = measure::LoadRig(rig_file, "--rig");
+      what = fmt::format("{} cameras ({})", rig.cameras.size(), rig_file);
+    } else {
+      const planning::Setup setup = o.camera.ToHoused(o.port, o.water);
+      if (setup.lens.projection != camera::Projection::kRectilinear) {
+        throw InvalidInput("--lens", "a described rig takes a rectilinear lens (a fisheye: calibrate the rig and "
+                                     "give --rig)");
+      }
+      planning::PlanOptions po;
+      po.wd_mm = options.central_fit_range_mm > 0 ? options.central_fit_range_mm : 1500;
+      po.f_number = o.aperture.value_or(lens::DefaultFNumber(setup.lens));
+      po.lambda_nm = setup.env.conditions.lambda_nm;
+      const planning::Plan plan = planning::MakePlan(setup, po);  // the port at the focus for that range
+      camera::BrownParams b;
+      b.c_mm = plan.principal_distance_mm;
+      const camera::Camera cam = camera::FromBrown(b, setup.camera.sensor);
+      rig = measure::DescribedRig({cam, cam}, {plan.system, plan.system}, *baseline_mm, convergence_deg);
+      what = fmt::format("two {} + {} behind {}, {:g} mm apart, {:g} deg convergence", setup.camera.name,
+                         setup.lens.name, plan.system.spec.name, *baseline_mm, convergence_deg);
+    }
+    const measure::RigPlan p = measure::PlanRig(rig, options);
+    if (json) {
+      Json j = measure::RigPlanToJson(p);
+      j["rig_plan"]["rig"] = what;
+      return fmt::print("{}\n", j.dump(2));
+    }
+    fmt::print("{}", RigPlanText(p, what));
+  });
+}
+
 void RegisterPlan(CLI::App& app) {
   struct Options {
     PortOptions port;
@@ -215,6 +296,12 @@ void RegisterPlan(CLI::App& app) {
     std::optional<double> wd_mm, subject_mm, coc_mm;
     std::optional<double> aperture;  // unset: f/8, or the nearest the lens has
     bool json = false;
+    // A rig (issue 27): a calibrated rig file, or one described by its baseline and convergence.
+    std::string rig;
+    std::optional<double> baseline_mm;
+    double convergence_deg = 0;
+    measure::RigPlanOptions rig_plan;
+    std::vector<std::string> ranges;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -229,7 +316,41 @@ void RegisterPlan(CLI::App& app) {
                   "f-number N (default: f/8, or the nearest the lens has: a fixed-aperture lens its own)");
   cmd->add_option("--coc", o->coc_mm, "Circle of confusion, mm (default: 2 pixel pitches)");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
-  cmd->callback([o] {
+  auto* rig = cmd->add_option("--rig", o->rig,
+                              "Plan a rig: a rig calibration JSON (calibrate with one --images/--detections per "
+                              "camera): the sigma of a length over the common field against range, and a central "
+                              "model's error")
+                  ->group("Rig");
+  cmd->add_option("--baseline", o->baseline_mm,
+                  "Or plan a rig of two of these cameras behind these ports, this far apart, mm")
+      ->excludes(rig)
+      ->group("Rig");
+  cmd->add_option("--convergence", o->convergence_deg, "The second camera turned towards the first, deg")
+      ->capture_default_str()
+      ->group("Rig");
+  cmd->add_option("--sigma-px", o->rig_plan.sigma_px, "Image-point sigma of the measured points, px")
+      ->capture_default_str()
+      ->group("Rig");
+  cmd->add_option("--length", o->rig_plan.length_mm, "The length measured (a fish), mm")
+      ->capture_default_str()
+      ->group("Rig");
+  cmd->add_option("--ranges", o->ranges, "Ranges along the first camera's axis, mm (default 500 … 8000)")
+      ->delimiter(',')
+      ->group("Rig");
+  cmd->add_option("--central-range", o->rig_plan.central_fit_range_mm,
+                  "Where the compared central model is calibrated, mm (0: no comparison)")
+      ->capture_default_str()
+      ->group("Rig");
+  cmd->callback([o, cmd] {
+    if (!o->rig.empty() || o->baseline_mm) {
+      for (const char* only : {"--wd", "--subject-distance", "--coc"}) {
+        if (cmd->count(only) > 0) throw InvalidInput(only, "plans one camera: not with --rig or --baseline");
+      }
+      return RunRigPlan(*o, o->rig, o->baseline_mm, o->convergence_deg, o->ranges, o->rig_plan, o->json);
+    }
+    for (const char* only : {"--convergence", "--sigma-px", "--length", "--ranges", "--central-range"}) {
+      if (cmd->count(only) > 0) throw InvalidInput(only, "plans a rig: give --rig or --baseline");
+    }
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"wd_mm", "--wd"}, {"subject_distance_mm", "--subject-distance"},
                     {"f_number", "--aperture"}, {"coc_mm", "--coc"}},
                    [&] {
@@ -246,17 +367,7 @@ void RegisterPlan(CLI::App& app) {
                        fmt::print("{}", PlanText(setup, plan));
                        return;
                      }
-                     Json j = planning::PlanToJson(setup, plan);
-                     // A fixed-focus lens: nothing to set, so no focus distances to follow.
-                     j["lens"]["fixed_focus"] = setup.lens.fixed_focus;
-                     if (setup.lens.fixed_focus && j.contains("warnings")) {
-                       Json kept = Json::array();
-                       for (const Json& w : j["warnings"]) {
-                         if (!w.is_string() || !IsFocusAdvice(w.get<std::string>())) kept.push_back(w);
-                       }
-                       j["warnings"] = kept;
-                     }
-                     fmt::print("{}\n", j.dump(2));
+                     fmt::print("{}\n", planning::PlanToJson(setup, plan).dump(2));
                    });
   });
 }

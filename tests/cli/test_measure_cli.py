@@ -196,3 +196,33 @@ def test_bad_input_is_refused(rig, tmp_path):
     assert "--sigma-px" in line, line
     line = run_bad("measure", "--rig", d / "rig.json", "--points", d / "left.json")
     assert "one per camera" in line, line
+
+
+def test_plan_a_rig(rig):
+    """`plan --rig` on the calibrated stereo rig (no ports: no central comparison, said), and `plan
+    --baseline` of two cameras behind the NI320 dome: sigma of a 300 mm length grows with range, the
+    common field widens, the central model's error is reported; bad combinations refused."""
+    d, j = rig
+    out = run("plan", "--rig", d / "rig.json", "--ranges", "1000,2000,3000", "--json").json()["rig_plan"]
+    rows = out["ranges"]
+    assert [r["range_mm"] for r in rows] == [1000, 2000, 3000]
+    assert all(r["n_lengths"] > 0 for r in rows)
+    assert rows[0]["sigma_median_mm"] < rows[1]["sigma_median_mm"] < rows[2]["sigma_median_mm"]
+    assert rows[0]["common_width_mm"] < rows[2]["common_width_mm"]
+    assert "the rig calibration" in out["sigma_holds"]
+    assert not out["central_model"]["compared"] and any("no camera is behind a port" in n for n in out["notes"])
+    text = run("plan", "--baseline", "300", "--convergence", "5", "--port", "nimar-ni320",
+               "--ranges", "1000,3000,8000").out
+    assert "rig plan: two" in text and "central_|e|" in text, text
+    dj = run("plan", "--baseline", "300", "--convergence", "5", "--port", "nimar-ni320", "--ranges", "1000,3000,8000",
+             "--json").json()["rig_plan"]
+    assert dj["central_model"]["compared"] and dj["sigma_holds"] == "image noise only"
+    r = dj["ranges"]
+    assert r[0]["sigma_median_mm"] < r[1]["sigma_median_mm"] < r[2]["sigma_median_mm"]
+    assert all(x["central_abs_median_mm"] is not None for x in r)
+    print("described NI320 rig: sigma", [round(x["sigma_median_mm"], 3) for x in r], "central |e|",
+          [round(x["central_abs_median_mm"], 3) for x in r])
+    assert run_bad("plan", "--rig", d / "rig.json", "--wd", "1000").startswith("porthole: error: --wd:")
+    assert run_bad("plan", "--sigma-px", "0.5").startswith("porthole: error: --sigma-px: plans a rig")
+    assert "--ranges" in run_bad("plan", "--rig", d / "rig.json", "--ranges", "1000,-5")
+    assert "--baseline" in run_bad("plan", "--baseline", "-3")

@@ -166,6 +166,7 @@ RigPlan PlanRig(const Rig& rig, const RigPlanOptions& o) {
   RigPlan plan;
   plan.sigma_px = o.sigma_px;
   plan.length_mm = o.length_mm;
+  plan.orientations = o.orientations;
   const bool with_cal = o.calibration_sigma && rig.covariance.rows() > 0 && rig.covariance.cwiseAbs().maxCoeff() > 0;
   plan.calibration_sigma = with_cal ? "image noise and the rig calibration (" + rig.covariance_note + ")"
                                     : "image noise only";
@@ -304,6 +305,7 @@ nlohmann::ordered_json RigPlanToJson(const RigPlan& p) {
   return {{"rig_plan",
            {{"sigma_px", p.sigma_px},
             {"length_mm", p.length_mm},
+            {"orientations", p.orientations},
             {"sigma_holds", p.calibration_sigma},
             {"range", "depth along the first camera's axis (rig frame z), mm"},
             {"central_model",

@@ -58,6 +58,7 @@ struct RigPlanRow {
 
 struct RigPlan {
   double sigma_px = 0, length_mm = 0;
+  int orientations = 0;
   std::string calibration_sigma;  // what the σ holds ("image noise only", "image noise and the rig calibration")
   bool central = false;
   double central_fit_range_mm = 0, central_fit_rms_px = NAN;  // the central calibration's own fit

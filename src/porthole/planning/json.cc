@@ -35,6 +35,7 @@ Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
                       {"width_px", cam.sensor.width_px}, {"height_px", cam.sensor.height_px},
                       {"pixel_pitch_mm", cam.sensor.pixel_pitch_mm}}},
           {"lens", {{"name", ln.name}, {"found_in", ln.lookup}, {"source", source(ln.source)},
+                    {"fixed_focus", ln.fixed_focus},
                     {"focal_length_mm", ln.focal_length_mm}, {"f_number_min", ln.f_number_min},
                     {"f_number_max", ln.f_number_max}, {"min_focus_mm", ln.min_focus_mm},
                     {"min_focus_assumed", ln.min_focus_assumed}, {"pupil_estimated", ln.pupil_estimated},

@@ -431,6 +431,13 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     warn.push_back("A flat port narrows the field of view and adds pincushion distortion and lateral colour: "
                    "see 'porthole flat'.");
   }
+  // A fixed-focus lens has no focus to set: planning's advice about the focus scale or pre-focusing
+  // in air does not apply to it (the CLI and Python both get the plan without it).
+  if (ln.fixed_focus) {
+    std::erase_if(plan.warnings, [](const std::string& w) {
+      return w.find("focus scale") != std::string::npos || w.find("pre-focus") != std::string::npos;
+    });
+  }
   return plan;
 }
 
