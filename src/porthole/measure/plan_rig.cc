@@ -153,6 +153,26 @@ Rig DescribedRig(const std::vector<camera::Camera>& cameras, const std::vector<s
   return rig;
 }
 
+Rig CentralRig(const Rig& rig, double fit_range_mm, double* fit_rms_px, int num_threads) {
+  if (!(fit_range_mm > 0) || !std::isfinite(fit_range_mm)) throw InvalidInput("central_fit_range_mm", "must be > 0 mm");
+  const double square = std::max(5.0, std::round(fit_range_mm / 25));
+  const calib::TargetSpec target = calib::ParseTarget(fmt::format("chessboard:13x10:{:g}", square), "target");
+  const auto views = CentralFitViews(rig, fit_range_mm, target);
+  calib::RigOptions ro;
+  for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
+    calib::CalibrationOptions co;
+    co.model = rig.cameras[k].camera.model;
+    co.pixel_pitch_mm = rig.cameras[k].camera.sensor.pixel_pitch_mm;
+    co.reject_k = 0;  // noise-free: nothing to reject
+    co.num_threads = std::max(1, num_threads);
+    ro.cameras.push_back(co);
+    ro.names.push_back(rig.cameras[k].name);
+  }
+  const calib::RigResult r = calib::CalibrateRig(views, target, ro);
+  if (fit_rms_px) *fit_rms_px = r.rms_px;
+  return RigFromResult(r);
+}
+
 RigPlan PlanRig(const Rig& rig, const RigPlanOptions& o) {
   if (rig.cameras.size() < 2) throw InvalidInput("rig", "a rig needs 2 or more cameras");
   if (!(o.sigma_px > 0) || !std::isfinite(o.sigma_px)) throw InvalidInput("sigma_px", "must be > 0 px");
@@ -179,25 +199,12 @@ RigPlan PlanRig(const Rig& rig, const RigPlanOptions& o) {
     if (!any_port) {
       plan.notes.push_back("no camera is behind a port: the central model is exact, no comparison");
     } else {
-      const double square = std::max(5.0, std::round(o.central_fit_range_mm / 25));
-      const calib::TargetSpec target = calib::ParseTarget(fmt::format("chessboard:13x10:{:g}", square), "target");
-      const auto views = CentralFitViews(rig, o.central_fit_range_mm, target);
-      calib::RigOptions ro;
-      for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
-        calib::CalibrationOptions co;
-        co.model = rig.cameras[k].camera.model;
-        co.pixel_pitch_mm = rig.cameras[k].camera.sensor.pixel_pitch_mm;
-        co.reject_k = 0;  // noise-free: nothing to reject
-        co.num_threads = o.num_threads > 0 ? o.num_threads : 1;
-        ro.cameras.push_back(co);
-        plan.central_models.push_back(std::string(rig.cameras[k].camera.model_name()));
-      }
+      for (const auto& c : rig.cameras) plan.central_models.push_back(std::string(c.camera.model_name()));
       try {
-        const calib::RigResult r = calib::CalibrateRig(views, target, ro);
-        central = RigFromResult(r);
+        central = CentralRig(rig, o.central_fit_range_mm, &plan.central_fit_rms_px,
+                             o.num_threads > 0 ? o.num_threads : 1);
         plan.central = true;
         plan.central_fit_range_mm = o.central_fit_range_mm;
-        plan.central_fit_rms_px = r.rms_px;
       } catch (const InvalidInput& e) {
         plan.notes.push_back(std::string("no central comparison: the central calibration failed: ") + e.what());
       }

@@ -68,6 +68,12 @@ struct RigPlan {
 };
 
 RigPlan PlanRig(const Rig& rig, const RigPlanOptions& options);
+
+// The central rig PlanRig compares with: each camera's own lens model without refraction,
+// calibrated with the rig (calib::CalibrateRig) on noise-free views of a chessboard (13 × 10,
+// squares of fit_range_mm / 25) seen through `rig` at fit_range_mm ± 25 %. *fit_rms_px: that
+// calibration's RMS. Throws InvalidInput when the calibration fails.
+Rig CentralRig(const Rig& rig, double fit_range_mm, double* fit_rms_px = nullptr, int num_threads = 1);
 nlohmann::ordered_json RigPlanToJson(const RigPlan& plan);
 
 // A rig of the given cameras (each behind its port, or none), the second `baseline_mm` to the right
