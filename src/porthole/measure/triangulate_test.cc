@@ -469,6 +469,22 @@ TEST(Measure, DomeRigSigmaOfRigPointsAndLengthsMatchesMonteCarlo) {
         EXPECT_EQ(back.cameras[k].shell->outer_radius_mm, rig.cameras[k].shell->outer_radius_mm);
         EXPECT_EQ(back.cameras[k].shell->inner_from_outer_mm, rig.cameras[k].shell->inner_from_outer_mm);
       }
+      // A file from before the joint covariance: each camera's own blocks, and the note says so.
+      nlohmann::json old = nlohmann::json::parse(RigToJson(r, target, o).dump());
+      old["rig"].erase("covariance");
+      const Rig partial = RigFromJson(old, "rig");
+      EXPECT_NE(partial.covariance_note.find("left out"), std::string::npos) << partial.covariance_note;
+      EXPECT_GE(partial.cameras[1].pose_index[3], 0);
+      // Without a port's shell: refused, saying why.
+      old["rig"]["cameras"][1]["port"].erase("shell");
+      try {
+        RigFromJson(old, "rig");
+        ADD_FAILURE() << "a port without its shell was read";
+      } catch (const InvalidInput& e) {
+        EXPECT_NE(std::string(e.what()).find("rig.rig.cameras[1].port.shell"), std::string::npos) << e.what();
+      }
+      // A single camera's calibration is not a rig.
+      EXPECT_THROW(RigFromJson(old["rig"]["cameras"][0], "rig"), InvalidInput);
     }
     auto oa = Observe(truth, xa), ob = Observe(truth, xb);
     for (auto* v : {&oa, &ob}) {
