@@ -10,14 +10,19 @@
 
 #include "porthole/calib/detections_json.h"
 #include "porthole/core/input.h"
+#include "porthole/lens/lens.h"
 #include "porthole/measure/measure.h"
+#include "porthole/measure/plan_rig.h"
 #include "register.h"
 
 namespace py = pybind11;
 
 namespace porthole::python {
 
+void RegisterPlanRig(py::module_& m);
+
 void RegisterMeasure(py::module_& m) {
+  RegisterPlanRig(m);
   m.def(
       "measure",
       [](const py::object& rig, const py::object& points, const std::vector<std::pair<int, int>>& lengths,
@@ -112,6 +117,63 @@ void RegisterMeasure(py::module_& m) {
       "u_px, v_px) tuples (camera by name or index), or one list of detections per camera in the rig's order; "
       "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0); scale_bar: (id_a, id_b, length_mm), the check of `--scale-bar`. Returns the JSON of "
       "`porthole measure --json`.");
+}
+
+void RegisterPlanRig(py::module_& m) {
+  m.def(
+      "plan_rig",
+      [](const py::object& rig, std::optional<double> baseline_mm, double convergence_deg, const std::string& camera,
+         const std::string& lens, const std::string& port, const std::string& water, std::optional<double> water_index,
+         double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
+         std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm, std::optional<double> f_number,
+         double sigma_px, double length_mm, const std::vector<double>& ranges_mm, double central_range_mm,
+         int threads) {
+        return WithFieldNames({{"central_fit_range_mm", "central_range_mm"}, {"focal_length_mm", "focal_mm"}}, [&] {
+          if (rig.is_none() == !baseline_mm.has_value()) {
+            throw InvalidInput("rig", "give a rig (a rig JSON file or calibrate_rig()'s dict) or baseline_mm (two of "
+                                      "the camera behind the port), not both");
+          }
+          measure::Rig r;
+          std::string what;
+          if (!rig.is_none()) {
+            if (py::isinstance<py::str>(rig) || py::hasattr(rig, "__fspath__")) {
+              const std::string path = py::str(py::module_::import("os").attr("fspath")(rig)).cast<std::string>();
+              r = measure::LoadRig(path, "rig");
+              what = fmt::format("{} cameras ({})", r.cameras.size(), path);
+            } else {
+              r = measure::RigFromJson(PythonToJson(rig), "rig");
+              what = fmt::format("{} cameras", r.cameras.size());
+            }
+          } else {
+            const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
+                                                salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
+            r = measure::DescribedRig(s, *baseline_mm, convergence_deg, central_range_mm > 0 ? central_range_mm : 1500,
+                                      f_number.value_or(lens::DefaultFNumber(s.lens)), &what);
+          }
+          measure::RigPlanOptions o;
+          o.sigma_px = sigma_px;
+          o.length_mm = length_mm;
+          if (!ranges_mm.empty()) o.ranges_mm = ranges_mm;
+          o.central_fit_range_mm = central_range_mm;
+          o.num_threads = threads;
+          if (!(central_range_mm >= 0)) throw InvalidInput("central_range_mm", "must be >= 0 mm (0: no comparison)");
+          measure::RigPlan p;
+          {
+            py::gil_scoped_release release;
+            p = measure::PlanRig(r, o);
+          }
+          return JsonToPython(measure::RigPlanToJson(p, what));
+        });
+      },
+      py::kw_only(), py::arg("rig") = py::none(), py::arg("baseline_mm") = py::none(), py::arg("convergence_deg") = 0.0,
+      py::arg("camera") = "nikon-d300", py::arg("lens") = "", py::arg("port") = "nimar-ni320",
+      py::arg("water") = "seawater", py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07,
+      py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,
+      py::arg("pixel_pitch_mm") = py::none(), py::arg("focal_mm") = py::none(), py::arg("f_number") = py::none(),
+      py::arg("sigma_px") = 0.3, py::arg("length_mm") = 300.0, py::arg("ranges_mm") = std::vector<double>{},
+      py::arg("central_range_mm") = 1500.0, py::arg("threads") = 0,
+      "Plan a rig (`porthole plan --rig` / `--baseline`): the sigma of a length over the common field at each range "
+      "and a central model's error. Returns the JSON of `porthole plan --rig --json`.");
 }
 
 }  // namespace porthole::python

@@ -262,27 +262,13 @@ void RunRigPlan(const O& o, const std::string& rig_file, const std::optional<dou
       what = fmt::format("{} cameras ({})", rig.cameras.size(), rig_file);
     } else {
       const planning::Setup setup = o.camera.ToHoused(o.port, o.water);
-      if (setup.lens.projection != camera::Projection::kRectilinear) {
-        throw InvalidInput("--lens", "a described rig takes a rectilinear lens (a fisheye: calibrate the rig and "
-                                     "give --rig)");
-      }
-      planning::PlanOptions po;
-      po.wd_mm = options.central_fit_range_mm > 0 ? options.central_fit_range_mm : 1500;
-      po.f_number = o.aperture.value_or(lens::DefaultFNumber(setup.lens));
-      po.lambda_nm = setup.env.conditions.lambda_nm;
-      const planning::Plan plan = planning::MakePlan(setup, po);  // the port at the focus for that range
-      camera::BrownParams b;
-      b.c_mm = plan.principal_distance_mm;
-      const camera::Camera cam = camera::FromBrown(b, setup.camera.sensor);
-      rig = measure::DescribedRig({cam, cam}, {plan.system, plan.system}, *baseline_mm, convergence_deg);
-      what = fmt::format("two {} + {} behind {}, {:g} mm apart, {:g} deg convergence", setup.camera.name,
-                         setup.lens.name, plan.system.spec.name, *baseline_mm, convergence_deg);
+      rig = measure::DescribedRig(setup, *baseline_mm, convergence_deg,
+                                  options.central_fit_range_mm > 0 ? options.central_fit_range_mm : 1500,
+                                  o.aperture.value_or(lens::DefaultFNumber(setup.lens)), &what);
     }
     const measure::RigPlan p = measure::PlanRig(rig, options);
     if (json) {
-      Json j = measure::RigPlanToJson(p);
-      j["rig_plan"]["rig"] = what;
-      return fmt::print("{}\n", j.dump(2));
+      return fmt::print("{}\n", measure::RigPlanToJson(p, what).dump(2));
     }
     fmt::print("{}", RigPlanText(p, what));
   });

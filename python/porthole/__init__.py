@@ -315,6 +315,18 @@ def measure(rig, points, **kwargs) -> "Measurement":
     return r
 
 
+@_wraps(_porthole.plan_rig, "porthole.Record", "rig may be a RigCalibration. The Record holds rig, sigma_px, "
+        "length_mm, sigma_holds, central_model and `ranges` (one row per range: range_mm, common_width_mm, "
+        "common_height_mm, n_lengths, sigma_median_mm, sigma_p90_mm, central_abs_median_mm, ...).")
+def plan_rig(**kwargs) -> Record:
+    if isinstance(kwargs.get("rig"), RigCalibration):
+        kwargs["rig"] = kwargs["rig"].to_dict()
+    r = Record(_porthole.plan_rig(**kwargs)["rig_plan"])
+    for text in r.notes:
+        _warnings.warn(text, PortholeWarning, stacklevel=2)
+    return r
+
+
 def _is_camera_list(c) -> bool:
     """One camera's detections (a DetectionSet, or a list of Detections/dicts), not a point tuple."""
     if isinstance(c, DetectionSet):
@@ -397,7 +409,7 @@ def report(out, **kwargs) -> ReportSummary:
 __all__ = [
     "__version__", "index", "media", "depth_to_pressure_dbar", "load_port", "presets", "place", "PortSpec",
     "PortSystem", "virtual_image_table", "plan", "flat", "simulate", "camera_models", "project", "unproject",
-    "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "measure", "Measurement", "MeasuredPoint", "MeasuredLength", "synthetic_detections", "compare", "load_calibration",
+    "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "measure", "plan_rig", "Measurement", "MeasuredPoint", "MeasuredLength", "synthetic_detections", "compare", "load_calibration",
     "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
     "PortType", "CameraModel",
     "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",

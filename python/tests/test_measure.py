@@ -70,3 +70,20 @@ def test_errors_name_the_keyword(tmp_path):
         porthole.measure(rig, one, sigma_px=-1)
     with pytest.raises(ValueError, match="^lengths: 100000,9: id 100000 is not measured"):
         porthole.measure(rig, cams, lengths=[(100000, 9)], skip_unpaired=True)
+
+
+def test_plan_rig_matches_the_cli(tmp_path):
+    ours = porthole.plan_rig(baseline_mm=300, convergence_deg=5, port="nimar-ni320", ranges_mm=[1000, 3000])
+    theirs = cli_json("plan", "--baseline", "300", "--convergence", "5", "--port", "nimar-ni320",
+                      "--ranges", "1000,3000")["rig_plan"]
+    assert ours.to_dict() == theirs
+    assert ours.central_model.compared
+    cams = stereo(n=8)
+    rig = porthole.calibrate_rig(cams, TARGET, model="opencv")
+    with pytest.warns(porthole.PortholeWarning, match="no camera is behind a port"):
+        plan = porthole.plan_rig(rig=rig, ranges_mm=[1500])
+    assert "the rig calibration" in plan.sigma_holds
+    with pytest.raises(ValueError, match="^rig: give a rig"):
+        porthole.plan_rig()
+    with pytest.raises(ValueError, match="^central_range_mm"):
+        porthole.plan_rig(baseline_mm=300, central_range_mm=-1)

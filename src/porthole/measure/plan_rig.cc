@@ -10,6 +10,8 @@
 #include <random>
 
 #include "porthole/calib/rig.h"
+#include "porthole/camera/brown.h"
+#include "porthole/camera/projection.h"
 #include "porthole/core/error.h"
 #include "porthole/measure/triangulate.h"
 #include "porthole/refraction/refraction.h"
@@ -173,6 +175,28 @@ Rig CentralRig(const Rig& rig, double fit_range_mm, double* fit_rms_px, int num_
   return RigFromResult(r);
 }
 
+Rig DescribedRig(const planning::Setup& setup, double baseline_mm, double convergence_deg, double focus_wd_mm,
+                 double f_number, std::string* what) {
+  if (setup.lens.projection != camera::Projection::kRectilinear) {
+    throw InvalidInput("lens", "a described rig takes a rectilinear lens (a fisheye: calibrate the rig and plan "
+                               "from its file)");
+  }
+  planning::PlanOptions po;
+  po.wd_mm = focus_wd_mm;
+  po.f_number = f_number;
+  po.lambda_nm = setup.env.conditions.lambda_nm;
+  const planning::Plan plan = planning::MakePlan(setup, po);  // the port at the focus for that range
+  camera::BrownParams b;
+  b.c_mm = plan.principal_distance_mm;
+  const camera::Camera cam = camera::FromBrown(b, setup.camera.sensor);
+  Rig rig = DescribedRig({cam, cam}, {plan.system, plan.system}, baseline_mm, convergence_deg);
+  if (what) {
+    *what = fmt::format("two {} + {} behind {}, {:g} mm apart, {:g} deg convergence", setup.camera.name,
+                        setup.lens.name, plan.system.spec.name, baseline_mm, convergence_deg);
+  }
+  return rig;
+}
+
 RigPlan PlanRig(const Rig& rig, const RigPlanOptions& o) {
   if (rig.cameras.size() < 2) throw InvalidInput("rig", "a rig needs 2 or more cameras");
   if (!(o.sigma_px > 0) || !std::isfinite(o.sigma_px)) throw InvalidInput("sigma_px", "must be > 0 px");
@@ -291,7 +315,7 @@ RigPlan PlanRig(const Rig& rig, const RigPlanOptions& o) {
   return plan;
 }
 
-nlohmann::ordered_json RigPlanToJson(const RigPlan& p) {
+nlohmann::ordered_json RigPlanToJson(const RigPlan& p, const std::string& rig) {
   using Json = nlohmann::ordered_json;
   const auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   Json rows = Json::array();
@@ -310,7 +334,8 @@ nlohmann::ordered_json RigPlanToJson(const RigPlan& p) {
                     {"central_abs_max_percent", num(r.central_abs_max_percent)}});
   }
   return {{"rig_plan",
-           {{"sigma_px", p.sigma_px},
+           {{"rig", rig},
+            {"sigma_px", p.sigma_px},
             {"length_mm", p.length_mm},
             {"orientations", p.orientations},
             {"sigma_holds", p.calibration_sigma},

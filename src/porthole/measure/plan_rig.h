@@ -23,6 +23,7 @@
 
 #include "porthole/measure/rig_model.h"
 #include "porthole/measure/triangulate.h"
+#include "porthole/planning/plan.h"
 #include "porthole/ports/port.h"
 
 namespace porthole::measure {
@@ -74,13 +75,23 @@ RigPlan PlanRig(const Rig& rig, const RigPlanOptions& options);
 // squares of fit_range_mm / 25) seen through `rig` at fit_range_mm ± 25 %. *fit_rms_px: that
 // calibration's RMS. Throws InvalidInput when the calibration fails.
 Rig CentralRig(const Rig& rig, double fit_range_mm, double* fit_rms_px = nullptr, int num_threads = 1);
-nlohmann::ordered_json RigPlanToJson(const RigPlan& plan);
+// `rig`: one line naming the rig (its file, or DescribedRig's line).
+nlohmann::ordered_json RigPlanToJson(const RigPlan& plan, const std::string& rig);
 
 // A rig of the given cameras (each behind its port, or none), the second `baseline_mm` to the right
 // of the first (rig frame x) and turned `convergence_deg` towards it about the vertical axis; more
 // cameras go on along x at the same spacing, each turned as the second. No covariance. Throws
 // InvalidInput for counts that differ, fewer than 2 cameras, a baseline ≤ 0 or a convergence outside
 // [0°, 45°).
+// Two of the housed camera `setup` (as `porthole plan` describes it) `baseline_mm` apart, the second
+// turned `convergence_deg` towards the first: each lens an ideal Brown camera of the thin-lens
+// principal distance at the focus for a subject `focus_wd_mm` from the port (planning::MakePlan at
+// f_number), behind the port placed at that focus. Throws as MakePlan and DescribedRig; InvalidInput
+// ("lens") for a fisheye lens (no ideal model of it here: calibrate the rig and plan from its file).
+// *what: one line naming the rig.
+Rig DescribedRig(const planning::Setup& setup, double baseline_mm, double convergence_deg, double focus_wd_mm,
+                 double f_number, std::string* what = nullptr);
+
 Rig DescribedRig(const std::vector<camera::Camera>& cameras, const std::vector<std::optional<ports::PortSystem>>& ports,
                  double baseline_mm, double convergence_deg);
 
