@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <optional>
+#include <sstream>
 
 #include "commands.h"
 #include "common.h"
@@ -49,6 +50,9 @@ void RegisterMeasure(CLI::App& app) {
     std::string rig, out;
     std::vector<std::string> points, lengths;
     std::string scale_bar;
+    std::string plane, camera;
+    std::optional<double> range_mm;
+    double plane_sigma_mm = 0;
     measure::MeasureOptions measure;
     bool no_calibration_sigma = false, json = false, force = false;
   };
@@ -65,6 +69,18 @@ void RegisterMeasure(CLI::App& app) {
   cmd->add_option("--scale-bar", o->scale_bar,
                   "A,B,LENGTH_MM: a bar of known length between ids A and B: its error in every frame, by range, "
                   "and whether the rig calibration holds");
+  auto* plane = cmd->add_option("--plane", o->plane,
+                                 "NX,NY,NZ,D_MM: one camera and a known plane n.x = D in its frame (mm) instead of "
+                                 "two cameras; --rig may then be one camera's calibration")
+                    ->group("One camera");
+  cmd->add_option("--range-mm", o->range_mm, "Or: a known range, the plane square to the camera's axis this far, mm")
+      ->excludes(plane)
+      ->group("One camera");
+  cmd->add_option("--plane-sigma-mm", o->plane_sigma_mm, "Sigma of the plane's distance (or range), mm")
+      ->capture_default_str()
+      ->group("One camera");
+  cmd->add_option("--camera", o->camera, "The camera of the plane (a rig's camera by name or index; default the first)")
+      ->group("One camera");
   cmd->add_option("--sigma-px", o->measure.sigma_px,
                   "Image-point sigma of the points, px (default: the rig calibration's sigma0)");
   cmd->add_flag("--no-calibration-sigma", o->no_calibration_sigma,
@@ -75,7 +91,7 @@ void RegisterMeasure(CLI::App& app) {
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   AddForceFlag(cmd, &o->force);
   cmd->callback([o, cmd] {
-    WithFieldNames({{"points", "--points"}, {"lengths", "--length"}, {"sigma_px", "--sigma-px"},
+    WithFieldNames({{"points", "--points"}, {"lengths", "--length"}, {"sigma_px", "--sigma-px"}, {"plane", "--plane"},
                     {"skip_unpaired", "--skip-unpaired"}, {"camera", "--points"}},
                    [&] {
       const OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--out"})};
@@ -86,7 +102,44 @@ void RegisterMeasure(CLI::App& app) {
       if (cmd->count("--sigma-px") > 0 && o->measure.sigma_px == 0) {
         throw InvalidInput("--sigma-px", "must be > 0 (leave it out to take the rig's sigma0)");
       }
-      const measure::Rig rig = measure::LoadRig(o->rig, "--rig");
+      const bool one_camera = !o->plane.empty() || o->range_mm.has_value();
+      for (const char* only : {"--plane-sigma-mm", "--camera"}) {
+        if (!one_camera && cmd->count(only) > 0) throw InvalidInput(only, "goes with --plane or --range-mm");
+      }
+      const measure::Rig rig = one_camera ? measure::LoadCamera(o->rig, "--rig") : measure::LoadRig(o->rig, "--rig");
+      if (one_camera) {
+        measure::Plane pl;
+        if (o->range_mm) {
+          if (!(*o->range_mm > 0) || !std::isfinite(*o->range_mm)) throw InvalidInput("--range-mm", "must be > 0 mm");
+          pl.distance_mm = *o->range_mm;
+        } else {
+          std::vector<double> v;
+          std::stringstream ss(o->plane);
+          std::string item;
+          while (std::getline(ss, item, ',')) {
+            try {
+              std::size_t used = 0;
+              v.push_back(std::stod(item, &used));
+              if (used != item.size()) v.back() = NAN;
+            } catch (const std::exception&) {
+              v.push_back(NAN);
+            }
+          }
+          const Eigen::Vector3d n = v.size() == 4 ? Eigen::Vector3d(v[0], v[1], v[2]) : Eigen::Vector3d::Zero();
+          if (v.size() != 4 || !n.allFinite() || !(n.norm() > 0) || !std::isfinite(v[3])) {
+            throw InvalidInput("--plane", fmt::format("'{}': give NX,NY,NZ,D_MM (the plane n.x = D in the camera's "
+                                                      "frame, mm)", o->plane));
+          }
+          pl.normal = n.normalized();
+          pl.distance_mm = v[3] / n.norm();
+        }
+        if (!(o->plane_sigma_mm >= 0) || !std::isfinite(o->plane_sigma_mm)) {
+          throw InvalidInput("--plane-sigma-mm", "must be >= 0 mm");
+        }
+        pl.sigma_mm = o->plane_sigma_mm;
+        o->measure.plane = pl;
+        o->measure.plane_camera = o->camera.empty() ? 0 : measure::CameraIndex(rig, o->camera, "--camera");
+      }
       o->measure.calibration_sigma = !o->no_calibration_sigma;
       for (const auto& l : o->lengths) o->measure.lengths.push_back(ParsePair(l, "--length", "two point ids A,B"));
       std::optional<measure::ScaleBar> bar;
@@ -126,7 +179,9 @@ void RegisterMeasure(CLI::App& app) {
         throw InvalidInput("--points", "give every detections file as CAMERA=PATH, or none (then in the rig's camera "
                                        "order)");
       }
-      if (n_det > 0 && n_named == 0 && n_det != static_cast<int>(rig.cameras.size())) {
+      if (n_det > 0 && n_named == 0 && one_camera && n_det == 1) {
+        // One camera: its detections, whatever the rig's size (the camera of the plane).
+      } else if (n_det > 0 && n_named == 0 && n_det != static_cast<int>(rig.cameras.size())) {
         std::string names;
         for (const auto& c : rig.cameras) names += (names.empty() ? "" : ", ") + c.name;
         throw InvalidInput("--points", fmt::format("{} detections files for the rig's {} cameras ({}): give one per "
@@ -141,7 +196,7 @@ void RegisterMeasure(CLI::App& app) {
           points.insert(points.end(), got.begin(), got.end());
           continue;
         }
-        int camera = order++;
+        int camera = one_camera && n_det == 1 && n_named == 0 ? o->measure.plane_camera : order++;
         std::string path = p;
         if (n_named > 0) {
           const auto eq = p.find('=');

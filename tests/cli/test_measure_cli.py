@@ -226,3 +226,33 @@ def test_plan_a_rig(rig):
     assert run_bad("plan", "--sigma-px", "0.5").startswith("porthole: error: --sigma-px: plans a rig")
     assert "--ranges" in run_bad("plan", "--rig", d / "rig.json", "--ranges", "1000,-5")
     assert "--baseline" in run_bad("plan", "--baseline", "-3")
+
+
+def test_one_camera_and_a_known_plane(rig, tmp_path):
+    """One camera's calibration and a known range (or plane): points projected at 2 m by
+    cv2.projectPoints with that calibration come back within 1e-6 mm; the plane given as
+    0,0,2,4000 (not unit) is the same plane; bad planes refused."""
+    d, j = rig
+    single = tmp_path / "one.json"
+    run("calibrate", "--detections", d / "left.json", "--model", "opencv", "--out", single, "--quiet")
+    cal = json.loads(single.read_text())["camera"]
+    k = np.array([[cal["fx_px"], 0, cal["cx_px"]], [0, cal["fy_px"], cal["cy_px"]], [0, 0, 1.0]])
+    dist = np.array([cal[key] or 0.0 for key in ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")])
+    x = np.array([[-400.0, -300, 2000], [0, 0, 2000], [500, 250, 2000]])
+    uv, _ = cv2.projectPoints(x, np.zeros(3), np.zeros(3), k, dist)
+    csv = tmp_path / "one.csv"
+    csv.write_text("".join(f"f,0,{i},{u!r},{v!r}\n" for i, (u, v) in enumerate(uv.reshape(-1, 2))))
+    for plane in (["--range-mm", "2000"], ["--plane", "0,0,2,4000"]):
+        out = run("measure", "--rig", single, "--points", csv, *plane, "--length", "0,2", "--sigma-px", "0.3",
+                  "--json").json()["measure"]
+        got = np.array([p["x_mm"] for p in out["points"]])
+        assert np.abs(got - x).max() < 1e-6, got
+        assert out["lengths"][0]["length_mm"] == pytest.approx(np.linalg.norm(x[2] - x[0]), abs=1e-6)
+    with_sigma = run("measure", "--rig", single, "--points", csv, "--range-mm", "2000", "--plane-sigma-mm", "20",
+                     "--length", "0,2", "--sigma-px", "0.3", "--json").json()["measure"]["lengths"][0]
+    # A range error of 20 mm at 2 m scales a lateral length by 1 %.
+    assert with_sigma["sigma_calibration_mm"] >= 0.01 * with_sigma["length_mm"] * 0.99
+    assert "--plane: '1,2'" in run_bad("measure", "--rig", single, "--points", csv, "--plane", "1,2")
+    assert "--camera: goes with --plane" in run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--camera", "0")
+    assert "not seen by" in run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--range-mm", "2000",
+                                    "--camera", "1")

@@ -1,4 +1,5 @@
 #include "porthole/calib/refractive.h"
+#include "porthole/calib/rig.h"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -1369,6 +1370,9 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
     shell["correlation"][key] = CorrelationRow(r, n + kPortNumParams + i);
   }
   shell["n_water"] = num(r.n_water);
+  // The shell as estimated, in the cam frame (what measure/ reads back to trace through the port).
+  const Json estimated_shell = ShellToJson(refraction::WithShellValues(refraction::ShellOf(options.port), r.shell));
+  for (const auto& [key, value] : estimated_shell.items()) shell[key] = value;
   Json geometry = Json::object();
   if (const auto* d = std::get_if<ports::DomePort>(&r.estimated_port.shape)) {
     geometry = {{"frame", "housing"},

@@ -690,9 +690,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   return res;
 }
 
-namespace {
-
-nlohmann::ordered_json ShellJson(const refraction::Shell& s) {
+nlohmann::ordered_json ShellToJson(const refraction::Shell& s) {
   using Json = nlohmann::ordered_json;
   Json j = {{"frame", "cam (origin at the entrance pupil, axes of the housing)"},
             {"n_glass", s.n_glass},
@@ -707,6 +705,8 @@ nlohmann::ordered_json ShellJson(const refraction::Shell& s) {
   }
   return j;
 }
+
+namespace {
 
 nlohmann::ordered_json JointCovarianceJson(const RigResult& r) {
   using Json = nlohmann::ordered_json;
@@ -767,7 +767,7 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
                      {"parameters", params},
                      {"sigma", sigma},
                      {"predicted", predicted},
-                     {"shell", ShellJson(c.shell)}};
+                     {"shell", ShellToJson(c.shell)}};
     }
     out.update(j);
     cameras.push_back(out);

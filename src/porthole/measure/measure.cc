@@ -90,8 +90,25 @@ std::vector<ImagePoint> PointsFromDetections(const std::vector<calib::ImageDetec
   return out;
 }
 
-MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, const MeasureOptions& options) {
+MeasureResult Measure(const Rig& input_rig, const std::vector<ImagePoint>& points, const MeasureOptions& options) {
   MeasureResult res;
+  // On a plane with an uncertain distance: that distance joins the parameters (its error is common
+  // to every point).
+  Rig plane_rig;
+  std::optional<Plane> plane = options.plane;
+  if (plane && plane->sigma_mm > 0) {
+    plane_rig = input_rig;
+    const auto n = plane_rig.covariance.rows();
+    plane_rig.covariance.conservativeResize(n + 1, n + 1);
+    plane_rig.covariance.row(n).setZero();
+    plane_rig.covariance.col(n).setZero();
+    plane_rig.covariance(n, n) = plane->sigma_mm * plane->sigma_mm;
+    plane->covariance_index = static_cast<int>(n);
+  }
+  const Rig& rig = plane && plane->sigma_mm > 0 ? plane_rig : input_rig;
+  if (plane && (options.plane_camera < 0 || options.plane_camera >= static_cast<int>(rig.cameras.size()))) {
+    throw InvalidInput("plane_camera", fmt::format("{} is not a camera of the rig", options.plane_camera));
+  }
   res.covariance_note = options.calibration_sigma ? rig.covariance_note : "not included (image noise only)";
   if (options.sigma_px > 0) {
     res.sigma_px = options.sigma_px;
@@ -130,7 +147,30 @@ MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, con
   to.mismatch_p = options.mismatch_p;
   std::map<std::pair<std::string, int>, int> index;  // (frame, id) → res.points
   std::vector<std::vector<Observation>> all_obs;
+  if (plane) {  // one camera and the plane
+    for (const auto& [key, cams] : by_point) {
+      const auto it = cams.find(options.plane_camera);
+      if (it == cams.end()) {
+        throw InvalidInput("points", fmt::format("frame {}, id {}: not seen by {}, the camera of the plane ({})",
+                                                 key.first, key.second, rig.cameras[options.plane_camera].name,
+                                                 cams.begin()->second->where));
+      }
+      MeasuredPoint m;
+      m.frame = key.first;
+      m.id = key.second;
+      m.cameras = {options.plane_camera};
+      m.pixels_px = {it->second->pixel_px};
+      TriangulateOptions po;
+      po.sigma_px = res.sigma_px;
+      po.calibration_sigma = options.calibration_sigma;
+      m.point = IntersectPlane(rig, {options.plane_camera, it->second->pixel_px}, *plane, po);
+      if (!m.point.ok) ++res.n_failed;
+      index[key] = static_cast<int>(res.points.size());
+      res.points.push_back(std::move(m));
+    }
+  }
   for (const auto& [key, cams] : by_point) {
+    if (plane) break;
     if (cams.size() < 2) {
       if (!options.skip_unpaired) {
         throw InvalidInput("points", fmt::format("frame {}, id {}: seen by {} only ({}); a 3-D point needs two "
@@ -154,7 +194,7 @@ MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, con
     index[key] = static_cast<int>(res.points.size());
     res.points.push_back(std::move(m));
   }
-  std::vector<Point> tri = TriangulateMany(rig, all_obs, to, options.num_threads);
+  std::vector<Point> tri = plane ? std::vector<Point>{} : TriangulateMany(rig, all_obs, to, options.num_threads);
   for (std::size_t i = 0; i < tri.size(); ++i) {
     res.points[i].point = std::move(tri[i]);
     if (!res.points[i].point.ok) ++res.n_failed;

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -50,6 +51,10 @@ struct MeasureOptions {
   std::vector<std::pair<int, int>> lengths;  // id pairs
   bool skip_unpaired = false;                // skip points seen by one camera only (counted)
   int num_threads = 0;                       // 0: the machine's cores
+  // One camera and a known plane (a seafloor, or the range a laser pair gives) instead of two
+  // cameras: every point is the ray of its image in `plane_camera` met with `plane` (IntersectPlane).
+  std::optional<Plane> plane;
+  int plane_camera = 0;
 };
 
 struct MeasuredPoint {

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <map>
 
 #include "porthole/calib/result_json.h"
@@ -71,11 +72,88 @@ refraction::Shell ShellFromJson(const Json& port, const std::string& field) {
 
 }  // namespace
 
+Rig CameraFromJson(const nlohmann::json& j, const std::string& field) {
+  if (!j.is_object() || !j.contains("camera")) {
+    if (j.is_object() && j.contains("rig")) return RigFromJson(j, field);
+    throw InvalidInput(field, "not a calibration: no \"camera\" object");
+  }
+  const calib::CalibrationRecord rec = calib::CalibrationFromJson(j, field);
+  Rig rig;
+  rig.sigma0_px = std::isfinite(rec.sigma0_px) ? rec.sigma0_px : 0.0;
+  RigCamera c;
+  c.name = "camera";
+  c.camera = rec.camera;
+  const camera::ModelInfo& info = c.camera.info();
+  c.intrinsic_index.assign(info.num_params, -1);
+  std::vector<double> sig2;
+  std::vector<int> local;
+  for (int i = 0; i < info.num_params; ++i) {
+    if (rec.free[i] && rec.has_covariance) c.intrinsic_index[i] = static_cast<int>(local.size()), local.push_back(i);
+  }
+  int n = static_cast<int>(local.size());
+  bool port_sigma = false;
+  if (j.contains("port") && j["port"].is_object()) {
+    const std::string pf = field + ".port";
+    c.shell = ShellFromJson(j["port"], pf);
+    const auto& names = refraction::PortParams(c.shell->kind);
+    for (int i = 0; i < refraction::kPortNumParams; ++i) {
+      const std::string key(names[i].json_key);
+      c.port[i] = Number(j["port"]["parameters"], key, pf + ".parameters");
+      const auto& sj = j["port"].contains("sigma") ? j["port"]["sigma"] : Json();
+      if (sj.is_object() && sj.contains(key) && sj[key].is_number()) {
+        c.port_index[i] = n++;
+        sig2.push_back(std::pow(sj[key].get<double>(), 2));
+        port_sigma = true;
+      }
+    }
+    refraction::ValidateParams(*c.shell, c.port.data(), pf + ".parameters");
+  }
+  rig.covariance = Eigen::MatrixXd::Zero(n, n);
+  for (std::size_t a = 0; a < local.size(); ++a) {
+    for (std::size_t b = 0; b < local.size(); ++b) rig.covariance(a, b) = rec.covariance(local[a], local[b]);
+  }
+  for (std::size_t i = 0; i < sig2.size(); ++i) rig.covariance(local.size() + i, local.size() + i) = sig2[i];
+  // The port's correlations with the lens and with each other (the refractive calibration's
+  // "correlation" rows): the joint covariance back.
+  bool joint = false;
+  if (port_sigma && rec.has_covariance && j["port"].contains("correlation") && j["port"]["correlation"].is_object()) {
+    const RigCamera& cam = c;
+    const auto& names = refraction::PortParams(cam.shell->kind);
+    const auto sd = [&](int row) { return std::sqrt(rig.covariance(row, row)); };
+    for (int i = 0; i < refraction::kPortNumParams; ++i) {
+      const std::string key(names[i].json_key);
+      const Json& row = j["port"]["correlation"];
+      if (cam.port_index[i] < 0 || !row.contains(key) || !row[key].is_object()) continue;
+      for (const auto& [other, value] : row[key].items()) {
+        if (!value.is_number()) continue;
+        int at = -1;
+        for (int q = 0; q < info.num_params; ++q) {
+          if (info.params[q].json_key == other) at = cam.intrinsic_index[q];
+        }
+        for (int q = 0; q < refraction::kPortNumParams; ++q) {
+          if (names[q].json_key == other) at = cam.port_index[q];
+        }
+        if (at < 0 || at == cam.port_index[i]) continue;
+        const double v = value.get<double>() * sd(cam.port_index[i]) * sd(at);
+        rig.covariance(cam.port_index[i], at) = rig.covariance(at, cam.port_index[i]) = v;
+        joint = true;
+      }
+    }
+  }
+  rig.covariance_note = !rec.has_covariance ? "none (the calibration holds no covariance)"
+                        : joint      ? "joint (the lens's covariance, the port's sigma and their correlations)"
+                        : port_sigma ? "the lens's covariance and the port's sigma (their correlation left out)"
+                                     : "the lens's covariance";
+  rig.cameras.push_back(std::move(c));
+  return rig;
+}
+
 Rig RigFromJson(const nlohmann::json& j, const std::string& field) {
   if (!j.is_object() || !j.contains("rig")) {
     if (j.is_object() && j.contains("camera")) {
       throw InvalidInput(field, "a single camera's calibration, not a rig: measure needs the JSON of a rig "
-                                "calibration (calibrate with one --images or --detections per camera)");
+                                "calibration (calibrate with one --images or --detections per camera), or a "
+                                "known plane or range for one camera (`plane`)");
     }
     throw InvalidInput(field, "not a rig calibration: no \"rig\" object");
   }
@@ -202,6 +280,18 @@ Rig RigFromJson(const nlohmann::json& j, const std::string& field) {
     throw InvalidInput(rf + ".cameras[0].cam_from_rig", "camera 0 defines the rig frame: its pose must be the identity");
   }
   return rig;
+}
+
+Rig LoadCamera(const std::string& path, const std::string& field) {
+  const std::string text = ReadInputFile(path, field, kMaxCalibrationFileBytes);
+  const Json j = ParseJsonText(text, field, path);
+  return WithJsonLines(text, field, path, [&] {
+    try {
+      return CameraFromJson(j, field);
+    } catch (const nlohmann::json::exception& e) {
+      throw InvalidInput(field, WithoutJsonTag(e.what()));
+    }
+  });
 }
 
 Rig LoadRig(const std::string& path, const std::string& field) {

@@ -56,6 +56,12 @@ struct Rig {
 Rig RigFromJson(const nlohmann::json& j, const std::string& field);
 // The same read from `path` (size-capped, JSON errors with their line).
 Rig LoadRig(const std::string& path, const std::string& field);
+// One camera's calibration (porthole's JSON: a lens, or a lens behind its port with the port's
+// `shell`) as a rig of that camera alone, for measuring on a known plane; its covariance: the
+// lens's, and the port parameters' σ (their correlation with the lens left out: covariance_note
+// says so). A rig file is read as RigFromJson.
+Rig CameraFromJson(const nlohmann::json& j, const std::string& field);
+Rig LoadCamera(const std::string& path, const std::string& field);
 // The rig of a calibration in memory (its joint covariance included).
 Rig RigFromResult(const calib::RigResult& r);
 

@@ -245,6 +245,63 @@ Point Triangulate(const Rig& rig, const std::vector<Observation>& obs, const Tri
   return p;
 }
 
+Point IntersectPlane(const Rig& rig, const Observation& obs, const Plane& plane, const TriangulateOptions& options) {
+  if (!(options.sigma_px > 0) || !std::isfinite(options.sigma_px)) {
+    throw InvalidInput("sigma_px", "must be a positive number of pixels");
+  }
+  if (std::abs(plane.normal.norm() - 1) > 1e-6 || !std::isfinite(plane.distance_mm) || !(plane.sigma_mm >= 0)) {
+    throw InvalidInput("plane", "needs a unit normal, a finite distance and a sigma >= 0");
+  }
+  if (obs.camera < 0 || obs.camera >= static_cast<int>(rig.cameras.size())) {
+    throw InvalidInput("camera", fmt::format("{} is not a camera of the rig", obs.camera));
+  }
+  const RigCamera& c = rig.cameras[obs.camera];
+  Point p;
+  const auto r = PixelRay(c, obs.pixel_px);
+  if (!r) {
+    p.why = fmt::format("{}: no ray through the lens and port at ({:.2f}, {:.2f}) px", c.name, obs.pixel_px.x(),
+                        obs.pixel_px.y());
+    return p;
+  }
+  // The plane in the rig frame: x_cam = R x_rig + t, so n·(R x + t) = d ⇔ (Rᵀn)·x = d − n·t.
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(c.rotation_rad.norm(), c.rotation_rad.norm() > 0
+                                                                          ? Eigen::Vector3d(c.rotation_rad.normalized())
+                                                                          : Eigen::Vector3d::UnitZ())
+                                  .toRotationMatrix();
+  const Eigen::Vector3d n = rot.transpose() * plane.normal;
+  const double dist = plane.distance_mm - plane.normal.dot(c.translation_mm);
+  const double nd = n.dot(r->d);
+  if (std::abs(nd) < 1e-9) {
+    p.why = fmt::format("{}: the ray runs along the plane", c.name);
+    return p;
+  }
+  const double t = (dist - n.dot(r->o)) / nd;
+  if (!(t > 0)) {
+    p.why = fmt::format("{}: the plane is behind the ray (its exit from the port)", c.name);
+    return p;
+  }
+  p.ok = true;
+  p.x_mm = r->o + t * r->d;
+  // dX = (I − d nᵀ/(n·d)) (do + t dd) for a change of the ray at fixed t; a change of the plane's
+  // distance moves X along the ray by d/(n·d).
+  const Eigen::Matrix3d proj = Eigen::Matrix3d::Identity() - r->d * n.transpose() / nd;
+  const Eigen::Matrix<double, 3, 2> j = proj * (r->do_duv + t * r->dd_duv);
+  p.covariance_image_mm2 = options.sigma_px * options.sigma_px * j * j.transpose();
+  p.covariance_mm2 = p.covariance_image_mm2;
+  p.residual_px = {0.0};
+  p.range_mm = {t};
+  p.dof = 0;
+  const bool with_plane = plane.covariance_index >= 0 && plane.covariance_index < rig.covariance.rows();
+  if ((options.calibration_sigma || with_plane) && rig.covariance.rows() > 0) {
+    p.d_x_d_theta = Eigen::MatrixXd::Zero(3, rig.covariance.rows());
+    if (options.calibration_sigma) AddParamJacobian(c, obs.pixel_px, t, proj, &p.d_x_d_theta);
+    // A change of the plane's distance (its frame) moves X along the ray by d/(n·d).
+    if (with_plane) p.d_x_d_theta.col(plane.covariance_index) += r->d / nd;
+    p.covariance_mm2 += p.d_x_d_theta * rig.covariance * p.d_x_d_theta.transpose();
+  }
+  return p;
+}
+
 std::vector<Point> TriangulateMany(const Rig& rig, const std::vector<std::vector<Observation>>& points,
                                    const TriangulateOptions& options, int num_threads) {
   const int n = static_cast<int>(points.size());

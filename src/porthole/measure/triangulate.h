@@ -81,6 +81,23 @@ Point Triangulate(const Rig& rig, const std::vector<Observation>& obs, const Tri
 std::vector<Point> TriangulateMany(const Rig& rig, const std::vector<std::vector<Observation>>& points,
                                    const TriangulateOptions& options, int num_threads = 0);
 
+// A plane known in a camera's frame (a seafloor, a wall, or the range a laser pair gives):
+// normal · x = distance_mm, the normal a unit vector, x in that camera's frame (mm).
+struct Plane {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double distance_mm = 0;
+  double sigma_mm = 0;  // σ of distance_mm (0: known exactly)
+  // The row of Rig::covariance that holds distance_mm's variance (−1: none). The plane's error is
+  // common to every point measured on it (a length scales with it), so it is propagated as a
+  // parameter, not as noise: Measure appends the row.
+  int covariance_index = -1;
+};
+
+// The point where the ray of `obs` meets `plane` (in the frame of camera obs.camera), in the rig
+// frame, with σ: image noise (options.sigma_px), the plane's distance σ, and with calibration_sigma
+// the calibration's. ok = false with why when the ray misses the plane (parallel, or behind).
+Point IntersectPlane(const Rig& rig, const Observation& obs, const Plane& plane, const TriangulateOptions& options);
+
 struct Length {
   double length_mm = 0;
   double sigma_mm = 0;              // total
