@@ -27,9 +27,10 @@ void RegisterMeasure(py::module_& m) {
       "measure",
       [](const py::object& rig, const py::object& points, const std::vector<std::pair<int, int>>& lengths,
          double sigma_px, bool calibration_sigma, bool skip_unpaired, int threads,
-         std::optional<std::tuple<int, int, double>> scale_bar) {
+         std::optional<std::tuple<int, int, double>> scale_bar, std::optional<std::vector<double>> plane,
+         std::optional<double> range_mm, double plane_sigma_mm, const std::string& camera) {
         return WithFieldNames({{"points", "points"}, {"lengths", "lengths"}, {"sigma_px", "sigma_px"},
-                               {"skip_unpaired", "skip_unpaired"}, {"camera", "points"}},
+                               {"skip_unpaired", "skip_unpaired"}, {"plane_camera", "camera"}},
                               [&] {
           const auto is_path = [](const py::object& o) {
             return py::isinstance<py::str>(o) || py::hasattr(o, "__fspath__");
@@ -37,11 +38,16 @@ void RegisterMeasure(py::module_& m) {
           const auto path_of = [](const py::object& o) {
             return py::str(py::module_::import("os").attr("fspath")(o)).cast<std::string>();
           };
+          const bool one_camera = plane.has_value() || range_mm.has_value();
+          if (plane && range_mm) throw InvalidInput("plane", "give plane or range_mm, not both");
+          if (!one_camera && (!camera.empty() || plane_sigma_mm != 0)) {
+            throw InvalidInput(camera.empty() ? "plane_sigma_mm" : "camera", "goes with plane or range_mm");
+          }
           measure::Rig r;
           if (is_path(rig)) {
-            r = measure::LoadRig(path_of(rig), "rig");
+            r = one_camera ? measure::LoadCamera(path_of(rig), "rig") : measure::LoadRig(path_of(rig), "rig");
           } else if (py::isinstance<py::dict>(rig)) {
-            r = measure::RigFromJson(PythonToJson(rig), "rig");
+            r = one_camera ? measure::CameraFromJson(PythonToJson(rig), "rig") : measure::RigFromJson(PythonToJson(rig), "rig");
           } else {
             throw InvalidInput("rig", "a rig JSON file or calibrate_rig()'s dict");
           }
@@ -89,6 +95,27 @@ void RegisterMeasure(py::module_& m) {
             throw InvalidInput("points", "a CSV file, (frame, camera, id, u_px, v_px) tuples, or detections per camera");
           }
           measure::MeasureOptions o;
+          if (one_camera) {
+            measure::Plane pl;
+            if (range_mm) {
+              if (!(*range_mm > 0) || !std::isfinite(*range_mm)) throw InvalidInput("range_mm", "must be > 0 mm");
+              pl.distance_mm = *range_mm;
+            } else {
+              const auto& v = *plane;
+              const Eigen::Vector3d n = v.size() == 4 ? Eigen::Vector3d(v[0], v[1], v[2]) : Eigen::Vector3d::Zero();
+              if (v.size() != 4 || !n.allFinite() || !(n.norm() > 0) || !std::isfinite(v[3])) {
+                throw InvalidInput("plane", "give (nx, ny, nz, d_mm): the plane n.x = d in the camera's frame, mm");
+              }
+              pl.normal = n.normalized();
+              pl.distance_mm = v[3] / n.norm();
+            }
+            if (!(plane_sigma_mm >= 0) || !std::isfinite(plane_sigma_mm)) {
+              throw InvalidInput("plane_sigma_mm", "must be >= 0 mm");
+            }
+            pl.sigma_mm = plane_sigma_mm;
+            o.plane = pl;
+            o.plane_camera = camera.empty() ? 0 : measure::CameraIndex(r, camera, "camera");
+          }
           o.sigma_px = sigma_px;
           o.calibration_sigma = calibration_sigma;
           o.skip_unpaired = skip_unpaired;
@@ -111,11 +138,12 @@ void RegisterMeasure(py::module_& m) {
       },
       py::arg("rig"), py::arg("points"), py::kw_only(), py::arg("lengths") = std::vector<std::pair<int, int>>{},
       py::arg("sigma_px") = 0.0, py::arg("calibration_sigma") = true, py::arg("skip_unpaired") = false,
-      py::arg("threads") = 0, py::arg("scale_bar") = py::none(),
+      py::arg("threads") = 0, py::arg("scale_bar") = py::none(), py::arg("plane") = py::none(),
+      py::arg("range_mm") = py::none(), py::arg("plane_sigma_mm") = 0.0, py::arg("camera") = "",
       "3-D points and lengths through a calibrated rig (`porthole measure`). rig: a rig JSON file or "
       "calibrate_rig().to_dict(); points: a CSV file frame,camera,id,u_px,v_px, a list of (frame, camera, id, "
       "u_px, v_px) tuples (camera by name or index), or one list of detections per camera in the rig's order; "
-      "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0); scale_bar: (id_a, id_b, length_mm), the check of `--scale-bar`. Returns the JSON of "
+      "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0); scale_bar: (id_a, id_b, length_mm), the check of `--scale-bar`; plane (nx, ny, nz, d_mm) or range_mm with plane_sigma_mm and camera: one camera and a known plane (`--plane`; rig may then be one camera's calibration). Returns the JSON of "
       "`porthole measure --json`.");
 }
 

@@ -282,29 +282,25 @@ Rig RigFromJson(const nlohmann::json& j, const std::string& field) {
   return rig;
 }
 
-Rig LoadCamera(const std::string& path, const std::string& field) {
+namespace {
+
+// Reads `path` (size-capped) and parses it with `from`, JSON errors with their file and line.
+Rig LoadWith(const std::string& path, const std::string& field, Rig (*from)(const nlohmann::json&, const std::string&)) {
   const std::string text = ReadInputFile(path, field, kMaxCalibrationFileBytes);
   const Json j = ParseJsonText(text, field, path);
   return WithJsonLines(text, field, path, [&] {
     try {
-      return CameraFromJson(j, field);
+      return from(j, field);
     } catch (const nlohmann::json::exception& e) {
       throw InvalidInput(field, WithoutJsonTag(e.what()));
     }
   });
 }
 
-Rig LoadRig(const std::string& path, const std::string& field) {
-  const std::string text = ReadInputFile(path, field, kMaxCalibrationFileBytes);
-  const Json j = ParseJsonText(text, field, path);
-  return WithJsonLines(text, field, path, [&] {
-    try {
-      return RigFromJson(j, field);
-    } catch (const nlohmann::json::exception& e) {
-      throw InvalidInput(field, WithoutJsonTag(e.what()));
-    }
-  });
-}
+}  // namespace
+
+Rig LoadCamera(const std::string& path, const std::string& field) { return LoadWith(path, field, &CameraFromJson); }
+Rig LoadRig(const std::string& path, const std::string& field) { return LoadWith(path, field, &RigFromJson); }
 
 Rig RigFromResult(const calib::RigResult& r) {
   Rig rig;
