@@ -52,6 +52,7 @@ void RegisterMeasure(CLI::App& app) {
     std::string scale_bar;
     std::string plane, camera;
     std::optional<double> range_mm;
+    std::string laser_pair;
     double plane_sigma_mm = 0;
     measure::MeasureOptions measure;
     bool no_calibration_sigma = false, json = false, force = false;
@@ -76,6 +77,11 @@ void RegisterMeasure(CLI::App& app) {
   cmd->add_option("--range-mm", o->range_mm, "Or: a known range, the plane square to the camera's axis this far, mm")
       ->excludes(plane)
       ->group("One camera");
+  cmd->add_option("--laser-pair", o->laser_pair,
+                  "A,B,SEPARATION_MM: or the range in each frame from a laser scaler's two dots (ids A and B), beams "
+                  "parallel to the camera's axis this far apart")
+      ->excludes(plane)
+      ->group("One camera");
   cmd->add_option("--plane-sigma-mm", o->plane_sigma_mm, "Sigma of the plane's distance (or range), mm")
       ->capture_default_str()
       ->group("One camera");
@@ -91,7 +97,7 @@ void RegisterMeasure(CLI::App& app) {
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   AddForceFlag(cmd, &o->force);
   cmd->callback([o, cmd] {
-    WithFieldNames({{"points", "--points"}, {"lengths", "--length"}, {"sigma_px", "--sigma-px"}, {"plane", "--plane"},
+    WithFieldNames({{"points", "--points"}, {"lengths", "--length"}, {"sigma_px", "--sigma-px"}, {"plane", "--plane"}, {"laser_pair", "--laser-pair"},
                     {"skip_unpaired", "--skip-unpaired"}, {"camera", "--points"}},
                    [&] {
       const OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--out"})};
@@ -102,14 +108,37 @@ void RegisterMeasure(CLI::App& app) {
       if (cmd->count("--sigma-px") > 0 && o->measure.sigma_px == 0) {
         throw InvalidInput("--sigma-px", "must be > 0 (leave it out to take the rig's sigma0)");
       }
-      const bool one_camera = !o->plane.empty() || o->range_mm.has_value();
+      const bool one_camera = !o->plane.empty() || o->range_mm.has_value() || !o->laser_pair.empty();
+      if (o->range_mm && !o->laser_pair.empty()) throw InvalidInput("--laser-pair", "excludes --range-mm");
       for (const char* only : {"--plane-sigma-mm", "--camera"}) {
         if (!one_camera && cmd->count(only) > 0) throw InvalidInput(only, "goes with --plane or --range-mm");
       }
       const measure::Rig rig = one_camera ? measure::LoadCamera(o->rig, "--rig") : measure::LoadRig(o->rig, "--rig");
       if (one_camera) {
         measure::Plane pl;
-        if (o->range_mm) {
+        if (!o->laser_pair.empty()) {
+          std::vector<double> v;
+          std::stringstream ss(o->laser_pair);
+          std::string item;
+          while (std::getline(ss, item, ',')) {
+            try {
+              std::size_t used = 0;
+              v.push_back(std::stod(item, &used));
+              if (used != item.size()) v.back() = NAN;
+            } catch (const std::exception&) {
+              v.push_back(NAN);
+            }
+          }
+          if (v.size() != 3 || !(v[0] >= 0) || !(v[1] >= 0) || v[0] != std::floor(v[0]) || v[1] != std::floor(v[1]) ||
+              !(v[2] > 0) || !std::isfinite(v[2])) {
+            throw InvalidInput("--laser-pair", fmt::format("'{}': give A,B,SEPARATION_MM (the two dots' ids and the "
+                                                           "beams' separation in mm)", o->laser_pair));
+          }
+          o->measure.laser_pair = std::array<double, 3>{v[0], v[1], v[2]};
+          if (cmd->count("--plane-sigma-mm") > 0) {
+            throw InvalidInput("--plane-sigma-mm", "the laser pair gives each frame's range with its own sigma");
+          }
+        } else if (o->range_mm) {
           if (!(*o->range_mm > 0) || !std::isfinite(*o->range_mm)) throw InvalidInput("--range-mm", "must be > 0 mm");
           pl.distance_mm = *o->range_mm;
         } else {
@@ -137,7 +166,7 @@ void RegisterMeasure(CLI::App& app) {
           throw InvalidInput("--plane-sigma-mm", "must be >= 0 mm");
         }
         pl.sigma_mm = o->plane_sigma_mm;
-        o->measure.plane = pl;
+        if (o->laser_pair.empty()) o->measure.plane = pl;
         o->measure.plane_camera = o->camera.empty() ? 0 : measure::CameraIndex(rig, o->camera, "--camera");
       }
       o->measure.calibration_sigma = !o->no_calibration_sigma;

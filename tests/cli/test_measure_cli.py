@@ -256,3 +256,29 @@ def test_one_camera_and_a_known_plane(rig, tmp_path):
     assert "--camera: goes with --plane" in run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--camera", "0")
     assert "not seen by" in run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--range-mm", "2000",
                                     "--camera", "1")
+
+
+def test_laser_pair(rig, tmp_path):
+    """A laser scaler's two dots (ids 10 and 11, beams 100 mm apart, parallel to the axis) give the
+    range: points projected at 2 m by cv2.projectPoints come back within 1e-6 mm, the range in
+    `laser_ranges`; a frame without a dot is refused naming it."""
+    d, j = rig
+    single = tmp_path / "one.json"
+    run("calibrate", "--detections", d / "left.json", "--model", "opencv", "--out", single, "--quiet")
+    cal = json.loads(single.read_text())["camera"]
+    k = np.array([[cal["fx_px"], 0, cal["cx_px"]], [0, cal["fy_px"], cal["cy_px"]], [0, 0, 1.0]])
+    dist = np.array([cal[key] or 0.0 for key in ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")])
+    x = np.array([[-50.0, 30, 2000], [50, 30, 2000], [-400, -300, 2000], [500, 250, 2000]])
+    uv, _ = cv2.projectPoints(x, np.zeros(3), np.zeros(3), k, dist)
+    csv = tmp_path / "laser.csv"
+    csv.write_text("".join(f"f,0,{i},{u!r},{v!r}\n" for i, (u, v) in zip((10, 11, 1, 2), uv.reshape(-1, 2))))
+    out = run("measure", "--rig", single, "--points", csv, "--laser-pair", "10,11,100", "--length", "1,2",
+              "--sigma-px", "0.3", "--json").json()["measure"]
+    assert out["laser_ranges"][0]["range_mm"] == pytest.approx(2000, abs=1e-6)
+    got = {p["id"]: p["x_mm"] for p in out["points"]}
+    assert np.abs(np.array([got[1], got[2]]) - x[2:]).max() < 1e-6
+    print(f"laser range {out['laser_ranges'][0]['range_mm']:.6f} mm, sigma {out['laser_ranges'][0]['sigma_mm']:.2f} mm")
+    csv.write_text("".join(f"f,0,{i},{u!r},{v!r}\n" for i, (u, v) in zip((10, 1, 2), uv.reshape(-1, 2)[[0, 2, 3]])))
+    assert "--laser-pair: frame f: laser dot id 11 not measured" in run_bad(
+        "measure", "--rig", single, "--points", csv, "--laser-pair", "10,11,100")
+    assert "--laser-pair: '10,11'" in run_bad("measure", "--rig", single, "--points", csv, "--laser-pair", "10,11")

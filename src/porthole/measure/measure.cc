@@ -106,7 +106,9 @@ MeasureResult Measure(const Rig& input_rig, const std::vector<ImagePoint>& point
     plane->covariance_index = static_cast<int>(n);
   }
   const Rig& rig = plane && plane->sigma_mm > 0 ? plane_rig : input_rig;
-  if (plane && (options.plane_camera < 0 || options.plane_camera >= static_cast<int>(rig.cameras.size()))) {
+  if (plane && options.laser_pair) throw InvalidInput("laser_pair", "give a plane or a laser pair, not both");
+  if ((plane || options.laser_pair) &&
+      (options.plane_camera < 0 || options.plane_camera >= static_cast<int>(rig.cameras.size()))) {
     throw InvalidInput("plane_camera", fmt::format("{} is not a camera of the rig", options.plane_camera));
   }
   res.covariance_note = options.calibration_sigma ? rig.covariance_note : "not included (image noise only)";
@@ -147,7 +149,44 @@ MeasureResult Measure(const Rig& input_rig, const std::vector<ImagePoint>& point
   to.mismatch_p = options.mismatch_p;
   std::map<std::pair<std::string, int>, int> index;  // (frame, id) → res.points
   std::vector<std::vector<Observation>> all_obs;
-  if (plane) {  // one camera and the plane
+  // A laser scaler: each frame's plane from its two dots, its σ a parameter of that frame.
+  std::map<std::string, Plane> frame_plane;
+  Rig laser_rig;
+  const bool laser = options.laser_pair.has_value();
+  if (laser) {
+    const int ida = static_cast<int>((*options.laser_pair)[0]), idb = static_cast<int>((*options.laser_pair)[1]);
+    const double sep = (*options.laser_pair)[2];
+    laser_rig = rig;
+    std::set<std::string> frames;
+    for (const auto& [key, cams] : by_point) frames.insert(key.first);
+    for (const std::string& f : frames) {
+      const auto dot = [&](int id) -> const ImagePoint* {
+        const auto it = by_point.find({f, id});
+        if (it == by_point.end()) return nullptr;
+        const auto c = it->second.find(options.plane_camera);
+        return c == it->second.end() ? nullptr : c->second;
+      };
+      const ImagePoint *a = dot(ida), *b = dot(idb);
+      if (!a || !b) {
+        throw InvalidInput("laser_pair", fmt::format("frame {}: laser dot id {} not measured in {}", f, a ? idb : ida,
+                                                     rig.cameras[options.plane_camera].name));
+      }
+      const auto r = RangeFromLaserPair(rig.cameras[options.plane_camera], a->pixel_px, b->pixel_px, sep, res.sigma_px);
+      if (!r) {
+        throw InvalidInput("laser_pair", fmt::format("frame {}: no range puts the dots' rays {:g} mm apart ({}, {})", f,
+                                                     sep, a->where, b->where));
+      }
+      res.laser_ranges.push_back({f, r->range_mm, r->sigma_mm});
+      const auto n = laser_rig.covariance.rows();
+      laser_rig.covariance.conservativeResize(n + 1, n + 1);
+      laser_rig.covariance.row(n).setZero();
+      laser_rig.covariance.col(n).setZero();
+      laser_rig.covariance(n, n) = r->sigma_mm * r->sigma_mm;
+      frame_plane[f] = Plane{Eigen::Vector3d::UnitZ(), r->range_mm, r->sigma_mm, static_cast<int>(n)};
+    }
+  }
+  const Rig& mrig = laser ? laser_rig : rig;
+  if (plane || laser) {  // one camera and the plane
     for (const auto& [key, cams] : by_point) {
       const auto it = cams.find(options.plane_camera);
       if (it == cams.end()) {
@@ -163,14 +202,15 @@ MeasureResult Measure(const Rig& input_rig, const std::vector<ImagePoint>& point
       TriangulateOptions po;
       po.sigma_px = res.sigma_px;
       po.calibration_sigma = options.calibration_sigma;
-      m.point = IntersectPlane(rig, {options.plane_camera, it->second->pixel_px}, *plane, po);
+      m.point = IntersectPlane(mrig, {options.plane_camera, it->second->pixel_px},
+                               laser ? frame_plane.at(key.first) : *plane, po);
       if (!m.point.ok) ++res.n_failed;
       index[key] = static_cast<int>(res.points.size());
       res.points.push_back(std::move(m));
     }
   }
   for (const auto& [key, cams] : by_point) {
-    if (plane) break;
+    if (plane || laser) break;
     if (cams.size() < 2) {
       if (!options.skip_unpaired) {
         throw InvalidInput("points", fmt::format("frame {}, id {}: seen by {} only ({}); a 3-D point needs two "
@@ -194,7 +234,8 @@ MeasureResult Measure(const Rig& input_rig, const std::vector<ImagePoint>& point
     index[key] = static_cast<int>(res.points.size());
     res.points.push_back(std::move(m));
   }
-  std::vector<Point> tri = plane ? std::vector<Point>{} : TriangulateMany(rig, all_obs, to, options.num_threads);
+  std::vector<Point> tri =
+      plane || laser ? std::vector<Point>{} : TriangulateMany(rig, all_obs, to, options.num_threads);
   for (std::size_t i = 0; i < tri.size(); ++i) {
     res.points[i].point = std::move(tri[i]);
     if (!res.points[i].point.ok) ++res.n_failed;
@@ -231,7 +272,7 @@ MeasureResult Measure(const Rig& input_rig, const std::vector<ImagePoint>& point
       if (!pa.ok || !pb.ok) {
         l.why = fmt::format("id {} not triangulated: {}", pa.ok ? b : a, pa.ok ? pb.why : pa.why);
       } else {
-        l.length = MeasureLength(rig, pa, pb);
+        l.length = MeasureLength(mrig, pa, pb);
         l.ok = true;
       }
       res.lengths.push_back(l);
@@ -371,6 +412,14 @@ nlohmann::ordered_json ScaleBarToJson(const ScaleBarCheck& c) {
           {"consistent", c.consistent}, {"verdict", c.verdict}, {"by_range", bins}, {"frames", rows}};
 }
 
+namespace {
+nlohmann::ordered_json LaserRangesJson(const std::vector<FrameRange>& v) {
+  nlohmann::ordered_json a = nlohmann::ordered_json::array();
+  for (const auto& f : v) a.push_back({{"frame", f.frame}, {"range_mm", f.range_mm}, {"sigma_mm", f.sigma_mm}});
+  return a;
+}
+}  // namespace
+
 nlohmann::ordered_json MeasureToJson(const MeasureResult& r, const Rig& rig) {
   using Json = nlohmann::ordered_json;
   const auto num = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
@@ -426,6 +475,7 @@ nlohmann::ordered_json MeasureToJson(const MeasureResult& r, const Rig& rig) {
             {"n_mismatched", r.n_mismatched},
             {"n_unpaired_skipped", r.n_unpaired},
             {"warnings", r.warnings},
+            {"laser_ranges", LaserRangesJson(r.laser_ranges)},
             {"points", points},
             {"lengths", lengths}}}};
 }

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <array>
 #include <optional>
 #include <string>
 #include <utility>
@@ -55,6 +56,10 @@ struct MeasureOptions {
   // cameras: every point is the ray of its image in `plane_camera` met with `plane` (IntersectPlane).
   std::optional<Plane> plane;
   int plane_camera = 0;
+  // Or a laser scaler (RangeFromLaserPair): in each frame, the range from the dots of ids laser_a
+  // and laser_b, `laser_separation_mm` apart; the plane square to the axis at that range, its σ a
+  // parameter of that frame.
+  std::optional<std::array<double, 3>> laser_pair;  // id_a, id_b, separation_mm
 };
 
 struct MeasuredPoint {
@@ -73,6 +78,11 @@ struct MeasuredLength {
   Length length;
 };
 
+struct FrameRange {
+  std::string frame;
+  double range_mm = 0, sigma_mm = 0;
+};
+
 struct MeasureResult {
   std::vector<MeasuredPoint> points;  // by frame, then id
   std::vector<MeasuredLength> lengths;
@@ -83,6 +93,7 @@ struct MeasureResult {
   int n_mismatched = 0;
   std::vector<std::string> warnings;
   std::string covariance_note;
+  std::vector<FrameRange> laser_ranges;  // with MeasureOptions::laser_pair
 };
 
 MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, const MeasureOptions& options);

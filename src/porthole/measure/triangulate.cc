@@ -302,6 +302,41 @@ Point IntersectPlane(const Rig& rig, const Observation& obs, const Plane& plane,
   return p;
 }
 
+std::optional<LaserRange> RangeFromLaserPair(const RigCamera& c, const Eigen::Vector2d& dot_a_px,
+                                             const Eigen::Vector2d& dot_b_px, double separation_mm, double sigma_px) {
+  if (!(separation_mm > 0) || !std::isfinite(separation_mm)) {
+    throw InvalidInput("laser_pair", "the separation must be > 0 mm");
+  }
+  return camera::VisitModel(c.camera.model, [&](auto m) -> std::optional<LaserRange> {
+    using M = decltype(m);
+    using J = ceres::Jet<double, 4>;  // d/d(u_a, v_a, u_b, v_b)
+    constexpr int N = M::kNumParams;
+    std::array<J, N> cam;
+    for (int i = 0; i < N; ++i) cam[i] = J(c.camera.params[i]);
+    std::array<J, refraction::kPortNumParams> port;
+    for (int i = 0; i < refraction::kPortNumParams; ++i) port[i] = J(c.port[i]);
+    const J pose[6] = {J(0), J(0), J(0), J(0), J(0), J(0)};  // the camera's own frame
+    V3<J> oa, da, ob, db;
+    const Eigen::Matrix<J, 2, 1> ua(J(dot_a_px.x(), 0), J(dot_a_px.y(), 1)), ub(J(dot_b_px.x(), 2), J(dot_b_px.y(), 3));
+    const refraction::Shell* shell = c.shell ? &*c.shell : nullptr;
+    if (!RayT<M, J>(c.camera.sensor, cam.data(), shell, port.data(), pose, ua, &oa, &da) ||
+        !RayT<M, J>(c.camera.sensor, cam.data(), shell, port.data(), pose, ub, &ob, &db)) {
+      return std::nullopt;
+    }
+    if (!(da(2).a > 0 && db(2).a > 0)) return std::nullopt;
+    // X(Z) = o + ((Z − o_z)/d_z)·d: the dots' difference is a + Z·b.
+    const V3<J> a = (ob - db * (ob(2) / db(2))) - (oa - da * (oa(2) / da(2)));
+    const V3<J> b = db / db(2) - da / da(2);
+    const J qa = b.dot(b), qb = J(2) * a.dot(b), qc = a.dot(a) - J(separation_mm * separation_mm);
+    const J disc = qb * qb - J(4) * qa * qc;
+    if (!(qa.a > 0) || !(disc.a >= 0)) return std::nullopt;
+    using std::sqrt;
+    const J z = (-qb + sqrt(disc)) / (J(2) * qa);
+    if (!(z.a > 0) || !std::isfinite(z.a)) return std::nullopt;
+    return LaserRange{z.a, sigma_px * z.v.norm()};
+  });
+}
+
 std::vector<Point> TriangulateMany(const Rig& rig, const std::vector<std::vector<Observation>>& points,
                                    const TriangulateOptions& options, int num_threads) {
   const int n = static_cast<int>(points.size());

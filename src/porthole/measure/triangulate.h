@@ -98,6 +98,17 @@ struct Plane {
 // the calibration's. ok = false with why when the ray misses the plane (parallel, or behind).
 Point IntersectPlane(const Rig& rig, const Observation& obs, const Plane& plane, const TriangulateOptions& options);
 
+// A laser scaler: two beams parallel to camera c's optical axis, `separation_mm` apart, put two dots
+// on the subject. The range Z (along the axis, camera frame) at which the exact rays of the two dots'
+// pixels are separation_mm apart in the plane z = Z, and its σ from image noise sigma_px on both dots
+// (automatic differentiation of Z through the rays). nullopt when no positive range fits. The beams'
+// own misalignment is not modelled.
+struct LaserRange {
+  double range_mm = 0, sigma_mm = 0;
+};
+std::optional<LaserRange> RangeFromLaserPair(const RigCamera& c, const Eigen::Vector2d& dot_a_px,
+                                             const Eigen::Vector2d& dot_b_px, double separation_mm, double sigma_px);
+
 struct Length {
   double length_mm = 0;
   double sigma_mm = 0;              // total
