@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
 #include <optional>
 #include <tuple>
@@ -28,7 +29,8 @@ void RegisterMeasure(py::module_& m) {
       [](const py::object& rig, const py::object& points, const std::vector<std::pair<int, int>>& lengths,
          double sigma_px, bool calibration_sigma, bool skip_unpaired, int threads,
          std::optional<std::tuple<int, int, double>> scale_bar, std::optional<std::vector<double>> plane,
-         std::optional<double> range_mm, double plane_sigma_mm, const std::string& camera) {
+         std::optional<double> range_mm, double plane_sigma_mm, const std::string& camera,
+         std::optional<std::tuple<int, int, double>> laser_pair) {
         return WithFieldNames({{"points", "points"}, {"lengths", "lengths"}, {"sigma_px", "sigma_px"},
                                {"skip_unpaired", "skip_unpaired"}, {"plane_camera", "camera"}},
                               [&] {
@@ -38,8 +40,14 @@ void RegisterMeasure(py::module_& m) {
           const auto path_of = [](const py::object& o) {
             return py::str(py::module_::import("os").attr("fspath")(o)).cast<std::string>();
           };
-          const bool one_camera = plane.has_value() || range_mm.has_value();
-          if (plane && range_mm) throw InvalidInput("plane", "give plane or range_mm, not both");
+          const bool one_camera = plane.has_value() || range_mm.has_value() || laser_pair.has_value();
+          if (static_cast<int>(plane.has_value()) + static_cast<int>(range_mm.has_value()) +
+                  static_cast<int>(laser_pair.has_value()) > 1) {
+            throw InvalidInput("plane", "give one of plane, range_mm and laser_pair");
+          }
+          if (laser_pair && plane_sigma_mm != 0) {
+            throw InvalidInput("plane_sigma_mm", "the laser pair gives each frame's range with its own sigma");
+          }
           if (!one_camera && (!camera.empty() || plane_sigma_mm != 0)) {
             throw InvalidInput(camera.empty() ? "plane_sigma_mm" : "camera", "goes with plane or range_mm");
           }
@@ -97,7 +105,13 @@ void RegisterMeasure(py::module_& m) {
           measure::MeasureOptions o;
           if (one_camera) {
             measure::Plane pl;
-            if (range_mm) {
+            if (laser_pair) {
+              const auto [a, b, sep] = *laser_pair;
+              if (a < 0 || b < 0 || !(sep > 0) || !std::isfinite(sep)) {
+                throw InvalidInput("laser_pair", "give (id_a, id_b, separation_mm): ids >= 0, separation > 0 mm");
+              }
+              o.laser_pair = std::array<double, 3>{static_cast<double>(a), static_cast<double>(b), sep};
+            } else if (range_mm) {
               if (!(*range_mm > 0) || !std::isfinite(*range_mm)) throw InvalidInput("range_mm", "must be > 0 mm");
               pl.distance_mm = *range_mm;
             } else {
@@ -113,7 +127,7 @@ void RegisterMeasure(py::module_& m) {
               throw InvalidInput("plane_sigma_mm", "must be >= 0 mm");
             }
             pl.sigma_mm = plane_sigma_mm;
-            o.plane = pl;
+            if (!laser_pair) o.plane = pl;
             o.plane_camera = camera.empty() ? 0 : measure::CameraIndex(r, camera, "camera");
           }
           o.sigma_px = sigma_px;
@@ -140,10 +154,11 @@ void RegisterMeasure(py::module_& m) {
       py::arg("sigma_px") = 0.0, py::arg("calibration_sigma") = true, py::arg("skip_unpaired") = false,
       py::arg("threads") = 0, py::arg("scale_bar") = py::none(), py::arg("plane") = py::none(),
       py::arg("range_mm") = py::none(), py::arg("plane_sigma_mm") = 0.0, py::arg("camera") = "",
+      py::arg("laser_pair") = py::none(),
       "3-D points and lengths through a calibrated rig (`porthole measure`). rig: a rig JSON file or "
       "calibrate_rig().to_dict(); points: a CSV file frame,camera,id,u_px,v_px, a list of (frame, camera, id, "
       "u_px, v_px) tuples (camera by name or index), or one list of detections per camera in the rig's order; "
-      "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0); scale_bar: (id_a, id_b, length_mm), the check of `--scale-bar`; plane (nx, ny, nz, d_mm) or range_mm with plane_sigma_mm and camera: one camera and a known plane (`--plane`; rig may then be one camera's calibration). Returns the JSON of "
+      "lengths: (id_a, id_b) pairs; sigma_px: the points' image sigma (0: the rig's sigma0); scale_bar: (id_a, id_b, length_mm), the check of `--scale-bar`; plane (nx, ny, nz, d_mm) or range_mm with plane_sigma_mm and camera: one camera and a known plane (`--plane`; rig may then be one camera's calibration); laser_pair (id_a, id_b, separation_mm): each frame's range from a laser scaler's dots (`--laser-pair`). Returns the JSON of "
       "`porthole measure --json`.");
 }
 

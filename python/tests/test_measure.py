@@ -121,3 +121,20 @@ def test_one_camera_and_a_plane_as_the_cli(tmp_path):
         porthole.measure(one.to_dict(), pts, plane=[0, 0, 1])
     with pytest.raises(ValueError, match="^camera: goes with plane"):
         porthole.measure(one.to_dict(), pts, camera="0")
+
+
+def test_laser_pair_as_the_cli(tmp_path):
+    cams = stereo(n=8)
+    one = porthole.calibrate(cams[0], TARGET, model="opencv")
+    (tmp_path / "one.json").write_text(json.dumps(one.to_dict()))
+    im = cams[0][0]
+    pts = [("f", 0, i, u, v) for i, (u, v) in zip(im["ids"][:6], im["points_px"][:6])]
+    (tmp_path / "p.csv").write_text("".join(f"{f},{c},{i},{u!r},{v!r}\n" for f, c, i, u, v in pts))
+    a, b = im["ids"][0], im["ids"][5]
+    ours = porthole.measure(one.to_dict(), pts, laser_pair=(a, b, 250.0), sigma_px=0.3)
+    theirs = cli_json("measure", "--rig", tmp_path / "one.json", "--points", tmp_path / "p.csv", "--laser-pair",
+                      f"{a},{b},250", "--sigma-px", "0.3")["measure"]
+    assert ours.to_dict()["measure"]["laser_ranges"] == theirs["laser_ranges"]
+    assert ours.to_dict()["measure"]["points"] == theirs["points"]
+    with pytest.raises(ValueError, match="^plane: give one of"):
+        porthole.measure(one.to_dict(), pts, laser_pair=(a, b, 250.0), range_mm=1000)
