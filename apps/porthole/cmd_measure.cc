@@ -26,6 +26,23 @@ bool IsCsv(const std::string& path) {
   return ext == ".csv" || ext == ".txt";
 }
 
+// The numbers of a comma list ("1,2.5,3"); a part that is not a whole number gives NaN there.
+std::vector<double> Numbers(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(item, &used));
+      if (used != item.size()) v.back() = NAN;
+    } catch (const std::exception&) {
+      v.push_back(NAN);
+    }
+  }
+  return v;
+}
+
 std::pair<int, int> ParsePair(const std::string& s, const std::string& field, const std::string& what) {
   const auto comma = s.find(',');
   const auto whole = [&](const std::string& t) {
@@ -117,18 +134,7 @@ void RegisterMeasure(CLI::App& app) {
       if (one_camera) {
         measure::Plane pl;
         if (!o->laser_pair.empty()) {
-          std::vector<double> v;
-          std::stringstream ss(o->laser_pair);
-          std::string item;
-          while (std::getline(ss, item, ',')) {
-            try {
-              std::size_t used = 0;
-              v.push_back(std::stod(item, &used));
-              if (used != item.size()) v.back() = NAN;
-            } catch (const std::exception&) {
-              v.push_back(NAN);
-            }
-          }
+          const std::vector<double> v = Numbers(o->laser_pair);
           if (v.size() != 3 || !(v[0] >= 0) || !(v[1] >= 0) || v[0] != std::floor(v[0]) || v[1] != std::floor(v[1]) ||
               !(v[2] > 0) || !std::isfinite(v[2])) {
             throw InvalidInput("--laser-pair", fmt::format("'{}': give A,B,SEPARATION_MM (the two dots' ids and the "
@@ -142,18 +148,7 @@ void RegisterMeasure(CLI::App& app) {
           if (!(*o->range_mm > 0) || !std::isfinite(*o->range_mm)) throw InvalidInput("--range-mm", "must be > 0 mm");
           pl.distance_mm = *o->range_mm;
         } else {
-          std::vector<double> v;
-          std::stringstream ss(o->plane);
-          std::string item;
-          while (std::getline(ss, item, ',')) {
-            try {
-              std::size_t used = 0;
-              v.push_back(std::stod(item, &used));
-              if (used != item.size()) v.back() = NAN;
-            } catch (const std::exception&) {
-              v.push_back(NAN);
-            }
-          }
+          const std::vector<double> v = Numbers(o->plane);
           const Eigen::Vector3d n = v.size() == 4 ? Eigen::Vector3d(v[0], v[1], v[2]) : Eigen::Vector3d::Zero();
           if (v.size() != 4 || !n.allFinite() || !(n.norm() > 0) || !std::isfinite(v[3])) {
             throw InvalidInput("--plane", fmt::format("'{}': give NX,NY,NZ,D_MM (the plane n.x = D in the camera's "

@@ -228,16 +228,22 @@ def test_plan_a_rig(rig):
     assert "--baseline" in run_bad("plan", "--baseline", "-3")
 
 
-def test_one_camera_and_a_known_plane(rig, tmp_path):
-    """One camera's calibration and a known range (or plane): points projected at 2 m by
-    cv2.projectPoints with that calibration come back within 1e-6 mm; the plane given as
-    0,0,2,4000 (not unit) is the same plane; bad planes refused."""
-    d, j = rig
+def one_camera(d, tmp_path):
+    """The left camera calibrated alone (opencv model): its file, K and distortion for cv2."""
     single = tmp_path / "one.json"
     run("calibrate", "--detections", d / "left.json", "--model", "opencv", "--out", single, "--quiet")
     cal = json.loads(single.read_text())["camera"]
     k = np.array([[cal["fx_px"], 0, cal["cx_px"]], [0, cal["fy_px"], cal["cy_px"]], [0, 0, 1.0]])
     dist = np.array([cal[key] or 0.0 for key in ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")])
+    return single, k, dist
+
+
+def test_one_camera_and_a_known_plane(rig, tmp_path):
+    """One camera's calibration and a known range (or plane): points projected at 2 m by
+    cv2.projectPoints with that calibration come back within 1e-6 mm; the plane given as
+    0,0,2,4000 (not unit) is the same plane; bad planes refused."""
+    d, j = rig
+    single, k, dist = one_camera(d, tmp_path)
     x = np.array([[-400.0, -300, 2000], [0, 0, 2000], [500, 250, 2000]])
     uv, _ = cv2.projectPoints(x, np.zeros(3), np.zeros(3), k, dist)
     csv = tmp_path / "one.csv"
@@ -263,11 +269,7 @@ def test_laser_pair(rig, tmp_path):
     range: points projected at 2 m by cv2.projectPoints come back within 1e-6 mm, the range in
     `laser_ranges`; a frame without a dot is refused naming it."""
     d, j = rig
-    single = tmp_path / "one.json"
-    run("calibrate", "--detections", d / "left.json", "--model", "opencv", "--out", single, "--quiet")
-    cal = json.loads(single.read_text())["camera"]
-    k = np.array([[cal["fx_px"], 0, cal["cx_px"]], [0, cal["fy_px"], cal["cy_px"]], [0, 0, 1.0]])
-    dist = np.array([cal[key] or 0.0 for key in ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")])
+    single, k, dist = one_camera(d, tmp_path)
     x = np.array([[-50.0, 30, 2000], [50, 30, 2000], [-400, -300, 2000], [500, 250, 2000]])
     uv, _ = cv2.projectPoints(x, np.zeros(3), np.zeros(3), k, dist)
     csv = tmp_path / "laser.csv"
