@@ -213,6 +213,7 @@ void RegisterMeasure(CLI::App& app) {
                                                    n_det, rig.cameras.size(), names));
       }
       int order = 0;
+      calib::TargetSpec target;  // filled by the first detections file that names one
       for (const auto& p : o->points) {
         if (IsCsv(p)) {
           const std::string text = ReadInputFile(p, "--points");
@@ -227,7 +228,7 @@ void RegisterMeasure(CLI::App& app) {
           camera = measure::CameraIndex(rig, p.substr(0, eq), "--points");
           path = p.substr(eq + 1);
         }
-        calib::TargetSpec target;
+        // One target for every camera's file: the same id must be the same point of it.
         const auto det = calib::LoadDetections(path, "--points", &target);
         for (const auto& d : det) {
           const auto& s = rig.cameras[camera].camera.sensor;

@@ -196,6 +196,11 @@ def test_bad_input_is_refused(rig, tmp_path):
     assert "--sigma-px" in line, line
     line = run_bad("measure", "--rig", d / "rig.json", "--points", d / "left.json")
     assert "one per camera" in line, line
+    # The two cameras' files of different targets: the same id would be another point.
+    other = tmp_path / "other.json"
+    other.write_text((d / "right.json").read_text().replace(TARGET, "chessboard:9x6:25"))
+    line = run_bad("measure", "--rig", d / "rig.json", "--points", d / "left.json", "--points", other)
+    assert "chessboard:9x6:25" in line or "target" in line, line
 
 
 def test_plan_a_rig(rig):

@@ -107,6 +107,14 @@ inline Truth TwoDomeRig() {
   return t;
 }
 
+// The sample standard deviation of `v`.
+inline double Spread(const std::vector<double>& v) {
+  double m = 0, s = 0;
+  for (double x : v) m += x / v.size();
+  for (double x : v) s += (x - m) * (x - m);
+  return std::sqrt(s / (v.size() - 1));
+}
+
 // Checks the mean reported σ of each quantity against its spread over the runs (sums of the
 // errors, of their squares, and of the σ / runs): the ratio within [1/1.5, 1.5].
 template <std::size_t K>

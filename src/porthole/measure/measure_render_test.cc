@@ -21,6 +21,7 @@
 #include "porthole/calib/detect.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/rig.h"
+#include "porthole/calib/test_rig.h"
 #include "porthole/measure/plan_rig.h"
 #include "porthole/measure/triangulate.h"
 #include "porthole/render/render.h"
@@ -164,12 +165,7 @@ std::vector<Observation> Obs(const Frame& f, int id) {
   return o;
 }
 
-double Spread(const std::vector<double>& v) {
-  double m = 0, s = 0;
-  for (double x : v) m += x / v.size();
-  for (double x : v) s += (x - m) * (x - m);
-  return std::sqrt(s / (v.size() - 1));
-}
+using calib::fixtures::Spread;
 
 TEST(MeasureRenders, BoardDiagonalsThroughTwoAsBuiltDomesWithin005Percent) {
   const RigScenes rs = TwoDomeScenes();
@@ -341,7 +337,9 @@ TEST(MeasureRenders, ARigCalibratedFromRendersMeasuresTheDiagonals) {
       EXPECT_LT(std::abs(err), 0.0005 * kDiagonal) << f.range_mm;
       // Within 3σ up to 3 m. At 4 m the squares image 13 px wide and the detector's own error there
       // (the exact rig errs alike, above) exceeds the σ0 of the calibration's larger squares.
-      if (f.range_mm <= 3000) EXPECT_LT(std::abs(err), 3 * l.sigma_mm) << f.range_mm;
+      if (f.range_mm <= 3000) {
+        EXPECT_LT(std::abs(err), 3 * l.sigma_mm) << f.range_mm;
+      }
     }
   }
 }

@@ -60,12 +60,7 @@ Field CommonField(const Rig& rig, double z) {
   // cameras' spread in x.
   double cx0 = 0, cx1 = 0;
   for (const auto& c : rig.cameras) {
-    const Eigen::Vector3d centre = -(Eigen::AngleAxisd(c.rotation_rad.norm(), c.rotation_rad.norm() > 0
-                                                                                 ? Eigen::Vector3d(c.rotation_rad.normalized())
-                                                                                 : Eigen::Vector3d::UnitZ())
-                                         .toRotationMatrix()
-                                         .transpose() *
-                                     c.translation_mm);
+    const Eigen::Vector3d centre = -(c.CamFromRigRotation().transpose() * c.translation_mm);
     cx0 = std::min(cx0, centre.x());
     cx1 = std::max(cx1, centre.x());
   }

@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <map>
 
@@ -71,6 +73,11 @@ refraction::Shell ShellFromJson(const Json& port, const std::string& field) {
 }
 
 }  // namespace
+
+Eigen::Matrix3d RigCamera::CamFromRigRotation() const {
+  const double angle = rotation_rad.norm();
+  return angle > 0 ? Eigen::AngleAxisd(angle, rotation_rad / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+}
 
 Rig CameraFromJson(const nlohmann::json& j, const std::string& field) {
   if (!j.is_object() || !j.contains("camera")) {
@@ -339,14 +346,23 @@ Rig RigFromResult(const calib::RigResult& r) {
 
 int CameraIndex(const Rig& rig, std::string_view name, const std::string& field) {
   std::vector<std::string> names;
+  int by_name = -1;
   for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
-    if (rig.cameras[k].name == name) return static_cast<int>(k);
+    if (rig.cameras[k].name == name) by_name = static_cast<int>(k);
     names.push_back(rig.cameras[k].name);
   }
-  if (!name.empty() && name.find_first_not_of("0123456789") == std::string_view::npos && name.size() < 6) {
-    const int k = std::stoi(std::string(name));
-    if (k < static_cast<int>(rig.cameras.size())) return k;
+  const bool digits = !name.empty() && name.find_first_not_of("0123456789") == std::string_view::npos && name.size() < 6;
+  const int by_index = digits && std::stoi(std::string(name)) < static_cast<int>(rig.cameras.size())
+                           ? std::stoi(std::string(name))
+                           : -1;
+  if (by_name >= 0 && by_index >= 0 && by_name != by_index) {
+    throw InvalidInput(field, fmt::format("camera {} could be the camera named {} (index {}) or the camera at index "
+                                          "{} ({}): rename the cameras", std::string(name), std::string(name), by_name,
+                                          by_index, names[by_index]));
   }
+  if (by_name >= 0) return by_name;
+  if (by_index >= 0) return by_index;
+
   std::string known;
   for (std::size_t k = 0; k < names.size(); ++k) known += (k ? ", " : "") + fmt::format("{} ({})", names[k], k);
   const auto near = NearestNames(name, names, 1, TypoDistance(name));

@@ -41,6 +41,9 @@ struct RigCamera {
   std::vector<int> intrinsic_index;
   std::array<int, refraction::kPortNumParams> port_index{-1, -1, -1};
   std::array<int, 6> pose_index{-1, -1, -1, -1, -1, -1};
+
+  // R of cam_from_rig (from rotation_rad, angle-axis).
+  Eigen::Matrix3d CamFromRigRotation() const;
 };
 
 struct Rig {

@@ -134,11 +134,7 @@ std::optional<Ray> BackwardRay(const RigCamera& c, const Eigen::Vector2d& pixel_
 }
 
 std::optional<Eigen::Vector2d> ProjectPoint(const RigCamera& c, const Eigen::Vector3d& x_rig_mm) {
-  const Eigen::Vector3d p = Eigen::AngleAxisd(c.rotation_rad.norm(), c.rotation_rad.norm() > 0
-                                                                        ? Eigen::Vector3d(c.rotation_rad.normalized())
-                                                                        : Eigen::Vector3d::UnitZ()) *
-                                x_rig_mm +
-                            c.translation_mm;
+  const Eigen::Vector3d p = c.CamFromRigRotation() * x_rig_mm + c.translation_mm;
   return camera::VisitModel(c.camera.model, [&](auto m) -> std::optional<Eigen::Vector2d> {
     using M = decltype(m);
     if (c.shell) {
@@ -264,10 +260,7 @@ Point IntersectPlane(const Rig& rig, const Observation& obs, const Plane& plane,
     return p;
   }
   // The plane in the rig frame: x_cam = R x_rig + t, so n·(R x + t) = d ⇔ (Rᵀn)·x = d − n·t.
-  const Eigen::Matrix3d rot = Eigen::AngleAxisd(c.rotation_rad.norm(), c.rotation_rad.norm() > 0
-                                                                          ? Eigen::Vector3d(c.rotation_rad.normalized())
-                                                                          : Eigen::Vector3d::UnitZ())
-                                  .toRotationMatrix();
+  const Eigen::Matrix3d rot = c.CamFromRigRotation();
   const Eigen::Vector3d n = rot.transpose() * plane.normal;
   const double dist = plane.distance_mm - plane.normal.dot(c.translation_mm);
   const double nd = n.dot(r->d);

@@ -74,12 +74,7 @@ Eigen::Vector3d SpreadOverSigma(const std::vector<Eigen::Vector3d>& xs, const Ei
   return ratio;
 }
 
-double Spread(const std::vector<double>& v) {
-  double m = 0, s = 0;
-  for (double x : v) m += x / v.size();
-  for (double x : v) s += (x - m) * (x - m);
-  return std::sqrt(s / (v.size() - 1));
-}
+using calib::fixtures::Spread;
 
 TEST(Triangulate, RaysThroughDomesMeetAtTheTruePoint) {
   const Truth truth = calib::fixtures::TwoDomeRig();
@@ -274,6 +269,14 @@ TEST(Triangulate, WronglyMatchedPointsAreFlaggedAndFailuresSaySo) {
   TriangulateOptions bad;
   bad.sigma_px = 0;
   EXPECT_THROW(Triangulate(rig, oa, bad), InvalidInput);
+  // A camera named like another's index: "1" could be either; refused, not guessed.
+  Rig named = rig;
+  named.cameras[0].name = "1";
+  named.cameras[1].name = "x";
+  EXPECT_THROW(CameraIndex(named, "1", "camera"), InvalidInput);
+  EXPECT_EQ(CameraIndex(named, "x", "camera"), 1);
+  EXPECT_EQ(CameraIndex(named, "0", "camera"), 0);
+  EXPECT_THROW(CameraIndex(named, "X", "camera"), InvalidInput);  // names match exactly
 }
 
 // One camera and a known plane: through the as-built dome, points on a plane 2 m away (square to the
