@@ -32,7 +32,8 @@ void RegisterMeasure(py::module_& m) {
          std::optional<double> range_mm, double plane_sigma_mm, const std::string& camera,
          std::optional<std::tuple<int, int, double>> laser_pair) {
         return WithFieldNames({{"points", "points"}, {"lengths", "lengths"}, {"sigma_px", "sigma_px"},
-                               {"skip_unpaired", "skip_unpaired"}, {"plane_camera", "camera"}},
+                               {"skip_unpaired", "skip_unpaired"}, {"plane_camera", "camera"},
+                               {"laser_pair", "laser_pair"}, {"range_mm", "range_mm"}},
                               [&] {
           const auto is_path = [](const py::object& o) {
             return py::isinstance<py::str>(o) || py::hasattr(o, "__fspath__");
@@ -41,16 +42,8 @@ void RegisterMeasure(py::module_& m) {
             return py::str(py::module_::import("os").attr("fspath")(o)).cast<std::string>();
           };
           const bool one_camera = plane.has_value() || range_mm.has_value() || laser_pair.has_value();
-          if (static_cast<int>(plane.has_value()) + static_cast<int>(range_mm.has_value()) +
-                  static_cast<int>(laser_pair.has_value()) > 1) {
-            throw InvalidInput("plane", "give one of plane, range_mm and laser_pair");
-          }
-          if (laser_pair && plane_sigma_mm != 0) {
-            throw InvalidInput("plane_sigma_mm", "the laser pair gives each frame's range with its own sigma");
-          }
-          if (!one_camera && (!camera.empty() || plane_sigma_mm != 0)) {
-            throw InvalidInput(camera.empty() ? "plane_sigma_mm" : "camera", "goes with plane or range_mm");
-          }
+          if (!one_camera && !camera.empty()) throw InvalidInput("camera", "goes with plane or range_mm");
+          if (!one_camera) measure::SetOneCamera(nullptr, plane, range_mm, std::nullopt, plane_sigma_mm);
           measure::Rig r;
           if (is_path(rig)) {
             r = one_camera ? measure::LoadCamera(path_of(rig), "rig") : measure::LoadRig(path_of(rig), "rig");
@@ -104,30 +97,12 @@ void RegisterMeasure(py::module_& m) {
           }
           measure::MeasureOptions o;
           if (one_camera) {
-            measure::Plane pl;
+            std::optional<std::vector<double>> lp;
             if (laser_pair) {
               const auto [a, b, sep] = *laser_pair;
-              if (a < 0 || b < 0 || !(sep > 0) || !std::isfinite(sep)) {
-                throw InvalidInput("laser_pair", "give (id_a, id_b, separation_mm): ids >= 0, separation > 0 mm");
-              }
-              o.laser_pair = std::array<double, 3>{static_cast<double>(a), static_cast<double>(b), sep};
-            } else if (range_mm) {
-              if (!(*range_mm > 0) || !std::isfinite(*range_mm)) throw InvalidInput("range_mm", "must be > 0 mm");
-              pl.distance_mm = *range_mm;
-            } else {
-              const auto& v = *plane;
-              const Eigen::Vector3d n = v.size() == 4 ? Eigen::Vector3d(v[0], v[1], v[2]) : Eigen::Vector3d::Zero();
-              if (v.size() != 4 || !n.allFinite() || !(n.norm() > 0) || !std::isfinite(v[3])) {
-                throw InvalidInput("plane", "give (nx, ny, nz, d_mm): the plane n.x = d in the camera's frame, mm");
-              }
-              pl.normal = n.normalized();
-              pl.distance_mm = v[3] / n.norm();
+              lp = std::vector<double>{static_cast<double>(a), static_cast<double>(b), sep};
             }
-            if (!(plane_sigma_mm >= 0) || !std::isfinite(plane_sigma_mm)) {
-              throw InvalidInput("plane_sigma_mm", "must be >= 0 mm");
-            }
-            pl.sigma_mm = plane_sigma_mm;
-            if (!laser_pair) o.plane = pl;
+            measure::SetOneCamera(&o, plane, range_mm, lp, plane_sigma_mm);
             o.plane_camera = camera.empty() ? 0 : measure::CameraIndex(r, camera, "camera");
           }
           o.sigma_px = sigma_px;

@@ -115,6 +115,7 @@ void RegisterMeasure(CLI::App& app) {
   AddForceFlag(cmd, &o->force);
   cmd->callback([o, cmd] {
     WithFieldNames({{"points", "--points"}, {"lengths", "--length"}, {"sigma_px", "--sigma-px"}, {"plane", "--plane"}, {"laser_pair", "--laser-pair"},
+                    {"range_mm", "--range-mm"}, {"plane_sigma_mm", "--plane-sigma-mm"},
                     {"skip_unpaired", "--skip-unpaired"}, {"camera", "--points"}},
                    [&] {
       const OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--out"})};
@@ -132,36 +133,15 @@ void RegisterMeasure(CLI::App& app) {
       }
       const measure::Rig rig = one_camera ? measure::LoadCamera(o->rig, "--rig") : measure::LoadRig(o->rig, "--rig");
       if (one_camera) {
-        measure::Plane pl;
-        if (!o->laser_pair.empty()) {
-          const std::vector<double> v = Numbers(o->laser_pair);
-          if (v.size() != 3 || !(v[0] >= 0) || !(v[1] >= 0) || v[0] != std::floor(v[0]) || v[1] != std::floor(v[1]) ||
-              !(v[2] > 0) || !std::isfinite(v[2])) {
-            throw InvalidInput("--laser-pair", fmt::format("'{}': give A,B,SEPARATION_MM (the two dots' ids and the "
-                                                           "beams' separation in mm)", o->laser_pair));
-          }
-          o->measure.laser_pair = std::array<double, 3>{v[0], v[1], v[2]};
-          if (cmd->count("--plane-sigma-mm") > 0) {
-            throw InvalidInput("--plane-sigma-mm", "the laser pair gives each frame's range with its own sigma");
-          }
-        } else if (o->range_mm) {
-          if (!(*o->range_mm > 0) || !std::isfinite(*o->range_mm)) throw InvalidInput("--range-mm", "must be > 0 mm");
-          pl.distance_mm = *o->range_mm;
-        } else {
-          const std::vector<double> v = Numbers(o->plane);
-          const Eigen::Vector3d n = v.size() == 4 ? Eigen::Vector3d(v[0], v[1], v[2]) : Eigen::Vector3d::Zero();
-          if (v.size() != 4 || !n.allFinite() || !(n.norm() > 0) || !std::isfinite(v[3])) {
-            throw InvalidInput("--plane", fmt::format("'{}': give NX,NY,NZ,D_MM (the plane n.x = D in the camera's "
-                                                      "frame, mm)", o->plane));
-          }
-          pl.normal = n.normalized();
-          pl.distance_mm = v[3] / n.norm();
+        if (cmd->count("--plane-sigma-mm") > 0 && !o->laser_pair.empty()) {
+          throw InvalidInput("--plane-sigma-mm", "the laser pair gives each frame's range with its own sigma");
         }
-        if (!(o->plane_sigma_mm >= 0) || !std::isfinite(o->plane_sigma_mm)) {
-          throw InvalidInput("--plane-sigma-mm", "must be >= 0 mm");
-        }
-        pl.sigma_mm = o->plane_sigma_mm;
-        if (o->laser_pair.empty()) o->measure.plane = pl;
+        measure::SetOneCamera(&o->measure,
+                              o->plane.empty() ? std::nullopt : std::optional<std::vector<double>>(Numbers(o->plane)),
+                              o->range_mm,
+                              o->laser_pair.empty() ? std::nullopt
+                                                    : std::optional<std::vector<double>>(Numbers(o->laser_pair)),
+                              o->plane_sigma_mm);
         o->measure.plane_camera = o->camera.empty() ? 0 : measure::CameraIndex(rig, o->camera, "--camera");
       }
       o->measure.calibration_sigma = !o->no_calibration_sigma;

@@ -263,7 +263,7 @@ def test_one_camera_and_a_known_plane(rig, tmp_path):
                      "--length", "0,2", "--sigma-px", "0.3", "--json").json()["measure"]["lengths"][0]
     # A range error of 20 mm at 2 m scales a lateral length by 1 %.
     assert with_sigma["sigma_calibration_mm"] >= 0.01 * with_sigma["length_mm"] * 0.99
-    assert "--plane: '1,2'" in run_bad("measure", "--rig", single, "--points", csv, "--plane", "1,2")
+    assert "--plane: give 4 numbers" in run_bad("measure", "--rig", single, "--points", csv, "--plane", "1,2")
     assert "--camera: goes with --plane" in run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--camera", "0")
     assert "not seen by" in run_bad("measure", "--rig", d / "rig.json", "--points", csv, "--range-mm", "2000",
                                     "--camera", "1")
@@ -288,4 +288,4 @@ def test_laser_pair(rig, tmp_path):
     csv.write_text("".join(f"f,0,{i},{u!r},{v!r}\n" for i, (u, v) in zip((10, 1, 2), uv.reshape(-1, 2)[[0, 2, 3]])))
     assert "--laser-pair: frame f: laser dot id 11 not measured" in run_bad(
         "measure", "--rig", single, "--points", csv, "--laser-pair", "10,11,100")
-    assert "--laser-pair: '10,11'" in run_bad("measure", "--rig", single, "--points", csv, "--laser-pair", "10,11")
+    assert "--laser-pair: give 3 numbers" in run_bad("measure", "--rig", single, "--points", csv, "--laser-pair", "10,11")

@@ -304,6 +304,49 @@ MeasureResult Measure(const Rig& input_rig, const std::vector<ImagePoint>& point
   return res;
 }
 
+bool SetOneCamera(MeasureOptions* options, const std::optional<std::vector<double>>& plane,
+                  std::optional<double> range_mm, const std::optional<std::vector<double>>& laser_pair,
+                  double plane_sigma_mm) {
+  const int given = static_cast<int>(plane.has_value()) + static_cast<int>(range_mm.has_value()) +
+                    static_cast<int>(laser_pair.has_value());
+  if (given > 1) throw InvalidInput("plane", "give one of `plane`, `range_mm` and `laser_pair`");
+  if (!(plane_sigma_mm >= 0) || !std::isfinite(plane_sigma_mm)) throw InvalidInput("plane_sigma_mm", "must be >= 0 mm");
+  if (given == 0) {
+    if (plane_sigma_mm != 0) throw InvalidInput("plane_sigma_mm", "goes with `plane` or `range_mm`");
+    return false;
+  }
+  if (laser_pair) {
+    const auto& v = *laser_pair;
+    if (v.size() != 3 || !(v[0] >= 0) || !(v[1] >= 0) || v[0] != std::floor(v[0]) || v[1] != std::floor(v[1]) ||
+        !(v[2] > 0) || !std::isfinite(v[2]) || v[0] > 2e9 || v[1] > 2e9) {
+      throw InvalidInput("laser_pair", fmt::format("give 3 numbers: the two dots' ids and the beams' separation in "
+                                                   "mm (got {})", v.size()));
+    }
+    if (plane_sigma_mm != 0) {
+      throw InvalidInput("plane_sigma_mm", "the laser pair gives each frame's range with its own sigma");
+    }
+    options->laser_pair = std::array<double, 3>{v[0], v[1], v[2]};
+    return true;
+  }
+  Plane pl;
+  pl.sigma_mm = plane_sigma_mm;
+  if (range_mm) {
+    if (!(*range_mm > 0) || !std::isfinite(*range_mm)) throw InvalidInput("range_mm", "must be > 0 mm");
+    pl.distance_mm = *range_mm;
+  } else {
+    const auto& v = *plane;
+    const Eigen::Vector3d n = v.size() == 4 ? Eigen::Vector3d(v[0], v[1], v[2]) : Eigen::Vector3d::Zero();
+    if (v.size() != 4 || !n.allFinite() || !(n.norm() > 0) || !std::isfinite(v[3])) {
+      throw InvalidInput("plane", fmt::format("give 4 numbers nx, ny, nz, d_mm: the plane n.x = d in the camera's "
+                                              "frame, mm (got {}{})", v.size(), v.size() == 4 ? ", not all finite" : ""));
+    }
+    pl.normal = n.normalized();
+    pl.distance_mm = v[3] / n.norm();
+  }
+  options->plane = pl;
+  return true;
+}
+
 ScaleBarCheck CheckScaleBar(const MeasureResult& r, const ScaleBar& bar) {
   if (!(bar.length_mm > 0) || !std::isfinite(bar.length_mm)) {
     throw InvalidInput("scale_bar", fmt::format("{},{},{}: the length must be a positive number of mm", bar.id_a,

@@ -98,6 +98,14 @@ struct MeasureResult {
 
 MeasureResult Measure(const Rig& rig, const std::vector<ImagePoint>& points, const MeasureOptions& options);
 
+// The one-camera options from the values a front end read, checked (InvalidInput naming `plane`,
+// `range_mm`, `laser_pair` or `plane_sigma_mm`): at most one of plane (nx, ny, nz, d_mm, the normal
+// of any length), range_mm (the plane square to the axis that far) and laser_pair (id_a, id_b,
+// separation_mm); sets options->plane or options->laser_pair. Returns whether one was given.
+bool SetOneCamera(MeasureOptions* options, const std::optional<std::vector<double>>& plane,
+                  std::optional<double> range_mm, const std::optional<std::vector<double>>& laser_pair,
+                  double plane_sigma_mm);
+
 // The scale-bar check users run after a dive: a bar of known length between ids A and B, seen in
 // many frames; each frame's measured length against the known one, by range and position in the
 // field, and whether the errors are what the σ says.
