@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <cmath>
 #include <cerrno>
 #include <condition_variable>
 #include <cstdio>
@@ -372,6 +373,11 @@ std::optional<std::pair<long, long>> ReadImageSize(const std::string& path) {
 bool DetectInImage(const cv::Mat& gray, const TargetSpec& target, std::vector<int>* ids,
                    std::vector<cv::Point2f>* points, const DetectOptions& options, bool reduce,
                    coded::UncodedCounts* uncoded, CodedCounts* coded) {
+  // findChessboardCornersSB draws from the calling thread's cv::theRNG(): left alone, whether a
+  // borderline board is found (and where its corners land) depended on which images that thread
+  // had searched before, so DetectAll's answers changed with the thread count and the schedule.
+  // Each search starts from the state a fresh thread has (OpenCV's default seed).
+  cv::theRNG().state = 0xffffffffULL;
   const int long_side = std::max(gray.cols, gray.rows);
   int factor = 1;
   if (reduce && target.kind == TargetKind::kChessboard && long_side > options.reduce_above_px) {
@@ -536,11 +542,47 @@ DetectResult DetectTargetIn(const std::string& path, const TargetSpec& target, c
   d.height_px = gray.rows;
   d.ids = ids;
   for (const auto& p : pts) d.points_px.emplace_back(p.x, p.y);
+  d.blur_px = EdgeBlurPx(gray, pts);
   r.detections = std::move(d);
   return r;
 }
 
 }  // namespace
+
+double EdgeBlurPx(const cv::Mat& gray, const std::vector<cv::Point2f>& points) {
+  if (points.size() < 3 || gray.empty()) return NAN;
+  float u0 = points[0].x, u1 = u0, v0 = points[0].y, v1 = v0;
+  for (const auto& p : points) {
+    u0 = std::min(u0, p.x), u1 = std::max(u1, p.x);
+    v0 = std::min(v0, p.y), v1 = std::max(v1, p.y);
+  }
+  constexpr double kS1 = 1, kS2 = 3;       // the two smoothing scales, px
+  constexpr int kEdge = 10;                // > 3 kS2: the box's border, where smoothing sees no image
+  const float mu = 0.05f * (u1 - u0) + kEdge, mv = 0.05f * (v1 - v0) + kEdge;
+  const cv::Rect box = cv::Rect(cv::Point(int(std::floor(u0 - mu)), int(std::floor(v0 - mv))),
+                                cv::Point(int(std::ceil(u1 + mu)) + 1, int(std::ceil(v1 + mv)) + 1)) &
+                       cv::Rect(0, 0, gray.cols, gray.rows);
+  if (box.width < 2 * kEdge + 3 || box.height < 2 * kEdge + 3) return NAN;
+  cv::Mat f;
+  gray(box).convertTo(f, CV_32F);
+  const cv::Rect inner(kEdge, kEdge, box.width - 2 * kEdge, box.height - 2 * kEdge);
+  const cv::Mat dx = (cv::Mat_<float>(1, 3) << -0.5f, 0.f, 0.5f);
+  const auto energy = [&](double s) {  // sum of |gradient|^2 after a Gaussian of s px
+    cv::Mat g, gx, gy;
+    cv::GaussianBlur(f, g, cv::Size(0, 0), s, s, cv::BORDER_REPLICATE);
+    cv::filter2D(g, gx, CV_32F, dx, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+    cv::filter2D(g, gy, CV_32F, dx.t(), cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+    return cv::sum(gx(inner).mul(gx(inner)))[0] + cv::sum(gy(inner).mul(gy(inner)))[0];
+  };
+  const double e1 = energy(kS1), e2 = energy(kS2);
+  if (!(e1 > 0 && e2 > 0)) return NAN;
+  // An edge of blur b: e ∝ 1 / sqrt(b^2 + s^2 + 1/3) (the central difference adds a box of
+  // variance 1/3), so r = e1/e2 gives b^2.
+  const double r2 = (e1 / e2) * (e1 / e2);
+  if (!(r2 > 1)) return INFINITY;  // no edge finer than the larger scale
+  const double b2 = (kS2 * kS2 - r2 * kS1 * kS1) / (r2 - 1) - 1.0 / 3;
+  return std::sqrt(std::max(b2, 0.0));
+}
 
 std::vector<std::string> ListImages(const std::string& dir, const std::string& field) {
   if (!fs::is_directory(dir)) throw InvalidInput(field, dir + " is not a directory");

@@ -19,8 +19,18 @@ namespace fs = std::filesystem;
 nlohmann::ordered_json DetectionsToJson(const ImageDetections& d, const TargetSpec& target) {
   nlohmann::ordered_json pts = nlohmann::ordered_json::array();
   for (const auto& p : d.points_px) pts.push_back({p.x(), p.y()});
-  return {{"image", d.image},       {"target", target.ToString()}, {"width_px", d.width_px},
-          {"height_px", d.height_px}, {"ids", d.ids},                {"points_px", pts}};
+  nlohmann::ordered_json j = {{"image", d.image}};
+  if (d.frame_index >= 0) {  // a video frame: its index and time in the file
+    j["frame_index"] = d.frame_index;
+    j["time_s"] = d.time_s;
+  }
+  if (!std::isnan(d.blur_px)) j["blur_px"] = std::isfinite(d.blur_px) ? nlohmann::ordered_json(d.blur_px) : nlohmann::ordered_json("inf");
+  j["target"] = target.ToString();
+  j["width_px"] = d.width_px;
+  j["height_px"] = d.height_px;
+  j["ids"] = d.ids;
+  j["points_px"] = pts;
+  return j;
 }
 
 ImageDetections DetectionsFromJson(const nlohmann::json& j, const std::string& where) {
@@ -88,6 +98,27 @@ ImageDetections DetectionsFromJson(const nlohmann::json& j, const std::string& w
     throw InvalidInput(where, reading + ": not a detections object: " + JsonMessage(e));
   }
   if (d.width_px < 1 || d.height_px < 1) throw InvalidInput(where, "width_px, height_px >= 1");
+  // Optional: a video frame's index and time, and the target's edge blur (calib/detect.h).
+  if (j.contains("frame_index")) {
+    const auto& v = j["frame_index"];
+    const double f = v.is_number() ? v.get<double>() : NAN;
+    if (!(f >= 0 && f <= 2e9 && f == std::floor(f))) throw InvalidInput(where, "frame_index: a whole number >= 0");
+    d.frame_index = static_cast<int>(f);
+    const auto t = j.find("time_s");
+    if (t == j.end() || !t->is_number() || !std::isfinite(t->get<double>())) {
+      throw InvalidInput(where, "time_s: a number of seconds with frame_index");
+    }
+    d.time_s = t->get<double>();
+  }
+  if (const auto b = j.find("blur_px"); b != j.end()) {
+    if (b->is_string() && b->get<std::string>() == "inf") {
+      d.blur_px = INFINITY;
+    } else if (b->is_number() && b->get<double>() >= 0) {
+      d.blur_px = b->get<double>();
+    } else {
+      throw InvalidInput(where, "blur_px: a number >= 0 (px) or \"inf\"");
+    }
+  }
   return d;
 }
 
