@@ -11,6 +11,7 @@
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/compare.h"
 #include "porthole/calib/detect.h"
+#include "porthole/calib/frames.h"
 #include "porthole/calib/detections_json.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/rig.h"
@@ -168,21 +169,35 @@ void RegisterCalib(py::module_& m) {
 
   m.def(
       "detect",
-      [](const py::object& images, const std::string& target, int threads, bool progress, const py::object& field) {
+      [](const py::object& images, const std::string& target, int threads, bool progress, const py::object& field,
+         int every, int max_frames, bool for_calibration) {
         return WithFieldNames({{"--images", "images"}}, [&] {
           const auto t = TargetArg(target, field);
-          std::vector<std::string> paths;
-          if (py::isinstance<py::str>(images) || py::hasattr(images, "__fspath__")) {
-            paths = calib::ListImages(py::str(py::module_::import("os").attr("fspath")(images)), "images");
-          } else {
-            for (const auto& p : images) paths.push_back(py::str(py::module_::import("os").attr("fspath")(p)));
-            if (paths.empty()) throw InvalidInput("images", "no image files given");
-          }
           if (threads < 0) throw InvalidInput("threads", "must be >= 0 (0 = all cores)");
           calib::DetectOptions o;
           o.threads = threads;
           std::function<void(const std::string&)> report;
           if (progress) report = [](const std::string& line) { std::fprintf(stderr, "detect: %s\n", line.c_str()); };
+          if (py::isinstance<py::str>(images) || py::hasattr(images, "__fspath__")) {
+            // A folder, one image or a video (calib/frames.h).
+            const std::string path = py::str(py::module_::import("os").attr("fspath")(images));
+            calib::FrameOptions f;
+            f.every = every;
+            f.max_frames = max_frames;
+            f.for_calibration = for_calibration;
+            calib::SourceRun source;
+            {
+              py::gil_scoped_release release;
+              source = calib::DetectSource(path, t, f, report, o, "images");
+            }
+            nlohmann::ordered_json j = calib::DetectionRunToJson(source.run, t);
+            j["source"] = calib::FrameChoiceToJson(source.choice, source.run.detections);
+            return JsonToPython(j);
+          }
+          std::vector<std::string> paths;
+          for (const auto& p : images) paths.push_back(py::str(py::module_::import("os").attr("fspath")(p)));
+          if (paths.empty()) throw InvalidInput("images", "no image files given");
+          if (every != 0 || max_frames != 0) throw InvalidInput("every", "for a folder or a video, not a list of files");
           calib::DetectionRun run;
           {
             py::gil_scoped_release release;
@@ -192,10 +207,15 @@ void RegisterCalib(py::module_& m) {
         });
       },
       py::arg("images"), py::arg("target"), py::kw_only(), py::arg("threads") = 0, py::arg("progress") = false,
-      py::arg("field") = py::none(),
+      py::arg("field") = py::none(), py::arg("every") = 0, py::arg("max_frames") = 0, py::arg("for_calibration") = false,
       "Detects a target (chessboard:COLSxROWS:SQUARE_MM, charuco:…, circles:…, coded:BITS:RADIUS_MM[:PROFILE]) in "
-      "images: a folder or a list of files; field: a coded target's field file (IDs outside it ignored). Returns the set of `porthole detect --json`: target, images (one dict per image with the "
-      "target: image, width_px, height_px, ids, points_px) and skipped (image, reason).");
+      "images: a folder, one image, a video (mp4, mov, mkv, avi: frames f<index> with frame_index and time_s) or a "
+      "list of files; field: a coded target's field file (IDs outside it ignored); every: search every N-th image "
+      "or frame (0: all images, a video at most 600 frames); max_frames: keep K chosen automatically (blurred ones "
+      "out, the rest spread over the frame and the tilts); for_calibration: a video keeps 40 when max_frames is 0. "
+      "Returns the set of `porthole detect --json`: target, images (one dict per image with the target: image, "
+      "width_px, height_px, ids, points_px; a video's frame_index, time_s; blur_px), skipped (image, reason) and "
+      "source (what was searched and kept).");
 
   m.def(
       "calibrate",

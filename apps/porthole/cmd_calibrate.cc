@@ -13,8 +13,10 @@
 
 #include "commands.h"
 #include "common.h"
+#include "frame_options.h"
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
+#include "porthole/calib/frames.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/rig.h"
 #include "porthole/calib/result_json.h"
@@ -245,6 +247,7 @@ struct CalibrateCliOptions {
                                                           yaml, field_out;
   double pitch_mm = 1.0;
   calib::CalibrationOptions calib;
+  calib::FrameOptions frames;  // --every, --max-frames (a video's frames)
   bool json = false, quiet = false, force = false;
   // Refractive calibration (--port).
   PortOptions port;
@@ -360,13 +363,16 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   }
   std::vector<std::vector<calib::ImageDetections>> per_camera;
   std::vector<calib::SkippedImage> skipped;
+  nlohmann::ordered_json rig_sources = nlohmann::ordered_json::array();  // --images: each camera's frames
   for (int k = 0; k < n; ++k) {
     ro.names.push_back(std::filesystem::path(sources[k]).filename().string());
     if (ro.names.back().empty()) ro.names.back() = std::filesystem::path(sources[k]).parent_path().filename().string();
     std::vector<calib::ImageDetections> dets;
     if (from_images) {
       const auto say_k = [say, name = ro.names.back()](const std::string& m) { say(name + ": " + m); };
-      auto run = calib::DetectAll(calib::ListImages(sources[k], "--images"), target, say_k);
+      auto source = calib::DetectSource(sources[k], target, o.frames, say_k, {}, "--images");
+      rig_sources.push_back(calib::FrameChoiceToJson(source.choice, source.run.detections));
+      auto& run = source.run;
       dets = std::move(run.detections);
       for (auto& s : run.skipped) skipped.push_back({sources[k] + ": " + s.image, s.reason});
     } else {
@@ -385,6 +391,7 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
                                   "the calibration of camera " + c.name);
   }
   auto j = calib::RigToJson(r, target, ro);
+  if (from_images) j["images_source"] = rig_sources;
   std::string stereo_note;
   if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T
     interop::OpenCVStereo st;
@@ -467,8 +474,8 @@ void RegisterCalibrate(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "calibrate", "Self-calibrate a camera (bundle adjustment, any camera model) with statistics");
   auto* img = cmd->add_option("--images", o->image_dirs,
-                              "Directory of images: detect the target. Repeated, one per camera of a rig (frames "
-                              "matched by file name)")
+                              "A directory of images, one image, or a video: detect the target. Repeated, one per "
+                              "camera of a rig (frames matched by file name; a video's by frame index)")
                   ->expected(1)
                   ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   auto* det = cmd->add_option("--detections", o->detection_paths,
@@ -477,6 +484,7 @@ void RegisterCalibrate(CLI::App& app) {
                   ->expected(1)
                   ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   img->excludes(det);
+  AddFrameOptions(cmd, &o->frames, /*for_calibration=*/true);
   cmd->add_option("--target", o->target,
                   "Target spec (required with --images), e.g. chessboard:9x6:25 or coded:14:2.5 (porthole detect --help)");
   cmd->add_option("--field", o->field,
@@ -541,7 +549,7 @@ void RegisterCalibrate(CLI::App& app) {
                                   "the air ones modelled through the port in air; one lens, one port")
                       ->group(group);
   auto* air_img = cmd->add_option("--air-images", o->air_images,
-                                  "As --air-detections, from a directory of air images (the target detected here)")
+                                  "As --air-detections, from a directory of air images, one image or a video (the target detected here)")
                       ->group(group);
   air_det->excludes(air_img);
   auto* air_cal = cmd->add_option("--air-calibration", o->air,
@@ -672,10 +680,12 @@ void RegisterCalibrate(CLI::App& app) {
     o->calib.progress = say;
     std::vector<calib::ImageDetections> dets;
     std::vector<calib::SkippedImage> skipped;
+    std::optional<nlohmann::ordered_json> images_source, air_images_source;
     if (!o->images.empty()) {
-      auto run = calib::DetectAll(calib::ListImages(o->images), target, say);
-      dets = std::move(run.detections);
-      skipped = std::move(run.skipped);
+      auto source = calib::DetectSource(o->images, target, o->frames, say, {}, "--images");
+      images_source = calib::FrameChoiceToJson(source.choice, source.run.detections);
+      dets = std::move(source.run.detections);
+      skipped = std::move(source.run.skipped);
     } else {
       dets = calib::LoadDetections(o->detections, "--detections", &target);
       if (target.cols == 0) throw InvalidInput("--target", "the detections name no target");
@@ -688,7 +698,9 @@ void RegisterCalibrate(CLI::App& app) {
     if (!o->air_images.empty()) {
       if (o->target.empty()) throw InvalidInput("--target", "required with --air-images");
       const auto say_air = [say](const std::string& m) { say("air images: " + m); };
-      auto run = calib::DetectAll(calib::ListImages(o->air_images, "--air-images"), target, say_air);
+      auto source = calib::DetectSource(o->air_images, target, o->frames, say_air, {}, "--air-images");
+      air_images_source = calib::FrameChoiceToJson(source.choice, source.run.detections);
+      auto& run = source.run;
       ro.air_detections = std::move(run.detections);
       for (auto& s : run.skipped) skipped.push_back({"air: " + s.image, s.reason});
       if (ro.air_detections.empty()) throw InvalidInput("--air-images", "the target was found in no air image");
@@ -714,6 +726,8 @@ void RegisterCalibrate(CLI::App& app) {
       Json skip = Json::array();
       for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
       j["skipped"] = skip;
+      if (images_source) j["images_source"] = *images_source;
+      if (air_images_source) j["air_images_source"] = *air_images_source;
       std::string port_note;
       if (!air_note.empty()) j["port"]["air_calibration"] = air_note;
       if (!o->port_out.empty()) {
@@ -739,6 +753,7 @@ void RegisterCalibrate(CLI::App& app) {
     Json skip = Json::array();
     for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
     j["skipped"] = skip;
+    if (images_source) j["images_source"] = *images_source;
     std::string yaml_note;
     if (!o->yaml.empty()) {
       camera::ConversionFit fit;

@@ -9,7 +9,9 @@
 
 #include "commands.h"
 #include "common.h"
+#include "frame_options.h"
 #include "porthole/calib/detect.h"
+#include "porthole/calib/frames.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
 
@@ -19,12 +21,16 @@ void RegisterDetect(CLI::App& app) {
   struct Options {
     std::string images, target, field, out_dir;
     bool json = false, quiet = false, force = false;
+    calib::FrameOptions frames;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "detect", "Detect a calibration target (chessboard, ChArUco, circle grid, coded targets) in images");
-  cmd->add_option("--images", o->images, "Directory of images (jpg, png, tif, bmp, pgm)")
+  cmd->add_option("--images", o->images,
+                  "A directory of images (jpg, png, tif, bmp, pgm), one image, or a video (any format of Debian's "
+                  "FFmpeg: mp4, mov, mkv, avi; frames named f<index>, with their time in the JSON)")
       ->required();
+  AddFrameOptions(cmd, &o->frames, /*for_calibration=*/false);
   cmd->add_option("--target", o->target,
                   "chessboard:COLSxROWS:SQUARE_MM (inner corners) | charuco:SQXxSQY:SQUARE_MM:"
                   "MARKER_MM[:DICT] | circles:COLSxROWS:MM | acircles:COLSxROWS:MM | "
@@ -44,13 +50,17 @@ void RegisterDetect(CLI::App& app) {
     auto target = calib::ParseTarget(o->target);
     if (!o->field.empty()) calib::LoadTargetField(o->field, &target, "--field");
     if (!o->out_dir.empty()) EnsureOutputDirectory(o->out_dir, "--out-dir");
-    const auto paths = calib::ListImages(o->images);
+    const calib::SourceKind kind = calib::ClassifySource(o->images, "--images");
+    std::vector<std::string> paths;
+    if (kind == calib::SourceKind::kDirectory) paths = calib::ListImages(o->images);
+    if (kind == calib::SourceKind::kImage) paths = {o->images};
     OutputRules rules{.force = o->force, .inputs = InputFiles(cmd, {"--out-dir"})};
     rules.inputs.insert(rules.inputs.end(), paths.begin(), paths.end());
+    if (kind == calib::SourceKind::kVideo) rules.inputs.push_back(o->images);
     const auto out_file = [&](const std::string& image) {
       return std::filesystem::path(o->out_dir) / (std::filesystem::path(image).stem().string() + ".json");
     };
-    if (!o->out_dir.empty()) {  // before the long work: every file an image may write
+    if (!o->out_dir.empty()) {  // before the long work: every file an image may write (a video's: below)
       std::map<std::filesystem::path, std::string> by_name;  // two images of one stem (a.png, a.jpg) would share a.json
       for (const auto& image : paths) {
         const auto file = out_file(image);
@@ -61,9 +71,10 @@ void RegisterDetect(CLI::App& app) {
         CheckOutput(file, "--out-dir", rules, FileKind::kDetections);
       }
     }
-    const auto run = calib::DetectAll(paths, target, [&](const std::string& m) {
+    const calib::SourceRun source = calib::DetectSource(o->images, target, o->frames, [&](const std::string& m) {
       if (!o->quiet) fmt::print(stderr, "detect: {}\n", m);
-    });
+    }, {}, "--images");
+    const calib::DetectionRun& run = source.run;
     // File names need not be UTF-8 (a Latin-1 "é" from an old camera or card reader): JSON text
     // replaces invalid bytes with U+FFFD. Everything is serialised before the first file is written.
     constexpr auto kReplace = nlohmann::json::error_handler_t::replace;
@@ -78,7 +89,9 @@ void RegisterDetect(CLI::App& app) {
       for (const auto& [file, text] : files) WriteOutput(file, text, "--out-dir", rules);
     }
     if (o->json) {
-      return fmt::print("{}\n", calib::DetectionRunToJson(run, target).dump(1, ' ', false, kReplace));
+      nlohmann::ordered_json j = calib::DetectionRunToJson(run, target);
+      j["source"] = calib::FrameChoiceToJson(source.choice, run.detections);
+      return fmt::print("{}\n", j.dump(1, ' ', false, kReplace));
     }
     // Coded targets: ids are target IDs 1…N (id 0 is no point); a field's uncoded dots are
     // counted apart (matched / in view).
@@ -115,10 +128,16 @@ void RegisterDetect(CLI::App& app) {
         sum.rejected += c.rejected;
         sum.inconsistent += c.inconsistent;
       }
-      text += fmt::format("{:<28} {:>7}  {}ok\n", d.image, d.ids.size(), col);
+      const std::string name = d.frame_index >= 0 ? fmt::format("{} ({:.3f} s)", d.image, d.time_s) : d.image;
+      text += fmt::format("{:<28} {:>7}  {}ok\n", name, d.ids.size(), col);
     }
     for (const auto& s : run.skipped) text += fmt::format("{:<28} {:>7}  {}{}\n", s.image, "-", dots ? "         " : "", s.reason);
-    text += fmt::format("{} of {} images hold the target\n", run.detections.size(), paths.size());
+    const bool video = source.choice.kind == calib::SourceKind::kVideo;
+    if (video || o->frames.max_frames > 0) {
+      text += calib::Describe(source.choice) + "\n";
+    } else {
+      text += fmt::format("{} of {} images hold the target\n", run.detections.size(), source.choice.searched);
+    }
     if (coded) {  // what the coded detector skipped in those images, never given an ID
       const coded::DetectionCounts& c = coded_sum.detector;
       text += fmt::format("coded candidates skipped: {} cut by the frame, {} without a ring (plain dots, look-alikes), {} "

@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
     const porthole::InvalidInput cli = porthole::RenameFields(
         {{"temperature_c", "--temperature"}, {"salinity_psu", "--salinity"}, {"lambda_nm", "--lambda"},
          {"pressure_dbar", "--pressure"}, {"depth_m", "--depth"}, {"extrapolate", "--extrapolate"},
-         {"allow_adapter", "--allow-adapter"}},
+         {"allow_adapter", "--allow-adapter"}, {"every", "--every"}, {"max_frames", "--max-frames"}},
         e, /*keep_unknown=*/false);
     fmt::print(stderr, "porthole: error: {}\n", cli.what());
     return 2;

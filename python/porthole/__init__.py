@@ -334,13 +334,21 @@ def _is_camera_list(c) -> bool:
     return isinstance(c, list) and len(c) > 0 and (isinstance(c[0], dict) or isinstance(c[0], Detections))
 
 
-def calibrate_images(images, target: str, *, threads: int = 0, field=None, **calibrate_options) -> Calibration:
-    """Detects `target` in the images (a folder or a list of files) and calibrates from what was
-    found: calibrate(detect(images, target, threads=threads, field=field), target, field=field,
-    **calibrate_options) — `porthole calibrate --images`. field: a coded target's field file
-    (`--field`; 3-D fields too). The keywords are calibrate()'s (model, pixel_pitch_mm, free,
-    reject_k, loss, target_free, centre_correction, ...)."""
-    return calibrate(detect(images, target, threads=threads, field=field), target, field=field, **calibrate_options)
+def calibrate_images(images, target: str, *, threads: int = 0, field=None, every: int = 0, max_frames: int = 0,
+                     **calibrate_options) -> Calibration:
+    """Detects `target` in the images (a folder, one image, a video or a list of files) and calibrates
+    from what was found: calibrate(detect(images, target, threads=threads, field=field, every=every,
+    max_frames=max_frames, for_calibration=True), target, field=field, **calibrate_options) —
+    `porthole calibrate --images`. A video keeps 40 frames chosen automatically unless max_frames
+    says otherwise (blurred ones out, the rest spread over the frame and the tilts). field: a coded
+    target's field file (`--field`; 3-D fields too). The keywords are calibrate()'s (model,
+    pixel_pitch_mm, free, reject_k, loss, target_free, centre_correction, ...)."""
+    if isinstance(images, (str, os.PathLike)):
+        found = detect(images, target, threads=threads, field=field, every=every, max_frames=max_frames,
+                       for_calibration=True)
+    else:
+        found = detect(images, target, threads=threads, field=field, every=every, max_frames=max_frames)
+    return calibrate(found, target, field=field, **calibrate_options)
 
 
 @_wraps(_porthole.synthetic_detections, "list[porthole.Detections]")

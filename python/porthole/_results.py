@@ -266,17 +266,28 @@ class Detections:
     coded_counts: Optional[Dict[str, int]] = None
     #: a field with uncoded dots: coded, in_view, matched, not_found, ambiguous, rejected, inconsistent
     uncoded_counts: Optional[Dict[str, int]] = None
+    frame_index: Optional[int] = None  #: a video frame: its index in the file (from 0)
+    time_s: Optional[float] = None     #: a video frame: its time in the file, s
+    blur_px: Optional[float] = None    #: the target's edge blur, px (the sigma of a Gaussian)
 
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "Detections":
         pts = np.array(d.get("points_px") or [], dtype=float).reshape(-1, 2)
+        blur = d.get("blur_px")
         return cls(image=d["image"], width_px=int(d["width_px"]), height_px=int(d["height_px"]),
                    ids=np.array(d.get("ids") or [], dtype=np.int64), points_px=pts, target=d.get("target", ""),
-                   coded_counts=d.get("coded_counts"), uncoded_counts=d.get("uncoded_counts"))
+                   coded_counts=d.get("coded_counts"), uncoded_counts=d.get("uncoded_counts"),
+                   frame_index=d.get("frame_index"), time_s=d.get("time_s"),
+                   blur_px=None if blur is None else float(blur))
 
     def to_dict(self) -> Dict[str, Any]:
         """As `porthole detect` writes one image's file."""
         out = {"image": self.image}
+        if self.frame_index is not None:
+            out["frame_index"] = int(self.frame_index)
+            out["time_s"] = float(self.time_s)
+        if self.blur_px is not None:
+            out["blur_px"] = float(self.blur_px) if math.isfinite(self.blur_px) else "inf"
         if self.target:
             out["target"] = self.target
         out.update({"width_px": self.width_px, "height_px": self.height_px, "ids": [int(i) for i in self.ids],
@@ -300,11 +311,15 @@ class DetectionSet:
     target: str
     images: List[Detections]
     skipped: List[SkippedImage]
+    #: where the images came from and which were kept (a folder, one image or a video: kind, fps,
+    #: every, searched, found, blurred, kept, median_blur_px, cells_covered, tilt_classes, frames)
+    source: Optional[Dict[str, Any]] = None
 
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "DetectionSet":
         return cls(target=d.get("target", ""), images=[Detections.from_dict(i) for i in d.get("images", [])],
-                   skipped=[SkippedImage(s["image"], s["reason"]) for s in d.get("skipped", [])])
+                   skipped=[SkippedImage(s["image"], s["reason"]) for s in d.get("skipped", [])],
+                   source=d.get("source"))
 
     def to_dict(self) -> Dict[str, Any]:
         """As `porthole detect --json` prints the set."""

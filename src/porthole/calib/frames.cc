@@ -113,7 +113,8 @@ std::string FrameLabel(long index) { return fmt::format("f{:06d}", index); }
 
 // Decodes the video on this thread, every `every`-th frame searched by `threads` workers; at most
 // 2 x threads frames wait in memory.
-DetectionRun DetectVideo(cv::VideoCapture& video, const std::string& path, const TargetSpec& target, int every,
+DetectionRun DetectVideo(cv::VideoCapture& video, const std::string& path, const std::string& field,
+                         const TargetSpec& target, int every,
                          long expected, const std::function<void(const std::string&)>& progress,
                          const DetectOptions& options, long* searched) {
   struct Frame {
@@ -209,12 +210,14 @@ DetectionRun DetectVideo(cv::VideoCapture& video, const std::string& path, const
       if (!take) continue;
       if (!video.retrieve(frame) || frame.empty()) break;
       if (double(frame.cols) * frame.rows > options.max_pixels) {
-        throw InvalidInput("images", fmt::format("{}: frames of {} x {} px, above the limit of {:g} megapixels", path,
+        throw InvalidInput(field, fmt::format("{}: frames of {} x {} px, above the limit of {:g} megapixels", path,
                                                  frame.cols, frame.rows, options.max_pixels / 1e6));
       }
       const double ms = video.get(cv::CAP_PROP_POS_MSEC);
       const double fps = video.get(cv::CAP_PROP_FPS);
-      const double t = std::isfinite(ms) && ms >= 0 && index > 0 ? ms / 1e3 : (fps > 0 ? index / fps : 0.0);
+      // The decoder's time stamp (variable frame rates too); OpenCV's FFmpeg backend gives 0 for the
+      // last frame of a file, so 0 past the first frame falls back on index / fps.
+      const double t = std::isfinite(ms) && ms > 0 ? ms / 1e3 : (fps > 0 ? index / fps : 0.0);
       cv::Mat gray;
       if (frame.channels() == 3) {
         cv::cvtColor(frame, gray, cv::COLOR_BGR2GRAY);
@@ -226,8 +229,8 @@ DetectionRun DetectVideo(cv::VideoCapture& video, const std::string& path, const
       if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U, gray.depth() == CV_16U ? 1.0 / 257 : 1.0);
       ++*searched;
       if (std::size_t(*searched) > kMaxImagesPerSet) {
-        throw InvalidInput("images", fmt::format("{}: more than the limit of {} frames searched per set; search "
-                                                 "fewer (every)", path, kMaxImagesPerSet));
+        throw InvalidInput(field, fmt::format("{}: more than the limit of {} frames searched per set; search fewer "
+                                              "(`every`)", path, kMaxImagesPerSet));
       }
       std::unique_lock lock(mutex);
       cv_space.wait(lock, [&] { return queue.size() < std::size_t(2 * n_threads) || error; });
@@ -378,7 +381,7 @@ SourceRun DetectSource(const std::string& path, const TargetSpec& target, const 
       progress(fmt::format("{}: video, {} frames at {:g} fps; searching {}", path, c.frames_in_source, c.fps,
                            c.every == 1 ? std::string("every frame") : "every " + Ordinal(c.every) + " frame"));
     }
-    out.run = DetectVideo(video, path, target, c.every, c.frames_in_source, progress, options, &c.searched);
+    out.run = DetectVideo(video, path, field, target, c.every, c.frames_in_source, progress, options, &c.searched);
     if (c.searched == 0) throw InvalidInput(field, path + ": no frame could be decoded");
   } else {
     std::vector<std::string> paths;
@@ -404,6 +407,31 @@ SourceRun DetectSource(const std::string& path, const TargetSpec& target, const 
   ChooseFrames(&out.run, target, choose, &c);
   if (progress && (choose.max_frames > 0 || c.kind == SourceKind::kVideo)) progress(Describe(c));
   return out;
+}
+
+nlohmann::ordered_json FrameChoiceToJson(const FrameChoice& c, const std::vector<ImageDetections>& kept) {
+  nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+  for (const auto& d : kept) {
+    nlohmann::ordered_json f = {{"image", d.image}};
+    if (d.frame_index >= 0) f["frame_index"] = d.frame_index, f["time_s"] = d.time_s;
+    if (std::isfinite(d.blur_px)) f["blur_px"] = d.blur_px;
+    frames.push_back(f);
+  }
+  const char* kind = c.kind == SourceKind::kVideo ? "video" : c.kind == SourceKind::kImage ? "image" : "directory";
+  return {{"source", c.source},
+          {"kind", kind},
+          {"frames_in_source", c.frames_in_source},
+          {"fps", c.fps},
+          {"every", c.every},
+          {"searched", c.searched},
+          {"found", c.found},
+          {"blurred", c.blurred},
+          {"kept", c.chosen},
+          {"median_blur_px", std::isfinite(c.median_blur_px) ? nlohmann::ordered_json(c.median_blur_px) : nullptr},
+          {"cells_covered", c.cells_covered},
+          {"cells", c.cells},
+          {"tilt_classes", c.tilt_classes},
+          {"frames", frames}};
 }
 
 std::string Describe(const FrameChoice& c) {

@@ -90,6 +90,12 @@ SourceRun DetectSource(const std::string& path, const TargetSpec& target, const 
 // from `found` on.
 void ChooseFrames(DetectionRun* run, const TargetSpec& target, const FrameOptions& frames, FrameChoice* choice);
 
+// The choice as JSON for the outputs that used its frames (detect --json, calibrate): source, kind
+// ("directory", "image", "video"), frames_in_source, fps, every, searched, found, blurred, kept,
+// median_blur_px, cells_covered, cells, tilt_classes, and "frames": each kept image's name with
+// its frame_index and time_s (a video).
+nlohmann::ordered_json FrameChoiceToJson(const FrameChoice& c, const std::vector<ImageDetections>& kept);
+
 // One line: "clip.mp4: video, 1800 frames at 30 fps; every 3rd searched (600), the target in 580;
 // 12 blurred, left out (median edge blur 0.61 px); 40 kept, covering 24 of 24 grid cells, 9 of 9 tilt classes".
 std::string Describe(const FrameChoice& c);
