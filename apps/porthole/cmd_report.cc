@@ -9,7 +9,10 @@
 #include "common.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/interop/interop.h"
+#include "porthole/core/input.h"
 #include "porthole/io/presets.h"
+#include "porthole/measure/measure.h"
+#include "porthole/measure/rig_model.h"
 #include "porthole/report/report.h"
 
 namespace porthole::cli {
@@ -24,6 +27,8 @@ void RegisterReport(CLI::App& app) {
     std::optional<double> coc_mm;
     std::string air_calibration, water_calibration;
     double calibration_pitch_mm = 0;
+    std::string rig, scale_bar_check;  // issue 27
+    measure::RigPlanOptions rig_plan;
     std::string out;
     bool force = false;
     bool json = false;
@@ -52,6 +57,20 @@ void RegisterReport(CLI::App& app) {
   cmd->add_option("--water-calibration", o->water_calibration,
                   "Underwater calibration (needs --air-calibration): adds the comparison, Figs. 14 and 15")
       ->group("Calibrations");
+  const std::string rig_group = "Rig and scale bar";
+  cmd->add_option("--rig", o->rig,
+                  "A rig calibration JSON (calibrate with one --images/--detections per camera): adds 'Your rig', "
+                  "the sigma of a length over the common field against range and a central model's error "
+                  "(as porthole plan --rig)")
+      ->group(rig_group);
+  cmd->add_option("--rig-sigma-px", o->rig_plan.sigma_px, "Rig: the image points' sigma, px")
+      ->capture_default_str()->group(rig_group);
+  cmd->add_option("--rig-length", o->rig_plan.length_mm, "Rig: the length to plan for (e.g. a fish), mm")
+      ->capture_default_str()->group(rig_group);
+  cmd->add_option("--scale-bar-check", o->scale_bar_check,
+                  "The JSON of 'porthole measure --scale-bar A,B,LENGTH --json' (or its --out): adds 'Scale bar', "
+                  "the length error against range and position in the image")
+      ->group(rig_group);
   cmd->add_option("--out", o->out, "Directory to write the report into")->required();
   cmd->add_flag("--force", o->force, "Replace an existing report in --out");
   cmd->add_flag("--json", o->json, "Print the summary (page, report.json, figures, timings) as JSON");
@@ -96,6 +115,24 @@ void RegisterReport(CLI::App& app) {
       in.water_calibration = interop::ConvertRead(std::move(r), camera::CameraModelId::kBrown, where).calibration;
       in.water_calibration->label = label;
     }
+    if (!o->rig.empty()) {
+      report::ReportInputs::RigInputs rig;
+      rig.rig = measure::LoadRig(o->rig, "--rig");
+      rig.what = fmt::format("{} cameras ({})", rig.rig.cameras.size(), o->rig);
+      rig.plan = o->rig_plan;
+      in.rig = std::move(rig);
+    }
+    if (!o->scale_bar_check.empty()) {
+      const std::string text = ReadInputFile(o->scale_bar_check, "--scale-bar-check");
+      nlohmann::json j;
+      try {
+        j = nlohmann::json::parse(text);
+      } catch (const nlohmann::json::exception& e) {
+        throw InvalidInput("--scale-bar-check", o->scale_bar_check + ": not JSON: " + JsonMessage(e));
+      }
+      in.scale_bar = measure::ScaleBarFromJson(j, "--scale-bar-check");
+      in.scale_bar_source = o->scale_bar_check;
+    }
     for (const CLI::Option* opt : cmd->get_options()) {
       if (opt->count() == 0 || opt->get_name() == "--help" || opt->get_name() == "--out" || opt->get_name() == "--force" ||
           opt->get_name() == "--json") {
@@ -114,7 +151,7 @@ void RegisterReport(CLI::App& app) {
     ro.progress = [](const std::string& line) { fmt::print(stderr, "porthole report: {}\n", line); };
     const report::ReportSummary s = WithFieldNames(
         {PORTHOLE_CAMERA_FLAGS, {"f_number", "--aperture"}, {"subject_distance_mm", "--subject-distance"},
-         {"coc_mm", "--coc"}},
+         {"coc_mm", "--coc"}, {"sigma_px", "--rig-sigma-px"}, {"length_mm", "--rig-length"}},
         [&] { return report::WriteReport(in, ro); });
     if (o->json) {
       Json steps = Json::object();

@@ -289,3 +289,37 @@ def test_laser_pair(rig, tmp_path):
     assert "--laser-pair: frame f: laser dot id 11 not measured" in run_bad(
         "measure", "--rig", single, "--points", csv, "--laser-pair", "10,11,100")
     assert "--laser-pair: give 3 numbers" in run_bad("measure", "--rig", single, "--points", csv, "--laser-pair", "10,11")
+
+
+def test_report_shows_the_rig_plan_and_the_scale_bar(rig, fresh, tmp_path):
+    """`report --rig RIG --scale-bar-check MEASURE.json` adds the sections "Your rig" and "Scale bar":
+    their figures (PNG and SVG) and in report.json the numbers `plan --rig` and `measure --scale-bar`
+    give for the same inputs."""
+    d, _ = rig
+    left, right = fresh
+    run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--sigma-px", "0.3",
+        "--scale-bar", "0,15,750", "--out", tmp_path / "bar.json")
+    s = run("report", "--rig", d / "rig.json", "--rig-sigma-px", "0.3", "--scale-bar-check", tmp_path / "bar.json",
+            "--out", tmp_path / "r", "--json").json()
+    assert s["figures"][-2:] == ["rig-plan", "scale-bar"]
+    for fig in ("rig-plan", "scale-bar"):
+        assert (tmp_path / "r" / "figures" / f"{fig}.png").stat().st_size > 5000
+        assert (tmp_path / "r" / "figures" / f"{fig}.svg").exists()
+    page = (tmp_path / "r" / "index.html").read_text()
+    assert 'id="rig"' in page and 'id="scale-bar"' in page and "Your rig: lengths before the dive" in page
+    rep = json.loads((tmp_path / "r" / "report.json").read_text())
+    plan = run("plan", "--rig", d / "rig.json", "--sigma-px", "0.3", "--json").json()["rig_plan"]
+    assert [r["sigma_median_mm"] for r in rep["rig_plan"]["ranges"]] == \
+        pytest.approx([r["sigma_median_mm"] for r in plan["ranges"]], rel=1e-12)
+    bar = json.loads((tmp_path / "bar.json").read_text())["measure"]["scale_bar"]
+    assert rep["scale_bar"]["mean_error_mm"] == pytest.approx(bar["mean_error_mm"], rel=1e-12)
+    assert [f["error_mm"] for f in rep["scale_bar"]["frames"]] == pytest.approx([f["error_mm"] for f in bar["frames"]])
+    assert rep["scale_bar"]["source"] == str(tmp_path / "bar.json")
+    # A measure output without a scale-bar check, and a file that is no JSON, are refused in one line.
+    run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--length", "0,15",
+        "--out", tmp_path / "lengths.json")
+    assert "--scale-bar-check" in run_bad("report", "--scale-bar-check", tmp_path / "lengths.json",
+                                          "--out", tmp_path / "r2")
+    (tmp_path / "bad.json").write_text("{ not json")
+    assert "--scale-bar-check" in run_bad("report", "--scale-bar-check", tmp_path / "bad.json", "--out", tmp_path / "r3")
+    assert not (tmp_path / "r2").exists() and not (tmp_path / "r3").exists()

@@ -455,6 +455,75 @@ nlohmann::ordered_json ScaleBarToJson(const ScaleBarCheck& c) {
           {"consistent", c.consistent}, {"verdict", c.verdict}, {"by_range", bins}, {"frames", rows}};
 }
 
+ScaleBarCheck ScaleBarFromJson(const nlohmann::json& in, const std::string& field) {
+  const nlohmann::json* j = &in;
+  if (in.is_object() && in.contains("measure")) {
+    const auto& m = in["measure"];
+    if (!m.is_object() || !m.contains("scale_bar")) {
+      throw InvalidInput(field, "a measure output without a scale-bar check (run measure with --scale-bar)");
+    }
+    j = &m["scale_bar"];
+  }
+  std::string key;
+  const auto number = [&](const nlohmann::json& o, const char* k, bool nullable = false) {
+    key = k;
+    if (!o.is_object() || !o.contains(k)) throw InvalidInput(field, fmt::format("{}: missing", key));
+    const auto& v = o[k];
+    if (v.is_null() && nullable) return double(NAN);
+    if (!v.is_number() || !std::isfinite(v.get<double>())) throw InvalidInput(field, fmt::format("{}: not a number", key));
+    return v.get<double>();
+  };
+  ScaleBarCheck c;
+  c.bar.id_a = int(number(*j, "id_a"));
+  c.bar.id_b = int(number(*j, "id_b"));
+  c.bar.length_mm = number(*j, "length_mm");
+  if (!(c.bar.length_mm > 0)) throw InvalidInput(field, "length_mm: must be > 0");
+  c.mean_error_mm = number(*j, "mean_error_mm");
+  c.mean_error_percent = number(*j, "mean_error_percent");
+  c.sigma_mean_mm = number(*j, "sigma_mean_mm");
+  c.sd_error_mm = number(*j, "sd_error_mm", true);
+  c.z = number(*j, "z", true);
+  if (!j->contains("consistent") || !(*j)["consistent"].is_boolean()) throw InvalidInput(field, "consistent: missing");
+  c.consistent = (*j)["consistent"].get<bool>();
+  if (j->contains("verdict") && (*j)["verdict"].is_string()) c.verdict = (*j)["verdict"].get<std::string>();
+  if (!j->contains("frames") || !(*j)["frames"].is_array() || (*j)["frames"].empty()) {
+    throw InvalidInput(field, "frames: a list of the bar's frames");
+  }
+  for (std::size_t i = 0; i < (*j)["frames"].size(); ++i) {
+    const auto& f = (*j)["frames"][i];
+    ScaleBarCheck::Row r;
+    if (f.is_object() && f.contains("frame") && f["frame"].is_string()) r.frame = f["frame"].get<std::string>();
+    r.range_mm = number(f, "range_mm");
+    r.length_mm = number(f, "length_mm");
+    r.error_mm = number(f, "error_mm");
+    r.sigma_mm = number(f, "sigma_mm", true);
+    r.sigma_image_mm = number(f, "sigma_image_mm", true);
+    r.sigma_calibration_mm = number(f, "sigma_calibration_mm", true);
+    key = "image_px";
+    if (!f.contains("image_px") || !f["image_px"].is_array() || f["image_px"].size() != 2) {
+      throw InvalidInput(field, fmt::format("frames[{}].image_px: a pair [u, v]", i));
+    }
+    for (int k = 0; k < 2; ++k) {
+      const auto& v = f["image_px"][k];
+      r.image_px[k] = v.is_number() ? v.get<double>() : NAN;
+    }
+    c.rows.push_back(r);
+  }
+  if (j->contains("by_range") && (*j)["by_range"].is_array()) {
+    for (const auto& b : (*j)["by_range"]) {
+      ScaleBarCheck::Bin bin;
+      bin.range_min_mm = number(b, "range_min_mm");
+      bin.range_max_mm = number(b, "range_max_mm");
+      bin.n = int(number(b, "n"));
+      bin.mean_error_mm = number(b, "mean_error_mm");
+      bin.rms_error_mm = number(b, "rms_error_mm");
+      bin.rms_sigma_mm = number(b, "rms_sigma_mm", true);
+      c.by_range.push_back(bin);
+    }
+  }
+  return c;
+}
+
 namespace {
 nlohmann::ordered_json LaserRangesJson(const std::vector<FrameRange>& v) {
   nlohmann::ordered_json a = nlohmann::ordered_json::array();

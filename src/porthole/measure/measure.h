@@ -141,6 +141,9 @@ struct ScaleBarCheck {
 // frame measured both ends.
 ScaleBarCheck CheckScaleBar(const MeasureResult& r, const ScaleBar& bar);
 nlohmann::ordered_json ScaleBarToJson(const ScaleBarCheck& c);
+// The check read back from ScaleBarToJson's object, or from a whole `measure --json` output
+// holding one (measure.scale_bar), for the report. Throws InvalidInput(field, …) naming the key.
+ScaleBarCheck ScaleBarFromJson(const nlohmann::json& j, const std::string& field);
 
 // {"measure": {sigma_px, sigma_px_from, counts, covariance_note, warnings, frame: "rig …",
 //  points: [{frame, id, cameras, x_mm, sigma_mm, sigma_image_mm, covariance_mm2, miss_mm,

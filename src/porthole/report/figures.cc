@@ -847,6 +847,96 @@ Figure CompareMaps(const Results& r) {
   return f;
 }
 
+Figure RigPlanFigure(const Results& r) {
+  const measure::RigPlan& p = *r.rig_plan;
+  Figure f{"rig-plan", "rig", "Your rig: the σ of a length and a central model's error against range", "", 960, 820,
+           "", ""};
+  f.data = Block(0, fmt::format("a {:g} mm length over the common field, image sigma {:g} px ({}); the central "
+                                "model's |error| (measured - true); the common field's extent",
+                                p.length_mm, p.sigma_px, OneLine(p.calibration_sigma)),
+                 "range_m sigma_median_mm sigma_p90_mm sigma_max_mm central_abs_median_mm central_abs_max_mm "
+                 "common_width_m common_height_m n_lengths");
+  bool any_central = false;
+  for (const auto& row : p.rows) {
+    // A log axis shows no 0: a length the central model measures exactly plots at the axis's floor.
+    const auto pos = [](double v) { return std::isfinite(v) && v > 0 ? v : NAN; };
+    any_central = any_central || std::isfinite(pos(row.central_abs_max_mm));
+    f.data += fmt::format("{} {} {} {} {} {} {} {} {}\n", N(row.range_mm / 1000), N(pos(row.sigma_median_mm)),
+                          N(pos(row.sigma_p90_mm)), N(pos(row.sigma_max_mm)), N(pos(row.central_abs_median_mm)),
+                          N(pos(row.central_abs_max_mm)), N(row.common_width_mm / 1000), N(row.common_height_mm / 1000),
+                          row.n_lengths);
+  }
+  f.caption = fmt::format(
+      "(a) The σ a {:g} mm length will be measured with (median and 90th percentile over positions and {} directions "
+      "in the field every camera sees), for image points of σ = {:g} px; {}. {}(b) The width and height of that "
+      "common field.",
+      p.length_mm, p.orientations, p.sigma_px, p.calibration_sigma,
+      p.central ? fmt::format("Red: the error of a central model (each lens without refraction, calibrated with the "
+                              "rig at {:.0f} mm), median and largest |error|: systematic, it does not average out. ",
+                              p.central_fit_range_mm)
+                : std::string());
+  f.body = fmt::format(
+      "set multiplot layout 2,1 margins 0.12,0.70,0.09,0.94 spacing 0,0.17\n"
+      "set key at screen 0.72, graph 1 left top vertical Left reverse samplen 2\n"
+      "set xlabel \"range (m)\"\n"
+      "set title \"(a) a {0:g} mm length\"\nset ylabel \"mm\"\nset logscale y\n"
+      "plot data index 0 using 1:2 with linespoints ls 1 pt 7 title \"σ, median\", \\\n"
+      "     data index 0 using 1:3 with linespoints ls 1 dt 2 pt 6 title \"σ, 90 %\"{1}\n"
+      "unset logscale y\n"
+      "set title \"(b) the field every camera sees\"\nset ylabel \"m\"\n"
+      "plot data index 0 using 1:7 with linespoints ls 3 pt 7 title \"width\", \\\n"
+      "     data index 0 using 1:8 with linespoints ls 4 pt 5 title \"height\"\n",
+      p.length_mm,
+      any_central ? ", \\\n     data index 0 using 1:5 with linespoints ls 2 pt 7 title \"central, median |error|\", \\\n"
+                    "     data index 0 using 1:6 with linespoints ls 2 dt 2 pt 6 title \"central, largest |error|\""
+                  : "");
+  return f;
+}
+
+Figure ScaleBarFigure(const Results& r) {
+  const measure::ScaleBarCheck& c = *r.in->scale_bar;
+  Figure f{"scale-bar", "scale-bar", "Scale bar: the length error against range and position", "", 960, 820, "", ""};
+  f.data = Block(0, "each frame: the bar's range, its error (measured - true) with its sigma, its centre in the image",
+                 "range_m error_mm sigma_mm u_px v_px");
+  double umax = 1, vmax = 1, emax = 0;
+  for (const auto& row : c.rows) {
+    f.data += fmt::format("{} {} {} {} {}\n", N(row.range_mm / 1000), N(row.error_mm), N(row.sigma_mm),
+                          N(row.image_px.x()), N(row.image_px.y()));
+    if (std::isfinite(row.image_px.x())) umax = std::max(umax, row.image_px.x());
+    if (std::isfinite(row.image_px.y())) vmax = std::max(vmax, row.image_px.y());
+    emax = std::max(emax, std::abs(row.error_mm));
+  }
+  f.data += "\n\n" + Block(1, "500 mm range bins: mean error and RMS sigma", "range_m mean_error_mm rms_sigma_mm n");
+  for (const auto& b : c.by_range) {
+    f.data += fmt::format("{} {} {} {}\n", N((b.range_min_mm + b.range_max_mm) / 2000), N(b.mean_error_mm),
+                          N(b.rms_sigma_mm), b.n);
+  }
+  if (!(emax > 0)) emax = 1;
+  if (r.in->rig) {  // the frame of the rig's first camera (the image the centres are in)
+    const camera::Sensor& sn = r.in->rig->rig.cameras.front().camera.sensor;
+    umax = sn.width_px / 1.05, vmax = sn.height_px / 1.05;
+  }
+  f.caption = fmt::format(
+      "(a) Each frame's error of the {:g} mm bar (points {} and {}) against its range, with ±2σ; red: the mean of each "
+      "500 mm bin. Mean error {:+.3f} mm ± {:.3f} mm (z = {:.2f}): {}. (b) Where the bar's centre was in the first "
+      "camera's image, coloured by its error (mm): a pattern over the frame points at the calibration.",
+      c.bar.length_mm, c.bar.id_a, c.bar.id_b, c.mean_error_mm, c.sigma_mean_mm, c.z, c.verdict);
+  f.body = fmt::format(
+      "set multiplot layout 2,1 margins 0.12,0.78,0.09,0.94 spacing 0,0.17\n"
+      "set key top left vertical Left reverse samplen 2 box opaque\n"
+      "set title \"(a) error against range\"\nset xlabel \"range (m)\"\nset ylabel \"error (mm)\"\n"
+      "set xzeroaxis ls 5\n"
+      "plot data index 0 using 1:2:(2*$3) with yerrorbars ls 1 pt 7 ps 0.6 title \"frames, ±2σ\", \\\n"
+      "     data index 1 using 1:2 with linespoints ls 2 pt 5 title \"bin mean\"\n"
+      "set title \"(b) error over the image\"\nset xlabel \"u (px)\"\nset ylabel \"v (px)\"\n"
+      "set xrange [0:{}]\nset yrange [{}:0]\nset size ratio -1\nunset xzeroaxis\nunset key\nset xtics {}\nset ytics {}\n"
+      "set palette defined (-1 \"#1f5fa8\", 0 \"#f2f2f2\", 1 \"#c8322d\")\nset cbrange [{}:{}]\n"
+      "set cblabel \"error (mm)\"\n"
+      "plot data index 0 using 4:5:2 with points pt 7 ps 1.2 lc palette notitle\n",
+      N(umax * 1.05), N(vmax * 1.05), N(NiceStep(umax * 1.05, 4)), N(NiceStep(vmax * 1.05, 4)), N(-emax), N(emax));
+  return f;
+}
+
 }  // namespace
 
 std::vector<Figure> MakeFigures(const Results& r) {
@@ -856,6 +946,8 @@ std::vector<Figure> MakeFigures(const Results& r) {
     out.push_back(CompareCurves(r));
     out.push_back(CompareMaps(r));
   }
+  if (r.rig_plan) out.push_back(RigPlanFigure(r));
+  if (r.in->scale_bar) out.push_back(ScaleBarFigure(r));
   return out;
 }
 

@@ -244,6 +244,9 @@ Results Gather(const ReportInputs& in, Steps& steps) {
       r.compare = calib::Compare(*in.air_calibration, *in.water_calibration);
     });
   }
+  if (in.rig) {
+    steps.Run("rig plan", [&] { r.rig_plan = measure::PlanRig(in.rig->rig, in.rig->plan); });
+  }
   return r;
 }
 

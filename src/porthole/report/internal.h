@@ -74,6 +74,7 @@ struct Results {
   std::vector<double> offsets_z_mm, offsets_x_mm;
   std::vector<simulate::SweepRow> sweep_z, sweep_x;
   std::optional<calib::CompareResult> compare;
+  std::optional<measure::RigPlan> rig_plan;  // in->rig
 };
 
 // Times each step; reports those over a second through options.progress.

@@ -208,6 +208,11 @@ Json ReportJson(const Results& r, const std::vector<Figure>& figures) {
   if (in.air_calibration) j["air_calibration"] = camera::BrownToJson(camera::ToBrown(in.air_calibration->camera));
   if (in.water_calibration) j["water_calibration"] = camera::BrownToJson(camera::ToBrown(in.water_calibration->camera));
   if (r.compare) j["comparison"] = calib::CompareToJson(*r.compare, "air", "water", /*with_map=*/false);
+  if (r.rig_plan) j["rig_plan"] = measure::RigPlanToJson(*r.rig_plan, in.rig->what)["rig_plan"];
+  if (in.scale_bar) {
+    j["scale_bar"] = measure::ScaleBarToJson(*in.scale_bar);
+    j["scale_bar"]["source"] = in.scale_bar_source;
+  }
   Json figs = Json::array();
   for (const auto& f : figures) {
     figs.push_back({{"id", f.id}, {"section", f.section}, {"title", f.title}, {"caption", f.caption},
@@ -259,6 +264,8 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
        "<a href=\"#focus\">Focus and minimum WD</a><a href=\"#dof\">Depth of field</a><a href=\"#ports\">Dome vs flat</a>"
        "<a href=\"#simulate\">Predicted calibration</a>";
   if (r.compare) h += "<a href=\"#compare\">Your calibrations</a>";
+  if (r.rig_plan) h += "<a href=\"#rig\">Your rig</a>";
+  if (r.in->scale_bar) h += "<a href=\"#scale-bar\">Scale bar</a>";
   h += "</nav>\n";
 
   // Summary.
@@ -486,6 +493,56 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
                   : "χ² not computed: " + c.covariance_note) +
          (c.left_out_note.empty() ? std::string() : " " + Html(c.left_out_note) + ".") +
          "</p>\n" + figs_of("compare") + "</section>\n";
+  }
+
+  // The rig: lengths planned over the common field.
+  if (r.rig_plan) {
+    const measure::RigPlan& p = *r.rig_plan;
+    rows.clear();
+    for (const auto& row : p.rows) {
+      rows.push_back({F(row.range_mm / 1000, 1), F(row.common_width_mm / 1000, 2) + " × " + F(row.common_height_mm / 1000, 2),
+                      std::to_string(row.n_lengths), G(row.sigma_median_mm), G(row.sigma_p90_mm),
+                      F(row.sigma_median_percent, 3),
+                      p.central ? G(row.central_abs_median_mm) + " / " + G(row.central_abs_max_mm) : std::string("–")});
+    }
+    h += "<section id=\"rig\"><h2>Your rig: lengths before the dive</h2>\n<p>" +
+         Html(fmt::format("{}: a {:g} mm length in {} directions over the field every camera sees, each end's image "
+                          "points with σ = {:g} px; σ from {}.",
+                          r.in->rig->what, p.length_mm, p.orientations, p.sigma_px, p.calibration_sigma)) +
+         (p.central ? Html(fmt::format(" Central model: each camera's lens without refraction, calibrated with the "
+                                       "rig at {:.0f} mm (RMS {:.3f} px), as most tools do; its error is systematic.",
+                                       p.central_fit_range_mm, p.central_fit_rms_px))
+                    : std::string()) +
+         "</p>\n<div class=\"scroll\">";
+    h += Table("The σ of a length against range (the plan's JSON has every number)",
+               {"range <span class=\"unit\">m</span>", "common field <span class=\"unit\">m</span>", "lengths",
+                "σ median <span class=\"unit\">mm</span>", "σ 90 % <span class=\"unit\">mm</span>",
+                "σ median <span class=\"unit\">%</span>",
+                "central |error| median / max <span class=\"unit\">mm</span>"},
+               rows);
+    h += "</div>\n";
+    for (const auto& n : p.notes) h += "<p>" + Html(n) + "</p>\n";
+    h += figs_of("rig") + "</section>\n";
+  }
+  // The scale bar after a dive.
+  if (r.in->scale_bar) {
+    const measure::ScaleBarCheck& c = *r.in->scale_bar;
+    rows.clear();
+    for (const auto& b : c.by_range) {
+      rows.push_back({F(b.range_min_mm / 1000, 1) + "–" + F(b.range_max_mm / 1000, 1), std::to_string(b.n),
+                      G(b.mean_error_mm), G(b.rms_error_mm), G(b.rms_sigma_mm)});
+    }
+    h += "<section id=\"scale-bar\"><h2>Scale bar</h2>\n<p>" +
+         Html(fmt::format("{}: the bar between points {} and {}, {:g} mm long, in {} frames. Mean error {:+.3f} mm "
+                          "({:+.3f} %) ± {:.3f} mm, z = {:.2f}: {}",
+                          r.in->scale_bar_source, c.bar.id_a, c.bar.id_b, c.bar.length_mm, c.rows.size(),
+                          c.mean_error_mm, c.mean_error_percent, c.sigma_mean_mm, c.z, c.verdict)) +
+         "</p>\n<div class=\"scroll\">";
+    h += Table("The error against range",
+               {"range <span class=\"unit\">m</span>", "frames", "mean error <span class=\"unit\">mm</span>",
+                "RMS error <span class=\"unit\">mm</span>", "RMS σ <span class=\"unit\">mm</span>"},
+               rows);
+    h += "</div>\n" + figs_of("scale-bar") + "</section>\n";
   }
 
   h += "</main>\n<footer>Every number on this page is in <a href=\"report.json\">report.json</a>; each figure's data file "

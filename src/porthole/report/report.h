@@ -20,6 +20,8 @@
 #include <vector>
 
 #include "porthole/calib/result_json.h"
+#include "porthole/measure/measure.h"
+#include "porthole/measure/plan_rig.h"
 #include "porthole/planning/focus.h"
 
 namespace porthole::report {
@@ -34,6 +36,18 @@ struct ReportInputs {
   // Calibrations of the camera in its housing (calib JSON or OpenCV YAML): the air one is the lens
   // model of the prediction; with both, the comparison section (Figs. 14 and 15) is added.
   std::optional<calib::CalibrationRecord> air_calibration, water_calibration;
+  // A rig of cameras behind their ports (issue 27): the section "Your rig" plans the σ of a length
+  // over the common field against range and a central model's error (measure::PlanRig).
+  struct RigInputs {
+    measure::Rig rig;
+    std::string what;  // one line naming it (its file)
+    measure::RigPlanOptions plan;
+  };
+  std::optional<RigInputs> rig;
+  // A scale-bar check after a dive (`porthole measure --scale-bar … --json`): its error against
+  // range and position in the image, the section "Scale bar".
+  std::optional<measure::ScaleBarCheck> scale_bar;
+  std::string scale_bar_source;  // its file, named on the page
   // The inputs as the user gave them (option, value), echoed in the report.
   std::vector<std::pair<std::string, std::string>> echo;
 };
