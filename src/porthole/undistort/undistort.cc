@@ -16,6 +16,7 @@
 #include <fstream>
 #include <limits>
 #include <thread>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -391,14 +392,107 @@ cv::Mat BuildMap(const Undistorter& u, int grid_step_px) {
   return map;
 }
 
-cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation) {
-  int flag = cv::INTER_LINEAR;
-  switch (interpolation) {
-    case Interpolation::kNearest: flag = cv::INTER_NEAREST; break;
-    case Interpolation::kLinear: flag = cv::INTER_LINEAR; break;
-    case Interpolation::kCubic: flag = cv::INTER_CUBIC; break;
-    case Interpolation::kLanczos: flag = cv::INTER_LANCZOS4; break;
+namespace {
+
+template <typename T>
+T Saturate(float v) {
+  if constexpr (std::is_floating_point_v<T>) {
+    return static_cast<T>(v);
+  } else {
+    const float hi = static_cast<float>(std::numeric_limits<T>::max());
+    return static_cast<T>(v <= 0 ? 0 : v >= hi ? hi : v + 0.5f);
   }
+}
+
+// Bilinear (or nearest) remap with the map's exact fractions (cv::remap quantises them to 1/32 px):
+// taps outside the image count as 0, as cv::remap's BORDER_CONSTANT.
+template <typename T, int C, bool kNearest>
+void RemapRows(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, int r0, int r1) {
+  const int w = src.cols, h = src.rows;
+  for (int v = r0; v < r1; ++v) {
+    const cv::Vec2f* m = map.ptr<cv::Vec2f>(v);
+    T* out = dst.ptr<T>(v);
+    for (int c = 0; c < dst.cols; ++c, out += C) {
+      const float x = m[c][0], y = m[c][1];
+      if constexpr (kNearest) {
+        const int xi = static_cast<int>(std::floor(x + 0.5f)), yi = static_cast<int>(std::floor(y + 0.5f));
+        const bool in = xi >= 0 && yi >= 0 && xi < w && yi < h;
+        const T* p = in ? src.ptr<T>(yi) + static_cast<std::size_t>(xi) * C : nullptr;
+        for (int k = 0; k < C; ++k) out[k] = in ? p[k] : T(0);
+        continue;
+      }
+      const float xf = std::floor(x), yf = std::floor(y);
+      const int x0 = static_cast<int>(xf), y0 = static_cast<int>(yf);
+      const float ax = x - xf, ay = y - yf;
+      if (x0 >= 0 && y0 >= 0 && x0 + 1 < w && y0 + 1 < h) {
+        const T* p0 = src.ptr<T>(y0) + static_cast<std::size_t>(x0) * C;
+        const T* p1 = src.ptr<T>(y0 + 1) + static_cast<std::size_t>(x0) * C;
+        for (int k = 0; k < C; ++k) {
+          const float top = p0[k] + ax * (static_cast<float>(p0[k + C]) - p0[k]);
+          const float bot = p1[k] + ax * (static_cast<float>(p1[k + C]) - p1[k]);
+          out[k] = Saturate<T>(top + ay * (bot - top));
+        }
+        continue;
+      }
+      if (x0 < -1 || y0 < -1 || x0 >= w || y0 >= h) {
+        for (int k = 0; k < C; ++k) out[k] = T(0);
+        continue;
+      }
+      float acc[C] = {};
+      for (int dy = 0; dy < 2; ++dy) {
+        for (int dx = 0; dx < 2; ++dx) {
+          const int xx = x0 + dx, yy = y0 + dy;
+          if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+          const float wgt = (dx ? ax : 1 - ax) * (dy ? ay : 1 - ay);
+          const T* p = src.ptr<T>(yy) + static_cast<std::size_t>(xx) * C;
+          for (int k = 0; k < C; ++k) acc[k] += wgt * p[k];
+        }
+      }
+      for (int k = 0; k < C; ++k) out[k] = Saturate<T>(acc[k]);
+    }
+  }
+}
+
+template <typename T, int C>
+void RemapOwn(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, bool nearest, int threads) {
+  const int blocks = std::max(1, dst.rows / 16);
+  ParallelFor(blocks, threads, [&](int b) {
+    const int r0 = static_cast<int>(static_cast<long>(dst.rows) * b / blocks);
+    const int r1 = static_cast<int>(static_cast<long>(dst.rows) * (b + 1) / blocks);
+    if (nearest) {
+      RemapRows<T, C, true>(src, map, dst, r0, r1);
+    } else {
+      RemapRows<T, C, false>(src, map, dst, r0, r1);
+    }
+  });
+}
+
+template <typename T>
+void RemapChannels(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, bool nearest, int threads) {
+  switch (src.channels()) {
+    case 1: RemapOwn<T, 1>(src, map, dst, nearest, threads); break;
+    case 2: RemapOwn<T, 2>(src, map, dst, nearest, threads); break;
+    case 3: RemapOwn<T, 3>(src, map, dst, nearest, threads); break;
+    case 4: RemapOwn<T, 4>(src, map, dst, nearest, threads); break;
+    default: throw InvalidInput("image", fmt::format("{} channels: 1 to 4 only", src.channels()));
+  }
+}
+
+}  // namespace
+
+cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, int threads) {
+  PORTHOLE_CHECK(map.type() == CV_32FC2);
+  if (interpolation == Interpolation::kLinear || interpolation == Interpolation::kNearest) {
+    cv::Mat out(map.rows, map.cols, image.type());
+    const bool nearest = interpolation == Interpolation::kNearest;
+    switch (image.depth()) {
+      case CV_8U: RemapChannels<std::uint8_t>(image, map, out, nearest, threads); return out;
+      case CV_16U: RemapChannels<std::uint16_t>(image, map, out, nearest, threads); return out;
+      case CV_32F: RemapChannels<float>(image, map, out, nearest, threads); return out;
+      default: throw InvalidInput("image", "8-bit, 16-bit or float images only");
+    }
+  }
+  const int flag = interpolation == Interpolation::kCubic ? cv::INTER_CUBIC : cv::INTER_LANCZOS4;
   cv::Mat out;
   cv::remap(image, out, map, cv::noArray(), flag, cv::BORDER_CONSTANT, cv::Scalar::all(0));
   return out;

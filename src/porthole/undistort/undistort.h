@@ -101,8 +101,10 @@ Undistorter Prepare(const measure::RigCamera& camera, const UndistortOptions& op
 // pixels, bicubic in between (the grid step's error is measured in undistort_test).
 cv::Mat BuildMap(const Undistorter& u, int grid_step_px = 8);
 
-// The remap of one image (any depth, 1–4 channels); pixels without source are 0.
-cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation);
+// The remap of one image (8 or 16 bit or float, 1–4 channels); pixels without source are 0.
+// Linear and nearest: porthole's own loop with the map's exact fractions, on `threads` threads (0:
+// every core); cubic and lanczos: cv::remap (its fractions quantised to 1/32 px).
+cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, int threads = 0);
 
 // ---- Residual maps (refractive) ----
 struct ResidualMap {
