@@ -130,6 +130,16 @@ void RegisterUndistort(CLI::App& app) {
       const measure::RigCamera cam = LoadCalibration(o->calibration);
       undistort::Validate(uo, cam);
       const std::vector<std::string> images = calib::ListImages(o->images, "--images");
+      // Every image the calibration's size, from its header, before anything is written.
+      const auto& sensor = cam.camera.sensor;
+      for (const auto& im : images) {
+        const auto size = calib::ReadImageSize(im);
+        if (!size) throw InvalidInput("--images", fmt::format("{}: not an image porthole reads (png, jpg, tif)", im));
+        if (size->first != sensor.width_px || size->second != sensor.height_px) {
+          throw InvalidInput("--images", fmt::format("{} is {}x{} px, the calibration's images {}x{}", im, size->first,
+                                                     size->second, sensor.width_px, sensor.height_px));
+        }
+      }
 
       // Outputs: checked before any work (never an input, never an existing file without --force).
       std::vector<fs::path> inputs = InputFiles(cmd, {"--out"});

@@ -591,11 +591,12 @@ std::string ResidualScript(const std::vector<ResidualMap>& maps, const std::stri
       "# porthole undistort: the pinhole's residual against depth. Run `gnuplot {0}.gp`.\n"
       "set terminal pngcairo size {1},{2} font 'sans,10'\n"
       "set output '{3}'\n"
-      "set view map\nset size ratio -1\nset yrange [*:*] reverse\nset xlabel 'u (px)'\nset ylabel 'v (px)'\n"
+      "set view map\nset size ratio -1\nset xrange [0:{7:.6g}]\nset yrange [{8:.6g}:0]\nset xlabel 'u (px)'\nset ylabel 'v (px)'\n"
       "set cblabel 'residual (px)'\nset cbrange [0:{4:.6g}]\nset palette rgbformulae 33,13,10\n"
       "set multiplot layout {5},{6} title \"Undistorted image: where a point at depth lands minus where the pinhole "
       "puts it\"\n",
-      "residual", 560 * cols, 420 * rows, png_file, top, rows, cols);
+      "residual", 560 * cols, 420 * rows, png_file, top, rows, cols, maps.empty() ? 1.0 : maps[0].q_px.back().x(),
+      maps.empty() ? 1.0 : maps[0].q_px.back().y());
   for (int k = 0; k < n; ++k) {
     s += fmt::format("set title 'WD {:g} m: RMS {:.3f} px, max {:.3f} px'\n", maps[k].wd_mm / 1000, maps[k].rms_px,
                      maps[k].max_px);
@@ -716,8 +717,10 @@ std::string EncodeLike(const cv::Mat& image, const std::string& path, const std:
   if (ext == ".jpg" || ext == ".jpeg") {
     if (image.depth() != CV_8U) throw InvalidInput(field, fmt::format("{}: JPEG holds 8 bit only", path));
     params = {cv::IMWRITE_JPEG_QUALITY, 95};
-  } else if (ext != ".png" && ext != ".tif" && ext != ".tiff") {
-    throw InvalidInput(field, fmt::format("{}: writes PNG, JPEG or TIFF (.png, .jpg, .jpeg, .tif, .tiff)", path));
+  } else if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".bmp" && ext != ".pgm" && ext != ".ppm") {
+    throw InvalidInput(field, fmt::format("{}: writes PNG, JPEG, TIFF, BMP, PGM or PPM", path));
+  } else if (ext == ".bmp" && image.depth() != CV_8U) {
+    throw InvalidInput(field, fmt::format("{}: BMP holds 8 bit only", path));
   }
   std::vector<uchar> buf;
   if (!cv::imencode(ext, image, buf, params)) throw InvalidInput(field, fmt::format("{}: could not encode", path));
