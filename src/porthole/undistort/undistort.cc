@@ -407,26 +407,46 @@ T Saturate(float v) {
 // Bilinear (or nearest) remap with the map's exact fractions (cv::remap quantises them to 1/32 px):
 // taps outside the image count as 0, as cv::remap's BORDER_CONSTANT.
 template <typename T, int C, bool kNearest>
-void RemapRows(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, int r0, int r1) {
-  const int w = src.cols, h = src.rows;
+void RemapRows(const cv::Mat& src_mat, const cv::Mat& map, cv::Mat& dst, int r0, int r1) {
+  // Locals only inside the loop: a store through T* (uint8_t may alias anything) must not make the
+  // compiler reload the cv::Mat's fields after every pixel.
+  const int w = src_mat.cols, h = src_mat.rows, cols = dst.cols;
+  const std::uint8_t* const base = src_mat.data;
+  const std::size_t step = src_mat.step[0];
+  const auto row = [base, step](int y) { return reinterpret_cast<const T*>(base + step * static_cast<std::size_t>(y)); };
   for (int v = r0; v < r1; ++v) {
-    const cv::Vec2f* m = map.ptr<cv::Vec2f>(v);
-    T* out = dst.ptr<T>(v);
-    for (int c = 0; c < dst.cols; ++c, out += C) {
-      const float x = m[c][0], y = m[c][1];
+    const float* __restrict m = map.ptr<float>(v);
+    T* __restrict out = dst.ptr<T>(v);
+    for (int c = 0; c < cols; ++c, out += C) {
+      const float x = m[2 * c], y = m[2 * c + 1];
       if constexpr (kNearest) {
-        const int xi = static_cast<int>(std::floor(x + 0.5f)), yi = static_cast<int>(std::floor(y + 0.5f));
+        int xi = static_cast<int>(x + 0.5f), yi = static_cast<int>(y + 0.5f);
+        xi -= x + 0.5f < static_cast<float>(xi);
+        yi -= y + 0.5f < static_cast<float>(yi);
         const bool in = xi >= 0 && yi >= 0 && xi < w && yi < h;
-        const T* p = in ? src.ptr<T>(yi) + static_cast<std::size_t>(xi) * C : nullptr;
+        const T* p = in ? row(yi) + static_cast<std::size_t>(xi) * C : nullptr;
         for (int k = 0; k < C; ++k) out[k] = in ? p[k] : T(0);
         continue;
       }
-      const float xf = std::floor(x), yf = std::floor(y);
-      const int x0 = static_cast<int>(xf), y0 = static_cast<int>(yf);
-      const float ax = x - xf, ay = y - yf;
+      // floor without a libm call (the x86-64 baseline has no rounding instruction); the map's values
+      // lie far inside int's range (−100 marks "no source").
+      int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+      x0 -= x < static_cast<float>(x0);
+      y0 -= y < static_cast<float>(y0);
+      const float ax = x - static_cast<float>(x0), ay = y - static_cast<float>(y0);
       if (x0 >= 0 && y0 >= 0 && x0 + 1 < w && y0 + 1 < h) {
-        const T* p0 = src.ptr<T>(y0) + static_cast<std::size_t>(x0) * C;
-        const T* p1 = src.ptr<T>(y0 + 1) + static_cast<std::size_t>(x0) * C;
+        const T* p0 = row(y0) + static_cast<std::size_t>(x0) * C;
+        const T* p1 = row(y0 + 1) + static_cast<std::size_t>(x0) * C;
+        if constexpr (std::is_same_v<T, std::uint8_t>) {
+          // 8 bit: fixed point, the fractions to 1/2048 px (cv::remap: 1/32), exact integer sums.
+          const int bx = static_cast<int>(ax * 2048.0f + 0.5f), by = static_cast<int>(ay * 2048.0f + 0.5f);
+          for (int k = 0; k < C; ++k) {
+            const int top = (p0[k] << 11) + (p0[k + C] - p0[k]) * bx;
+            const int bot = (p1[k] << 11) + (p1[k + C] - p1[k]) * bx;
+            out[k] = static_cast<T>(((top << 11) + (bot - top) * by + (1 << 21)) >> 22);
+          }
+          continue;
+        }
         for (int k = 0; k < C; ++k) {
           const float top = p0[k] + ax * (static_cast<float>(p0[k + C]) - p0[k]);
           const float bot = p1[k] + ax * (static_cast<float>(p1[k + C]) - p1[k]);
@@ -444,7 +464,7 @@ void RemapRows(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, int r0, int
           const int xx = x0 + dx, yy = y0 + dy;
           if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
           const float wgt = (dx ? ax : 1 - ax) * (dy ? ay : 1 - ay);
-          const T* p = src.ptr<T>(yy) + static_cast<std::size_t>(xx) * C;
+          const T* p = row(yy) + static_cast<std::size_t>(xx) * C;
           for (int k = 0; k < C; ++k) acc[k] += wgt * p[k];
         }
       }

@@ -172,6 +172,46 @@ TEST(Undistort, RefractiveGridMapFollowsTheExactMapAndResidualVanishesAtItsDepth
   EXPECT_GT(at_half, 10 * at_wd);
 }
 
+// The remap interpolates with the map's exact fractions: a ramp comes out as the ramp at the source
+// pixel to float precision (cv::remap's 1/32-px fractions would leave up to 1.1 here), and the 8-bit
+// fixed-point path (1/2048 px) rounds the float result within 1 level; 16-bit and colour alike.
+TEST(Undistort, RemapReproducesARampAtTheSourcePixel) {
+  const Undistorter u = Prepare(OpenCVCamera(), {});
+  const cv::Mat map = BuildMap(u);
+  cv::Mat ramp(640, 960, CV_32F);
+  for (int v = 0; v < 640; ++v) {
+    for (int c = 0; c < 960; ++c) ramp.at<float>(v, c) = 50.0f * c + 20.0f * v;
+  }
+  const cv::Mat out = Remap(ramp, map, Interpolation::kLinear);
+  double worst = 0;
+  for (int v = 0; v < 640; ++v) {
+    for (int c = 0; c < 960; ++c) {
+      const cv::Vec2f m = map.at<cv::Vec2f>(v, c);
+      if (m[0] < 0 || m[1] < 0 || m[0] > 959 || m[1] > 639) continue;
+      worst = std::max(worst, std::abs(out.at<float>(v, c) - (50.0 * m[0] + 20.0 * m[1])));
+    }
+  }
+  EXPECT_LT(worst, 0.02);
+  cv::Mat small, out8, outf;
+  cv::Mat rgb(640, 960, CV_32FC3);
+  cv::randu(rgb, cv::Scalar::all(0), cv::Scalar::all(255));
+  rgb.convertTo(small, CV_8UC3);
+  small.convertTo(rgb, CV_32FC3);
+  out8 = Remap(small, map, Interpolation::kLinear);
+  outf = Remap(rgb, map, Interpolation::kLinear);
+  cv::Mat rounded;
+  outf.convertTo(rounded, CV_8UC3);
+  cv::Mat diff;
+  cv::absdiff(out8, rounded, diff);
+  double mx = 0;
+  cv::minMaxLoc(diff.reshape(1), nullptr, &mx);
+  EXPECT_LE(mx, 1.0);
+  cv::Mat r16, o16;
+  small.convertTo(r16, CV_16UC3, 257.0);
+  o16 = Remap(r16, map, Interpolation::kNearest);
+  EXPECT_EQ(o16.type(), CV_16UC3);
+}
+
 TEST(Undistort, BadOptionsAreRefusedNamingTheField) {
   const auto central = OpenCVCamera();
   const auto dome = DomeCamera();
