@@ -119,7 +119,8 @@ std::optional<Vector2d> Normalised(const measure::RigCamera& c, const Vector3d& 
 // Σ |n_k − n̄|² over rays of a grid over the frame (n_k the normalised coordinates of the ray's point
 // at depth k seen from C, n̄ their mean): the pinhole's parallax over the depths, to first order the
 // residual / f. Coordinate-wise golden-section search, three rounds. Returns the RMS·f in px.
-double FitCentre(const measure::RigCamera& c, const std::vector<double>& depths, Vector3d* centre) {
+double FitCentre(const measure::RigCamera& c, const std::vector<double>& depths, Vector3d* centre,
+                 double* at_pupil_px) {
   struct R {
     Vector3d o, d;
   };
@@ -148,6 +149,7 @@ double FitCentre(const measure::RigCamera& c, const std::vector<double>& depths,
     return sum / n;
   };
   Vector3d ctr = Vector3d::Zero();
+  *at_pupil_px = f * std::sqrt(cost(ctr));
   const double near_z = *std::min_element(depths.begin(), depths.end());
   const double span[3] = {50, 50, std::min(200.0, 0.5 * near_z)};
   const double g = (std::sqrt(5.0) - 1) / 2;
@@ -291,7 +293,7 @@ Undistorter Prepare(const measure::RigCamera& cam, const UndistortOptions& optio
     const std::vector<double> fit =
         options.wd_mm.size() == 1 ? InverseSpaced(0.5 * options.wd_mm[0] + u.vertex_z_mm, 2 * options.wd_mm[0] + u.vertex_z_mm, 5)
                                   : u.depths_z_mm;
-    u.centre_fit_rms_px = FitCentre(cam, fit, &u.pinhole.centre_mm);
+    u.centre_fit_rms_px = FitCentre(cam, fit, &u.pinhole.centre_mm, &u.centre_at_pupil_rms_px);
     depths = u.depths_z_mm;
   }
   Pinhole& p = u.pinhole;
@@ -725,6 +727,7 @@ Json SummaryJson(const Undistorter& u) {
     o["vertex_z_mm"] = u.vertex_z_mm;
     o["map_depths_z_mm"] = u.depths_z_mm;
     o["centre_fit_rms_px"] = u.centre_fit_rms_px;
+    o["centre_at_pupil_rms_px"] = u.centre_at_pupil_rms_px;
   }
   j["options"] = o;
   return j;

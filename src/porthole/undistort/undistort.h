@@ -83,7 +83,10 @@ struct Undistorter {
   std::vector<double> depths_z_mm;   // refractive: the map's depths (camera frame z)
   Pinhole pinhole;
   UndistortOptions options;
-  double centre_fit_rms_px = 0;      // refractive: the linearised RMS residual FitCentre reached
+  // Refractive: the pinhole's parallax over the fit depths (RMS over the frame of f·|n_k − n̄|, to
+  // first order the residual) with the fitted centre, and with the centre left at the entrance pupil.
+  double centre_fit_rms_px = 0;
+  double centre_at_pupil_rms_px = 0;
 
   // m(q) exactly (no table); nullopt where a projection fails.
   std::optional<Eigen::Vector2d> SourcePixel(const Eigen::Vector2d& q) const;

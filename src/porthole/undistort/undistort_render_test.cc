@@ -147,9 +147,12 @@ double ResidualAgainstRenders(const std::string& port, const std::vector<double>
   o.wd_mm = wd_mm;
   const Undistorter u = Prepare(rc, o);
   const cv::Mat map = BuildMap(u);
-  std::printf("%s, WD %s mm: pinhole centre (%.3f, %.3f, %.3f) mm, f %.2f px\n", port.c_str(),
+  std::printf("%s, WD %s mm: pinhole centre (%.3f, %.3f, %.3f) mm, f %.2f px; parallax over the fit depths %.4f px "
+              "(centre at the pupil: %.4f px)\n", port.c_str(),
               wd_mm.size() == 1 ? fmt::format("{}", wd_mm[0]).c_str() : fmt::format("{}:{}", wd_mm[0], wd_mm[1]).c_str(),
-              u.pinhole.centre_mm.x(), u.pinhole.centre_mm.y(), u.pinhole.centre_mm.z(), u.pinhole.fx);
+              u.pinhole.centre_mm.x(), u.pinhole.centre_mm.y(), u.pinhole.centre_mm.z(), u.pinhole.fx,
+              u.centre_fit_rms_px, u.centre_at_pupil_rms_px);
+  EXPECT_LE(u.centre_fit_rms_px, u.centre_at_pupil_rms_px);
   double biggest_all = 0;
   int k = 0;
   for (const Case& c : cases) {
