@@ -139,6 +139,7 @@ Json Run(const RunOptions& o) {
   const int cores = uo.threads > 0 ? uo.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int remap_threads = std::max(1, cores / workers);
   const auto work = [&] {
+    cv::Mat res;  // reused from image to image (no fresh pages per image)
     for (int i = next++; i < n; i = next++) {
       {
         std::lock_guard<std::mutex> lock(mu);
@@ -152,7 +153,7 @@ Json Run(const RunOptions& o) {
           throw InvalidInput("images", fmt::format("{} is {}x{} px, the calibration's images {}x{}", images[i], im.cols,
                                                      im.rows, s.width_px, s.height_px));
         }
-        const cv::Mat res = Remap(im, map, uo.interpolation, remap_threads);
+        Remap(im, map, uo.interpolation, &res, remap_threads);
         WriteOutput(image_out[i], EncodeLike(res, image_out[i].string(), "out"), "out", rules);
         const int k = ++done;
         std::lock_guard<std::mutex> lock(mu);

@@ -502,21 +502,25 @@ void RemapChannels(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, bool ne
 
 }  // namespace
 
-cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, int threads) {
-  PORTHOLE_CHECK(map.type() == CV_32FC2);
+void Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, cv::Mat* out, int threads) {
+  PORTHOLE_CHECK(map.type() == CV_32FC2 && out != nullptr && out->data != image.data);
   if (interpolation == Interpolation::kLinear || interpolation == Interpolation::kNearest) {
-    cv::Mat out(map.rows, map.cols, image.type());
+    out->create(map.rows, map.cols, image.type());
     const bool nearest = interpolation == Interpolation::kNearest;
     switch (image.depth()) {
-      case CV_8U: RemapChannels<std::uint8_t>(image, map, out, nearest, threads); return out;
-      case CV_16U: RemapChannels<std::uint16_t>(image, map, out, nearest, threads); return out;
-      case CV_32F: RemapChannels<float>(image, map, out, nearest, threads); return out;
+      case CV_8U: RemapChannels<std::uint8_t>(image, map, *out, nearest, threads); return;
+      case CV_16U: RemapChannels<std::uint16_t>(image, map, *out, nearest, threads); return;
+      case CV_32F: RemapChannels<float>(image, map, *out, nearest, threads); return;
       default: throw InvalidInput("image", "8-bit, 16-bit or float images only");
     }
   }
   const int flag = interpolation == Interpolation::kCubic ? cv::INTER_CUBIC : cv::INTER_LANCZOS4;
+  cv::remap(image, *out, map, cv::noArray(), flag, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+}
+
+cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, int threads) {
   cv::Mat out;
-  cv::remap(image, out, map, cv::noArray(), flag, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  Remap(image, map, interpolation, &out, threads);
   return out;
 }
 

@@ -108,6 +108,9 @@ cv::Mat BuildMap(const Undistorter& u, int grid_step_px = 8);
 // Linear and nearest: porthole's own loop with the map's exact fractions, on `threads` threads (0:
 // every core); cubic and lanczos: cv::remap (its fractions quantised to 1/32 px).
 cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, int threads = 0);
+// The same into *out, reusing its memory when it already has the size and type (a fresh 72 MB
+// buffer per image costs its page faults: a third of the time on a 24-megapixel RGB image).
+void Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, cv::Mat* out, int threads = 0);
 
 // ---- Residual maps (refractive) ----
 struct ResidualMap {
