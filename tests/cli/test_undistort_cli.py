@@ -243,3 +243,7 @@ def test_bad_input_is_one_line_and_exit_2(central, tmp_path):
             args += [f"--wd={wd}"]
         assert "--wd" in run_bad(*args), wd
     assert not (tmp_path / "ro" / "undistort.json").exists()
+    # No gnuplot for the residual figure: refused before any image is written.
+    assert "--gnuplot" in run_bad("undistort", "--calibration", rcal, "--images", rimg, "--out", tmp_path / "ro",
+                                  "--wd", "1000", "--gnuplot", "no-such-gnuplot")
+    assert not (tmp_path / "ro" / "images" / "board.png").exists()

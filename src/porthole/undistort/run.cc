@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -39,6 +40,24 @@ void EnsureDirectory(const fs::path& dir, const std::string& field) {
     throw InvalidInput(field, fmt::format("cannot create {}: {}", dir.string(), ec ? ec.message() : "unknown error"));
   }
   if (access(dir.c_str(), W_OK | X_OK) != 0) throw InvalidInput(field, dir.string() + " is not writable");
+}
+
+// Whether `program` runs: a path to an executable file, or a name found executable on PATH.
+bool Executable(const std::string& program) {
+  if (program.find('/') != std::string::npos) return access(program.c_str(), X_OK) == 0;
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "/usr/bin:/bin";
+  std::size_t start = 0;
+  while (start <= dirs.size()) {
+    const std::size_t colon = dirs.find(':', start);
+    const std::string dir = dirs.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
+    const fs::path p = fs::path(dir.empty() ? "." : dir) / program;
+    std::error_code ec;
+    if (fs::is_regular_file(p, ec) && access(p.c_str(), X_OK) == 0) return true;
+    if (colon == std::string::npos) break;
+    start = colon + 1;
+  }
+  return false;
 }
 
 std::string Dump(const Json& j) { return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n"; }
@@ -121,6 +140,10 @@ Json Run(const RunOptions& o) {
   std::vector<std::string> files = {"cameras.txt", "camera.yml", "camera.xml", "transforms.json", "undistort.json"};
   if (refractive) files.insert(files.end(), {"residual.png", "residual.dat", "residual.gp"});
   for (const auto& f : files) CheckOutput(out / f, "out", rules);
+  if (refractive && !Executable(o.gnuplot)) {
+    throw InvalidInput("gnuplot", fmt::format("'{}' not found: the residual figure needs gnuplot (Debian's gnuplot-nox)",
+                                              o.gnuplot));
+  }
 
   const Undistorter u = Prepare(cam, uo);
   const auto tm = std::chrono::steady_clock::now();
