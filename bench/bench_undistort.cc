@@ -1,19 +1,19 @@
-// Undistortion (undistort/undistort.h, issue 28): a 24-megapixel image (6000 × 4000, an OpenCV-model
-// camera with radial and tangential distortion, alpha 0) remapped to the pinhole on 2 threads, grey and
-// RGB, 8 bit, bilinear; against cv2.remap (python3-opencv, 2 threads) with the same map — porthole's,
-// written to a raw file and read by bench_undistort_cv2.py — in the same run. Goal: ≤ 0.3 s on 2 cores.
-// Counters: seconds per image (porthole: best of 5), map_s (building the map once, 2 threads),
-// map_diff_px: cv2.initUndistortRectifyMap of the same camera against porthole's map (exact model).
+// Undistortion (undistort/undistort.h, issue 28): a 24-megapixel image (6000 × 4000, an
+// OpenCV-model camera with radial and tangential distortion, alpha 0) remapped to the pinhole on 2
+// threads, grey and RGB, 8 bit, bilinear; against cv2.remap (python3-opencv, 2 threads) with the
+// same map — porthole's, written to a raw file and read by bench_undistort_cv2.py — in the same
+// run. Goal: ≤ 0.3 s on 2 cores. Counters: seconds per image (porthole: best of 5), map_s (building
+// the map once, 2 threads), map_diff_px: cv2.initUndistortRectifyMap of the same camera against
+// porthole's map (exact model).
 #include <benchmark/benchmark.h>
 
 #include <chrono>
 #include <cstdio>
 #include <fstream>
-#include <random>
-#include <string>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <string>
 
 #include "porthole/undistort/undistort.h"
 
@@ -92,8 +92,21 @@ void BM_Undistort24MP_cvremap(benchmark::State& state) {
   cv::setNumThreads(before);
   state.counters["best_s"] = best;
 }
-BENCHMARK(BM_Undistort24MP)->Args({1, 2})->Args({3, 2})->Args({3, 1})->ArgNames({"channels", "threads"})->UseManualTime()->Iterations(5)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Undistort24MP_cvremap)->Arg(1)->Arg(3)->ArgName("channels")->UseManualTime()->Iterations(5)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Undistort24MP)
+    ->Args({1, 2})
+    ->Args({3, 2})
+    ->Args({3, 1})
+    ->ArgNames({"channels", "threads"})
+    ->UseManualTime()
+    ->Iterations(5)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Undistort24MP_cvremap)
+    ->Arg(1)
+    ->Arg(3)
+    ->ArgName("channels")
+    ->UseManualTime()
+    ->Iterations(5)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_Undistort24MP_cv2(benchmark::State& state) {
   const int channels = static_cast<int>(state.range(0));
@@ -102,19 +115,22 @@ void BM_Undistort24MP_cv2(benchmark::State& state) {
   const std::string spec_path = "/tmp/porthole_bench_undistort.json";
   {
     std::ofstream m(map_path, std::ios::binary);
-    m.write(reinterpret_cast<const char*>(f.map.data), static_cast<std::streamsize>(f.map.total() * f.map.elemSize()));
+    m.write(reinterpret_cast<const char*>(f.map.data),
+            static_cast<std::streamsize>(f.map.total() * f.map.elemSize()));
     const auto& p = f.u.camera.camera.params;
     std::ofstream s(spec_path);
     char buf[1024];
     std::snprintf(buf, sizeof buf,
                   "{\"map\": \"%s\", \"width\": %d, \"height\": %d, \"channels\": %d, "
-                  "\"K\": [%.17g, 0, %.17g, 0, %.17g, %.17g, 0, 0, 1], \"D\": [%.17g, %.17g, %.17g, %.17g, 0], "
+                  "\"K\": [%.17g, 0, %.17g, 0, %.17g, %.17g, 0, 0, 1], \"D\": [%.17g, %.17g, "
+                  "%.17g, %.17g, 0], "
                   "\"newK\": [%.17g, 0, %.17g, 0, %.17g, %.17g, 0, 0, 1]}\n",
-                  map_path.c_str(), kW, kH, channels, p[0], p[2], p[1], p[3], p[4], p[5], p[6], p[7], f.u.pinhole.fx,
-                  f.u.pinhole.cx, f.u.pinhole.fy, f.u.pinhole.cy);
+                  map_path.c_str(), kW, kH, channels, p[0], p[2], p[1], p[3], p[4], p[5], p[6],
+                  p[7], f.u.pinhole.fx, f.u.pinhole.cx, f.u.pinhole.fy, f.u.pinhole.cy);
     s << buf;
   }
-  const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_undistort_cv2.py " + spec_path + " 2>/dev/null";
+  const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_undistort_cv2.py " +
+                          spec_path + " 2>/dev/null";
   double seconds = 0, diff = 0;
   for (auto _ : state) {
     std::string text;
@@ -138,6 +154,12 @@ void BM_Undistort24MP_cv2(benchmark::State& state) {
   state.counters["best_s"] = seconds;
   state.counters["map_diff_px"] = diff;
 }
-BENCHMARK(BM_Undistort24MP_cv2)->Arg(1)->Arg(3)->ArgName("channels")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Undistort24MP_cv2)
+    ->Arg(1)
+    ->Arg(3)
+    ->ArgName("channels")
+    ->UseManualTime()
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -1,18 +1,17 @@
 // `porthole undistort` as one library call (run.h, docs/undistort.md).
 #include "porthole/undistort/run.h"
 
+#include <fmt/format.h>
 #include <stdlib.h>
 #include <unistd.h>
 
 #include <atomic>
-#include <cstdlib>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <thread>
-
-#include <fmt/format.h>
 
 #include "porthole/calib/detect.h"
 #include "porthole/core/error.h"
@@ -30,16 +29,20 @@ double Seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Creates `dir` (and its parents) when missing; refuses a file in its place or a folder not writable.
+// Creates `dir` (and its parents) when missing; refuses a file in its place or a folder not
+// writable.
 void EnsureDirectory(const fs::path& dir, const std::string& field) {
   if (dir.empty()) throw InvalidInput(field, "give a directory");
   std::error_code ec;
   if (fs::exists(dir, ec)) {
-    if (!fs::is_directory(dir, ec)) throw InvalidInput(field, dir.string() + " exists and is not a directory");
+    if (!fs::is_directory(dir, ec))
+      throw InvalidInput(field, dir.string() + " exists and is not a directory");
   } else if (!fs::create_directories(dir, ec) && !fs::is_directory(dir)) {
-    throw InvalidInput(field, fmt::format("cannot create {}: {}", dir.string(), ec ? ec.message() : "unknown error"));
+    throw InvalidInput(field, fmt::format("cannot create {}: {}", dir.string(),
+                                          ec ? ec.message() : "unknown error"));
   }
-  if (access(dir.c_str(), W_OK | X_OK) != 0) throw InvalidInput(field, dir.string() + " is not writable");
+  if (access(dir.c_str(), W_OK | X_OK) != 0)
+    throw InvalidInput(field, dir.string() + " is not writable");
 }
 
 // Whether `program` runs: a path to an executable file, or a name found executable on PATH.
@@ -50,7 +53,8 @@ bool Executable(const std::string& program) {
   std::size_t start = 0;
   while (start <= dirs.size()) {
     const std::size_t colon = dirs.find(':', start);
-    const std::string dir = dirs.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
+    const std::string dir =
+        dirs.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
     const fs::path p = fs::path(dir.empty() ? "." : dir) / program;
     std::error_code ec;
     if (fs::is_regular_file(p, ec) && access(p.c_str(), X_OK) == 0) return true;
@@ -60,7 +64,9 @@ bool Executable(const std::string& program) {
   return false;
 }
 
-std::string Dump(const Json& j) { return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n"; }
+std::string Dump(const Json& j) {
+  return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
+}
 
 }  // namespace
 
@@ -70,7 +76,8 @@ measure::RigCamera LoadCalibration(const std::string& path, const std::string& f
   if (j.is_object() && (j.contains("port") || j.contains("rig"))) {
     const measure::Rig rig = measure::LoadCamera(path, field);
     if (rig.cameras.size() != 1) {
-      throw InvalidInput(field, fmt::format("a rig of {} cameras: give one camera's calibration", rig.cameras.size()));
+      throw InvalidInput(field, fmt::format("a rig of {} cameras: give one camera's calibration",
+                                            rig.cameras.size()));
     }
     return rig.cameras[0];
   }
@@ -85,7 +92,8 @@ std::vector<double> ParseWd(const std::string& text, const std::string& field) {
   std::size_t start = 0;
   while (true) {
     const std::size_t colon = text.find(':', start);
-    const std::string part = text.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
+    const std::string part =
+        text.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
     double x = NAN;
     try {
       std::size_t used = 0;
@@ -94,7 +102,10 @@ std::vector<double> ParseWd(const std::string& text, const std::string& field) {
     } catch (const std::exception&) {
     }
     if (!std::isfinite(x)) {
-      throw InvalidInput(field, fmt::format("'{}': give a working distance in mm (1000) or a range NEAR:FAR (500:3000)", text));
+      throw InvalidInput(
+          field,
+          fmt::format("'{}': give a working distance in mm (1000) or a range NEAR:FAR (500:3000)",
+                      text));
     }
     v.push_back(x);
     if (colon == std::string::npos) break;
@@ -116,10 +127,13 @@ Json Run(const RunOptions& o) {
   const auto& sensor = cam.camera.sensor;
   for (const auto& im : images) {
     const auto size = calib::ReadImageSize(im);
-    if (!size) throw InvalidInput("images", fmt::format("{}: not an image porthole reads (png, jpg, tif)", im));
+    if (!size)
+      throw InvalidInput("images",
+                         fmt::format("{}: not an image porthole reads (png, jpg, tif)", im));
     if (size->first != sensor.width_px || size->second != sensor.height_px) {
-      throw InvalidInput("images", fmt::format("{} is {}x{} px, the calibration's images {}x{}", im, size->first,
-                                                 size->second, sensor.width_px, sensor.height_px));
+      throw InvalidInput(
+          "images", fmt::format("{} is {}x{} px, the calibration's images {}x{}", im, size->first,
+                                size->second, sensor.width_px, sensor.height_px));
     }
   }
 
@@ -137,29 +151,38 @@ Json Run(const RunOptions& o) {
     CheckOutput(image_out.back(), "out", rules);
   }
   const bool refractive = cam.shell.has_value();
-  std::vector<std::string> files = {"cameras.txt", "camera.yml", "camera.xml", "transforms.json", "undistort.json"};
+  std::vector<std::string> files = {"cameras.txt", "camera.yml", "camera.xml", "transforms.json",
+                                    "undistort.json"};
   if (refractive) files.insert(files.end(), {"residual.png", "residual.dat", "residual.gp"});
   for (const auto& f : files) CheckOutput(out / f, "out", rules);
   if (refractive && !Executable(o.gnuplot)) {
-    throw InvalidInput("gnuplot", fmt::format("'{}' not found: the residual figure needs gnuplot (Debian's gnuplot-nox)",
-                                              o.gnuplot));
+    throw InvalidInput(
+        "gnuplot",
+        fmt::format("'{}' not found: the residual figure needs gnuplot (Debian's gnuplot-nox)",
+                    o.gnuplot));
   }
 
   const Undistorter u = Prepare(cam, uo);
   const auto tm = std::chrono::steady_clock::now();
   const cv::Mat map = BuildMap(u);
   const double map_s = Seconds(tm);
-  say(fmt::format("undistort: pinhole {}x{} fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f}; map built in {:.2f} s",
-                  u.pinhole.width_px, u.pinhole.height_px, u.pinhole.fx, u.pinhole.fy, u.pinhole.cx, u.pinhole.cy, map_s));
+  say(fmt::format(
+      "undistort: pinhole {}x{} fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f}; map built in {:.2f} s",
+      u.pinhole.width_px, u.pinhole.height_px, u.pinhole.fx, u.pinhole.fy, u.pinhole.cx,
+      u.pinhole.cy, map_s));
 
   // The images, in parallel; the first error stops the others after their current image.
   std::mutex mu;
   std::exception_ptr error;
   std::atomic<int> next{0}, done{0};
   const int n = static_cast<int>(images.size());
-  const int workers = std::max(1, std::min(n, uo.threads > 0 ? uo.threads
-                                                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))));
-  const int cores = uo.threads > 0 ? uo.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int workers = std::max(
+      1, std::min(n, uo.threads > 0
+                         ? uo.threads
+                         : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))));
+  const int cores = uo.threads > 0
+                        ? uo.threads
+                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int remap_threads = std::max(1, cores / workers);
   const auto work = [&] {
     cv::Mat res;  // reused from image to image (no fresh pages per image)
@@ -173,14 +196,17 @@ Json Run(const RunOptions& o) {
         const cv::Mat im = ReadImage(images[i], "images");
         const auto& s = cam.camera.sensor;
         if (im.cols != s.width_px || im.rows != s.height_px) {
-          throw InvalidInput("images", fmt::format("{} is {}x{} px, the calibration's images {}x{}", images[i], im.cols,
-                                                     im.rows, s.width_px, s.height_px));
+          throw InvalidInput(
+              "images", fmt::format("{} is {}x{} px, the calibration's images {}x{}", images[i],
+                                    im.cols, im.rows, s.width_px, s.height_px));
         }
         Remap(im, map, uo.interpolation, &res, remap_threads);
         WriteOutput(image_out[i], EncodeLike(res, image_out[i].string(), "out"), "out", rules);
         const int k = ++done;
         std::lock_guard<std::mutex> lock(mu);
-        if (o.progress) o.progress(fmt::format("undistort: [{}/{}] {} ({:.2f} s)", k, n, fs::path(images[i]).filename().string(), Seconds(ti)));
+        if (o.progress)
+          o.progress(fmt::format("undistort: [{}/{}] {} ({:.2f} s)", k, n,
+                                 fs::path(images[i]).filename().string(), Seconds(ti)));
       } catch (...) {
         std::lock_guard<std::mutex> lock(mu);
         if (!error) error = std::current_exception();
@@ -196,8 +222,10 @@ Json Run(const RunOptions& o) {
   // The pinhole for the tools.
   const camera::Camera pin = PinholeCamera(u);
   WriteOutput(out / "cameras.txt", ColmapCamerasText(u), "out", rules);
-  WriteOutput(out / "camera.yml", interop::WriteCamera(pin, interop::Format::kOpenCVYaml, "out").content, "out", rules);
-  WriteOutput(out / "camera.xml", interop::WriteCamera(pin, interop::Format::kMetashape, "out").content, "out", rules);
+  WriteOutput(out / "camera.yml",
+              interop::WriteCamera(pin, interop::Format::kOpenCVYaml, "out").content, "out", rules);
+  WriteOutput(out / "camera.xml",
+              interop::WriteCamera(pin, interop::Format::kMetashape, "out").content, "out", rules);
   std::vector<std::string> rel;
   for (const auto& p : image_out) rel.push_back("images/" + p.filename().string());
   WriteOutput(out / "transforms.json", Dump(NerfstudioTransforms(u, rel)), "out", rules);
@@ -211,7 +239,8 @@ Json Run(const RunOptions& o) {
     const std::string script = ResidualScript(maps, "residual.dat", "residual.png");
     // gnuplot draws in a private folder; the PNG is then written like every output.
     std::string tmpl = (out / ".undistort-gnuplot.XXXXXX").string();
-    if (mkdtemp(tmpl.data()) == nullptr) throw InvalidInput("out", fmt::format("{}: cannot create a folder", o.out));
+    if (mkdtemp(tmpl.data()) == nullptr)
+      throw InvalidInput("out", fmt::format("{}: cannot create a folder", o.out));
     const fs::path tmp(tmpl);
     try {
       WriteFileAtomically(tmp / "residual.dat", data, "out");

@@ -2,6 +2,7 @@
 #include "porthole/undistort/undistort.h"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -15,12 +16,10 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <thread>
-#include <type_traits>
-
-#include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <thread>
+#include <type_traits>
 
 #include "porthole/core/error.h"
 #include "porthole/measure/triangulate.h"
@@ -36,7 +35,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Runs body(i) for i in [0, n) on `threads` threads (0: every core).
 template <typename F>
 void ParallelFor(int n, int threads, F body) {
-  int t = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int t =
+      threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   t = std::max(1, std::min(t, n));
   if (t == 1) {
     for (int i = 0; i < n; ++i) body(i);
@@ -77,10 +77,10 @@ std::vector<Vector2d> EdgePixels(const camera::Sensor& s, std::vector<int>* side
   const double w = s.width_px - 1, h = s.height_px - 1;
   for (int i = 0; i < n; ++i) {
     const double a = static_cast<double>(i) / (n - 1);
-    px.emplace_back(0, a * h), side->push_back(0);   // left
-    px.emplace_back(w, a * h), side->push_back(1);   // right
-    px.emplace_back(a * w, 0), side->push_back(2);   // top
-    px.emplace_back(a * w, h), side->push_back(3);   // bottom
+    px.emplace_back(0, a * h), side->push_back(0);  // left
+    px.emplace_back(w, a * h), side->push_back(1);  // right
+    px.emplace_back(a * w, 0), side->push_back(2);  // top
+    px.emplace_back(a * w, h), side->push_back(3);  // bottom
   }
   return px;
 }
@@ -116,9 +116,10 @@ std::optional<Vector2d> Normalised(const measure::RigCamera& c, const Vector3d& 
 }
 
 // The centre of the pinhole that best fits the port's rays over `depths`: the point C minimising
-// Σ |n_k − n̄|² over rays of a grid over the frame (n_k the normalised coordinates of the ray's point
-// at depth k seen from C, n̄ their mean): the pinhole's parallax over the depths, to first order the
-// residual / f. Coordinate-wise golden-section search, three rounds. Returns the RMS·f in px.
+// Σ |n_k − n̄|² over rays of a grid over the frame (n_k the normalised coordinates of the ray's
+// point at depth k seen from C, n̄ their mean): the pinhole's parallax over the depths, to first
+// order the residual / f. Coordinate-wise golden-section search, three rounds. Returns the RMS·f in
+// px.
 double FitCentre(const measure::RigCamera& c, const std::vector<double>& depths, Vector3d* centre,
                  double* at_pupil_px) {
   struct R {
@@ -129,7 +130,8 @@ double FitCentre(const measure::RigCamera& c, const std::vector<double>& depths,
     const auto r = measure::BackwardRay(c, s);
     if (r && r->direction.z() > 0) rays.push_back({r->origin_mm, r->direction});
   }
-  if (rays.size() < 4) throw InvalidInput("calibration", "too few pixels have a ray out through the port");
+  if (rays.size() < 4)
+    throw InvalidInput("calibration", "too few pixels have a ray out through the port");
   const double f = c.camera.FocalLengthPx();
   const auto cost = [&](const Vector3d& ctr) {
     double sum = 0;
@@ -180,50 +182,66 @@ double FitCentre(const measure::RigCamera& c, const std::vector<double>& depths,
 }
 
 double Cubic(double p0, double p1, double p2, double p3, double t) {  // Catmull-Rom
-  return p1 + 0.5 * t * (p2 - p0 + t * (2 * p0 - 5 * p1 + 4 * p2 - p3 + t * (3 * (p1 - p2) + p3 - p0)));
+  return p1 +
+         0.5 * t * (p2 - p0 + t * (2 * p0 - 5 * p1 + 4 * p2 - p3 + t * (3 * (p1 - p2) + p3 - p0)));
 }
 
 }  // namespace
 
 Interpolation InterpolationFromName(std::string_view name, const std::string& field) {
-  for (auto i : {Interpolation::kNearest, Interpolation::kLinear, Interpolation::kCubic, Interpolation::kLanczos}) {
+  for (auto i : {Interpolation::kNearest, Interpolation::kLinear, Interpolation::kCubic,
+                 Interpolation::kLanczos}) {
     if (InterpolationName(i) == name) return i;
   }
-  throw InvalidInput(field, fmt::format("unknown interpolation '{}' (known: nearest, linear, cubic, lanczos)", name));
+  throw InvalidInput(
+      field,
+      fmt::format("unknown interpolation '{}' (known: nearest, linear, cubic, lanczos)", name));
 }
 
 std::string_view InterpolationName(Interpolation i) {
   switch (i) {
-    case Interpolation::kNearest: return "nearest";
-    case Interpolation::kLinear: return "linear";
-    case Interpolation::kCubic: return "cubic";
-    case Interpolation::kLanczos: return "lanczos";
+    case Interpolation::kNearest:
+      return "nearest";
+    case Interpolation::kLinear:
+      return "linear";
+    case Interpolation::kCubic:
+      return "cubic";
+    case Interpolation::kLanczos:
+      return "lanczos";
   }
   return "linear";
 }
 
 void Validate(const UndistortOptions& o, const measure::RigCamera& c) {
   if (o.alpha && (!std::isfinite(*o.alpha) || *o.alpha < 0 || *o.alpha > 1)) {
-    throw InvalidInput("alpha", fmt::format("{} is outside [0, 1] (0: only valid pixels, 1: every source pixel)", *o.alpha));
+    throw InvalidInput(
+        "alpha", fmt::format("{} is outside [0, 1] (0: only valid pixels, 1: every source pixel)",
+                             *o.alpha));
   }
   if (o.alpha && o.keep_focal) throw InvalidInput("keep_focal", "excludes `alpha`: choose one");
   if (o.threads < 0) throw InvalidInput("threads", "must be >= 0 (0: every core)");
   if (!c.shell) {
     if (!o.wd_mm.empty()) {
-      throw InvalidInput("wd_mm", "is for a calibration behind a port: a central camera has one pinhole at every depth");
+      throw InvalidInput(
+          "wd_mm",
+          "is for a calibration behind a port: a central camera has one pinhole at every depth");
     }
     return;
   }
   if (o.wd_mm.empty()) {
-    throw InvalidInput("wd_mm", "required for a refractive calibration (behind a port): the working distance in "
-                                "water, mm, or a range NEAR:FAR");
+    throw InvalidInput(
+        "wd_mm",
+        "required for a refractive calibration (behind a port): the working distance in "
+        "water, mm, or a range NEAR:FAR");
   }
   if (o.wd_mm.size() > 2) throw InvalidInput("wd_mm", "give one distance or a range NEAR:FAR");
   for (double w : o.wd_mm) {
-    if (!std::isfinite(w) || !(w > 0)) throw InvalidInput("wd_mm", "must be finite and > 0 (mm from the port's vertex)");
+    if (!std::isfinite(w) || !(w > 0))
+      throw InvalidInput("wd_mm", "must be finite and > 0 (mm from the port's vertex)");
   }
   if (o.wd_mm.size() == 2 && !(o.wd_mm[0] < o.wd_mm[1])) {
-    throw InvalidInput("wd_mm", fmt::format("range {}:{}: NEAR must be below FAR", o.wd_mm[0], o.wd_mm[1]));
+    throw InvalidInput("wd_mm",
+                       fmt::format("range {}:{}: NEAR must be below FAR", o.wd_mm[0], o.wd_mm[1]));
   }
 }
 
@@ -232,7 +250,9 @@ Vector2d Pinhole::Project(const Vector3d& x) const {
   return {fx * r.x() / r.z() + cx, fy * r.y() / r.z() + cy};
 }
 
-Vector3d Pinhole::Ray(const Vector2d& q) const { return {(q.x() - cx) / fx, (q.y() - cy) / fy, 1.0}; }
+Vector3d Pinhole::Ray(const Vector2d& q) const {
+  return {(q.x() - cx) / fx, (q.y() - cy) / fy, 1.0};
+}
 
 std::vector<double> MapDepthsZ(const std::vector<double>& wd_mm, double vertex_z_mm) {
   if (wd_mm.size() == 1) return {wd_mm[0] + vertex_z_mm};
@@ -244,7 +264,8 @@ std::optional<Vector2d> Undistorter::SourcePixel(const Vector2d& q) const {
   if (!refractive) return camera.camera.Project(d);
   Vector2d sum(0, 0);
   for (double z : depths_z_mm) {
-    const auto s = measure::ProjectPoint(camera, pinhole.centre_mm + d * (z - pinhole.centre_mm.z()));
+    const auto s =
+        measure::ProjectPoint(camera, pinhole.centre_mm + d * (z - pinhole.centre_mm.z()));
     if (!s) return std::nullopt;
     sum += *s;
   }
@@ -290,9 +311,10 @@ Undistorter Prepare(const measure::RigCamera& cam, const UndistortOptions& optio
   if (u.refractive) {
     u.vertex_z_mm = VertexZ(cam);
     u.depths_z_mm = MapDepthsZ(options.wd_mm, u.vertex_z_mm);
-    const std::vector<double> fit =
-        options.wd_mm.size() == 1 ? InverseSpaced(0.5 * options.wd_mm[0] + u.vertex_z_mm, 2 * options.wd_mm[0] + u.vertex_z_mm, 5)
-                                  : u.depths_z_mm;
+    const std::vector<double> fit = options.wd_mm.size() == 1
+                                        ? InverseSpaced(0.5 * options.wd_mm[0] + u.vertex_z_mm,
+                                                        2 * options.wd_mm[0] + u.vertex_z_mm, 5)
+                                        : u.depths_z_mm;
     u.centre_fit_rms_px = FitCentre(cam, fit, &u.pinhole.centre_mm, &u.centre_at_pupil_rms_px);
     depths = u.depths_z_mm;
   }
@@ -308,9 +330,12 @@ Undistorter Prepare(const measure::RigCamera& cam, const UndistortOptions& optio
     } else {
       const double h = 2;
       const auto n0 = Normalised(cam, ctr, depths, pp);
-      const auto nx0 = Normalised(cam, ctr, depths, pp - Vector2d(h, 0)), nx1 = Normalised(cam, ctr, depths, pp + Vector2d(h, 0));
-      const auto ny0 = Normalised(cam, ctr, depths, pp - Vector2d(0, h)), ny1 = Normalised(cam, ctr, depths, pp + Vector2d(0, h));
-      if (!n0 || !nx0 || !nx1 || !ny0 || !ny1) throw InvalidInput("calibration", "no ray through the principal point");
+      const auto nx0 = Normalised(cam, ctr, depths, pp - Vector2d(h, 0)),
+                 nx1 = Normalised(cam, ctr, depths, pp + Vector2d(h, 0));
+      const auto ny0 = Normalised(cam, ctr, depths, pp - Vector2d(0, h)),
+                 ny1 = Normalised(cam, ctr, depths, pp + Vector2d(0, h));
+      if (!n0 || !nx0 || !nx1 || !ny0 || !ny1)
+        throw InvalidInput("calibration", "no ray through the principal point");
       const double f = 0.5 * (2 * h / (*nx1 - *nx0).norm() + 2 * h / (*ny1 - *ny0).norm());
       p.fx = p.fy = f;
       p.cx = pp.x() - f * n0->x();
@@ -336,13 +361,17 @@ Undistorter Prepare(const measure::RigCamera& cam, const UndistortOptions& optio
     if (side[i] == 3) in_b = std::min(in_b, n->y());
   }
   if (good < 8 || !(in_r > in_l) || !(in_b > in_t)) {
-    throw InvalidInput("alpha", "the frame's edges have no pinhole image (a fisheye's whole field, a port's rim "
-                                "across the frame): use `keep_focal`");
+    throw InvalidInput(
+        "alpha",
+        "the frame's edges have no pinhole image (a fisheye's whole field, a port's rim "
+        "across the frame): use `keep_focal`");
   }
   const double a = options.alpha.value_or(0.0);
   const double w1 = p.width_px - 1, h1 = p.height_px - 1;
-  const double fx0 = w1 / (in_r - in_l), fy0 = h1 / (in_b - in_t), cx0 = -fx0 * in_l, cy0 = -fy0 * in_t;
-  const double fx1 = w1 / (out_r - out_l), fy1 = h1 / (out_b - out_t), cx1 = -fx1 * out_l, cy1 = -fy1 * out_t;
+  const double fx0 = w1 / (in_r - in_l), fy0 = h1 / (in_b - in_t), cx0 = -fx0 * in_l,
+               cy0 = -fy0 * in_t;
+  const double fx1 = w1 / (out_r - out_l), fy1 = h1 / (out_b - out_t), cx1 = -fx1 * out_l,
+               cy1 = -fy1 * out_t;
   p.fx = fx0 * (1 - a) + fx1 * a;
   p.fy = fy0 * (1 - a) + fy1 * a;
   p.cx = cx0 * (1 - a) + cx1 * a;
@@ -359,7 +388,8 @@ cv::Mat BuildMap(const Undistorter& u, int grid_step_px) {
       auto* row = map.ptr<cv::Vec2f>(v);
       for (int c = 0; c < w; ++c) {
         const auto s = u.SourcePixel(Vector2d(c, v));
-        row[c] = s ? cv::Vec2f(static_cast<float>(s->x()), static_cast<float>(s->y())) : cv::Vec2f(bad, bad);
+        row[c] = s ? cv::Vec2f(static_cast<float>(s->x()), static_cast<float>(s->y()))
+                   : cv::Vec2f(bad, bad);
       }
     });
     return map;
@@ -384,11 +414,13 @@ cv::Mat BuildMap(const Undistorter& u, int grid_step_px) {
       Vector2d col[4];
       for (int k = 0; k < 4; ++k) {
         const Vector2d* r = &node[static_cast<std::size_t>(j - 1 + k) * nx + (i - 1)];
-        col[k] = Vector2d(Cubic(r[0].x(), r[1].x(), r[2].x(), r[3].x(), tx), Cubic(r[0].y(), r[1].y(), r[2].y(), r[3].y(), tx));
+        col[k] = Vector2d(Cubic(r[0].x(), r[1].x(), r[2].x(), r[3].x(), tx),
+                          Cubic(r[0].y(), r[1].y(), r[2].y(), r[3].y(), tx));
       }
       const Vector2d s(Cubic(col[0].x(), col[1].x(), col[2].x(), col[3].x(), ty),
                        Cubic(col[0].y(), col[1].y(), col[2].y(), col[3].y(), ty));
-      row[c] = s.allFinite() ? cv::Vec2f(static_cast<float>(s.x()), static_cast<float>(s.y())) : cv::Vec2f(bad, bad);
+      row[c] = s.allFinite() ? cv::Vec2f(static_cast<float>(s.x()), static_cast<float>(s.y()))
+                             : cv::Vec2f(bad, bad);
     }
   });
   return map;
@@ -415,7 +447,9 @@ void RemapRows(const cv::Mat& src_mat, const cv::Mat& map, cv::Mat& dst, int r0,
   const int w = src_mat.cols, h = src_mat.rows, cols = dst.cols;
   const std::uint8_t* const base = src_mat.data;
   const std::size_t step = src_mat.step[0];
-  const auto row = [base, step](int y) { return reinterpret_cast<const T*>(base + step * static_cast<std::size_t>(y)); };
+  const auto row = [base, step](int y) {
+    return reinterpret_cast<const T*>(base + step * static_cast<std::size_t>(y));
+  };
   for (int v = r0; v < r1; ++v) {
     const float* __restrict m = map.ptr<float>(v);
     T* __restrict out = dst.ptr<T>(v);
@@ -430,8 +464,8 @@ void RemapRows(const cv::Mat& src_mat, const cv::Mat& map, cv::Mat& dst, int r0,
         for (int k = 0; k < C; ++k) out[k] = in ? p[k] : T(0);
         continue;
       }
-      // floor without a libm call (the x86-64 baseline has no rounding instruction); the map's values
-      // lie far inside int's range (−100 marks "no source").
+      // floor without a libm call (the x86-64 baseline has no rounding instruction); the map's
+      // values lie far inside int's range (−100 marks "no source").
       int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
       x0 -= x < static_cast<float>(x0);
       y0 -= y < static_cast<float>(y0);
@@ -441,7 +475,8 @@ void RemapRows(const cv::Mat& src_mat, const cv::Mat& map, cv::Mat& dst, int r0,
         const T* p1 = row(y0 + 1) + static_cast<std::size_t>(x0) * C;
         if constexpr (std::is_same_v<T, std::uint8_t>) {
           // 8 bit: fixed point, the fractions to 1/2048 px (cv::remap: 1/32), exact integer sums.
-          const int bx = static_cast<int>(ax * 2048.0f + 0.5f), by = static_cast<int>(ay * 2048.0f + 0.5f);
+          const int bx = static_cast<int>(ax * 2048.0f + 0.5f),
+                    by = static_cast<int>(ay * 2048.0f + 0.5f);
           for (int k = 0; k < C; ++k) {
             const int top = (p0[k] << 11) + (p0[k + C] - p0[k]) * bx;
             const int bot = (p1[k] << 11) + (p1[k + C] - p1[k]) * bx;
@@ -490,28 +525,46 @@ void RemapOwn(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, bool nearest
 }
 
 template <typename T>
-void RemapChannels(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, bool nearest, int threads) {
+void RemapChannels(const cv::Mat& src, const cv::Mat& map, cv::Mat& dst, bool nearest,
+                   int threads) {
   switch (src.channels()) {
-    case 1: RemapOwn<T, 1>(src, map, dst, nearest, threads); break;
-    case 2: RemapOwn<T, 2>(src, map, dst, nearest, threads); break;
-    case 3: RemapOwn<T, 3>(src, map, dst, nearest, threads); break;
-    case 4: RemapOwn<T, 4>(src, map, dst, nearest, threads); break;
-    default: throw InvalidInput("image", fmt::format("{} channels: 1 to 4 only", src.channels()));
+    case 1:
+      RemapOwn<T, 1>(src, map, dst, nearest, threads);
+      break;
+    case 2:
+      RemapOwn<T, 2>(src, map, dst, nearest, threads);
+      break;
+    case 3:
+      RemapOwn<T, 3>(src, map, dst, nearest, threads);
+      break;
+    case 4:
+      RemapOwn<T, 4>(src, map, dst, nearest, threads);
+      break;
+    default:
+      throw InvalidInput("image", fmt::format("{} channels: 1 to 4 only", src.channels()));
   }
 }
 
 }  // namespace
 
-void Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, cv::Mat* out, int threads) {
+void Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, cv::Mat* out,
+           int threads) {
   PORTHOLE_CHECK(map.type() == CV_32FC2 && out != nullptr && out->data != image.data);
   if (interpolation == Interpolation::kLinear || interpolation == Interpolation::kNearest) {
     out->create(map.rows, map.cols, image.type());
     const bool nearest = interpolation == Interpolation::kNearest;
     switch (image.depth()) {
-      case CV_8U: RemapChannels<std::uint8_t>(image, map, *out, nearest, threads); return;
-      case CV_16U: RemapChannels<std::uint16_t>(image, map, *out, nearest, threads); return;
-      case CV_32F: RemapChannels<float>(image, map, *out, nearest, threads); return;
-      default: throw InvalidInput("image", "8-bit, 16-bit or float images only");
+      case CV_8U:
+        RemapChannels<std::uint8_t>(image, map, *out, nearest, threads);
+        return;
+      case CV_16U:
+        RemapChannels<std::uint16_t>(image, map, *out, nearest, threads);
+        return;
+      case CV_32F:
+        RemapChannels<float>(image, map, *out, nearest, threads);
+        return;
+      default:
+        throw InvalidInput("image", "8-bit, 16-bit or float images only");
     }
   }
   const int flag = interpolation == Interpolation::kCubic ? cv::INTER_CUBIC : cv::INTER_LANCZOS4;
@@ -524,7 +577,8 @@ cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolat
   return out;
 }
 
-std::vector<ResidualMap> ResidualMaps(const Undistorter& u, const std::vector<double>& wd_mm, int cols, int rows) {
+std::vector<ResidualMap> ResidualMaps(const Undistorter& u, const std::vector<double>& wd_mm,
+                                      int cols, int rows) {
   std::vector<ResidualMap> maps;
   camera::Sensor out{u.pinhole.width_px, u.pinhole.height_px, 1.0};
   const std::vector<Vector2d> grid = camera::FramePixels(out, cols, rows);
@@ -536,7 +590,8 @@ std::vector<ResidualMap> ResidualMaps(const Undistorter& u, const std::vector<do
     m.error_px.assign(grid.size(), kNaN);
     const double z = wd + u.vertex_z_mm;
     ParallelFor(static_cast<int>(grid.size()), u.options.threads, [&](int i) {
-      const Vector3d x = u.pinhole.centre_mm + u.pinhole.Ray(grid[i]) * (z - u.pinhole.centre_mm.z());
+      const Vector3d x =
+          u.pinhole.centre_mm + u.pinhole.Ray(grid[i]) * (z - u.pinhole.centre_mm.z());
       const auto r = u.Residual(x);
       if (r) m.error_px[i] = r->norm();
     });
@@ -587,8 +642,9 @@ Json ResidualJson(const std::vector<ResidualMap>& maps) {
 }
 
 std::string ResidualData(const std::vector<ResidualMap>& maps) {
-  std::string s = "# porthole undistort: residual |q' - q| (px, output image) over the frame.\n"
-                  "# One block per working distance (gnuplot index); columns: u_px v_px error_px\n";
+  std::string s =
+      "# porthole undistort: residual |q' - q| (px, output image) over the frame.\n"
+      "# One block per working distance (gnuplot index); columns: u_px v_px error_px\n";
   for (std::size_t k = 0; k < maps.size(); ++k) {
     const ResidualMap& m = maps[k];
     s += fmt::format("# wd_mm {}\n", m.wd_mm);
@@ -596,7 +652,8 @@ std::string ResidualData(const std::vector<ResidualMap>& maps) {
       for (int c = 0; c < m.cols; ++c) {
         const std::size_t i = static_cast<std::size_t>(r) * m.cols + c;
         const double e = m.error_px[i];
-        s += fmt::format("{:.3f} {:.3f} {}\n", m.q_px[i].x(), m.q_px[i].y(), std::isfinite(e) ? fmt::format("{:.6g}", e) : "NaN");
+        s += fmt::format("{:.3f} {:.3f} {}\n", m.q_px[i].x(), m.q_px[i].y(),
+                         std::isfinite(e) ? fmt::format("{:.6g}", e) : "NaN");
       }
       s += "\n";
     }
@@ -605,7 +662,8 @@ std::string ResidualData(const std::vector<ResidualMap>& maps) {
   return s;
 }
 
-std::string ResidualScript(const std::vector<ResidualMap>& maps, const std::string& data_file, const std::string& png_file) {
+std::string ResidualScript(const std::vector<ResidualMap>& maps, const std::string& data_file,
+                           const std::string& png_file) {
   double top = 0;
   for (const auto& m : maps) {
     if (std::isfinite(m.max_px)) top = std::max(top, m.max_px);
@@ -617,15 +675,17 @@ std::string ResidualScript(const std::vector<ResidualMap>& maps, const std::stri
       "# porthole undistort: the pinhole's residual against depth. Run `gnuplot {0}.gp`.\n"
       "set terminal pngcairo size {1},{2} font 'sans,10'\n"
       "set output '{3}'\n"
-      "set view map\nset size ratio -1\nset xrange [0:{7:.6g}]\nset yrange [{8:.6g}:0]\nset xlabel 'u (px)'\nset ylabel 'v (px)'\n"
+      "set view map\nset size ratio -1\nset xrange [0:{7:.6g}]\nset yrange [{8:.6g}:0]\nset xlabel "
+      "'u (px)'\nset ylabel 'v (px)'\n"
       "set cblabel 'residual (px)'\nset cbrange [0:{4:.6g}]\nset palette rgbformulae 33,13,10\n"
-      "set multiplot layout {5},{6} title \"Undistorted image: where a point at depth lands minus where the pinhole "
+      "set multiplot layout {5},{6} title \"Undistorted image: where a point at depth lands minus "
+      "where the pinhole "
       "puts it\"\n",
-      "residual", 560 * cols, 420 * rows, png_file, top, rows, cols, maps.empty() ? 1.0 : maps[0].q_px.back().x(),
-      maps.empty() ? 1.0 : maps[0].q_px.back().y());
+      "residual", 560 * cols, 420 * rows, png_file, top, rows, cols,
+      maps.empty() ? 1.0 : maps[0].q_px.back().x(), maps.empty() ? 1.0 : maps[0].q_px.back().y());
   for (int k = 0; k < n; ++k) {
-    s += fmt::format("set title 'WD {:g} m: RMS {:.3f} px, max {:.3f} px'\n", maps[k].wd_mm / 1000, maps[k].rms_px,
-                     maps[k].max_px);
+    s += fmt::format("set title 'WD {:g} m: RMS {:.3f} px, max {:.3f} px'\n", maps[k].wd_mm / 1000,
+                     maps[k].rms_px, maps[k].max_px);
     s += fmt::format("splot '{}' index {} using 1:2:3 with pm3d notitle\n", data_file, k);
   }
   s += "unset multiplot\n";
@@ -654,7 +714,9 @@ void RunGnuplot(const std::string& gnuplot, const std::string& dir, const std::s
   while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  if (code == 127) throw InvalidInput("gnuplot", fmt::format("'{}' not found: install Debian's gnuplot-nox", gnuplot));
+  if (code == 127)
+    throw InvalidInput("gnuplot",
+                       fmt::format("'{}' not found: install Debian's gnuplot-nox", gnuplot));
   if (code != 0) {
     std::ifstream in(log);
     std::string msg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -713,10 +775,14 @@ Json SummaryJson(const Undistorter& u) {
                  {"width_px", u.camera.camera.sensor.width_px},
                  {"height_px", u.camera.camera.sensor.height_px},
                  {"refractive", u.refractive}};
-  j["pinhole"] = {{"width_px", u.pinhole.width_px}, {"height_px", u.pinhole.height_px},
-                  {"fx_px", u.pinhole.fx},          {"fy_px", u.pinhole.fy},
-                  {"cx_px", u.pinhole.cx},          {"cy_px", u.pinhole.cy},
-                  {"centre_in_cam_mm", {u.pinhole.centre_mm.x(), u.pinhole.centre_mm.y(), u.pinhole.centre_mm.z()}},
+  j["pinhole"] = {{"width_px", u.pinhole.width_px},
+                  {"height_px", u.pinhole.height_px},
+                  {"fx_px", u.pinhole.fx},
+                  {"fy_px", u.pinhole.fy},
+                  {"cx_px", u.pinhole.cx},
+                  {"cy_px", u.pinhole.cy},
+                  {"centre_in_cam_mm",
+                   {u.pinhole.centre_mm.x(), u.pinhole.centre_mm.y(), u.pinhole.centre_mm.z()}},
                   {"pixel_convention", "porthole: (0, 0) is the centre of the top-left pixel"}};
   Json o;
   if (u.options.keep_focal) {
@@ -742,15 +808,18 @@ std::string EncodeLike(const cv::Mat& image, const std::string& path, const std:
   for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   std::vector<int> params;
   if (ext == ".jpg" || ext == ".jpeg") {
-    if (image.depth() != CV_8U) throw InvalidInput(field, fmt::format("{}: JPEG holds 8 bit only", path));
+    if (image.depth() != CV_8U)
+      throw InvalidInput(field, fmt::format("{}: JPEG holds 8 bit only", path));
     params = {cv::IMWRITE_JPEG_QUALITY, 95};
-  } else if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".bmp" && ext != ".pgm" && ext != ".ppm") {
+  } else if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".bmp" && ext != ".pgm" &&
+             ext != ".ppm") {
     throw InvalidInput(field, fmt::format("{}: writes PNG, JPEG, TIFF, BMP, PGM or PPM", path));
   } else if (ext == ".bmp" && image.depth() != CV_8U) {
     throw InvalidInput(field, fmt::format("{}: BMP holds 8 bit only", path));
   }
   std::vector<uchar> buf;
-  if (!cv::imencode(ext, image, buf, params)) throw InvalidInput(field, fmt::format("{}: could not encode", path));
+  if (!cv::imencode(ext, image, buf, params))
+    throw InvalidInput(field, fmt::format("{}: could not encode", path));
   return std::string(buf.begin(), buf.end());
 }
 

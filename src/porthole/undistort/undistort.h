@@ -8,34 +8,34 @@
 // pixel (0, 0) the centre of the top-left pixel.
 //
 // The pinhole (Pinhole): fx, fy, cx, cy on an output image of width × height, its centre at
-// `centre_mm` in the camera frame (the entrance pupil for a central camera; for a refractive one the
-// point on the axis that best fits the port's rays over the working distances, FitCentre). Its
+// `centre_mm` in the camera frame (the entrance pupil for a central camera; for a refractive one
+// the point on the axis that best fits the port's rays over the working distances, FitCentre). Its
 // image of a point X is (fx·x + cx, fy·y + cy), (x, y) = (X − C)_xy / (X − C)_z.
 //
 // The map (Map): for output pixel q the source pixel m(q) the pinhole's ray of q comes from.
-//  - central: m(q) = Project(ray of q), the lens model's exact forward projection (the exact inverse
+//  - central: m(q) = Project(ray of q), the lens model's exact forward projection (the exact
+//  inverse
 //    of the undistortion: no lookup, no iteration beyond the model's own);
 //  - refractive: the pinhole's ray of q meets the depths Z_k of the working distances; m(q) is the
 //    mean over k of the exact refractive projection (lens + port) of those points.
 //
-// The residual at depth Z (refractive; docs/undistort.md "Residual"): a point X at depth Z images at
-// source pixel s = P(X) through the exact model; after the remap it sits at the output pixel q' with
-// m(q') = s; the pinhole puts it at q = π(X). residual = q' − q, in output pixels.
-// Depths Z are working distances: from the port's outer vertex (where the backward ray of the
-// principal point leaves the port) along the axis, in water, mm; in the camera frame
-// z = Z + vertex_z_mm. A central camera has no port: its working distances are z itself.
+// The residual at depth Z (refractive; docs/undistort.md "Residual"): a point X at depth Z images
+// at source pixel s = P(X) through the exact model; after the remap it sits at the output pixel q'
+// with m(q') = s; the pinhole puts it at q = π(X). residual = q' − q, in output pixels. Depths Z
+// are working distances: from the port's outer vertex (where the backward ray of the principal
+// point leaves the port) along the axis, in water, mm; in the camera frame z = Z + vertex_z_mm. A
+// central camera has no port: its working distances are z itself.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
 
 #include "porthole/measure/rig_model.h"
 
@@ -65,7 +65,7 @@ void Validate(const UndistortOptions& o, const measure::RigCamera& camera);
 
 struct Pinhole {
   int width_px = 0, height_px = 0;
-  double fx = 0, fy = 0, cx = 0, cy = 0;              // porthole pixels
+  double fx = 0, fy = 0, cx = 0, cy = 0;                // porthole pixels
   Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();  // projection centre in the camera frame
   Eigen::Vector2d Project(const Eigen::Vector3d& x_cam) const;
   Eigen::Vector3d Ray(const Eigen::Vector2d& q) const;  // direction with z = 1
@@ -79,20 +79,23 @@ std::vector<double> MapDepthsZ(const std::vector<double>& wd_mm, double vertex_z
 struct Undistorter {
   measure::RigCamera camera;
   bool refractive = false;
-  double vertex_z_mm = 0;            // refractive: the port's outer vertex (camera frame z)
-  std::vector<double> depths_z_mm;   // refractive: the map's depths (camera frame z)
+  double vertex_z_mm = 0;           // refractive: the port's outer vertex (camera frame z)
+  std::vector<double> depths_z_mm;  // refractive: the map's depths (camera frame z)
   Pinhole pinhole;
   UndistortOptions options;
   // Refractive: the pinhole's parallax over the fit depths (RMS over the frame of f·|n_k − n̄|, to
-  // first order the residual) with the fitted centre, and with the centre left at the entrance pupil.
+  // first order the residual) with the fitted centre, and with the centre left at the entrance
+  // pupil.
   double centre_fit_rms_px = 0;
   double centre_at_pupil_rms_px = 0;
 
   // m(q) exactly (no table); nullopt where a projection fails.
   std::optional<Eigen::Vector2d> SourcePixel(const Eigen::Vector2d& q) const;
   // The output pixel q' with m(q') = s (Newton on m from `start`); nullopt without convergence.
-  std::optional<Eigen::Vector2d> OutputPixel(const Eigen::Vector2d& s, const Eigen::Vector2d& start) const;
-  // Refractive residual q' − q of a point in the camera frame (mm); nullopt where it does not image.
+  std::optional<Eigen::Vector2d> OutputPixel(const Eigen::Vector2d& s,
+                                             const Eigen::Vector2d& start) const;
+  // Refractive residual q' − q of a point in the camera frame (mm); nullopt where it does not
+  // image.
   std::optional<Eigen::Vector2d> Residual(const Eigen::Vector3d& x_cam) const;
 };
 
@@ -107,20 +110,23 @@ cv::Mat BuildMap(const Undistorter& u, int grid_step_px = 8);
 // The remap of one image (8 or 16 bit or float, 1–4 channels); pixels without source are 0.
 // Linear and nearest: porthole's own loop with the map's exact fractions, on `threads` threads (0:
 // every core); cubic and lanczos: cv::remap (its fractions quantised to 1/32 px).
-cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, int threads = 0);
+cv::Mat Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation,
+              int threads = 0);
 // The same into *out, reusing its memory when it already has the size and type (a fresh 72 MB
 // buffer per image costs its page faults: a third of the time on a 24-megapixel RGB image).
-void Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, cv::Mat* out, int threads = 0);
+void Remap(const cv::Mat& image, const cv::Mat& map, Interpolation interpolation, cv::Mat* out,
+           int threads = 0);
 
 // ---- Residual maps (refractive) ----
 struct ResidualMap {
   double wd_mm = 0;
-  int cols = 0, rows = 0;                  // grid over the output frame
-  std::vector<Eigen::Vector2d> q_px;       // grid points (row by row)
-  std::vector<double> error_px;            // |residual|, NaN where the point does not image
+  int cols = 0, rows = 0;             // grid over the output frame
+  std::vector<Eigen::Vector2d> q_px;  // grid points (row by row)
+  std::vector<double> error_px;       // |residual|, NaN where the point does not image
   double rms_px = 0, max_px = 0, median_px = 0;
 };
-std::vector<ResidualMap> ResidualMaps(const Undistorter& u, const std::vector<double>& wd_mm = {500, 1000, 2000, 5000},
+std::vector<ResidualMap> ResidualMaps(const Undistorter& u,
+                                      const std::vector<double>& wd_mm = {500, 1000, 2000, 5000},
                                       int cols = 33, int rows = 23);
 nlohmann::ordered_json ResidualJson(const std::vector<ResidualMap>& maps);
 // gnuplot data and script for one PNG of the maps (heat maps, one panel per depth).
@@ -139,7 +145,8 @@ std::string ColmapCamerasText(const Undistorter& u);
 // nerfstudio transforms.json: camera_model OPENCV, fl_x, fl_y, cx, cy (COLMAP's pixel convention,
 // as ns-process-data writes them), w, h, k1 k2 p1 p2 = 0, and frames[] with file_path only (no pose
 // is known: docs/undistort.md).
-nlohmann::ordered_json NerfstudioTransforms(const Undistorter& u, const std::vector<std::string>& file_paths);
+nlohmann::ordered_json NerfstudioTransforms(const Undistorter& u,
+                                            const std::vector<std::string>& file_paths);
 // A summary: source, pinhole, options, the centre fit (undistort.json).
 nlohmann::ordered_json SummaryJson(const Undistorter& u);
 

@@ -2,13 +2,14 @@
 // (and the float table within 1e-3 px), alpha 0 keeps only valid pixels and alpha 1 every source
 // pixel, keep-focal keeps f; the refractive map's grid interpolation stays within 2e-3 px of the
 // exact map, the residual vanishes at the map's single depth, and bad options are refused by field.
+#include "porthole/undistort/undistort.h"
+
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "porthole/render/render.h"
 #include "porthole/render/test_scenes.h"
-#include "porthole/undistort/undistort.h"
 
 namespace porthole::undistort {
 namespace {
@@ -59,7 +60,8 @@ void ExpectRoundTrip(const measure::RigCamera& cam, const UndistortOptions& o) {
   const Undistorter u = Prepare(cam, o);
   const cv::Mat map = BuildMap(u);
   std::mt19937 rng(3);
-  std::uniform_real_distribution<double> du(0, u.pinhole.width_px - 1), dv(0, u.pinhole.height_px - 1);
+  std::uniform_real_distribution<double> du(0, u.pinhole.width_px - 1),
+      dv(0, u.pinhole.height_px - 1);
   double worst = 0, worst_table = 0;
   int n = 0;
   for (int i = 0; i < 2000; ++i) {
@@ -101,20 +103,22 @@ TEST(Undistort, AlphaZeroKeepsOnlyValidPixelsAndOneEverySourcePixel) {
     const Undistorter u0 = Prepare(cam, zero), u1 = Prepare(cam, one);
     // alpha 0: every output pixel comes from inside the source frame.
     int outside = 0;
-    for (const Vector2d& q : camera::FramePixels({u0.pinhole.width_px, u0.pinhole.height_px, 1}, 97, 65)) {
+    for (const Vector2d& q :
+         camera::FramePixels({u0.pinhole.width_px, u0.pinhole.height_px, 1}, 97, 65)) {
       const auto src = u0.SourcePixel(q);
       if (!src || !Inside(*src, s.width_px, s.height_px, 0.05)) ++outside;
     }
     EXPECT_EQ(outside, 0) << cam.camera.model_name();
-    // alpha 1: every source pixel of the frame's edge lands inside the output, and the output's edges
-    // touch it (the bounding box, not larger).
+    // alpha 1: every source pixel of the frame's edge lands inside the output, and the output's
+    // edges touch it (the bounding box, not larger).
     double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
     for (const Vector2d& p : camera::FramePixels(s, 97, 65)) {
       const auto ray = cam.camera.Unproject(p);
       ASSERT_TRUE(ray);
       const Vector2d q = u1.pinhole.Project(*ray);
       EXPECT_TRUE(Inside(q, u1.pinhole.width_px, u1.pinhole.height_px, 0.05)) << q.transpose();
-      umin = std::min(umin, q.x()), umax = std::max(umax, q.x()), vmin = std::min(vmin, q.y()), vmax = std::max(vmax, q.y());
+      umin = std::min(umin, q.x()), umax = std::max(umax, q.x()), vmin = std::min(vmin, q.y()),
+      vmax = std::max(vmax, q.y());
     }
     EXPECT_NEAR(umin, 0, 0.5);
     EXPECT_NEAR(umax, s.width_px - 1, 0.5);
@@ -161,7 +165,9 @@ TEST(Undistort, RefractiveGridMapFollowsTheExactMapAndResidualVanishesAtItsDepth
   double at_wd = 0, at_half = 0;
   for (const Vector2d& q : camera::FramePixels({960, 640, 1}, 9, 7)) {
     const Vector3d d = u.pinhole.Ray(q);
-    const auto x = [&](double wd) { return Vector3d(u.pinhole.centre_mm + d * (wd + u.vertex_z_mm - u.pinhole.centre_mm.z())); };
+    const auto x = [&](double wd) {
+      return Vector3d(u.pinhole.centre_mm + d * (wd + u.vertex_z_mm - u.pinhole.centre_mm.z()));
+    };
     const auto r1 = u.Residual(x(1000));
     const auto r2 = u.Residual(x(300));
     ASSERT_TRUE(r1 && r2);
@@ -173,8 +179,9 @@ TEST(Undistort, RefractiveGridMapFollowsTheExactMapAndResidualVanishesAtItsDepth
 }
 
 // The remap interpolates with the map's exact fractions: a ramp comes out as the ramp at the source
-// pixel to float precision (cv::remap's 1/32-px fractions would leave up to 1.1 here), and the 8-bit
-// fixed-point path (1/2048 px) rounds the float result within 1 level; 16-bit and colour alike.
+// pixel to float precision (cv::remap's 1/32-px fractions would leave up to 1.1 here), and the
+// 8-bit fixed-point path (1/2048 px) rounds the float result within 1 level; 16-bit and colour
+// alike.
 TEST(Undistort, RemapReproducesARampAtTheSourcePixel) {
   const Undistorter u = Prepare(OpenCVCamera(), {});
   const cv::Mat map = BuildMap(u);
