@@ -300,7 +300,11 @@ std::optional<Vector2d> Undistorter::Residual(const Vector3d& x) const {
   return *q2 - q;
 }
 
-Undistorter Prepare(const measure::RigCamera& cam, const UndistortOptions& options) {
+Undistorter Prepare(const measure::RigCamera& camera_in, const UndistortOptions& options) {
+  // Everything here is in the camera's own frame: a rig camera's cam_from_rig is dropped.
+  measure::RigCamera cam = camera_in;
+  cam.rotation_rad.setZero();
+  cam.translation_mm.setZero();
   Validate(options, cam);
   Undistorter u;
   u.camera = cam;

@@ -1,7 +1,8 @@
 // Proves the undistortion map: central maps round-trip through the camera model within 1e-6 px
 // (and the float table within 1e-3 px), alpha 0 keeps only valid pixels and alpha 1 every source
 // pixel, keep-focal keeps f; the refractive map's grid interpolation stays within 2e-3 px of the
-// exact map, the residual vanishes at the map's single depth, and bad options are refused by field.
+// exact map, the residual vanishes at the map's single depth (a rig camera's pose changes nothing),
+// and bad options are refused by field.
 #include "porthole/undistort/undistort.h"
 
 #include <gtest/gtest.h>
@@ -176,6 +177,16 @@ TEST(Undistort, RefractiveGridMapFollowsTheExactMapAndResidualVanishesAtItsDepth
   }
   EXPECT_LT(at_wd, 1e-6);
   EXPECT_GT(at_half, 10 * at_wd);
+  // A rig camera's pose in the rig (cam_from_rig) does not change its own undistortion.
+  measure::RigCamera moved = cam;
+  moved.rotation_rad = Vector3d(0.02, -0.1, 0.03);
+  moved.translation_mm = Vector3d(-300, 5, 2);
+  const Undistorter v = Prepare(moved, o);
+  EXPECT_NEAR(v.pinhole.fx, u.pinhole.fx, 1e-9 * u.pinhole.fx);
+  EXPECT_NEAR(v.vertex_z_mm, u.vertex_z_mm, 1e-9);
+  const auto a = u.SourcePixel(Vector2d(100, 50)), b = v.SourcePixel(Vector2d(100, 50));
+  ASSERT_TRUE(a && b);
+  EXPECT_LT((*a - *b).norm(), 1e-9);
 }
 
 // The remap interpolates with the map's exact fractions: a ramp comes out as the ramp at the source
