@@ -286,3 +286,36 @@ def test_a_refractive_calibration_from_calibrate_port_undistorts_its_renders(tmp
     rms_after = homography_rms(after, tmp_path / "rs" / "water")
     print(f"homography RMS: renders {rms_before:.3f} px, undistorted {rms_after:.3f} px")
     assert rms_after < 0.03 and rms_after < rms_before / 2, (rms_before, rms_after)
+
+
+def test_rig_undistorts_each_camera_in_its_own_frame(tmp_path):
+    """--rig: each camera's images into OUT/<camera>/ with the pinhole its own calibration gives
+    (its pose in the rig plays no part); the wrong number of --images folders is refused."""
+    from test_rig_cli import frames, write_detections
+    data = frames()
+    for k, name in enumerate(("left.json", "right.json")):
+        write_detections(tmp_path / name, data, k)
+    run("calibrate", "--detections", tmp_path / "left.json", "--detections", tmp_path / "right.json", "--model",
+        "opencv", "--out", tmp_path / "rig.json", "--quiet")
+    rig = json.loads((tmp_path / "rig.json").read_text())["rig"]
+    w, h = rig["cameras"][0]["sensor"]["width_px"], rig["cameras"][0]["sensor"]["height_px"]
+    x = np.linspace(0, 1, w, dtype=np.float32)[None, :] * np.linspace(0.5, 1, h, dtype=np.float32)[:, None]
+    for name in ("l", "r"):
+        (tmp_path / name).mkdir()
+        cv2.imwrite(str(tmp_path / name / "a.jpg"), (40 + 200 * x).astype(np.uint8))
+    out = run("undistort", "--rig", tmp_path / "rig.json", "--images", tmp_path / "l", "--images", tmp_path / "r",
+              "--out", tmp_path / "out", "--json").json()
+    assert [c["camera"] for c in out["cameras"]] == ["left.json", "right.json"]
+    for k, folder in enumerate(("left", "right")):
+        assert (tmp_path / "out" / folder / "images" / "a.jpg").exists()
+        assert (tmp_path / "out" / folder / "cameras.txt").exists()
+        # The same camera alone (its calibration without the rig): the same pinhole.
+        alone = {key: rig["cameras"][k][key] for key in ("model", "camera", "sensor")}
+        (tmp_path / f"alone{k}.json").write_text(json.dumps(alone))
+        single = run("undistort", "--calibration", tmp_path / f"alone{k}.json", "--images",
+                     tmp_path / ("l" if k == 0 else "r"), "--out", tmp_path / f"single{k}", "--json").json()
+        assert out["cameras"][k]["pinhole"] == single["pinhole"]
+    assert "--images" in run_bad("undistort", "--rig", tmp_path / "rig.json", "--images", tmp_path / "l", "--out",
+                                 tmp_path / "o2")
+    assert run_bad("undistort", "--rig", tmp_path / "rig.json", "--calibration", tmp_path / "alone0.json",
+                   "--images", tmp_path / "l", "--out", tmp_path / "o3")

@@ -120,7 +120,7 @@ Json Run(const RunOptions& o) {
   };
   const auto t0 = std::chrono::steady_clock::now();
   const UndistortOptions& uo = o.undistort;
-  const measure::RigCamera cam = LoadCalibration(o.calibration, "calibration");
+  const measure::RigCamera cam = o.camera ? *o.camera : LoadCalibration(o.calibration, "calibration");
   Validate(uo, cam);
   const std::vector<std::string> images = calib::ListImages(o.images, "images");
   // Every image the calibration's size, from its header, before anything is written.
@@ -139,7 +139,7 @@ Json Run(const RunOptions& o) {
 
   // Outputs: checked before any work (never an input, never an existing file without --force).
   std::vector<fs::path> inputs = o.inputs;
-  inputs.emplace_back(o.calibration);
+  if (!o.calibration.empty()) inputs.emplace_back(o.calibration);
   for (const auto& im : images) inputs.emplace_back(im);
   const OutputRules rules{.force = o.force, .inputs = inputs};
   EnsureDirectory(o.out, "out");

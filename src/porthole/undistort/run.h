@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -25,6 +26,9 @@ std::vector<double> ParseWd(const std::string& text, const std::string& field = 
 
 struct RunOptions {
   std::string calibration;  // file (field "calibration")
+  // The camera itself (a rig's camera), instead of reading `calibration`; `calibration` then only
+  // names its file, which no output may replace.
+  std::optional<measure::RigCamera> camera;
   std::string images;       // folder (field "images")
   std::string out;          // folder, created when missing (field "out")
   UndistortOptions undistort;
