@@ -22,17 +22,19 @@ namespace {
 std::string Describe(const Json& summary, const std::string& images_dir) {
   const auto num = [](const Json& v) { return v.is_number() ? v.get<double>() : NAN; };
   const auto& p = summary["pinhole"];
-  std::string text = fmt::format("{} images undistorted into {} ({:.1f} s)\n", summary["images"].size(),
-                                 images_dir, num(summary["seconds"]));
-  text += fmt::format("pinhole {}x{} px: fx {:.3f} fy {:.3f} cx {:.3f} cy {:.3f} "
-                      "(pixel (0,0) = centre of the top-left pixel)\n",
-                      p["width_px"].get<int>(), p["height_px"].get<int>(), num(p["fx_px"]),
-                      num(p["fy_px"]), num(p["cx_px"]), num(p["cy_px"]));
+  std::string text = fmt::format("{} images undistorted into {} ({:.1f} s)\n",
+                                 summary["images"].size(), images_dir, num(summary["seconds"]));
+  text += fmt::format(
+      "pinhole {}x{} px: fx {:.3f} fy {:.3f} cx {:.3f} cy {:.3f} "
+      "(pixel (0,0) = centre of the top-left pixel)\n",
+      p["width_px"].get<int>(), p["height_px"].get<int>(), num(p["fx_px"]), num(p["fy_px"]),
+      num(p["cx_px"]), num(p["cy_px"]));
   if (summary["source"]["refractive"].get<bool>()) {
     const auto& c = p["centre_in_cam_mm"];
-    text += fmt::format("pinhole centre {:.2f}, {:.2f}, {:.2f} mm from the entrance pupil; "
-                        "residual (px):\n",
-                        num(c[0]), num(c[1]), num(c[2]));
+    text += fmt::format(
+        "pinhole centre {:.2f}, {:.2f}, {:.2f} mm from the entrance pupil; "
+        "residual (px):\n",
+        num(c[0]), num(c[1]), num(c[2]));
     for (const auto& r : summary["residual"]) {
       text += fmt::format("  WD {:>6} mm: RMS {:.3f}, max {:.3f}\n", num(r["wd_mm"]),
                           num(r["rms_px"]), num(r["max_px"]));
@@ -44,8 +46,10 @@ std::string Describe(const Json& summary, const std::string& images_dir) {
 // A rig camera's folder name: its name (without a ".json" its detections file gave it) when that
 // is a plain file name, else camera<k>.
 std::string FolderOf(std::string name, std::size_t k) {
-  if (name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0) name.resize(name.size() - 5);
-  const bool plain = !name.empty() && name.find_first_of("/\\") == std::string::npos && name[0] != '.';
+  if (name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0)
+    name.resize(name.size() - 5);
+  const bool plain =
+      !name.empty() && name.find_first_of("/\\") == std::string::npos && name[0] != '.';
   return plain ? name : fmt::format("camera{}", k);
 }
 
@@ -100,7 +104,8 @@ void RegisterUndistort(CLI::App& app) {
   cmd->footer(
       "The pinhole: central calibrations are undistorted exactly (each output pixel's ray\n"
       "projected by the lens model). Behind a port no pinhole is exact at every depth: the\n"
-      "pinhole's centre is fitted to the port's rays over --wd, the map is exact at --wd (a range:\n"
+      "pinhole's centre is fitted to the port's rays over --wd, the map is exact at --wd (a "
+      "range:\n"
       "the mean over five depths), and the residual against depth (0.5, 1, 2, 5 m) is written as\n"
       "residual.png and in undistort.json. nerfstudio's transforms.json holds the intrinsics and\n"
       "file paths, no poses. Outputs are written whole; an existing one is replaced only with\n"
@@ -130,9 +135,11 @@ void RegisterUndistort(CLI::App& app) {
           ro.progress = [](const std::string& line) { fmt::print(stderr, "{}\n", line); };
           namespace fs = std::filesystem;
           if (o->rig.empty()) {
-            if (o->calibration.empty()) throw InvalidInput("--calibration", "give a calibration (or --rig)");
+            if (o->calibration.empty())
+              throw InvalidInput("--calibration", "give a calibration (or --rig)");
             if (o->images.size() != 1) {
-              throw InvalidInput("--images", "one folder with --calibration (one per camera goes with --rig)");
+              throw InvalidInput("--images",
+                                 "one folder with --calibration (one per camera goes with --rig)");
             }
             ro.calibration = o->calibration;
             ro.images = o->images[0];
@@ -142,9 +149,10 @@ void RegisterUndistort(CLI::App& app) {
               fmt::print("{}\n", PrintableJson(summary));
               return;
             }
-            fmt::print("{}intrinsics: cameras.txt (COLMAP), camera.yml (OpenCV), camera.xml "
-                       "(Metashape), transforms.json (nerfstudio)\n",
-                       Describe(summary, (fs::path(o->out) / "images").string()));
+            fmt::print(
+                "{}intrinsics: cameras.txt (COLMAP), camera.yml (OpenCV), camera.xml "
+                "(Metashape), transforms.json (nerfstudio)\n",
+                Describe(summary, (fs::path(o->out) / "images").string()));
             return;
           }
           // A rig: each camera on its own, in its own frame, into OUT/<camera>/.
@@ -152,22 +160,32 @@ void RegisterUndistort(CLI::App& app) {
           if (o->images.size() != rig.cameras.size()) {
             std::string names;
             for (const auto& c : rig.cameras) names += (names.empty() ? "" : ", ") + c.name;
-            throw InvalidInput("--images", fmt::format("{} folders for the rig's {} cameras ({}): one "
-                                                       "per camera, in that order",
-                                                       o->images.size(), rig.cameras.size(), names));
+            throw InvalidInput("--images",
+                               fmt::format("{} folders for the rig's {} cameras ({}): one "
+                                           "per camera, in that order",
+                                           o->images.size(), rig.cameras.size(), names));
           }
-          // Every camera's options and outputs checked before the first one runs.
-          for (const auto& c : rig.cameras) undistort::Validate(ro.undistort, c);
-          Json all;
-          all["rig"] = o->rig;
-          all["cameras"] = Json::array();
-          std::string text;
-          for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
+          // Every camera's calibration, images and outputs checked before the first one runs.
+          const auto options_of = [&](std::size_t k) {
             undistort::RunOptions rk = ro;
             rk.camera = rig.cameras[k];
             rk.calibration = o->rig;
             rk.images = o->images[k];
             rk.out = (fs::path(o->out) / FolderOf(rig.cameras[k].name, k)).string();
+            return rk;
+          };
+          for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
+            undistort::RunOptions check = options_of(k);
+            check.check_only = true;
+            check.progress = nullptr;
+            undistort::Run(check);
+          }
+          Json all;
+          all["rig"] = o->rig;
+          all["cameras"] = Json::array();
+          std::string text;
+          for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
+            const undistort::RunOptions rk = options_of(k);
             Json summary = undistort::Run(rk);
             summary["camera"] = rig.cameras[k].name;
             summary["out"] = rk.out;
@@ -179,9 +197,10 @@ void RegisterUndistort(CLI::App& app) {
             fmt::print("{}\n", PrintableJson(all));
             return;
           }
-          fmt::print("{}intrinsics per camera: cameras.txt (COLMAP), camera.yml (OpenCV), camera.xml "
-                     "(Metashape), transforms.json (nerfstudio)\n",
-                     text);
+          fmt::print(
+              "{}intrinsics per camera: cameras.txt (COLMAP), camera.yml (OpenCV), camera.xml "
+              "(Metashape), transforms.json (nerfstudio)\n",
+              text);
         });
   });
 }

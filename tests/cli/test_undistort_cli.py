@@ -319,3 +319,9 @@ def test_rig_undistorts_each_camera_in_its_own_frame(tmp_path):
                                  tmp_path / "o2")
     assert run_bad("undistort", "--rig", tmp_path / "rig.json", "--calibration", tmp_path / "alone0.json",
                    "--images", tmp_path / "l", "--out", tmp_path / "o3")
+    # The second camera's image of another size: refused before the first camera writes anything.
+    (tmp_path / "odd").mkdir()
+    cv2.imwrite(str(tmp_path / "odd" / "a.jpg"), (40 + 200 * x[:, :-4]).astype(np.uint8))
+    assert "--images" in run_bad("undistort", "--rig", tmp_path / "rig.json", "--images", tmp_path / "l", "--images",
+                                 tmp_path / "odd", "--out", tmp_path / "o4")
+    assert not (tmp_path / "o4" / "left" / "images" / "a.jpg").exists()

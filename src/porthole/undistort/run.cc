@@ -120,7 +120,8 @@ Json Run(const RunOptions& o) {
   };
   const auto t0 = std::chrono::steady_clock::now();
   const UndistortOptions& uo = o.undistort;
-  const measure::RigCamera cam = o.camera ? *o.camera : LoadCalibration(o.calibration, "calibration");
+  const measure::RigCamera cam =
+      o.camera ? *o.camera : LoadCalibration(o.calibration, "calibration");
   Validate(uo, cam);
   const std::vector<std::string> images = calib::ListImages(o.images, "images");
   // Every image the calibration's size, from its header, before anything is written.
@@ -163,6 +164,7 @@ Json Run(const RunOptions& o) {
   }
 
   const Undistorter u = Prepare(cam, uo);
+  if (o.check_only) return SummaryJson(u);
   const auto tm = std::chrono::steady_clock::now();
   const cv::Mat map = BuildMap(u);
   const double map_s = Seconds(tm);

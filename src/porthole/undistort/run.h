@@ -5,8 +5,8 @@
 
 #include <filesystem>
 #include <functional>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,13 +29,18 @@ struct RunOptions {
   // The camera itself (a rig's camera), instead of reading `calibration`; `calibration` then only
   // names its file, which no output may replace.
   std::optional<measure::RigCamera> camera;
-  std::string images;       // folder (field "images")
-  std::string out;          // folder, created when missing (field "out")
+  std::string images;  // folder (field "images")
+  std::string out;     // folder, created when missing (field "out")
   UndistortOptions undistort;
   bool force = false;  // replace existing outputs (core/output.h's rule)
   std::vector<std::filesystem::path>
       inputs;  // further inputs no output may replace (the caller's files)
   std::string gnuplot = "gnuplot";
+  // Only the checks (calibration, options, image sizes, the outputs under the rules, gnuplot) and
+  // the pinhole: nothing is remapped; the output folders may have been created. Returns the
+  // pinhole's summary (SummaryJson). For several runs that must all be possible before the first
+  // writes.
+  bool check_only = false;
   // One line per event (the pinhole and map; each image done), from one thread at a time. May be
   // empty.
   std::function<void(const std::string&)> progress;
