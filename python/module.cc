@@ -29,4 +29,5 @@ PYBIND11_MODULE(_porthole, m) {
   porthole::python::RegisterFit(m);
   porthole::python::RegisterReport(m);
   porthole::python::RegisterMeasure(m);
+  porthole::python::RegisterUndistort(m);
 }

@@ -101,5 +101,6 @@ void RegisterSimulate(pybind11::module_& m);
 void RegisterFit(pybind11::module_& m);
 void RegisterReport(pybind11::module_& m);
 void RegisterMeasure(pybind11::module_& m);
+void RegisterUndistort(pybind11::module_& m);
 
 }  // namespace porthole::python

@@ -25,5 +25,6 @@ void RegisterConvert(CLI::App& app);
 void RegisterReport(CLI::App& app);
 void RegisterRender(CLI::App& app);
 void RegisterMeasure(CLI::App& app);
+void RegisterUndistort(CLI::App& app);
 
 }  // namespace porthole::cli

@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterReport(app);
   porthole::cli::RegisterMeasure(app);
   porthole::cli::RegisterRender(app);
+  porthole::cli::RegisterUndistort(app);
 
   try {
     app.parse(argc, argv);

@@ -315,6 +315,12 @@ def measure(rig, points, **kwargs) -> "Measurement":
     return r
 
 
+@_wraps(_porthole.undistort, "porthole.Record", "The Record holds source, pinhole (fx_px, fy_px, cx_px, cy_px, "
+        "centre_in_cam_mm), options, images and, behind a port, residual (per WD: rms_px, max_px, error_px).")
+def undistort(calibration, images, out, **kwargs) -> Record:
+    return Record(_porthole.undistort(calibration, images, out, **kwargs))
+
+
 @_wraps(_porthole.plan_rig, "porthole.Record", "rig may be a RigCalibration. The Record holds rig, sigma_px, "
         "length_mm, sigma_holds, central_model and `ranges` (one row per range: range_mm, common_width_mm, "
         "common_height_mm, n_lengths, sigma_median_mm, sigma_p90_mm, central_abs_median_mm, ...).")
@@ -417,7 +423,7 @@ def report(out, **kwargs) -> ReportSummary:
 __all__ = [
     "__version__", "index", "media", "depth_to_pressure_dbar", "load_port", "presets", "place", "PortSpec",
     "PortSystem", "virtual_image_table", "plan", "flat", "simulate", "camera_models", "project", "unproject",
-    "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "measure", "plan_rig", "Measurement", "MeasuredPoint", "MeasuredLength", "synthetic_detections", "compare", "load_calibration",
+    "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "measure", "plan_rig", "undistort", "Measurement", "MeasuredPoint", "MeasuredLength", "synthetic_detections", "compare", "load_calibration",
     "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
     "PortType", "CameraModel",
     "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis", "Simulation", "Comparison", "ReportSummary",
