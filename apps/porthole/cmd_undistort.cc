@@ -62,6 +62,7 @@ void RegisterUndistort(CLI::App& app) {
     std::optional<double> alpha;
     bool keep_focal = false, json = false, force = false;
     int threads = 0;
+    int every = 1;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd =
@@ -77,9 +78,11 @@ void RegisterUndistort(CLI::App& app) {
                   "images into OUT/<camera>/, one --images per camera in the rig's order")
       ->excludes(cal);
   cmd->add_option("--images", o->images,
-                  "Folder of images (png, jpg, tif; 8 or 16 bit, grey or colour); with --rig one "
-                  "per camera")
+                  "Folder of images (png, jpg, tif; 8 or 16 bit, grey or colour), one image, or a video "
+                  "(its frames written as images/f<index>.png, index and time in undistort.json); with "
+                  "--rig one per camera")
       ->required();
+  cmd->add_option("--every", o->every, "Every N-th image or video frame")->check(CLI::Range(1, 1000000));
   cmd->add_option("--out", o->out,
                   "Output folder: images/ (same names and formats), cameras.txt (COLMAP PINHOLE), "
                   "camera.yml (OpenCV), camera.xml (Metashape), transforms.json (nerfstudio), "
@@ -120,7 +123,8 @@ void RegisterUndistort(CLI::App& app) {
          {"calibration", "--calibration"},
          {"images", "--images"},
          {"out", "--out"},
-         {"gnuplot", "--gnuplot"}},
+         {"gnuplot", "--gnuplot"},
+         {"every", "--every"}},
         [&] {
           undistort::RunOptions ro;
           ro.undistort.alpha = o->alpha;
@@ -132,6 +136,7 @@ void RegisterUndistort(CLI::App& app) {
           ro.force = o->force;
           ro.inputs = InputFiles(cmd, {"--out"});
           ro.gnuplot = o->gnuplot;
+          ro.every = o->every;
           ro.progress = [](const std::string& line) { fmt::print(stderr, "{}\n", line); };
           namespace fs = std::filesystem;
           if (o->rig.empty()) {

@@ -100,3 +100,32 @@ def test_bad_video_input_is_one_line_and_exit_2(clip):
     assert "--every" in run_bad("detect", "--images", clip / "clip.mp4", "--target", TARGET, "--every", 0)
     assert "--max-frames" in run_bad("calibrate", "--images", clip / "clip.mp4", "--target", TARGET, *PITCH,
                                      "--max-frames", -3)
+
+
+def test_undistort_a_video(clip, tmp_path):
+    """`undistort --images clip.mp4`: every N-th frame remapped with the calibration made from the same
+    video, written as images/f<index>.png with its index and time in undistort.json; the board's
+    corners in the output frames lie on one homography (a pinhole sees a plane so) within 0.1 px RMS."""
+    import cv2
+    import numpy as np
+
+    run("calibrate", "--images", clip / "clip.mp4", "--target", TARGET, *PITCH, "--out", tmp_path / "cal.json",
+        "--quiet")
+    s = run("undistort", "--calibration", tmp_path / "cal.json", "--images", clip / "clip.mp4", "--every", 20,
+            "--out", tmp_path / "u", "--json").json()
+    v = s["video"]
+    assert [f["frame_index"] for f in v["frames"]] == [0, 20, 40]
+    assert [f["time_s"] for f in v["frames"]] == pytest.approx([0, 20 / FPS, 40 / FPS])
+    assert s["images"] == ["images/f000000.png", "images/f000020.png", "images/f000040.png"]
+    det = run("detect", "--images", tmp_path / "u" / "images", "--target", TARGET, "--json").json()["images"]
+    assert len(det) == 3
+    rms = []
+    for d in det:
+        ids = np.array(d["ids"])
+        obj = np.stack([(ids % 9) * 40.0, (ids // 9) * 40.0], axis=1)
+        img = np.array(d["points_px"])
+        h, _ = cv2.findHomography(obj, img, 0)
+        p = cv2.perspectiveTransform(obj.reshape(-1, 1, 2), h).reshape(-1, 2)
+        rms.append(float(np.sqrt(np.mean(np.sum((p - img) ** 2, axis=1)))))
+    print("undistorted video frames: homography RMS", [round(r, 4) for r in rms], "px")
+    assert max(rms) < 0.1

@@ -21,6 +21,7 @@
 
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
+#include "porthole/core/gnuplot.h"
 #include "porthole/report/internal.h"
 
 namespace porthole::report {
@@ -108,41 +109,6 @@ void RemoveStaleReportTemporaries(const fs::path& parent, const std::string& nam
   }
 }
 
-// Runs `gnuplot all.gp` in `dir` (no shell); its messages go to dir/gnuplot.log.
-void RunGnuplot(const std::string& gnuplot, const fs::path& dir) {
-  const std::string log = (dir / "gnuplot.log").string();
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid < 0) throw InternalError(fmt::format("fork: {}", std::strerror(errno)));
-  if (pid == 0) {
-    // Dies with porthole: a killed report must not leave gnuplot running on its temporary folder.
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (getppid() != parent) _exit(126);
-    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      dup2(fd, STDOUT_FILENO);
-      dup2(fd, STDERR_FILENO);
-      close(fd);
-    }
-    if (chdir(dir.c_str()) != 0) _exit(126);
-    execlp(gnuplot.c_str(), gnuplot.c_str(), "all.gp", static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  if (code == 127) {
-    throw InvalidInput("gnuplot", fmt::format("'{}' not found: install Debian's gnuplot-nox (scripts/install-deps)", gnuplot));
-  }
-  if (code != 0) {
-    std::string msg = ReadFile(log);
-    std::replace(msg.begin(), msg.end(), '\n', ' ');
-    throw InvalidInput("gnuplot", fmt::format("failed (exit {}): {}", code, msg.substr(0, 400)));
-  }
-  fs::remove(log);
-}
-
 // Moves the finished directory to `out`: exchanged atomically with an existing one (which then
 // sits at `tmp` and is removed with it), else renamed.
 void MoveIntoPlace(const fs::path& tmp, const fs::path& out, bool exists) {
@@ -206,7 +172,7 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
       all += fmt::format("load \"{}.gp\"\n", f.id);
     }
     WriteFileAtomically(figdir / "all.gp", all, "--out");
-    RunGnuplot(options.gnuplot, figdir);
+    RunGnuplot(options.gnuplot, figdir, "all.gp");
     for (const auto& f : figures) {
       for (const char* ext : {".png", ".svg"}) {
         const fs::path p = figdir / (f.id + ext);

@@ -14,7 +14,10 @@
 #include <thread>
 
 #include "porthole/calib/detect.h"
+#include "porthole/calib/frames.h"
+#include <opencv2/videoio.hpp>
 #include "porthole/core/error.h"
+#include "porthole/core/gnuplot.h"
 #include "porthole/core/input.h"
 #include "porthole/core/output.h"
 #include "porthole/interop/interop.h"
@@ -45,24 +48,6 @@ void EnsureDirectory(const fs::path& dir, const std::string& field) {
     throw InvalidInput(field, dir.string() + " is not writable");
 }
 
-// Whether `program` runs: a path to an executable file, or a name found executable on PATH.
-bool Executable(const std::string& program) {
-  if (program.find('/') != std::string::npos) return access(program.c_str(), X_OK) == 0;
-  const char* path = std::getenv("PATH");
-  std::string dirs = path ? path : "/usr/bin:/bin";
-  std::size_t start = 0;
-  while (start <= dirs.size()) {
-    const std::size_t colon = dirs.find(':', start);
-    const std::string dir =
-        dirs.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
-    const fs::path p = fs::path(dir.empty() ? "." : dir) / program;
-    std::error_code ec;
-    if (fs::is_regular_file(p, ec) && access(p.c_str(), X_OK) == 0) return true;
-    if (colon == std::string::npos) break;
-    start = colon + 1;
-  }
-  return false;
-}
 
 std::string Dump(const Json& j) {
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
@@ -123,9 +108,42 @@ Json Run(const RunOptions& o) {
   const measure::RigCamera cam =
       o.camera ? *o.camera : LoadCalibration(o.calibration, "calibration");
   Validate(uo, cam);
-  const std::vector<std::string> images = calib::ListImages(o.images, "images");
-  // Every image the calibration's size, from its header, before anything is written.
+  if (o.every < 1) throw InvalidInput("every", "a whole number >= 1");
+  // A folder, one image, or a video (calib/frames.h): a video's frames are written as
+  // images/f<index, 6 digits>.png, each with its index and time in undistort.json.
+  const calib::SourceKind kind = calib::ClassifySource(o.images, "images");
+  std::vector<std::string> images;
+  if (kind == calib::SourceKind::kDirectory) images = calib::ListImages(o.images, "images");
+  if (kind == calib::SourceKind::kImage) images = {o.images};
+  if (kind == calib::SourceKind::kImage && o.every != 1) throw InvalidInput("every", "for a folder or a video");
+  if (kind == calib::SourceKind::kDirectory && o.every > 1) {
+    std::vector<std::string> some;
+    for (std::size_t k = 0; k < images.size(); k += o.every) some.push_back(images[k]);
+    images = std::move(some);
+  }
+  cv::VideoCapture video;
+  long video_frames = 0;
+  double fps = 0;
   const auto& sensor = cam.camera.sensor;
+  if (kind == calib::SourceKind::kVideo) {
+    try {
+      video.open(o.images, cv::CAP_FFMPEG);
+    } catch (const cv::Exception&) {
+    }
+    if (!video.isOpened()) {
+      throw InvalidInput("images", o.images + ": not a directory, an image (png, jpg, tif) or a video OpenCV's "
+                                              "FFmpeg backend can open");
+    }
+    const long w = std::lround(video.get(cv::CAP_PROP_FRAME_WIDTH)), h = std::lround(video.get(cv::CAP_PROP_FRAME_HEIGHT));
+    if (w != sensor.width_px || h != sensor.height_px) {
+      throw InvalidInput("images", fmt::format("{}: frames of {}x{} px, the calibration's images {}x{}", o.images, w, h,
+                                               sensor.width_px, sensor.height_px));
+    }
+    video_frames = std::max<long>(0, std::lround(video.get(cv::CAP_PROP_FRAME_COUNT)));
+    fps = video.get(cv::CAP_PROP_FPS);
+    if (!(fps > 0 && std::isfinite(fps))) fps = 0;
+  }
+  // Every image the calibration's size, from its header, before anything is written.
   for (const auto& im : images) {
     const auto size = calib::ReadImageSize(im);
     if (!size)
@@ -151,6 +169,8 @@ Json Run(const RunOptions& o) {
     image_out.push_back(image_dir / fs::path(im).filename());
     CheckOutput(image_out.back(), "out", rules);
   }
+  const auto frame_file = [&](long index) { return image_dir / fmt::format("f{:06d}.png", index); };
+  for (long k = 0; k < video_frames; k += o.every) CheckOutput(frame_file(k), "out", rules);
   const bool refractive = cam.shell.has_value();
   std::vector<std::string> files = {"cameras.txt", "camera.yml", "camera.xml", "transforms.json",
                                     "undistort.json"};
@@ -220,6 +240,34 @@ Json Run(const RunOptions& o) {
   for (int k = 0; k < workers; ++k) pool.emplace_back(work);
   for (auto& t : pool) t.join();
   if (error) std::rethrow_exception(error);
+  // A video: decoded in order, each kept frame remapped on every core.
+  Json frames = Json::array();
+  if (kind == calib::SourceKind::kVideo) {
+    cv::Mat frame, res;
+    const long expected = (video_frames + o.every - 1) / o.every;
+    for (long index = 0; video.grab(); ++index) {
+      if (index % o.every != 0) continue;
+      const auto ti = std::chrono::steady_clock::now();
+      if (!video.retrieve(frame) || frame.empty()) break;
+      if (frame.cols != sensor.width_px || frame.rows != sensor.height_px) {
+        throw InvalidInput("images", fmt::format("{}: frame {} is {}x{} px, the calibration's images {}x{}", o.images,
+                                                 index, frame.cols, frame.rows, sensor.width_px, sensor.height_px));
+      }
+      const double ms = video.get(cv::CAP_PROP_POS_MSEC);
+      const double t = std::isfinite(ms) && ms > 0 ? ms / 1e3 : (fps > 0 ? index / fps : 0.0);
+      const fs::path file = frame_file(index);
+      if (index >= video_frames) CheckOutput(file, "out", rules);  // past the frame count the header gave
+      Remap(frame, map, uo.interpolation, &res, cores);
+      WriteOutput(file, EncodeLike(res, file.string(), "out"), "out", rules);
+      image_out.push_back(file);
+      frames.push_back({{"image", "images/" + file.filename().string()}, {"frame_index", index}, {"time_s", t}});
+      if (o.progress) {
+        o.progress(fmt::format("undistort: [{}/{}] {} ({:.3f} s in the video; {:.2f} s)", frames.size(), expected,
+                               file.filename().string(), t, Seconds(ti)));
+      }
+    }
+    if (frames.empty()) throw InvalidInput("images", o.images + ": no frame could be decoded");
+  }
 
   // The pinhole for the tools.
   const camera::Camera pin = PinholeCamera(u);
@@ -234,6 +282,10 @@ Json Run(const RunOptions& o) {
   Json summary = SummaryJson(u);
   summary["map_seconds"] = map_s;
   summary["images"] = rel;
+  if (kind == calib::SourceKind::kVideo) {
+    summary["video"] = {{"source", o.images}, {"frames_in_source", video_frames}, {"fps", fps}, {"every", o.every},
+                        {"frames", frames}};
+  }
   if (refractive) {
     const auto maps = ResidualMaps(u);
     summary["residual"] = ResidualJson(maps);

@@ -29,7 +29,8 @@ struct RunOptions {
   // The camera itself (a rig's camera), instead of reading `calibration`; `calibration` then only
   // names its file, which no output may replace.
   std::optional<measure::RigCamera> camera;
-  std::string images;  // folder (field "images")
+  std::string images;  // a folder, one image or a video (field "images"; calib/frames.h)
+  int every = 1;       // every N-th image or frame (field "every")
   std::string out;     // folder, created when missing (field "out")
   UndistortOptions undistort;
   bool force = false;  // replace existing outputs (core/output.h's rule)

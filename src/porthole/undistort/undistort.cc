@@ -696,38 +696,6 @@ std::string ResidualScript(const std::vector<ResidualMap>& maps, const std::stri
   return s;
 }
 
-void RunGnuplot(const std::string& gnuplot, const std::string& dir, const std::string& script) {
-  const std::string log = (std::filesystem::path(dir) / "gnuplot.log").string();
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid < 0) throw InternalError(fmt::format("fork: {}", std::strerror(errno)));
-  if (pid == 0) {
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (getppid() != parent) _exit(126);
-    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      dup2(fd, STDOUT_FILENO);
-      dup2(fd, STDERR_FILENO);
-      close(fd);
-    }
-    if (chdir(dir.c_str()) != 0) _exit(126);
-    execlp(gnuplot.c_str(), gnuplot.c_str(), script.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  if (code == 127)
-    throw InvalidInput("gnuplot",
-                       fmt::format("'{}' not found: install Debian's gnuplot-nox", gnuplot));
-  if (code != 0) {
-    std::ifstream in(log);
-    std::string msg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    throw InvalidInput("gnuplot", fmt::format("failed (exit {}): {}", code, msg.substr(0, 400)));
-  }
-}
-
 camera::Camera PinholeCamera(const Undistorter& u) {
   camera::Camera c;
   c.model = camera::CameraModelId::kOpenCV;

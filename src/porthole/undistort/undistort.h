@@ -133,8 +133,6 @@ nlohmann::ordered_json ResidualJson(const std::vector<ResidualMap>& maps);
 std::string ResidualData(const std::vector<ResidualMap>& maps);
 std::string ResidualScript(const std::vector<ResidualMap>& maps, const std::string& data_file,
                            const std::string& png_file);
-// Runs `gnuplot script` in dir (no shell); throws InvalidInput("gnuplot", …) on failure.
-void RunGnuplot(const std::string& gnuplot, const std::string& dir, const std::string& script);
 
 // ---- The pinhole for other tools ----
 // The pinhole as a porthole camera (opencv model, zero distortion) on the output image; the source
