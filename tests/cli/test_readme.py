@@ -33,7 +33,8 @@ def test_readme_lists_the_commands_it_should():
     cmds = readme_commands()
     assert any(c.startswith("scripts/sample-data") for c in cmds)
     for word in ("report", "virtual-image", "trace", "plan", "flat", "materials", "synth-scan", "fit",
-                 "assemble", "presets", "simulate", "calibrate", "compare", "detect", "render", "target-sheet"):
+                 "assemble", "presets", "simulate", "calibrate", "compare", "detect", "render", "target-sheet",
+                 "undistort"):
         assert any(re.match(rf"porthole {word}\b", c) for c in cmds), word
     assert any("import porthole" in c for c in cmds)
 
@@ -60,7 +61,8 @@ def test_every_readme_line_runs(tmp_path):
     assert proc.returncode == 0, f"README line failed (exit {proc.returncode}):\n{tail}"
     try_dir = tmp_path / "porthole-try"
     for produced in ("my-report/index.html", "fan.json", "cap.ply", "as-built.toml", "my-dome.toml", "sweep.csv",
-                     "air.json", "water.json", "water.yml", "curves/curves.csv"):
+                     "air.json", "water.json", "water.yml", "curves/curves.csv", "air-pinhole/cameras.txt",
+                     "air-pinhole/transforms.json"):
         assert (try_dir / produced).exists(), produced
     assert len(list((try_dir / "detections").glob("*.json"))) >= 10
 
