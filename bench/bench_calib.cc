@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 
+#include "peer.h"
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
 #include "porthole/calib/rig.h"
@@ -131,12 +132,7 @@ BENCHMARK(BM_CalibOpenCVWithStdDev)->Unit(benchmark::kMillisecond);
 bool RunMrcalPeer(benchmark::State& state, const std::string& json_path, nlohmann::json* j) {
   const std::string cmd = "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_calib_mrcal.py " + json_path + " 2>/dev/null";
   for (auto _ : state) {
-    std::string out;
-    if (FILE* p = popen(cmd.c_str(), "r")) {
-      char buf[4096];
-      while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
-      if (pclose(p) != 0) out.clear();
-    }
+    const std::string out = porthole::bench::RunPeer(cmd);
     try {
       *j = nlohmann::json::parse(out);
     } catch (const nlohmann::json::exception&) {

@@ -31,6 +31,7 @@
 #include <random>
 #include <string>
 
+#include "peer.h"
 #include "porthole/io/presets.h"
 #include "porthole/materials/materials.h"
 #include "porthole/optics/batch.h"
@@ -341,12 +342,7 @@ void BM_TraceNumpyPeer(benchmark::State& state) {
       "/usr/bin/python3 " PORTHOLE_BENCH_DIR "/bench_trace_numpy.py " + spec_path;
   double numpy_s = 0, numpy_cpu_s = 0;
   for (auto _ : state) {
-    std::string text;
-    if (FILE* p = popen(cmd.c_str(), "r")) {
-      char buf[4096];
-      while (fgets(buf, sizeof buf, p) != nullptr) text += buf;
-      if (pclose(p) != 0) text.clear();
-    }
+    const std::string text = porthole::bench::RunPeer(cmd);
     const auto at = text.find("\"seconds\": ");
     if (at == std::string::npos) {
       state.SkipWithError("NumPy peer failed (python3-numpy: scripts/install-deps)");

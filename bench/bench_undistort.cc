@@ -15,6 +15,7 @@
 #include <random>
 #include <string>
 
+#include "peer.h"
 #include "porthole/undistort/undistort.h"
 
 namespace {
@@ -133,12 +134,7 @@ void BM_Undistort24MP_cv2(benchmark::State& state) {
                           spec_path + " 2>/dev/null";
   double seconds = 0, diff = 0;
   for (auto _ : state) {
-    std::string text;
-    if (FILE* p = popen(cmd.c_str(), "r")) {
-      char buf[4096];
-      while (fgets(buf, sizeof buf, p) != nullptr) text += buf;
-      if (pclose(p) != 0) text.clear();
-    }
+    const std::string text = porthole::bench::RunPeer(cmd);
     const auto at = text.find("\"seconds\": ");
     const auto dat = text.find("\"map_diff_px\": ");
     if (at == std::string::npos || dat == std::string::npos) {

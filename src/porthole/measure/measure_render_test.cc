@@ -91,13 +91,6 @@ calib::DetectOptions Search() {
   return search;
 }
 
-render::RenderOptions Sampling(std::uint64_t seed) {
-  render::RenderOptions ro;
-  ro.samples_per_pixel = 1;
-  ro.edge_samples_per_pixel = 144;
-  ro.seed = seed;
-  return ro;
-}
 
 // Renders camera k of the rig seeing `target` at rig_from_target and detects its corners.
 std::optional<calib::ImageDetections> RenderAndDetect(const RigScenes& rs, int k, const calib::TargetSpec& target,
@@ -109,7 +102,7 @@ std::optional<calib::ImageDetections> RenderAndDetect(const RigScenes& rs, int k
   const Eigen::Isometry3d cft = rs.cam_from_rig[k] * rig_from_target;
   s.pose.rotation = cft.linear();
   s.pose.translation_mm = cft.translation();
-  const render::Rendered r = render::Render(s, Sampling(seed));
+  const render::Rendered r = render::Render(s, render::testing::EdgeSampling(seed));
   calib::ImageDetections d;
   d.image = name;
   d.width_px = r.image.width;

@@ -1,6 +1,7 @@
 // Scenes the render tests share (render_test, coded_render_test). Tests only.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <variant>
 
@@ -33,6 +34,16 @@ inline ports::PortSpec ConcentricDome() {
   shape.rim_z_mm.reset();
   dome.shape = shape;
   return dome;
+}
+
+// Sharp edges for corner tests: one sample per pixel where the scene is flat, 144 (12 x 12) where a
+// pixel or its neighbours differ; `seed` draws the samples.
+inline RenderOptions EdgeSampling(std::uint64_t seed) {
+  RenderOptions ro;
+  ro.samples_per_pixel = 1;
+  ro.edge_samples_per_pixel = 144;
+  ro.seed = seed;
+  return ro;
 }
 
 }  // namespace porthole::render::testing

@@ -39,13 +39,6 @@ cv::Mat Gray8(const cv::Mat& f) {
   return g;
 }
 
-render::RenderOptions Sampling(std::uint64_t seed) {
-  render::RenderOptions ro;
-  ro.samples_per_pixel = 1;
-  ro.edge_samples_per_pixel = 144;
-  ro.seed = seed;
-  return ro;
-}
 
 // Detected corner id → pixel.
 std::map<int, Vector2d> Detect(const cv::Mat& gray, const calib::TargetSpec& target) {
@@ -99,8 +92,8 @@ TEST(UndistortRender, CentralCornersLieOnThePinholeProjection) {
   for (const View& v : views) {
     s.pose = direct.pose =
         render::PoseFacing(s.target, v.distance_mm, v.shift_mm, v.tilt_x, v.tilt_y, v.roll);
-    const render::Rendered r = render::Render(s, Sampling(11 + k));
-    const render::Rendered d = render::Render(direct, Sampling(11 + k));
+    const render::Rendered r = render::Render(s, render::testing::EdgeSampling(11 + k));
+    const render::Rendered d = render::Render(direct, render::testing::EdgeSampling(11 + k));
     ++k;
     const auto found_direct = Detect(Gray8(Float(d.image)), s.target);
     for (std::size_t i = 0; i < kinds.size(); ++i) {
@@ -172,7 +165,7 @@ double ResidualAgainstRenders(const std::string& port, const std::vector<double>
     s.target = calib::ParseTarget(c.target);
     s.pose = render::PoseFacing(s.target, c.view.distance_mm, c.view.shift_mm, c.view.tilt_x,
                                 c.view.tilt_y, c.view.roll);
-    const render::Rendered r = render::Render(s, Sampling(21 + k++));
+    const render::Rendered r = render::Render(s, render::testing::EdgeSampling(21 + k++));
     const cv::Mat out = Remap(Float(r.image), map, Interpolation::kLinear);
     const auto found = Detect(Gray8(out), s.target);
     if (std::getenv("UNDISTORT_TEST_DUMP"))
