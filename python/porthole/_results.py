@@ -312,7 +312,7 @@ class DetectionSet:
     images: List[Detections]
     skipped: List[SkippedImage]
     #: where the images came from and which were kept (a folder, one image or a video: kind, fps,
-    #: every, searched, found, blurred, kept, median_blur_px, cells_covered, tilt_classes, frames)
+    #: every, searched, found, blurred, kept, reference_blur_px, cells_covered, tilt_classes, frames)
     source: Optional[Dict[str, Any]] = None
 
     @classmethod

@@ -86,6 +86,12 @@ def test_detect_names_frames_by_index_and_time(clip):
         "--quiet")
     one = json.loads((clip / "det" / "f000020.json").read_text())
     assert one["frame_index"] == 20 and one["time_s"] == pytest.approx(2 / 3)
+    # Every 3rd frame: half of those searched are blurred (3, 9, ..., 57); all 10 still left out (a
+    # median-based rule kept one: the median sat among the blurred frames).
+    h = run("detect", "--images", clip / "clip.mp4", "--target", TARGET, "--every", 3, "--max-frames", 5,
+            "--json").json()
+    assert h["source"]["searched"] == 20 and h["source"]["blurred"] == 10
+    assert not {d["frame_index"] for d in h["images"]} & BLURRED and len(h["images"]) == 5
     # One image.
     k = run("detect", "--images", clip / "set" / "water" / "pose_007.png", "--target", TARGET, "--json").json()
     assert [d["image"] for d in k["images"]] == ["pose_007.png"] and k["source"]["kind"] == "image"

@@ -88,12 +88,13 @@ std::vector<int> CellsOf(const ImageDetections& d, int cols, int rows) {
   return cells;
 }
 
-double Median(std::vector<double> v) {
+// The lower quartile (the value a quarter of the way up the sorted list, interpolated).
+double Quartile(std::vector<double> v) {
   if (v.empty()) return NAN;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  double m = v[v.size() / 2];
-  if (v.size() % 2 == 0) m = 0.5 * (m + *std::max_element(v.begin(), v.begin() + v.size() / 2));
-  return m;
+  std::sort(v.begin(), v.end());
+  const double at = 0.25 * double(v.size() - 1);
+  const std::size_t i = std::size_t(at);
+  return i + 1 < v.size() ? v[i] + (at - double(i)) * (v[i + 1] - v[i]) : v[i];
 }
 
 // Removes entries of a run (detections and their parallel vectors) where keep[k] is false.
@@ -280,8 +281,10 @@ void ChooseFrames(DetectionRun* run, const TargetSpec& target, const FrameOption
   for (const auto& d : run->detections) {
     if (!std::isnan(d.blur_px)) blur.push_back(d.blur_px);
   }
-  const double median = Median(blur);
-  choice->median_blur_px = median;
+  // The reference: the lower quartile, the sharp end of the frames found (a median would sit among
+  // the blurred frames when half of them are: every 3rd frame of a clip blurred every 6th).
+  const double median = Quartile(blur);
+  choice->reference_blur_px = median;
   // 1. Blurred frames out (only when there is a choice to make: a directory of stills keeps all
   //    unless max_frames asks for the choice).
   std::vector<bool> keep(n, true);
@@ -296,9 +299,11 @@ void ChooseFrames(DetectionRun* run, const TargetSpec& target, const FrameOption
         const auto& d = run->detections[k];
         const std::string name =
             d.frame_index >= 0 ? fmt::format("{} ({:.3f} s)", d.image, d.time_s) : d.image;
-        run->skipped.push_back({name, fmt::format("blurred: the target's edges blurred by {:.2f} px, over {:g} x the "
-                                                  "median {:.2f} px",
-                                                  b, frames.max_blur_ratio, median)});
+        run->skipped.push_back(
+            {name, fmt::format("blurred: the target's edges blurred by {:.2f} px, above the {:.2f} px left in (the "
+                               "frames' lower quartile {:.2f} px: {:g} x it and {:g} px over it)",
+                               b, std::max(frames.max_blur_ratio * median, median + frames.min_blur_excess_px),
+                               median, frames.max_blur_ratio, frames.min_blur_excess_px)});
       }
     }
     KeepOnly(run, keep);
@@ -427,7 +432,7 @@ nlohmann::ordered_json FrameChoiceToJson(const FrameChoice& c, const std::vector
           {"found", c.found},
           {"blurred", c.blurred},
           {"kept", c.chosen},
-          {"median_blur_px", std::isfinite(c.median_blur_px) ? nlohmann::ordered_json(c.median_blur_px) : nullptr},
+          {"reference_blur_px", std::isfinite(c.reference_blur_px) ? nlohmann::ordered_json(c.reference_blur_px) : nullptr},
           {"cells_covered", c.cells_covered},
           {"cells", c.cells},
           {"tilt_classes", c.tilt_classes},
@@ -448,7 +453,10 @@ std::string Describe(const FrameChoice& c) {
       break;
   }
   t += fmt::format(", the target in {}", c.found);
-  if (c.blurred > 0) t += fmt::format("; {} blurred, left out (median edge blur {:.2f} px)", c.blurred, c.median_blur_px);
+  if (c.blurred > 0) {
+    t += fmt::format("; {} blurred, left out (the frames' lower quartile of edge blur {:.2f} px)", c.blurred,
+                     c.reference_blur_px);
+  }
   t += fmt::format("; {} kept, covering {} of {} grid cells and {} of 9 tilt classes", c.chosen, c.cells_covered,
                    c.cells, c.tilt_classes);
   return t;

@@ -9,8 +9,9 @@
 // The automatic choice (`max_frames` K > 0), for calibration from video, where consecutive frames
 // are near copies and some are blurred by motion:
 //  1. blurred frames are rejected: a frame whose target's edge blur (EdgeBlurPx, detect.h: the
-//     sigma of a Gaussian, px) is over `max_blur_ratio` times the median of the frames found and
-//     over the median by `min_blur_excess_px` (a set of equally sharp frames loses none);
+//     sigma of a Gaussian, px) is over `max_blur_ratio` times the frames' lower quartile and over
+//     it by `min_blur_excess_px` (a set of equally sharp frames loses none; the quartile, not the
+//     median, so that a clip of which half the frames are blurred is still judged by its sharp end);
 //  2. of the rest, K are chosen greedily, each adding the most to what the chosen ones lack: the
 //     cells of a `grid_cols` x `grid_rows` grid over the frame the target covers (each cell worth
 //     1 / (1 + times already covered)) and the target's tilt — one of 9 classes (facing the camera,
@@ -66,7 +67,7 @@ struct FrameChoice {
   long found = 0;             // with the target
   long blurred = 0;           // rejected as blurred (in run.skipped with their blur)
   long chosen = 0;            // kept (all found but the blurred when max_frames is 0)
-  double median_blur_px = NAN;  // of the frames found
+  double reference_blur_px = NAN;  // the lower quartile of the frames found
   int cells_covered = 0, cells = 0;  // the grid cells the kept frames' targets cover
   int tilt_classes = 0;              // of the 9
 };
@@ -92,12 +93,12 @@ void ChooseFrames(DetectionRun* run, const TargetSpec& target, const FrameOption
 
 // The choice as JSON for the outputs that used its frames (detect --json, calibrate): source, kind
 // ("directory", "image", "video"), frames_in_source, fps, every, searched, found, blurred, kept,
-// median_blur_px, cells_covered, cells, tilt_classes, and "frames": each kept image's name with
+// reference_blur_px, cells_covered, cells, tilt_classes, and "frames": each kept image's name with
 // its frame_index and time_s (a video).
 nlohmann::ordered_json FrameChoiceToJson(const FrameChoice& c, const std::vector<ImageDetections>& kept);
 
 // One line: "clip.mp4: video, 1800 frames at 30 fps; every 3rd searched (600), the target in 580;
-// 12 blurred, left out (median edge blur 0.61 px); 40 kept, covering 24 of 24 grid cells, 9 of 9 tilt classes".
+// 12 blurred, left out (the frames' lower quartile of edge blur 0.61 px); 40 kept, covering 24 of 24 grid cells, 9 of 9 tilt classes".
 std::string Describe(const FrameChoice& c);
 
 }  // namespace porthole::calib
