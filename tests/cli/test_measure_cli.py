@@ -315,6 +315,13 @@ def test_report_shows_the_rig_plan_and_the_scale_bar(rig, fresh, tmp_path):
     assert rep["scale_bar"]["mean_error_mm"] == pytest.approx(bar["mean_error_mm"], rel=1e-12)
     assert [f["error_mm"] for f in rep["scale_bar"]["frames"]] == pytest.approx([f["error_mm"] for f in bar["frames"]])
     assert rep["scale_bar"]["source"] == str(tmp_path / "bar.json")
+    # A check without sigma (z null in the file): the page says so, never "z = nan".
+    nosig = json.loads((tmp_path / "bar.json").read_text())
+    nosig["measure"]["scale_bar"]["z"] = None
+    (tmp_path / "nosig.json").write_text(json.dumps(nosig))
+    run("report", "--scale-bar-check", tmp_path / "nosig.json", "--out", tmp_path / "r4")
+    page4 = (tmp_path / "r4" / "index.html").read_text()
+    assert "z = unknown: no sigma" in page4 and "z = nan" not in page4
     # A measure output without a scale-bar check, and a file that is no JSON, are refused in one line.
     run("measure", "--rig", d / "rig.json", "--points", left, "--points", right, "--length", "0,15",
         "--out", tmp_path / "lengths.json")

@@ -918,9 +918,10 @@ Figure ScaleBarFigure(const Results& r) {
   }
   f.caption = fmt::format(
       "(a) Each frame's error of the {:g} mm bar (points {} and {}) against its range, with ±2σ; red: the mean of each "
-      "500 mm bin. Mean error {:+.3f} mm ± {:.3f} mm (z = {:.2f}): {}. (b) Where the bar's centre was in the first "
+      "500 mm bin. Mean error {:+.3f} mm ± {:.3f} mm (z = {}): {}. (b) Where the bar's centre was in the first "
       "camera's image, coloured by its error (mm): a pattern over the frame points at the calibration.",
-      c.bar.length_mm, c.bar.id_a, c.bar.id_b, c.mean_error_mm, c.sigma_mean_mm, c.z, c.verdict);
+      c.bar.length_mm, c.bar.id_a, c.bar.id_b, c.mean_error_mm, c.sigma_mean_mm,
+      std::isfinite(c.z) ? fmt::format("{:.2f}", c.z) : std::string("unknown: no sigma"), c.verdict);
   f.body = fmt::format(
       "set multiplot layout 2,1 margins 0.12,0.78,0.09,0.94 spacing 0,0.17\n"
       "set key top left vertical Left reverse samplen 2 box opaque\n"

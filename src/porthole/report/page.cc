@@ -534,9 +534,10 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
     }
     h += "<section id=\"scale-bar\"><h2>Scale bar</h2>\n<p>" +
          Html(fmt::format("{}: the bar between points {} and {}, {:g} mm long, in {} frames. Mean error {:+.3f} mm "
-                          "({:+.3f} %) ± {:.3f} mm, z = {:.2f}: {}",
+                          "({:+.3f} %) ± {:.3f} mm, z = {}: {}",
                           r.in->scale_bar_source, c.bar.id_a, c.bar.id_b, c.bar.length_mm, c.rows.size(),
-                          c.mean_error_mm, c.mean_error_percent, c.sigma_mean_mm, c.z, c.verdict)) +
+                          c.mean_error_mm, c.mean_error_percent, c.sigma_mean_mm,
+                          std::isfinite(c.z) ? fmt::format("{:.2f}", c.z) : std::string("unknown: no sigma"), c.verdict)) +
          "</p>\n<div class=\"scroll\">";
     h += Table("The error against range",
                {"range <span class=\"unit\">m</span>", "frames", "mean error <span class=\"unit\">mm</span>",
