@@ -26,6 +26,7 @@
 #include "porthole/core/error.h"
 #include "porthole/interop/interop.h"
 #include "porthole/interop/opencv_storage.h"
+#include "porthole/interop/rig_files.h"
 #include "porthole/io/presets.h"
 
 namespace porthole::cli {
@@ -393,31 +394,13 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   auto j = calib::RigToJson(r, target, ro);
   if (from_images) j["images_source"] = rig_sources;
   std::string stereo_note;
-  if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T
-    interop::OpenCVStereo st;
-    for (int k = 0; k < 2; ++k) {  // opencv models without a port (checked above)
-      const auto& c = r.cameras[k];
-      const std::vector<double>& p = c.calibration.camera.params;
-      interop::OpenCVStorageCalibration& oc = k == 0 ? st.first : st.second;
-      oc.camera_matrix = {p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1};
-      const bool rational = p[9] != 0 || p[10] != 0 || p[11] != 0;
-      oc.distortion.assign(p.begin() + 4, p.begin() + (rational ? 12 : 9));
-      oc.width_px = c.calibration.camera.sensor.width_px;
-      oc.height_px = c.calibration.camera.sensor.height_px;
-    }
-    const auto& c1 = r.cameras[1];
-    const Eigen::Matrix3d rot =
-        c1.rotation_rad.norm() > 0 ? Eigen::AngleAxisd(c1.rotation_rad.norm(), c1.rotation_rad.normalized()).toRotationMatrix()
-                                   : Eigen::Matrix3d::Identity();
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) st.r[3 * a + b] = rot(a, b);
-      st.t[a] = c1.translation_mm(a);
-    }
+  if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T (interop/rig_files.h)
+    interop::RigFile pair = interop::RigFileFromResult(r);
+    pair.cameras.resize(2);  // opencv models without a port (checked above)
     const bool xml = std::filesystem::path(o.stereo_out).extension() == ".xml";
-    WriteOutput(o.stereo_out,
-                interop::OpenCVStereoText(st, xml, "porthole calibrate: stereo rig " + c1.name + " from " +
-                                                       r.cameras[0].name + " (x2 = R x1 + T, mm)"),
-                "--stereo-out", rules);
+    const auto w = interop::WriteRigFile(
+        pair, xml ? interop::RigFormat::kOpenCVStereoXml : interop::RigFormat::kOpenCVStereoYaml, "--stereo-out");
+    WriteOutput(o.stereo_out, w.files.front().second, "--stereo-out", rules);
     j["rig"]["stereo_out"] = o.stereo_out;
     stereo_note = fmt::format("OpenCV stereo file (K1 D1 K2 D2 R T) written to {}\n", o.stereo_out);
   }

@@ -1,6 +1,7 @@
 // `porthole convert IN [IN …] OUT [--to FORMAT]`: a calibration from one tool's file format to
 // another's (porthole JSON, OpenCV YAML/XML, COLMAP cameras.txt/.bin, mrcal .cameramodel, Metashape
-// XML, calibmar; several INs: one COLMAP file holding them all; docs/interop.md).
+// XML, calibmar; several INs: one COLMAP file holding them all; docs/interop.md), and a rig between
+// porthole's rig JSON and OpenCV stereo, VIAME npz, ROS camera_info and Kalibr files (RunRig).
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -10,12 +11,125 @@
 #include "common.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
+#include "porthole/core/input.h"
 #include "porthole/interop/interop.h"
 #include "porthole/interop/refractive.h"
+#include "porthole/interop/rig_files.h"
 #include "porthole/io/presets.h"
 #include "porthole/materials/materials.h"
 
 namespace porthole::cli {
+namespace {
+
+struct ConvertRigOptions {
+  std::string length_unit, image_size;
+};
+
+// Whether the INs (and --to) make this a rig conversion: the first IN is a rig file (several INs:
+// ROS camera_info files, one per camera, written to a rig format), or --to names a rig format.
+bool IsRigConversion(const std::vector<std::string>& ins, const std::string& out, const std::string& to) {
+  if (!to.empty()) {
+    for (const std::string_view name : {"opencv-stereo", "opencv-stereo-xml", "viame-npz", "ros-camera-info", "kalibr"}) {
+      if (to == name) return true;
+    }
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(ins.front(), ec)) return false;
+  std::string head;
+  try {
+    head = ReadInputFile(ins.front(), "IN", kMaxCalibrationFileBytes);
+  } catch (const InvalidInput&) {
+    return false;  // the ordinary path reports it
+  }
+  const auto f = interop::DetectRigFormat(ins.front(), head);
+  if (!f) return false;
+  if (*f == interop::RigFormat::kRosCameraInfo) {  // one camera_info is a camera (opencv-yaml), two a rig into JSON
+    return ins.size() > 1 && (to == "json" || std::filesystem::path(out).extension() == ".json");
+  }
+  return true;
+}
+
+std::pair<int, int> ParseImageSize(const std::string& s) {
+  const auto x = s.find('x');
+  int w = 0, h = 0;
+  try {
+    if (x != std::string::npos) w = std::stoi(s.substr(0, x)), h = std::stoi(s.substr(x + 1));
+  } catch (const std::exception&) {
+  }
+  if (x == std::string::npos || !(w >= 1 && h >= 1 && w <= 1000000 && h <= 1000000) ||
+      s.find_first_not_of("0123456789x") != std::string::npos) {
+    throw InvalidInput("--image-size", "'" + s.substr(0, 20) + "' must be WIDTHxHEIGHT in pixels, e.g. 1920x1080");
+  }
+  return {w, h};
+}
+
+// IN … OUT as a rig: read every IN as one rig file (ROS: one per camera), write OUT in its format.
+void RunRig(const std::vector<std::string>& ins, const std::string& out_arg, const std::string& to,
+            std::optional<double> pitch_mm, const ConvertRigOptions& ro, bool json, bool force) {
+  interop::RigReadOptions opt;
+  opt.pixel_pitch_mm = pitch_mm.value_or(1.0);
+  if (!ro.length_unit.empty()) opt.length_unit = interop::LengthUnitFromName(ro.length_unit, "--length-unit");
+  if (!ro.image_size.empty()) opt.image_size = ParseImageSize(ro.image_size);
+  const interop::RigFile rig = interop::ReadRigFiles(ins, opt, "IN");
+  const std::optional<std::string> to_opt = to.empty() ? std::nullopt : std::optional(to);
+  const interop::RigFormat format = interop::RigOutputFormat(out_arg, to_opt, "OUT");
+  const interop::RigWriteResult w = interop::WriteRigFile(rig, format, "OUT '" + out_arg + "'");
+  OutputRules rules{.force = force, .inputs = {}};
+  for (const auto& path : ins) rules.inputs.emplace_back(path);
+  std::vector<std::filesystem::path> paths;
+  if (format == interop::RigFormat::kRosCameraInfo) {
+    if (std::filesystem::exists(out_arg) && !std::filesystem::is_directory(out_arg)) {
+      throw InvalidInput("OUT", "'" + out_arg + "': ros-camera-info writes one file per camera into a directory");
+    }
+    std::error_code ec;
+    std::filesystem::create_directories(out_arg, ec);
+    if (ec) throw InvalidInput("OUT", "'" + out_arg + "': cannot create the directory: " + ec.message());
+    for (const auto& [name, unused] : w.files) paths.push_back(std::filesystem::path(out_arg) / name);
+  } else {
+    paths.emplace_back(out_arg);
+  }
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    CheckOutput(paths[i], "OUT", rules, format == interop::RigFormat::kJson ? FileKind::kCalibration : FileKind::kOther);
+  }
+  for (std::size_t i = 0; i < paths.size(); ++i) WriteOutput(paths[i], w.files[i].second, "OUT", rules);
+  const std::string in_text = ins.size() == 1 ? ins.front() : fmt::format("{} files", ins.size());
+  if (json) {
+    Json cams = Json::array();
+    for (const auto& c : w.cameras) {
+      cams.push_back({{"name", c.name},
+                      {"out_model", c.format_model},
+                      {"exact", c.exact},
+                      {"refit_rms_px", c.exact ? 0.0 : c.fit.rms_px},
+                      {"refit_max_px", c.exact ? 0.0 : c.fit.max_px}});
+    }
+    Json files = Json::array();
+    for (const auto& p : paths) files.push_back(p.string());
+    Json j = {{"in", ins},
+              {"in_format", std::string(interop::RigFormatName(rig.format))},
+              {"out", out_arg},
+              {"out_files", files},
+              {"out_format", std::string(interop::RigFormatName(format))},
+              {"n_cameras", rig.cameras.size()},
+              {"length_unit", rig.length_unit_note},
+              {"pitch", rig.pitch_known ? "from the file" : pitch_mm ? "--pixel-pitch-mm" : "none: pixels are mm"},
+              {"exact", w.exact()},
+              {"cameras", cams}};
+    return fmt::print("{}\n", PrintableJson(j));
+  }
+  fmt::print("rig of {} cameras: {} ({}) -> {} ({})\n", rig.cameras.size(), in_text, interop::RigFormatName(rig.format),
+             out_arg, interop::RigFormatName(format));
+  for (const auto& c : w.cameras) {
+    fmt::print("  {}: {} {}\n", c.name, c.format_model,
+               c.exact ? std::string("exact")
+                       : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px ({} points)", c.fit.rms_px,
+                                     c.fit.max_px, c.fit.num_points));
+  }
+  if (rig.format != interop::RigFormat::kJson) {
+    fmt::print("T in {}; no sigma (the format holds no covariance)\n", rig.length_unit_note);
+  }
+}
+
+}  // namespace
 
 void RegisterConvert(CLI::App& app) {
   struct Options {
@@ -24,6 +138,7 @@ void RegisterConvert(CLI::App& app) {
     std::optional<double> pitch_mm, water_index;
     int camera_id = 0;
     bool json = false, force = false;
+    ConvertRigOptions rig;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -54,6 +169,17 @@ void RegisterConvert(CLI::App& app) {
       "with terms OpenCV lacks (b2, k4, p3, p4). sigma is carried where both formats hold it\n"
       "(porthole JSON, Metashape) and unknown where the input has none. See docs/interop.md.\n"
       "Several INs write one COLMAP cameras.txt/.bin with CAMERA_ID 1, 2, ... in their order.\n"
+      "Rigs (a rig JSON of `porthole calibrate` with several cameras, or a rig file IN):\n"
+      "  json               porthole rig JSON (.json)\n"
+      "  opencv-stereo      OpenCV stereo FileStorage YAML: K1 D1 K2 D2 R T (x2 = R x1 + T), image size\n"
+      "  opencv-stereo-xml  the same as XML (.xml)\n"
+      "  viame-npz          VIAME's stereo .npz: cameraMatrixL/R, distCoeffsL/R, R, T (float64)\n"
+      "  ros-camera-info    one ROS camera_info YAML per camera (OUT: a directory; IN: the two files,\n"
+      "                     left then right), R and P the stereo rectification, metres\n"
+      "  kalibr             Kalibr camchain YAML: pinhole-radtan / pinhole-equi, T_cn_cnm1 in metres\n"
+      "  A .yaml OUT needs --to (opencv-stereo or kalibr). OpenCV's and VIAME's T have no stated unit:\n"
+      "  porthole writes mm with T_unit: mm; reading another file needs --length-unit. Cameras of\n"
+      "  other models are refit (RMS printed); cameras behind ports are refused (no refraction).\n"
       "Examples: porthole convert calib.json sparse/0/cameras.txt\n"
       "          porthole convert left.json right.yml sparse/0/cameras.txt   # two cameras\n"
       "An existing OUT (or --port-out) is replaced only with --force, never an IN, and never a file porthole\n"
@@ -63,7 +189,7 @@ void RegisterConvert(CLI::App& app) {
                   "then the file to write (an existing directory: its cameras.txt / cameras.bin)")
       ->required()
       ->expected(2, -1);
-  cmd->add_option("--to", o->to, "Output format: " + interop::FormatNames() +
+  cmd->add_option("--to", o->to, "Output format: " + interop::FormatNames() + "; rigs: " + interop::RigFormatNames() +
                                      " (default: from OUT's extension)");
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch for inputs that have none (all but porthole JSON), mm; without it "
@@ -77,6 +203,11 @@ void RegisterConvert(CLI::App& app) {
                   "must be concentric)");
   cmd->add_option("--water-index", o->water_index,
                   "With --port: the water index nw (default: seawater, Quan-Fry at 20 C, 35 PSU, 546.07 nm)");
+  cmd->add_option("--length-unit", o->rig.length_unit,
+                  "Rig files whose T has no stated unit (OpenCV stereo, VIAME npz not written by porthole): mm, cm or m")
+      ->check(CLI::IsMember({"mm", "cm", "m"}));
+  cmd->add_option("--image-size", o->rig.image_size,
+                  "VIAME npz not written by porthole (it holds no image size): WIDTHxHEIGHT, px");
   cmd->add_flag("--json", o->json, "JSON summary for scripts");
   AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
@@ -86,6 +217,18 @@ void RegisterConvert(CLI::App& app) {
     }
     const std::vector<std::string> ins(o->files.begin(), o->files.end() - 1);
     const std::string out_arg = o->files.back();
+    if (IsRigConversion(ins, out_arg, o->to)) {
+      if (!o->port.empty() || !o->port_out.empty() || o->water_index || o->camera_id != 0) {
+        throw InvalidInput(!o->port.empty() ? "--port" : !o->port_out.empty() ? "--port-out"
+                           : o->water_index        ? "--water-index"
+                                                   : "--camera-id",
+                           "is for a single camera's calibration, not a rig");
+      }
+      return RunRig(ins, out_arg, o->to, o->pitch_mm, o->rig, o->json, o->force);
+    }
+    if (!o->rig.length_unit.empty() || !o->rig.image_size.empty()) {
+      throw InvalidInput(o->rig.length_unit.empty() ? "--image-size" : "--length-unit", "is for rig files (IN is not one)");
+    }
     std::vector<interop::ReadResult> reads;
     for (const auto& path : ins) reads.push_back(interop::ReadCalibrationFile(path, o->pitch_mm.value_or(1.0), "IN", o->camera_id));
     std::filesystem::path out = out_arg;

@@ -550,7 +550,7 @@ std::string WriteOpenCVStereo(const RigFile& rig, bool xml, const std::string& f
   const RigFormat format = xml ? RigFormat::kOpenCVStereoXml : RigFormat::kOpenCVStereoYaml;
   const PairCameras p = OpenCVPair(rig, format, field);
   const auto [r, t] = Relative(rig.cameras[0], rig.cameras[1]);
-  const int n1 = std::max(OpenCVCount(p.first.cam), 4), n2 = std::max(OpenCVCount(p.second.cam), 4);
+  const int n1 = std::max(OpenCVCount(p.first.cam), 5), n2 = std::max(OpenCVCount(p.second.cam), 5);  // as cv::stereoCalibrate: 5 or 8
   const Eigen::Matrix3d rt = r.transpose();  // its column-major data: R row-major
   const std::vector<double> rv(rt.data(), rt.data() + 9);
   const std::vector<double> tv{t(0), t(1), t(2)};
@@ -594,14 +594,14 @@ double TUnitMm(const YNode* stated, const RigReadOptions& o, const std::string& 
     if (o.length_unit != LengthUnit::kUnstated && o.length_unit != unit) {
       throw InvalidInput(where + ": T_unit", fmt::format("the file states {}, but {} was given", u, UnitName(o.length_unit)));
     }
-    rig->length_unit_note = "stated in the file: " + u;
+    rig->length_unit_note = u + ", stated in the file";
     return UnitMm(unit);
   }
   if (o.length_unit == LengthUnit::kUnstated) {
     throw InvalidInput(where + ": T", "the file does not state T's unit (the calibration target's): give the length unit "
                                       "(choices: mm, cm, m)");
   }
-  rig->length_unit_note = "given: " + std::string(UnitName(o.length_unit));
+  rig->length_unit_note = std::string(UnitName(o.length_unit)) + ", given";
   return UnitMm(o.length_unit);
 }
 
@@ -713,7 +713,7 @@ RigFile ReadViameNpz(const std::string& bytes, const RigReadOptions& o, const st
 std::string WriteViameNpz(const RigFile& rig, const std::string& field, std::vector<RigWriteCamera>* info) {
   const PairCameras p = OpenCVPair(rig, RigFormat::kViameNpz, field);
   const auto [r, t] = Relative(rig.cameras[0], rig.cameras[1]);
-  const int n1 = OpenCVCount(p.first.cam), n2 = OpenCVCount(p.second.cam);
+  const int n1 = std::max(OpenCVCount(p.first.cam), 5), n2 = std::max(OpenCVCount(p.second.cam), 5);  // as cv2.stereoCalibrate
   const Eigen::Matrix3d rt = r.transpose();
   const auto arr = [](std::vector<int> shape, std::vector<double> data) {
     NpyArray a;

@@ -13,6 +13,7 @@
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
 #include "porthole/core/nearest.h"
+#include "porthole/interop/rig_files.h"
 
 namespace porthole::measure {
 namespace {
@@ -307,7 +308,23 @@ Rig LoadWith(const std::string& path, const std::string& field, Rig (*from)(cons
 }  // namespace
 
 Rig LoadCamera(const std::string& path, const std::string& field) { return LoadWith(path, field, &CameraFromJson); }
-Rig LoadRig(const std::string& path, const std::string& field) { return LoadWith(path, field, &RigFromJson); }
+Rig LoadRig(const std::string& path, const std::string& field) {
+  // The rig files of other tools (interop/rig_files.h): read into the rig JSON's form. They hold
+  // no covariance; files without a stated length unit or image size are refused there (convert
+  // them with their unit first).
+  const std::string text = ReadInputFile(path, field, kMaxCalibrationFileBytes);
+  const auto format = interop::DetectRigFormat(path, text);
+  if (format && *format != interop::RigFormat::kJson) {
+    interop::RigReadOptions o;
+    o.format = format;
+    const interop::RigFile file = interop::ParseRigFiles({text}, {path}, o, field);
+    Rig rig = RigFromJson(interop::RigFileToJson(file), field);
+    rig.covariance_note = fmt::format("none: a {} rig file holds no covariance (T in {})",
+                                      interop::RigFormatName(*format), file.length_unit_note);
+    return rig;
+  }
+  return LoadWith(path, field, &RigFromJson);
+}
 
 Rig RigFromResult(const calib::RigResult& r) {
   Rig rig;

@@ -57,7 +57,9 @@ struct Rig {
 // InvalidInput(field + ".<key>", …) naming what is missing or wrong; a single camera's calibration
 // is refused with a line saying it is not a rig.
 Rig RigFromJson(const nlohmann::json& j, const std::string& field);
-// The same read from `path` (size-capped, JSON errors with their line).
+// The same read from `path` (size-capped, JSON errors with their line); also a rig file of another
+// tool (interop/rig_files.h: OpenCV stereo YAML/XML, VIAME npz, Kalibr camchain), which holds no
+// covariance (covariance_note says so) and must state its length unit (porthole's own do).
 Rig LoadRig(const std::string& path, const std::string& field);
 // One camera's calibration (porthole's JSON: a lens, or a lens behind its port with the port's
 // `shell`) as a rig of that camera alone, for measuring on a known plane; its covariance: the
