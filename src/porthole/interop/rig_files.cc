@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -120,7 +122,8 @@ class YamlReader {
       };
       while (depth(l.text) > 0 && p <= text.size()) {
         const std::size_t e2 = std::min(text.find('\n', p), text.size());
-        l.text += " " + Trim(StripComment(std::string(text.substr(p, e2 - p))));
+        l.text.push_back(' ');
+        l.text.append(Trim(StripComment(std::string(text.substr(p, e2 - p)))));
         p = e2 + 1;
         ++number;
       }
@@ -176,7 +179,9 @@ class YamlReader {
           if (i < lines_.size() && lines_[i].indent > indent) {
             n.seq.push_back(Block(i, lines_[i].indent, depth + 1));
           } else {
-            n.seq.push_back(YNode{YNode::kNull, "", {}, {}, l.number});
+            YNode null;
+            null.line = l.number;
+            n.seq.push_back(null);
           }
         } else if (rest.rfind("- ", 0) == 0 || rest == "-" || (rest[0] != '[' && KeyColon(rest) != std::string::npos)) {
           // A compact nested item ("- - 1.0", "- key: value"): the rest is a block of its own.
@@ -304,10 +309,17 @@ double Number(const YNode& n, const std::string& where) {
   return ToNumber(n.scalar, where);
 }
 
-int Pixels(const YNode& n, const std::string& where) {
-  const double v = Number(n, where);
+int PixelsValue(double v, const std::string& where) {
   if (!(v >= 1 && v <= 1e6 && v == std::floor(v))) throw InvalidInput(where, "must be a whole number of pixels from 1 to 1000000");
   return static_cast<int>(v);
+}
+int Pixels(const YNode& n, const std::string& where) { return PixelsValue(Number(n, where), where); }
+
+YNode Scalar(std::string text) {
+  YNode n;
+  n.kind = YNode::kScalar;
+  n.scalar = std::move(text);
+  return n;
 }
 
 // The numbers of a list (nested lists flattened in order) or of a scalar of numbers separated by
@@ -482,7 +494,10 @@ std::vector<double> KMatrix(const Camera& c) {
 
 std::string NumList(const std::vector<double>& v, std::string_view sep = ", ") {
   std::string s;
-  for (double x : v) s += (s.empty() ? "" : std::string(sep)) + Float(x);
+  for (double x : v) {
+    if (!s.empty()) s.append(sep);
+    s.append(Float(x));
+  }
   return s;
 }
 
@@ -628,9 +643,8 @@ RigFile ReadOpenCVStereo(const std::string& text, bool xml, const RigReadOptions
   int w = 0, h = 0;
   if (const YNode* size = root.Get("image_size"); size != nullptr) {
     const auto v = Matrix(*size, 2, field + ": image_size");
-    w = static_cast<int>(v[0]), h = static_cast<int>(v[1]);
-    YNode a{YNode::kScalar, Float(v[0])}, b{YNode::kScalar, Float(v[1])};
-    Pixels(a, field + ": image_size"), Pixels(b, field + ": image_size");
+    w = PixelsValue(v[0], field + ": image_size");
+    h = PixelsValue(v[1], field + ": image_size");
   } else {
     w = Pixels(Need(root, "image_width", field), field + ": image_width");
     h = Pixels(Need(root, "image_height", field), field + ": image_height");
@@ -682,8 +696,7 @@ RigFile ReadViameNpz(const std::string& bytes, const RigReadOptions& o, const st
     for (const auto& [name, unused] : members) {
       if (name == key + ".npy") {
         const auto v = numbers(key, 2);
-        YNode a{YNode::kScalar, Float(v[0])}, b{YNode::kScalar, Float(v[1])};
-        return {Pixels(a, field + ": " + key), Pixels(b, field + ": " + key)};
+        return {PixelsValue(v[0], field + ": " + key), PixelsValue(v[1], field + ": " + key)};
       }
     }
     if (!o.image_size) {
@@ -698,7 +711,7 @@ RigFile ReadViameNpz(const std::string& bytes, const RigReadOptions& o, const st
     if (name == "T_unit.npy") {
       const NpyArray a = ParseNpy(data, field + ": T_unit");
       if (!a.is_text) throw InvalidInput(field + ": T_unit", "must be text (mm, cm or m)");
-      unit = YNode{YNode::kScalar, a.text};
+      unit = Scalar(a.text);
     }
   }
   RigFile tmp;
@@ -949,8 +962,7 @@ RigFile ReadKalibr(const std::string& text, const RigReadOptions& o, const std::
     const auto in = Matrix(Need(*c, "intrinsics", f), 4, f + ".intrinsics");
     if (!(in[0] > 0 && in[1] > 0)) throw InvalidInput(f + ".intrinsics", "fu and fv must be > 0");
     const auto res = Matrix(Need(*c, "resolution", f), 2, f + ".resolution");
-    YNode wn{YNode::kScalar, Float(res[0])}, hn{YNode::kScalar, Float(res[1])};
-    const int w = Pixels(wn, f + ".resolution"), h = Pixels(hn, f + ".resolution");
+    const int w = PixelsValue(res[0], f + ".resolution"), h = PixelsValue(res[1], f + ".resolution");
     const std::string dist = Need(*c, "distortion_model", f).scalar;
     const auto d = Matrix(Need(*c, "distortion_coeffs", f), 0, f + ".distortion_coeffs");
     const std::vector<double> km{in[0], 0, in[2], 0, in[1], in[3], 0, 0, 1};
@@ -991,10 +1003,6 @@ RigFile ReadKalibr(const std::string& text, const RigReadOptions& o, const std::
 
 std::string ReadWhole(const std::string& path, const std::string& field) {
   return ReadInputFile(path, field, kMaxCalibrationFileBytes);
-}
-
-bool EndsWith(const std::string& s, std::string_view suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 std::string Lower(std::string s) {
@@ -1149,11 +1157,10 @@ std::optional<RigFormat> DetectRigFormat(const std::string& path, const std::str
   if (ext == ".npz" || content.rfind("PK\x03\x04", 0) == 0) return RigFormat::kViameNpz;
   const auto start = content.find_first_not_of(" \t\r\n");
   if (start == std::string::npos) return std::nullopt;
-  if (content[start] == '{') {
-    try {
-      const Json j = Json::parse(content);
-      if (j.is_object() && j.contains("rig")) return RigFormat::kJson;
-    } catch (const Json::exception&) {
+  if (content[start] == '{') {  // a rig JSON has a top-level "rig" object (ParseRigFiles checks it)
+    for (std::size_t p = content.find("\"rig\""); p != std::string::npos; p = content.find("\"rig\"", p + 1)) {
+      const auto colon = content.find_first_not_of(" \t\r\n", p + 5);
+      if (colon != std::string::npos && content[colon] == ':') return RigFormat::kJson;
     }
     return std::nullopt;
   }
@@ -1323,17 +1330,22 @@ NpyArray ParseNpy(std::string_view b, const std::string& field) {
   }
   NpyArray a;
   std::size_t count = 1;
+  if (h["shape"].size() > 8) throw InvalidInput(field, "a .npy shape of more than 8 dimensions");
   for (const auto& s : h["shape"]) {
     if (!s.is_number_integer() || s.get<long long>() < 0 || s.get<long long>() > 4096) throw InvalidInput(field, "a bad .npy shape");
     a.shape.push_back(s.get<int>());
     count *= static_cast<std::size_t>(s.get<int>());
+    if (count > 4096) throw InvalidInput(field, "more than 4096 values");
   }
-  if (count > 4096) throw InvalidInput(field, "more than 4096 values");
   const bool fortran = h.contains("fortran_order") && h["fortran_order"].is_boolean() && h["fortran_order"].get<bool>();
   const std::string descr = h["descr"].get<std::string>();
   const std::string_view data = b.substr(at + hlen);
   if (descr.size() > 2 && descr[1] == 'U' && (descr[0] == '<' || descr[0] == '|')) {
-    const std::size_t n = std::stoul(descr.substr(2));
+    const std::string digits = descr.substr(2);
+    if (digits.empty() || digits.size() > 3 || digits.find_first_not_of("0123456789") != std::string::npos) {
+      throw InvalidInput(field, "a bad text dtype '" + descr.substr(0, 20) + "'");
+    }
+    const std::size_t n = std::stoul(digits);
     if (count != 1 || n > 64 || data.size() < 4 * n) throw InvalidInput(field, "a text array must be one string of at most 64 characters");
     a.is_text = true;
     for (std::size_t i = 0; i < n; ++i) {

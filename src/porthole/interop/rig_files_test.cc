@@ -247,8 +247,10 @@ TEST(RigFiles, RefusesPortsPairsAndBadFiles) {
   std::string text = w.files[0].second;
   const auto k2 = text.find("K2:");
   text.replace(k2, 3, "KX:");
+  RigReadOptions yaml;
+  yaml.format = RigFormat::kOpenCVStereoYaml;
   try {
-    ParseRigFiles({text}, {"s.yml"}, {.format = RigFormat::kOpenCVStereoYaml}, "IN");
+    ParseRigFiles({text}, {"s.yml"}, yaml, "IN");
     FAIL();
   } catch (const InvalidInput& e) {
     EXPECT_EQ(e.field(), "IN 's.yml': K2");
@@ -266,6 +268,38 @@ TEST(RigFiles, RefusesPortsPairsAndBadFiles) {
   }
   EXPECT_THROW(RigOutputFormat("rig.yaml", std::nullopt, "OUT"), InvalidInput);
   EXPECT_EQ(RigOutputFormat("rig.yaml", "kalibr", "OUT"), RigFormat::kKalibr);
+}
+
+TEST(RigFiles, HostileFilesGetOneLine) {
+  const auto refused = [](const std::string& text, const std::string& name, RigFormat f) {
+    RigReadOptions o;
+    o.format = f;
+    o.length_unit = LengthUnit::kMm;
+    EXPECT_THROW(ParseRigFiles({text}, {name}, o, "IN"), InvalidInput) << text.substr(0, 80);
+  };
+  std::string deep = "cam0:\n";
+  for (int i = 1; i < 40; ++i) deep += std::string(2 * i, ' ') + "a:\n";
+  refused(deep, "c.yaml", RigFormat::kKalibr);                                    // nested deeper than 16
+  refused("cam0:\n  intrinsics: [1, [2, [3]\n", "c.yaml", RigFormat::kKalibr);   // unbalanced [ ]
+  refused("cam0:\n\tintrinsics: [1]\n", "c.yaml", RigFormat::kKalibr);           // a tab
+  refused("cam0:\n  a: 1\n  a: 2\n", "c.yaml", RigFormat::kKalibr);              // a key twice
+  refused(std::string(100, '['), "c.yaml", RigFormat::kKalibr);
+  refused("K1: {a: 1}\nK2: 1\nT: 1\n", "s.yml", RigFormat::kOpenCVStereoYaml);   // flow mappings
+  refused("", "s.yml", RigFormat::kOpenCVStereoYaml);
+  refused("<opencv_storage><K1>1 2</K1></opencv_storage>", "s.xml", RigFormat::kOpenCVStereoXml);
+  // npy: a bad dtype, a shape whose product overflows, truncated data.
+  const std::string header = "{'descr': '<Ux', 'fortran_order': False, 'shape': (), }";
+  const std::string bad_text = std::string("\x93NUMPY\x01\x00", 8) + std::string{static_cast<char>(header.size()), 0} + header;
+  EXPECT_THROW(ParseNpy(bad_text, "x"), InvalidInput);
+  const std::string big = "{'descr': '<f8', 'fortran_order': False, 'shape': (4096, 4096, 4096, 4096), }";
+  EXPECT_THROW(ParseNpy(std::string("\x93NUMPY\x01\x00", 8) + std::string{static_cast<char>(big.size()), 0} + big, "x"),
+               InvalidInput);
+  NpyArray a;
+  a.shape = {3, 3};
+  a.data = std::vector<double>(9, 1.0);
+  const std::string ok = NpyBytes(a);
+  EXPECT_THROW(ParseNpy(ok.substr(0, ok.size() - 1), "x"), InvalidInput);
+  EXPECT_THROW(ParseNpy("\x93NUMPY", "x"), InvalidInput);
 }
 
 }  // namespace
