@@ -233,6 +233,14 @@ def test_measure_reads_every_rig_file(rig, tmp_path):
         assert np.abs(x - ref_x).max() < 1e-6, (to, np.abs(x - ref_x).max())
         text = run("measure", "--rig", f, "--points", left, "--points", right, "--sigma-px", "0.3").out
         assert "holds no covariance" in text, text
+    # A file without its unit, and a ROS camera_info (one camera): refused, saying what to do.
+    z = np.load(tmp_path / "s.npz")
+    np.savez(tmp_path / "viame.npz", **{k: z[k] for k in z.files if k != "T_unit"})
+    line = run_bad("measure", "--rig", tmp_path / "viame.npz", "--points", left, "--points", right, "--sigma-px", "0.3")
+    assert "mm, cm, m" in line and "convert" in line, line
+    run("convert", d / "rig.json", tmp_path / "ros", "--to", "ros-camera-info")
+    line = run_bad("measure", "--rig", tmp_path / "ros" / "left.json.yaml", "--points", left, "--points", right)
+    assert "one camera" in line and "convert" in line, line
 
 
 def test_bad_rig_files_are_refused(rig, tmp_path):

@@ -315,9 +315,23 @@ Rig LoadRig(const std::string& path, const std::string& field) {
   const std::string text = ReadInputFile(path, field, kMaxCalibrationFileBytes);
   const auto format = interop::DetectRigFormat(path, text);
   if (format && *format != interop::RigFormat::kJson) {
+    if (*format == interop::RigFormat::kRosCameraInfo) {
+      throw InvalidInput(field, "a ROS camera_info file holds one camera of the pair: convert the two files into a rig "
+                                "JSON first");
+    }
     interop::RigReadOptions o;
     o.format = format;
-    const interop::RigFile file = interop::ParseRigFiles({text}, {path}, o, field);
+    interop::RigFile file;
+    try {
+      file = interop::ParseRigFiles({text}, {path}, o, field);
+    } catch (const InvalidInput& e) {
+      std::string rule = e.what();
+      const std::string prefix = OneLineMessage(e.field()) + ": ";
+      if (rule.rfind(prefix, 0) == 0) rule = rule.substr(prefix.size());
+      if (rule.find("choices: mm, cm, m") == std::string::npos && rule.find("image size") == std::string::npos) throw;
+      throw InvalidInput(e.field(), rule + "; measure reads only what the file states: convert it into a rig JSON "
+                                           "with them first");
+    }
     Rig rig = RigFromJson(interop::RigFileToJson(file), field);
     rig.covariance_note = fmt::format("none: a {} rig file holds no covariance (T in {})",
                                       interop::RigFormatName(*format), file.length_unit_note);
