@@ -794,10 +794,14 @@ std::string RosText(const std::string& name, const Camera& cam, const std::strin
   const auto m = [](std::string_view key, int rows, int cols, const std::vector<double>& v) {
     return fmt::format("{}:\n  rows: {}\n  cols: {}\n  data: [{}]\n", key, rows, cols, NumList(v));
   };
-  std::string quoted = name;
-  if (name.find_first_of(":#'\"[]{},&*!|>%@` ") != std::string::npos || name.empty()) {
+  std::string clean = name.substr(0, 200);
+  for (char& ch : clean) {
+    if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) ch = '_';  // one line
+  }
+  std::string quoted = clean;
+  if (clean.find_first_of(":#'\"[]{},&*!|>%@`\\ -?") != std::string::npos || clean.empty()) {
     quoted = "\"";
-    for (char ch : name) {
+    for (char ch : clean) {
       if (ch == '"' || ch == '\\') quoted += '\\';
       quoted += ch;
     }
@@ -829,9 +833,21 @@ std::vector<std::pair<std::string, std::string>> WriteRos(const RigFile& rig, co
   const Eigen::Vector3d t2 = r2 * t;  // camera 1's centre seen from camera 2, rectified frame
   const std::vector<double> p1{f, 0, cx, 0, 0, f, cy, 0, 0, 0, 1, 0};
   const std::vector<double> p2{f, 0, cx, f * t2(0), 0, f, cy, f * t2(1), 0, 0, 1, 0};
+  // File names from the camera names, kept to [A-Za-z0-9._-] (a name is never a path).
+  const auto file_name = [](const std::string& name) {
+    std::string f = name.substr(0, 100);
+    for (char& ch : f) {
+      if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '.' && ch != '_' && ch != '-') ch = '_';
+    }
+    if (f.empty() || f[0] == '.') f = "camera_" + f;
+    return f + ".yaml";
+  };
+  if (file_name(rig.cameras[0].name) == file_name(rig.cameras[1].name)) {
+    throw InvalidInput(field, "the cameras' names give one file name (" + file_name(rig.cameras[0].name) + "): rename them");
+  }
   std::vector<std::pair<std::string, std::string>> files;
-  files.emplace_back(rig.cameras[0].name + ".yaml", RosText(rig.cameras[0].name, a.fit.cam, a.model, a.d, r1, p1));
-  files.emplace_back(rig.cameras[1].name + ".yaml", RosText(rig.cameras[1].name, b.fit.cam, b.model, b.d, r2, p2));
+  files.emplace_back(file_name(rig.cameras[0].name), RosText(rig.cameras[0].name, a.fit.cam, a.model, a.d, r1, p1));
+  files.emplace_back(file_name(rig.cameras[1].name), RosText(rig.cameras[1].name, b.fit.cam, b.model, b.d, r2, p2));
   info->push_back({rig.cameras[0].name, a.model, a.fit.exact, a.fit.fit});
   info->push_back({rig.cameras[1].name, b.model, b.fit.exact, b.fit.fit});
   return files;

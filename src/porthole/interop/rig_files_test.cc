@@ -158,6 +158,16 @@ TEST(RigFiles, RosRectificationIsAPureBaseline) {
   }
   EXPECT_NEAR(-v[3] / v[0], rig.cameras[1].translation_mm.norm() / 1000, 1e-12);
   EXPECT_NEAR(v[7], 0.0, 1e-12);
+  // File names come from the camera names but are never paths.
+  RigFile evil = rig;
+  evil.cameras[0].name = "../../etc/passwd";
+  evil.cameras[1].name = "a\nb: c";
+  const RigWriteResult we = WriteRigFile(evil, RigFormat::kRosCameraInfo, "OUT");
+  EXPECT_EQ(we.files[0].first, "camera_.._.._etc_passwd.yaml");
+  EXPECT_EQ(we.files[1].first, "a_b__c.yaml");
+  EXPECT_NE(we.files[1].second.find("camera_name: \"a_b: c\"\n"), std::string::npos) << we.files[1].second;
+  const RigFile back = Back(we, RigFormat::kRosCameraInfo);
+  EXPECT_EQ(back.cameras[1].name, "a_b: c");
 }
 
 TEST(RigFiles, NpyHeaderIsNumpysVersion1) {
