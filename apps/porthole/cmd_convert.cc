@@ -113,6 +113,9 @@ void RunRig(const std::vector<std::string>& ins, const std::string& out_arg, con
               {"length_unit", rig.length_unit_note},
               {"pitch", rig.pitch_known ? "from the file" : pitch_mm ? "--pixel-pitch-mm" : "none: pixels are mm"},
               {"exact", w.exact()},
+              {"sigma", rig.format != interop::RigFormat::kJson ? "unknown: the input holds none"
+                        : format != interop::RigFormat::kJson   ? "dropped: the format holds none"
+                                                                : "dropped: the rig JSON is rewritten without its covariance"},
               {"cameras", cams}};
     return fmt::print("{}\n", PrintableJson(j));
   }
@@ -126,6 +129,8 @@ void RunRig(const std::vector<std::string>& ins, const std::string& out_arg, con
   }
   if (rig.format != interop::RigFormat::kJson) {
     fmt::print("T in {}; no sigma (the format holds no covariance)\n", rig.length_unit_note);
+  } else if (format != interop::RigFormat::kJson) {
+    fmt::print("sigma and the rig's covariance not written ({} holds none)\n", interop::RigFormatName(format));
   }
 }
 
