@@ -3,8 +3,10 @@ by the real client where Debian has one:
 - OpenCV stereo YAML/XML: written files read by cv2.FileStorage and taken by cv2.stereoRectify; a file
   cv2.FileStorage wrote itself (no unit) read back with --length-unit;
 - VIAME's .npz: np.load sees cameraMatrixL/R (3x3), distCoeffsL/R (1x5), R (3x3), T (3x1), all float64,
-  with the rig's values, and VIAME camtrawl's reading (StereoCalibration.from_npzfile: cv2.Rodrigues(R),
-  T raveled, mm) gives the rig's pose; files numpy wrote (np.savez, np.savez_compressed) are read back;
+  with the rig's values -- the layout VIAME's tools/calibrate_cameras.py --npz writes (np.savez of
+  cv2.stereoCalibrate's outputs, VIAME/VIAME 05ee7881) -- and VIAME camtrawl's reading
+  (StereoCalibration.from_npzfile: cv2.Rodrigues(R), T raveled, mm) gives the rig's pose; files numpy
+  wrote (np.savez as VIAME does, np.savez_compressed) are read back;
 - ROS camera_info: Debian's python3-camera-calibration-parsers (ROS's own parser) reads each file: K,
   D, R, P as written, R1/R2 those of cv2.stereoRectify, P2's Tx = -f' * baseline in metres;
 - Kalibr camchain: no Debian package: read with PyYAML's safe_load as Kalibr's ConfigReader.py does

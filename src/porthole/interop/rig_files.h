@@ -9,9 +9,11 @@
 //                                                        image_height; porthole adds T_unit
 //   viame-npz         VIAME's stereo .npz (numpy)        two opencv cameras: cameraMatrixL/R (3×3),
 //                                                        distCoeffsL/R (1×n), R (3×3), T (3×1), all
-//                                                        float64 (VIAME camtrawl's
-//                                                        StereoCalibration.from_npzfile); porthole
-//                                                        adds T_unit
+//                                                        float64 (what VIAME's
+//                                                        tools/calibrate_cameras.py --npz writes,
+//                                                        VIAME 05ee7881, and camtrawl's
+//                                                        StereoCalibration.from_npzfile reads);
+//                                                        porthole adds T_unit, imageSizeL/R
 //   ros-camera-info   one ROS camera_info YAML per       a stereo pair: each camera's K, D
 //                     camera (camera_calibration_        (plumb_bob, rational_polynomial or
 //                     parsers' format)                   equidistant) and the stereo
