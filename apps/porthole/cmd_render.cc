@@ -352,14 +352,13 @@ void RunRender(const RenderCliOptions& o) {
       for (const auto& p : pts) span = std::max(span, (p - pts.front()).norm());
       mid = 0.5 * (1 / 0.8 + 1 / 0.3) * s.camera.FocalLengthPx() * span / s.camera.sensor.width_px;
     }
-    try {
-      scene.focus_distance_mm = *housing::FocusOnSubject(scene.housed, mid).focus.focus_distance_mm;
-    } catch (const InvalidInput&) {  // closer than the lens focuses: its closest focus, as a camera would
-      scene.focus_distance_mm = scene.housed.lens.min_focus_mm;
-      if (!o.quiet) {
-        fmt::print(stderr, "porthole: note: the lens cannot focus on the set's middle distance ({:.0f} mm) under "
-                           "water; focused at its closest, {:g} mm\n", mid, scene.housed.lens.min_focus_mm);
-      }
+    // On its virtual image under water (the lens alone: on the distance itself); closer than the
+    // lens focuses: its closest focus, as a camera would.
+    bool closest = false;
+    scene.focus_distance_mm = render::SetFocusDistanceMm(scene, so, 0, &closest);
+    if (closest && !o.quiet) {
+      fmt::print(stderr, "porthole: note: the lens cannot focus on the set's middle distance ({:.0f} mm){}; focused "
+                         "at its closest, {:g} mm\n", mid, bare ? "" : " under water", scene.housed.lens.min_focus_mm);
     }
   }
   const auto poses = render::SetPoses(scene, so);  // bad options fail here, before any directory exists
@@ -390,8 +389,9 @@ void RunRender(const RenderCliOptions& o) {
                                           {"images", images}}));
   }
   if (!o.quiet) {
-    fmt::print(stderr, "render: {} poses in {} and {}; focus scale {:.1f} mm\n", poses.size(),
-               (fs::path(o.out) / "water").string(), (fs::path(o.out) / "air").string(), *scene.focus_distance_mm);
+    const std::string where = bare ? (fs::path(o.out) / "air").string() + " (the lens alone: no water set)"
+                                   : (fs::path(o.out) / "water").string() + " and " + (fs::path(o.out) / "air").string();
+    fmt::print(stderr, "render: {} poses in {}; focus scale {:.1f} mm\n", poses.size(), where, *scene.focus_distance_mm);
   }
 }
 
