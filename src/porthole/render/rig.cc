@@ -108,22 +108,22 @@ void ValidateRig(const std::vector<RigCamera>& cameras) {
   std::set<std::string> names;
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     const RigCamera& c = cameras[k];
-    const std::string f = fmt::format("cameras[{}]", k);
+    const std::string f = fmt::format("camera {}", k);
     bool ok = !c.name.empty() && c.name.size() <= 64 && c.name.front() != '.' && c.name.front() != '-';
     for (char ch : c.name) {
       ok = ok && (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' || ch == '.');
     }
     if (!ok) {
-      throw InvalidInput(f + ".name", fmt::format("'{}' is not a usable folder name (1-64 letters, digits, '_', '-', "
-                                                  "'.'; not starting with '.' or '-')", c.name));
+      throw InvalidInput("cameras", fmt::format("{}: its name '{}' is not a usable folder name (1-64 letters, digits, "
+                                                "'_', '-', '.'; not starting with '.' or '-')", f, c.name));
     }
-    if (!names.insert(c.name).second) throw InvalidInput(f + ".name", fmt::format("'{}' names two cameras", c.name));
-    if (c.camera) camera::ValidateCamera(*c.camera, f + ".camera");
-    if (c.port_use == RigCamera::PortUse::kOwn) ports::Validate(c.port, f + ".port");
+    if (!names.insert(c.name).second) throw InvalidInput("cameras", fmt::format("'{}' names two cameras", c.name));
+    if (c.camera) camera::ValidateCamera(*c.camera, "cameras." + c.name + ".camera");
+    if (c.port_use == RigCamera::PortUse::kOwn) ports::Validate(c.port, "cameras." + c.name + ".port");
     if (!c.cam_from_rig.rotation.allFinite() || !c.cam_from_rig.translation_mm.allFinite() ||
         (c.cam_from_rig.rotation.transpose() * c.cam_from_rig.rotation - Eigen::Matrix3d::Identity()).norm() > 1e-9 ||
         !(c.cam_from_rig.rotation.determinant() > 0)) {
-      throw InvalidInput(f + ".cam_from_rig", "must be a rotation and a finite translation (mm)");
+      throw InvalidInput("cameras." + c.name + ".cam_from_rig", "must be a rotation and a finite translation (mm)");
     }
   }
 }

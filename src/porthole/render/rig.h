@@ -51,8 +51,9 @@ std::vector<RigCamera> DescribedRig(int n, double baseline_mm, double convergenc
 ports::PortSpec PortOfShell(const refraction::Shell& shell, const std::array<double, refraction::kPortNumParams>& p,
                             const std::string& material, const std::string& name);
 
-// Checks the cameras: at least one, names usable as folder names and distinct, each camera and
-// port valid (InvalidInput "cameras", "cameras[k].…").
+// Checks the cameras: at least one, names usable as folder names and distinct (InvalidInput
+// "cameras"), each camera, port and cam_from_rig valid ("cameras.<name>.camera", ".port",
+// ".cam_from_rig").
 void ValidateRig(const std::vector<RigCamera>& cameras);
 
 // The scene camera `cam` sees: `base` with its camera, port (or none) and the target at

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <unistd.h>
 
 #include "porthole/camera/models.h"
 #include "porthole/io/presets.h"
@@ -192,6 +193,49 @@ TEST(RigRender, BadRigsAreRefusedBeforeAnyFile) {
     EXPECT_EQ(std::string(e.field()), "pose");
   }
   EXPECT_FALSE(std::filesystem::exists(o.out));
+}
+
+TEST(RigRender, ASetWritesEveryCamerasImageOfAFrameUnderOneName) {
+  TwoCameras t = MakeRig();
+  t.base = testing::PaperScene("nimar-ni320", 360);  // small frames: the layout is what is tested
+  t.base.target = calib::ParseTarget("chessboard:9x6:40");
+  t.base.f_number = std::numeric_limits<double>::infinity();
+  t.rig = DescribedRig(2, 300, 5);
+  t.rig[0].port_use = t.rig[1].port_use = RigCamera::PortUse::kNone;  // bare: the air set only
+  RigRenderOptions o;
+  o.render.samples_per_pixel = 1;
+  o.set_count = 2;
+  o.out = std::filesystem::temp_directory_path() / ("porthole_rig_test_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(o.out);
+  int prepared = 0;
+  o.prepare = [&] { ++prepared; };
+  const auto summary = RenderRig(t.base, t.rig, o);
+  EXPECT_EQ(prepared, 1);
+  EXPECT_EQ(summary["frames"], 2);
+  EXPECT_FALSE(std::filesystem::exists(o.out / "water"));
+  for (const char* frame : {"pose_000", "pose_001"}) {
+    nlohmann::json truth[2];
+    for (int k = 0; k < 2; ++k) {
+      const auto dir = o.out / "air" / t.rig[k].name;
+      ASSERT_TRUE(std::filesystem::exists(dir / (std::string(frame) + ".png")));
+      std::ifstream in(dir / (std::string(frame) + ".json"));
+      truth[k] = nlohmann::json::parse(in);
+      EXPECT_EQ(truth[k]["rig"]["camera"], t.rig[k].name);
+    }
+    EXPECT_EQ(truth[0]["rig"]["rig_from_target"], truth[1]["rig"]["rig_from_target"]);
+    // Camera 1's pose of the target is cam_from_rig ∘ rig_from_target (camera 0's is the rig's).
+    Pose rig_from_target;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) rig_from_target.rotation(i, j) = truth[0]["pose"]["rotation"][i][j];
+      rig_from_target.translation_mm[i] = truth[0]["pose"]["translation_mm"][i];
+    }
+    const Pose expect = Compose(t.rig[1].cam_from_rig, rig_from_target);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(truth[1]["pose"]["translation_mm"][i].get<double>(), expect.translation_mm[i], 1e-9);
+      for (int j = 0; j < 3; ++j) EXPECT_NEAR(truth[1]["pose"]["rotation"][i][j].get<double>(), expect.rotation(i, j), 1e-12);
+    }
+  }
+  std::filesystem::remove_all(o.out);
 }
 
 }  // namespace
