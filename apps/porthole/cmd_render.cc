@@ -488,7 +488,9 @@ void RegisterRender(CLI::App& app) {
   cmd->footer("Outputs: --out NAME.png writes NAME.png and NAME.json (the ground truth); neither replaces an existing "
               "file without --force, nor an input (a --camera-model NAME.json) or a file another command wrote (a "
               "calibration, detections) even with it. --set N needs an empty or new folder; --force removes an "
-              "earlier set's pose_NNN.png/.json first, so two sets never mix.");
+              "earlier set's pose_NNN.png/.json first, so two sets never mix. A rig (--rig, --baseline): --out is a "
+              "directory, DIR/<camera>/render.png and .json, or with --set N DIR/water/<camera>/ and "
+              "DIR/air/<camera>/pose_NNN.png, one name per frame in every camera's folder.");
   cmd->callback([o, cmd] {
     o->inputs = InputFiles(cmd, {"--out"});
     if (!o->rig.empty() && o->baseline_mm) throw InvalidInput("--rig", "give a rig file or --baseline, not both");
