@@ -4,6 +4,10 @@
 // dicts) or numpy arrays; the package turns them into typed objects (python/porthole/_results.py).
 #include <pybind11/pybind11.h>
 
+#include <optional>
+#include <string>
+#include <string_view>
+
 #include "porthole/core/error.h"
 #include "porthole/core/field_names.h"
 #include "register.h"
@@ -16,8 +20,13 @@ PYBIND11_MODULE(_porthole, m) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const porthole::InvalidInput& e) {
-      const porthole::InvalidInput py = porthole::RenameFields(
-          {{"extrapolate", "extrapolate=True"}, {"allow_adapter", "allow_adapter=True"}}, e, /*keep_unknown=*/false);
+      // Then any other field a rule names is a keyword: `free` → free=.
+      const porthole::InvalidInput named = porthole::RenameFields(
+          {{"extrapolate", "extrapolate=True"}, {"allow_adapter", "allow_adapter=True"}}, e, /*keep_unknown=*/true);
+      const std::string rule = std::string(named.what()).substr(named.field().size() + 2);
+      const porthole::InvalidInput py(
+          named.field(), porthole::RenameQuotedFieldsBy([](std::string_view) { return std::optional<std::string>(); },
+                                                        rule, "="));
       PyErr_SetString(PyExc_ValueError, py.what());
     }
   });

@@ -171,7 +171,7 @@ void RegisterCalib(py::module_& m) {
       "detect",
       [](const py::object& images, const std::string& target, int threads, bool progress, const py::object& field,
          int every, int max_frames, bool for_calibration) {
-        return WithFieldNames({{"--images", "images"}}, [&] {
+        return WithFieldNames({{"images", "images"}}, [&] {
           const auto t = TargetArg(target, field);
           if (threads < 0) throw InvalidInput("threads", "must be >= 0 (0 = all cores)");
           calib::DetectOptions o;
@@ -231,7 +231,7 @@ void RegisterCalib(py::module_& m) {
         o.drop_insignificant = drop_insignificant;
         o.significance_t = significance_t;
         calib::CalibrationResult r;
-        WithFieldNames({{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}}, [&] {
+        WithFieldNames({{"images", "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"}}, [&] {
           py::gil_scoped_release release;
           r = calib::Calibrate(dets, t, o);
         });
@@ -260,12 +260,12 @@ void RegisterCalib(py::module_& m) {
          bool compare_central, bool progress, const py::object& field, const std::string& centre_correction,
          const py::object& air_detections, bool air_lens_bare) {
         return WithFieldNames(
-            {{"--images", "detections"}, {"--pixel-pitch-mm", "pixel_pitch_mm"}, {"--port", "port"},
-             {"--air-calibration", "air_calibration"}, {"--air-lens-bare", "air_lens_bare"},
-             {"--air-detections", "air_detections"}, {"--air-images", "air_detections"},
-             {"--intrinsics", "intrinsics"},
-             {"--free-port", "free_port"}, {"--port-sigma", "port_sigma"},
-             {"--free-shell", "free_shell"}},
+            {{"images", "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"}, {"port", "port"},
+             {"air_calibration", "air_calibration"}, {"air_lens_bare", "air_lens_bare"},
+             {"air_detections", "air_detections"}, {"air_images", "air_detections"},
+             {"intrinsics", "intrinsics"},
+             {"free_port", "free_port"}, {"port_sigma", "port_sigma"},
+             {"free_shell", "free_shell"}},
             [&] {
               const auto t = TargetArg(target, field);
               std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
@@ -328,8 +328,8 @@ void RegisterCalib(py::module_& m) {
          double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
          const std::vector<std::string>& names) {
         return WithFieldNames(
-            {{"cameras", "cameras"}, {"--images", "cameras"}, {"--model", "model"}, {"--pixel-pitch-mm", "pixel_pitch_mm"},
-             {"--port", "port"}, {"--air-calibration", "air_calibration"}, {"air_lens", "air_calibration"},
+            {{"cameras", "cameras"}, {"images", "cameras"}, {"model", "model"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
+             {"port", "port"}, {"air_calibration", "air_calibration"}, {"air_lens", "air_calibration"},
              {"ports", "port"}, {"camera_options", "model"}},
             [&] {
               const auto t = TargetArg(target, py::none());

@@ -146,10 +146,10 @@ void RegisterFit(py::module_& m) {
          std::optional<double> pupil_to_flange_mm, const std::string& lens, std::optional<double> focus_mm,
          const std::string& material, const std::string& name) {
         return WithFieldNames(
-            {{"--outer", "outer"}, {"--inner", "inner"}, {"--housing-flange", "housing_flange"},
-             {"--camera-flange", "camera_flange"}, {"--dome-rear", "dome_rear"}, {"--dome-centered", "dome_centered"},
-             {"--x-hint", "x_hint"}, {"--dome-x-hint", "dome_x_hint"}, {"--pupil-offset", "pupil_to_flange_mm"},
-             {"--lens", "lens"}, {"focus", "focus_mm"}, {"--port", "name"}},
+            {{"outer", "outer"}, {"inner", "inner"}, {"housing_flange", "housing_flange"},
+             {"camera_flange", "camera_flange"}, {"dome_rear", "dome_rear"}, {"dome_centered", "dome_centered"},
+             {"x_hint", "x_hint"}, {"dome_x_hint", "dome_x_hint"}, {"pupil_offset", "pupil_to_flange_mm"},
+             {"lens", "lens"}, {"focus", "focus_mm"}, {"port", "name"}},
             [&] {
               fit::AssemblyInput in;
               in.camera_flange = Plane(camera_flange);

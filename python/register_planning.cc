@@ -21,7 +21,7 @@ void RegisterPlanning(py::module_& m) {
          const std::string& water, std::optional<double> water_index, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm, std::optional<double> min_focus_mm, std::optional<double> pupil_mm) {
-        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"--port", "port"}}, [&] {
+        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"port", "port"}}, [&] {
           const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
                                               salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm,
                                               {min_focus_mm, pupil_mm});
@@ -47,7 +47,7 @@ void RegisterPlanning(py::module_& m) {
          const std::string& water, std::optional<double> water_index, double lambda_nm, double temperature_c,
          double salinity_psu, double pressure_dbar, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm, std::optional<double> min_focus_mm, std::optional<double> pupil_mm) {
-        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"--port", "port"}}, [&] {
+        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"port", "port"}}, [&] {
           const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
                                               salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm,
                                               {min_focus_mm, pupil_mm});

@@ -76,7 +76,7 @@ void RegisterPorts(py::module_& m) {
   m.def(
       "load_port",
       [](const std::string& name_or_path) {
-        return WithFieldNames({{"--port", "name_or_path"}}, [&] { return io::LoadPort(name_or_path); });
+        return WithFieldNames({{"port", "name_or_path"}}, [&] { return io::LoadPort(name_or_path); });
       },
       py::arg("name_or_path"),
         "A built-in port preset by name (see presets()) or a port TOML file.");

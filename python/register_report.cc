@@ -23,13 +23,13 @@ void RegisterReport(py::module_& m) {
          const py::object& air_calibration, const py::object& water_calibration, bool force,
          std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm, std::optional<double> min_focus_mm,
          std::optional<double> pupil_mm) {
-        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"--port", "port"}, {"--out", "out"}}, [&] {
+        return WithFieldNames({{"focal_length_mm", "focal_mm"}, {"port", "port"}, {"out", "out"}}, [&] {
           report::ReportInputs in;
           in.setup = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c, salinity_psu,
                                pressure_dbar, pixel_pitch_mm, focal_mm, {min_focus_mm, pupil_mm});
           // Chosen to fit the camera, as the CLI does (a fixed-focus action camera behind a flat port gets a
           // dome it can focus through).
-          in.other_port = WithFieldNames({{"--port", "compare_port"}}, [&] {
+          in.other_port = WithFieldNames({{"port", "compare_port"}}, [&] {
             return io::LoadPort(compare_port.empty() ? report::ChooseOtherPort(in.setup, subject_distance_mm).name
                                                      : compare_port);
           });

@@ -24,7 +24,7 @@ void RegisterSimulate(py::module_& m) {
          bool free_rotation, const std::optional<std::string>& sweep_axis,
          const std::vector<double>& offsets_mm, bool with_map, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm, std::optional<double> min_focus_mm, std::optional<double> pupil_mm) {
-        return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}, {"--port", "port"}}, [&] {
+        return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}, {"port", "port"}}, [&] {
         const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm, {min_focus_mm, pupil_mm});
         simulate::SystemSpec spec;
         spec.port = io::LoadPort(port);

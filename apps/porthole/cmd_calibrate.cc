@@ -113,7 +113,7 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
     for (std::size_t k = 0; k < 5; ++k) t += fmt::format(" {} {:.3f};", by_rms[k]->image, by_rms[k]->rms_px);
     t += " every image in --json";
   }
-  t += "\nstatus: " + r.message + "\n";
+  t += "\nstatus: " + CliWords(r.message) + "\n";
   return t;
 }
 
@@ -180,7 +180,7 @@ std::string PortTable(const calib::RefractiveResult& r, const calib::RefractiveO
                      cp.differs ? "the water calibration differs from its prediction"
                                 : "consistent with the prediction");
   } else {
-    t += "water c, x0, y0 vs the simulate prediction: not compared: " + cp.why_not + "\n";
+    t += "water c, x0, y0 vs the simulate prediction: not compared: " + CliWords(cp.why_not) + "\n";
   }
   t += fmt::format("model choice (BIC, lower is better): refractive {:.1f} (k {}) vs central {} "
                    "{:.1f} (k {}, RMS {:.4f} px): {} preferred\n",
@@ -445,7 +445,7 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
       t += "\n";
     }
   }
-  t += "rig status: " + r.message + "\n" + stereo_note;
+  t += "rig status: " + CliWords(r.message) + "\n" + stereo_note;
   for (const auto& s : skipped) t += fmt::format("skipped {}: {}\n", s.image, s.reason);
   fmt::print("{}", t);
 }

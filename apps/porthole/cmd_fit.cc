@@ -67,7 +67,7 @@ void RegisterFit(CLI::App& app) {
                 {"n_inliers", s.n_inliers},
                 {"robust", o->robust}});
       res = s.residuals_mm, rms = s.rms_mm, max_abs = s.max_abs_residual_mm;
-      status = s.IsUsable() ? "ok" : s.message;
+      status = s.IsUsable() ? "ok" : CliWords(s.message);
     } else if (o->shape == "plane") {
       const auto s = fit::FitPlane(cloud.points);
       vec("normal", s.plane.normal, s.sigma_normal, "");
@@ -93,7 +93,7 @@ void RegisterFit(CLI::App& app) {
                 {"sigma_normal_deg", Length(s.sigma_normal_rad * 180 / M_PI)},
                 {"plane_rms_mm", Length(s.plane.rms_mm)}});
       res = s.residuals_mm, rms = s.rms_mm, max_abs = s.max_abs_residual_mm;
-      status = s.IsUsable() ? "ok" : s.message;
+      status = s.IsUsable() ? "ok" : CliWords(s.message);
     }
     j.update({{"rms_mm", Length(rms)},
               {"max_abs_residual_mm", Length(max_abs)},

@@ -348,7 +348,8 @@ void RegisterPlan(CLI::App& app) {
                      po.coc_mm = o->coc_mm;
                      if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
                      po.lambda_nm = setup.env.conditions.lambda_nm;
-                     const planning::Plan plan = planning::MakePlan(setup, po);
+                     planning::Plan plan = planning::MakePlan(setup, po);
+                     for (std::string& w : plan.warnings) w = CliWords(w);  // `min_focus_mm` → --min-focus-mm
                      if (!o->json) {
                        fmt::print("{}", PlanText(setup, plan));
                        return;

@@ -17,7 +17,10 @@
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/input.h"
 #include "porthole/interop/interop.h"
+#include "porthole/io/presets.h"
+#include "porthole/measure/rig_model.h"
 #include "porthole/render/render.h"
+#include "porthole/render/rig.h"
 #include "porthole/simulate/simulate.h"
 
 namespace porthole::cli {
@@ -58,6 +61,9 @@ struct RenderCliOptions {
   bool quiet = false, json = false;
   bool white_on_black = false;
   bool force = false;
+  std::string rig;                  // a rig JSON (calibrate's): render every camera
+  std::optional<double> baseline_mm;  // or two of the camera, this far apart
+  double convergence_deg = 0;
   std::vector<fs::path> inputs;  // the files the options name: never replaced
 };
 
@@ -172,9 +178,16 @@ void ClearEarlierSet(const fs::path& out, const OutputRules& rules) {
                                 "images and ground truth first, or choose an empty folder");
   }
   std::vector<fs::path> remove;
+  std::vector<fs::path> dirs;  // water/, air/ and, for a rig, their camera folders
   for (const char* medium : {"water", "air"}) {
     const fs::path dir = out / medium;
     if (!fs::is_directory(fs::symlink_status(dir, ec))) continue;
+    dirs.push_back(dir);
+    for (const auto& e : fs::directory_iterator(dir)) {
+      if (fs::is_directory(fs::symlink_status(e.path(), ec))) dirs.push_back(e.path());
+    }
+  }
+  for (const fs::path& dir : dirs) {
     for (const auto& e : fs::directory_iterator(dir)) {
       const std::string name = e.path().filename().string();
       if (!IsSetFileName(name)) continue;
@@ -189,9 +202,48 @@ void ClearEarlierSet(const fs::path& out, const OutputRules& rules) {
   for (const fs::path& p : remove) fs::remove(p);
 }
 
+// The rig of --rig (a rig JSON: each camera's calibration, cam_from_rig and port, when it has one) or
+// of --baseline/--convergence (two of the scene's camera behind the scene's port).
+std::vector<render::RigCamera> RigCameras(const RenderCliOptions& o, const render::Scene& scene) {
+  if (o.baseline_mm) return render::DescribedRig(2, *o.baseline_mm, o.convergence_deg);
+  const measure::Rig rig = measure::LoadRig(o.rig, "--rig");
+  // The ports' names (their glass's dispersion), which the rig model does not keep.
+  const nlohmann::json j = ParseJsonText(ReadInputFile(o.rig, "--rig", kMaxCalibrationFileBytes), "--rig", o.rig);
+  std::vector<render::RigCamera> cams;
+  for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
+    const measure::RigCamera& rc = rig.cameras[k];
+    render::RigCamera c;
+    c.name = rc.name;
+    c.camera = rc.camera;
+    c.cam_from_rig.rotation = rc.CamFromRigRotation();
+    c.cam_from_rig.translation_mm = rc.translation_mm;
+    c.port_use = render::RigCamera::PortUse::kNone;
+    if (rc.shell) {
+      const auto& pj = j["rig"]["cameras"][k]["port"];
+      const std::string name = pj.contains("name") && pj["name"].is_string() ? pj["name"].get<std::string>() : "";
+      std::string material = scene.housed.port.material();
+      try {
+        material = io::LoadPort(name).material();
+      } catch (const InvalidInput&) {
+        if (!o.quiet) {
+          fmt::print(stderr, "porthole: note: --rig: camera {}'s port '{}' is no preset or port file here: its glass "
+                             "taken as {} (--port's)\n", rc.name, name, material);
+        }
+      }
+      c.port_use = render::RigCamera::PortUse::kOwn;
+      c.port = render::PortOfShell(*rc.shell, rc.port, material, name.empty() ? rc.name + "-port" : name);
+    }
+    cams.push_back(std::move(c));
+  }
+  return cams;
+}
+
 void RunRender(const RenderCliOptions& o) {
   render::Scene scene;
-  scene.housed = o.camera.ToHoused(PortOptions{o.port, o.ep}, o.water);
+  const bool bare = o.port == "none";  // the lens alone: the port only places the pupil
+  scene.housed = o.camera.ToHoused(PortOptions{bare ? PortOptions{}.port : o.port, o.ep}, o.water);
+  scene.bare = bare;
+  const bool rig = !o.rig.empty() || o.baseline_mm.has_value();
   scene.target = calib::ParseTarget(o.target);
   if (!o.field.empty()) calib::LoadTargetField(o.field, &scene.target);
   if (o.medium != "water" && o.medium != "air") throw InvalidInput("--medium", "must be water or air");
@@ -205,7 +257,7 @@ void RunRender(const RenderCliOptions& o) {
   // as that, whatever else is wrong with it.
   if (o.out.empty()) throw InvalidInput("--out", "is required: the PNG file (single image) or a directory (--set)");
   const OutputRules rules{.force = o.force, .inputs = o.inputs};
-  if (o.set == 0) {
+  if (o.set == 0 && !rig) {
     if (fs::path(o.out).extension() != ".png") throw InvalidInput("--out", "must name a .png file");
     CheckOutput(o.out, "--out", rules);  // before the long work: both files, the .json as a ground truth
     CheckOutput(TruthPath(o.out), "--out", rules, FileKind::kGroundTruth);
@@ -228,6 +280,41 @@ void RunRender(const RenderCliOptions& o) {
   render::Validate(ro);
   if (o.bit_depth != 8 && o.bit_depth != 16) throw InvalidInput("--bit-depth", "must be 8 or 16");
   if (o.shift.size() != 2 || o.tilt.size() != 2) throw InvalidInput("--shift", "--shift and --tilt take X,Y");
+
+  if (rig) {  // every camera of the rig: the library renders and writes (render/rig.h)
+    const std::vector<render::RigCamera> cams = RigCameras(o, scene);
+    render::RigRenderOptions ro_rig;
+    ro_rig.render = ro;
+    ro_rig.bit_depth = o.bit_depth;
+    ro_rig.set_count = o.set;
+    ro_rig.set.max_tilt_deg = o.max_tilt_deg;
+    ro_rig.set.max_roll_deg = 15;
+    ro_rig.set.min_whole_fraction = o.partial;
+    if (!o.distances.empty()) {
+      const auto d = ParseLengthList(o.distances, "--distances");
+      if (d.size() != 2) throw InvalidInput("--distances", "takes NEAR,FAR in mm");
+      ro_rig.set.near_mm = d[0];
+      ro_rig.set.far_mm = d[1];
+    }
+    ro_rig.out = o.out;
+    ro_rig.rules = rules;
+    if (!o.quiet) ro_rig.log = [](const std::string& line) { fmt::print(stderr, "render: {}\n", line); };
+    if (o.set > 0) ro_rig.prepare = [&] { ClearEarlierSet(o.out, rules); };
+    if (o.set == 0) {  // the target's pose in the rig frame (the first camera's)
+      RequireFinite("--distance", o.distance_mm);
+      scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
+                                      o.roll_deg);
+    }
+    const Json j = render::RenderRig(scene, cams, ro_rig);
+    if (o.json) fmt::print("{}\n", PrintableJson(j));
+    if (!o.quiet) {
+      std::string names;
+      for (const auto& c : cams) names += (names.empty() ? "" : ", ") + c.name;
+      fmt::print(stderr, "render: {} frame{} of {} cameras ({}) in {}\n", j["frames"].get<int>(),
+                 j["frames"].get<int>() == 1 ? "" : "s", cams.size(), names, o.out);
+    }
+    return;
+  }
 
   if (o.set == 0) {
     const fs::path png = o.out;
@@ -265,23 +352,28 @@ void RunRender(const RenderCliOptions& o) {
       for (const auto& p : pts) span = std::max(span, (p - pts.front()).norm());
       mid = 0.5 * (1 / 0.8 + 1 / 0.3) * s.camera.FocalLengthPx() * span / s.camera.sensor.width_px;
     }
-    try {
-      scene.focus_distance_mm = *housing::FocusOnSubject(scene.housed, mid).focus.focus_distance_mm;
-    } catch (const InvalidInput&) {  // closer than the lens focuses: its closest focus, as a camera would
-      scene.focus_distance_mm = scene.housed.lens.min_focus_mm;
-      if (!o.quiet) {
-        fmt::print(stderr, "porthole: note: the lens cannot focus on the set's middle distance ({:.0f} mm) under "
-                           "water; focused at its closest, {:g} mm\n", mid, scene.housed.lens.min_focus_mm);
-      }
+    // On its virtual image under water (the lens alone: on the distance itself); closer than the
+    // lens focuses: its closest focus, as a camera would.
+    bool closest = false;
+    scene.focus_distance_mm = render::SetFocusDistanceMm(scene, so, 0, &closest);
+    if (closest && !o.quiet) {
+      fmt::print(stderr, "porthole: note: the lens cannot focus on the set's middle distance ({:.0f} mm){}; focused "
+                         "at its closest, {:g} mm\n", mid, bare ? "" : " under water", scene.housed.lens.min_focus_mm);
     }
   }
   const auto poses = render::SetPoses(scene, so);  // bad options fail here, before any directory exists
   ClearEarlierSet(o.out, rules);
   EnsureOutputDirectory(o.out, "--out");
-  for (const char* medium : {"water", "air"}) EnsureOutputDirectory((fs::path(o.out) / medium).string(), "--out");
+  // The lens alone (--port none): the water images would be the air ones.
+  const std::vector<render::Medium> media =
+      bare ? std::vector<render::Medium>{render::Medium::kAir}
+           : std::vector<render::Medium>{render::Medium::kWater, render::Medium::kAir};
+  for (const render::Medium m : media) {
+    EnsureOutputDirectory((fs::path(o.out) / (m == render::Medium::kWater ? "water" : "air")).string(), "--out");
+  }
   Json images = {{"water", Json::array()}, {"air", Json::array()}};
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    for (const render::Medium m : {render::Medium::kWater, render::Medium::kAir}) {
+    for (const render::Medium m : media) {
       render::Scene sc = scene;
       sc.pose = poses[i];
       sc.medium = m;
@@ -297,8 +389,9 @@ void RunRender(const RenderCliOptions& o) {
                                           {"images", images}}));
   }
   if (!o.quiet) {
-    fmt::print(stderr, "render: {} poses in {} and {}; focus scale {:.1f} mm\n", poses.size(),
-               (fs::path(o.out) / "water").string(), (fs::path(o.out) / "air").string(), *scene.focus_distance_mm);
+    const std::string where = bare ? (fs::path(o.out) / "air").string() + " (the lens alone: no water set)"
+                                   : (fs::path(o.out) / "water").string() + " and " + (fs::path(o.out) / "air").string();
+    fmt::print(stderr, "render: {} poses in {}; focus scale {:.1f} mm\n", poses.size(), where, *scene.focus_distance_mm);
   }
 }
 
@@ -319,8 +412,22 @@ void RegisterRender(CLI::App& app) {
   cmd->add_option("--field", o->field,
                   "Coded targets: a target-field file (ID X Y Z mm per line, 'porthole target-sheet' writes one) "
                   "drawn instead of the default sheet; Z < 0 raises a target toward the camera on a plate");
-  cmd->add_option("--port", o->port, "Port: a preset name ('porthole presets') or a TOML file")
+  cmd->add_option("--port", o->port,
+                  "Port: a preset name ('porthole presets') or a TOML file; none: the lens alone (no refraction, in "
+                  "air: an in-air calibration of the bare lens)")
       ->capture_default_str()->group("Port");
+  cmd->add_option("--rig", o->rig,
+                  "Render a rig: a rig JSON (porthole calibrate with one --images per camera): every camera, its "
+                  "calibration and its port (none when the file gives none), the target posed in the rig frame (the "
+                  "first camera's); --out is a directory: DIR/<camera>/render.png, with --set DIR/water/<camera>/ "
+                  "and DIR/air/<camera>/pose_NNN.png")
+      ->group("Rig");
+  cmd->add_option("--baseline", o->baseline_mm,
+                  "Render a rig of two of this camera behind --port, the second this far (mm) to the right of the first")
+      ->group("Rig");
+  cmd->add_option("--convergence", o->convergence_deg,
+                  "With --baseline: the second camera turned this far (deg) towards the first (axes crossing in front)")
+      ->group("Rig");
   cmd->add_option("--ep", o->ep, "Entrance pupil X,Y,Z in the housing frame, mm (default: the lens's)")
       ->delimiter(',')->expected(3)->group("Port");
   cmd->add_option("--medium", o->medium, "What is outside the port: water, or air (the in-air calibration)")
@@ -381,13 +488,21 @@ void RegisterRender(CLI::App& app) {
   cmd->footer("Outputs: --out NAME.png writes NAME.png and NAME.json (the ground truth); neither replaces an existing "
               "file without --force, nor an input (a --camera-model NAME.json) or a file another command wrote (a "
               "calibration, detections) even with it. --set N needs an empty or new folder; --force removes an "
-              "earlier set's pose_NNN.png/.json first, so two sets never mix.");
+              "earlier set's pose_NNN.png/.json first, so two sets never mix. A rig (--rig, --baseline): --out is a "
+              "directory, DIR/<camera>/render.png and .json, or with --set N DIR/water/<camera>/ and "
+              "DIR/air/<camera>/pose_NNN.png, one name per frame in every camera's folder.");
   cmd->callback([o, cmd] {
     o->inputs = InputFiles(cmd, {"--out"});
+    if (!o->rig.empty() && o->baseline_mm) throw InvalidInput("--rig", "give a rig file or --baseline, not both");
+    if (cmd->count("--convergence") > 0 && !o->baseline_mm) throw InvalidInput("--convergence", "goes with --baseline");
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
                     {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"}, {"lambda_nm", "--bands"},
                     {"samples_per_pixel", "--spp"}, {"edge_samples_per_pixel", "--edge-spp"}, {"exposure", "--exposure"},
-                    {"full_well_e", "--noise"}, {"vignetting_pa", "--vignetting-pa"}, {"read_noise_e", "--noise"}, {"pose", "pose"}, {"target", "--target"}},
+                    {"full_well_e", "--noise"}, {"vignetting_pa", "--vignetting-pa"}, {"read_noise_e", "--noise"}, {"pose", "pose"}, {"target", "--target"},
+                    {"bit_depth", "--bit-depth"}, {"count", "--count"}, {"max_tilt_deg", "--max-tilt"},
+                    {"max_roll_deg", "--max-roll"}, {"min_whole_fraction", "--partial"}, {"near_mm", "--distances"},
+                    {"far_mm", "--distances"}, {"field", "--field"}, {"baseline_mm", "--baseline"},
+                    {"convergence_deg", "--convergence"}, {"out", "--out"}, {"cameras", "--rig"}},
                    [&] { RunRender(*o); });
   });
 }

@@ -5,11 +5,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <system_error>
 
 #include "porthole/core/error.h"
+#include "porthole/core/field_names.h"
 #include "porthole/core/json_length.h"
 #include "porthole/io/presets.h"
 #include "porthole/materials/materials.h"
@@ -140,6 +142,29 @@ std::string Fixed(double v, int decimals) {
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
   return fmt::format("{:.{}f}", v, decimals);
 }
+
+namespace {
+const CLI::App* command_tree = nullptr;
+}  // namespace
+
+void SetCommandTree(const CLI::App* root) { command_tree = root; }
+
+std::optional<std::string> FlagOfField(std::string_view field) {
+  if (command_tree == nullptr || field.empty() || field.front() == '-') return std::nullopt;
+  for (char c : field) {
+    if (!(std::islower(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) || c == '_')) {
+      return std::nullopt;
+    }
+  }
+  std::string flag = "--" + std::string(field);
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  for (const CLI::App* sub : command_tree->get_subcommands()) {
+    if (sub->get_option_no_throw(flag) != nullptr) return flag;
+  }
+  return std::nullopt;
+}
+
+std::string CliWords(std::string_view text) { return RenameQuotedFieldsBy(FlagOfField, text); }
 
 bool WarnIfImplausible(const std::string& field, double value, const PlausibleRange& range) {
   const auto w = porthole::PlausibilityWarning(field, value, range);

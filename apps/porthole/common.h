@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "porthole/core/output.h"
@@ -49,6 +50,15 @@ struct PortOptions {
 // Echo of the inputs for JSON outputs: the port, the pupil and the resolved indices.
 Json DescribeSystem(const ports::PortSystem& sys, const ports::Environment& env);
 std::string DescribeSystemLine(const ports::PortSystem& sys, const ports::Environment& env);
+
+// The CLI's words for the library's fields (core/field_names.h). The library names its fields
+// (`pixel_pitch_mm`, `images`), never a flag; the field is the flag of the command being run when
+// it has one of that name with dashes (--pixel-pitch-mm, --images). main() sets the command tree.
+void SetCommandTree(const CLI::App* root);
+std::optional<std::string> FlagOfField(std::string_view field);
+// `text` with each backquoted field the running command has as a flag written as that flag; other
+// backquoted words lose their quotes. For the library's warnings and notes before they are printed.
+std::string CliWords(std::string_view text);
 
 // A length for JSON: a number, "inf" for infinity, null for NaN.
 Json Length(double mm);

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "common.h"
 #include "porthole/core/error.h"
 #include "porthole/core/field_names.h"
 #include "porthole/core/input.h"
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
   porthole::cli::RegisterRender(app);
   porthole::cli::RegisterUndistort(app);
 
+  porthole::cli::SetCommandTree(&app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {
@@ -49,13 +51,16 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "porthole: error: {}\n", porthole::OneLineMessage(e.what()));
     return 2;
   } catch (const porthole::InvalidInput& e) {
-    // Already one line. The last table: the fields every command names alike (the water's
-    // conditions, switches a rule asks for), in the CLI's words.
-    const porthole::InvalidInput cli = porthole::RenameFields(
-        {{"temperature_c", "--temperature"}, {"salinity_psu", "--salinity"}, {"lambda_nm", "--lambda"},
-         {"pressure_dbar", "--pressure"}, {"depth_m", "--depth"}, {"extrapolate", "--extrapolate"},
-         {"allow_adapter", "--allow-adapter"}, {"every", "--every"}, {"max_frames", "--max-frames"}},
-        e, /*keep_unknown=*/false);
+    // Already one line. The last tables: the fields every command names alike (the water's
+    // conditions, switches a rule asks for), then any field the command has a flag of that name for
+    // (`pixel_pitch_mm` → --pixel-pitch-mm), in the CLI's words.
+    const porthole::InvalidInput cli = porthole::RenameFieldsBy(
+        porthole::cli::FlagOfField,
+        porthole::RenameFields({{"temperature_c", "--temperature"}, {"salinity_psu", "--salinity"},
+                                {"lambda_nm", "--lambda"}, {"pressure_dbar", "--pressure"}, {"depth_m", "--depth"},
+                                {"extrapolate", "--extrapolate"}, {"allow_adapter", "--allow-adapter"},
+                                {"every", "--every"}, {"max_frames", "--max-frames"}},
+                               e, /*keep_unknown=*/true));
     fmt::print(stderr, "porthole: error: {}\n", cli.what());
     return 2;
   } catch (const porthole::InternalError& e) {

@@ -8,6 +8,7 @@ reads (`json.dump(result.to_dict(), f)`).
 from __future__ import annotations
 
 import copy
+import re
 import dataclasses
 import enum
 import json
@@ -195,11 +196,19 @@ class PortholeWarning(UserWarning):
 _IMPLAUSIBLE = "is outside the range of any physical camera or port"
 
 
+def _keywords(text: str) -> str:
+    """The library's `field` in Python's words: the keyword `field=`."""
+    return re.sub(r"`([a-z_][a-z0-9_]*)`", r"\1=", text)
+
+
 class _WarnsRecord(Record):
     """A Record whose `warnings` list the library filled: its plausibility warnings are also emitted
     with Python's warnings.warn (category PortholeWarning), pointing at the caller's line."""
 
     def __init__(self, data: Dict[str, Any]):
+        if data.get("warnings"):
+            # The library names the options its advice mentions as `field`: in Python, a keyword.
+            data = dict(data, warnings=[_keywords(str(w)) for w in data["warnings"]])
         super().__init__(data)
         for text in data.get("warnings") or []:
             if _IMPLAUSIBLE in text:

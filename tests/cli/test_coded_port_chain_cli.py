@@ -121,5 +121,5 @@ def test_report_says_how_to_fix_a_calibration_in_pixels(chain, tmp_path):
     # Calibrated without --pixel-pitch-mm: the result is in pixels; the report says what to pass.
     run("calibrate", "--images", chain / "set" / "air", "--target", TARGET, "--out", tmp_path / "px.json", "--quiet")
     line = run_bad("report", "--out", tmp_path / "r", "--air-calibration", tmp_path / "px.json", *PITCH)
-    assert "calibrated in pixels; run calibrate with --pixel-pitch-mm 0.0145" in line
+    assert "calibrated in pixels; calibrate it again with the pixel pitch, 0.0145 mm" in line
     assert not (tmp_path / "r").exists()

@@ -179,7 +179,7 @@ TEST(CalibTest, TooFewImagesIsRefused) {
     Calibrate(set.detections, opts.target, PaperOptions());
     FAIL() << "no exception";
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--images");
+    EXPECT_EQ(e.field(), "images");
     EXPECT_NE(std::string(e.what()).find("at least 3"), std::string::npos);
   }
 }
@@ -453,7 +453,7 @@ TEST(CalibField, DegenerateFieldsAreOneInvalidInput) {
     Calibrate(MakeSyntheticSet(o).detections, o.target, FieldOptions());
     ADD_FAILURE() << "a field on one line was accepted";
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--images") << e.what();
+    EXPECT_EQ(e.field(), "images") << e.what();
   }
   o.target.field = {{1, Eigen::Vector3d(0, 0, 0)}, {2, Eigen::Vector3d(400, 0, 0)}, {3, Eigen::Vector3d(0, 300, 0)},
                     {4, Eigen::Vector3d(400, 300, -100)}, {5, Eigen::Vector3d(200, 150, -60)}};
@@ -461,7 +461,7 @@ TEST(CalibField, DegenerateFieldsAreOneInvalidInput) {
     Calibrate(MakeSyntheticSet(o).detections, o.target, FieldOptions());
     ADD_FAILURE() << "a 3-D field of 5 points was accepted";
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--images") << e.what();
+    EXPECT_EQ(e.field(), "images") << e.what();
     std::printf("[field] 5 points: %s\n", e.what());
   }
 }

@@ -848,7 +848,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
                         f, f * sensor.pixel_pitch_mm, dlt_f.size()));
       } else {
         if (!planar_start && hs.empty()) {
-          throw InvalidInput("--images", "no image sees 6 points of the 3-D target field off one plane (nor 4 "
+          throw InvalidInput("images", "no image sees 6 points of the 3-D target field off one plane (nor 4 "
                                          "on one plane): the start cannot fix the focal length");
         }
         const auto f = ZhangPrincipalDistance(hs);
@@ -905,7 +905,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
   // camera) and for a 3-D field (the DLT pose is not the least-squares one).
   const auto start_rms = StartPoses<M>(start, used_images, start_points, &s, M::kCaps.fisheye || !planar_start, &usable);
   if (!start_rms) {
-    throw InvalidInput("--images", "fewer than 3 images whose points fix their pose for the start "
+    throw InvalidInput("images", "fewer than 3 images whose points fix their pose for the start "
                                    "camera (boards seen edge-on or along one line, or fewer than 6 "
                                    "points of a 3-D field?)");
   }
@@ -1010,9 +1010,9 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
       }
       res.redundancy = 2 * n_active - res.n_unknowns;
       if (res.redundancy <= 0) {
-        throw InvalidInput("--images", fmt::format("{} points in {} images give {} observations "
+        throw InvalidInput("images", fmt::format("{} points in {} images give {} observations "
                                                    "for {} unknowns: add images or fix "
-                                                   "parameters (--free)", n_active, n_images,
+                                                   "parameters (`free`)", n_active, n_images,
                                                    2 * n_active, res.n_unknowns));
       }
       const double sigma0 = std::sqrt(ss / res.redundancy);
@@ -1092,7 +1092,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
                 : !options.statistics ? "ok (statistics not computed)"
                 : res.covariance_ok   ? "ok"
                                       : "the covariance is singular: some free parameters are not "
-                                        "determined by these images (fix them with --free)";
+                                        "determined by these images (fix them with `free`)";
   if (!poor.empty()) say("warning: " + poor);
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   say(fmt::format("done: sigma0 {:.4f} px, RMS {:.4f} px, {} iterations, {:.3f} s", res.sigma0_px,
@@ -1200,29 +1200,29 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     if (options.progress) options.progress(m);
   };
   if (options.centre_correction == CalibrationOptions::CentreCorrection::kOn && target.kind != TargetKind::kCoded) {
-    throw InvalidInput("--centre-correction", "needs circular targets of known dot radius (coded:BITS:RADIUS_MM)");
+    throw InvalidInput("centre_correction", "needs circular targets of known dot radius (coded:BITS:RADIUS_MM)");
   }
-  RequirePositive("--pixel-pitch-mm", options.pixel_pitch_mm);
-  RequireNonNegative("--reject-k", options.reject_k);
-  RequirePositive("--loss-scale-px", options.loss_scale_px);
-  RequirePositive("--significance-t", options.significance_t);
+  RequirePositive("pixel_pitch_mm", options.pixel_pitch_mm);
+  RequireNonNegative("reject_k", options.reject_k);
+  RequirePositive("loss_scale_px", options.loss_scale_px);
+  RequirePositive("significance_t", options.significance_t);
   if (options.drop_insignificant && !options.statistics) {
     throw InvalidInput("statistics", "stepwise dropping needs the statistics (σ of each parameter)");
   }
   const camera::ModelInfo& info = camera::Info(options.model);
   const FreeMask free = options.FreeOrDefault();
   if (static_cast<int>(free.size()) != info.num_params) {
-    throw InvalidInput("--free", fmt::format("{} flags for the {} parameters of model {}",
+    throw InvalidInput("free", fmt::format("{} flags for the {} parameters of model {}",
                                              free.size(), info.num_params, info.name));
   }
   if (options.initial && options.initial->model != options.model) {
-    throw InvalidInput("--initial", fmt::format("a {} camera cannot start a {} calibration",
+    throw InvalidInput("initial", fmt::format("a {} camera cannot start a {} calibration",
                                                 options.initial->model_name(), info.name));
   }
   for (int i = 0; i < info.first_distortion; ++i) {
     if (!free[i] && !options.initial) {
-      throw InvalidInput("--free", fmt::format("{} may be fixed only with a start camera "
-                                               "(--initial)", info.params[i].name));
+      throw InvalidInput("free", fmt::format("{} may be fixed only with a start camera "
+                                               "(`initial`)", info.params[i].name));
     }
   }
   const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
@@ -1264,7 +1264,7 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     }
     if (!used_images.empty() && (d.width_px != used_images[0]->width_px ||
                                  d.height_px != used_images[0]->height_px)) {
-      throw InvalidInput("--images", fmt::format("{} is {}x{} px, {} is {}x{}: one camera, one "
+      throw InvalidInput("images", fmt::format("{} is {}x{} px, {} is {}x{}: one camera, one "
                                                  "image size", d.image, d.width_px, d.height_px,
                                                  used_images[0]->image, used_images[0]->width_px,
                                                  used_images[0]->height_px));
@@ -1272,7 +1272,7 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     used_images.push_back(&d);
   }
   if (used_images.size() < 3) {
-    throw InvalidInput("--images", fmt::format("{} image(s) with the target; at least 3 are needed "
+    throw InvalidInput("images", fmt::format("{} image(s) with the target; at least 3 are needed "
                                                "to solve for {}", used_images.size(),
                                                FreeParametersToString(options.model, free)));
   }
@@ -1286,7 +1286,7 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
   if (options.initial) {
     camera::Camera initial = *options.initial;
     initial.sensor = res.camera.sensor;
-    camera::ValidateCamera(initial, "--initial");
+    camera::ValidateCamera(initial, "initial");
   }
   return camera::VisitModel(options.model, [&](auto m) {
     return CalibrateModel<decltype(m)>(used_images, nominal, TargetNormals(target), options, free, std::move(res));

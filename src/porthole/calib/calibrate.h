@@ -61,7 +61,7 @@ FreeMask DefaultFree(camera::CameraModelId model);
 // Parses "c,x0,y0,K1,K2,P1,P2" (parameter names of the model, case-sensitive; JSON keys accepted
 // too); "all" frees every parameter, "default" gives DefaultFree.
 FreeMask ParseFreeParameters(camera::CameraModelId model, const std::string& list,
-                             const std::string& field = "--free");
+                             const std::string& field = "free");
 std::string FreeParametersToString(camera::CameraModelId model, const FreeMask& free);
 
 enum class LossKind { kNone, kHuber, kCauchy };

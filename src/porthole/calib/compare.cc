@@ -70,7 +70,7 @@ CompareResult Compare(const CalibrationRecord& a, const CalibrationRecord& b,
   }
 
   if (o.curve_points < 2 || o.map_cols < 2 || o.map_rows < 2) {
-    throw InvalidInput("--map", "at least 2 curve points and a 2x2 map");
+    throw InvalidInput("map", "at least 2 curve points and a 2x2 map");
   }
   CompareResult r;
   r.model = a.camera.model;

@@ -203,7 +203,7 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
     case TargetKind::kCoded: {  // target IDs of the sheet or field (target.h)
       coded::CodedDetectOptions o;
       o.bits = t.code_bits;
-      o.profile = coded::ParseProfile(t.code_profile, "--target");
+      o.profile = coded::ParseProfile(t.code_profile, "target");
       o.uncoded_dots = HasUncodedDots(t);
       const coded::CodedDetection d = coded::DetectCodedTargets(gray, o);
       if (counts) *counts = {d.counts, 0};
@@ -249,7 +249,7 @@ bool FindPoints(const cv::Mat& gray, const TargetSpec& t, std::vector<int>* ids,
 
 bool HasUncodedDots(const TargetSpec& t) {
   if (t.kind != TargetKind::kCoded) return false;
-  const coded::Profile p = coded::ParseProfile(t.code_profile, "--target");
+  const coded::Profile p = coded::ParseProfile(t.code_profile, "target");
   return std::any_of(t.field.begin(), t.field.end(),
                      [&](const coded::PlacedTarget& x) { return coded::IsUncodedId(p, t.code_bits, x.id); });
 }

@@ -48,7 +48,7 @@ struct DetectOptions {
 
 // OpenCV's predefined ArUco dictionary `name` (DICT_4X4_50, ... DICT_ARUCO_ORIGINAL: the ChArUco
 // spec's DICT). Throws InvalidInput(field, ...) for any other name.
-cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const std::string& field = "--target");
+cv::Ptr<cv::aruco::Dictionary> ArucoDictionary(const std::string& name, const std::string& field = "target");
 
 // Width and height from an image file's header (PNG, JPEG, BMP, PGM/PPM, TIFF) without decoding
 // it; nullopt when the format is not one of these or the header is damaged.
@@ -113,7 +113,7 @@ double EdgeBlurPx(const cv::Mat& gray, const std::vector<cv::Point2f>& points);
 
 // Image files (jpg, jpeg, png, tif, tiff, bmp, pgm, ppm; any case) in a directory, sorted by name.
 // Throws InvalidInput(field) if the directory does not exist or holds none.
-std::vector<std::string> ListImages(const std::string& dir, const std::string& field = "--images");
+std::vector<std::string> ListImages(const std::string& dir, const std::string& field = "images");
 
 struct DetectionRun {
   std::vector<ImageDetections> detections;

@@ -458,7 +458,7 @@ std::optional<ShellPrior> ShellPriorFor(const RefractiveOptions& o, const refrac
   if (!o.free_shell) return std::nullopt;
   auto prior = ShellPriorOf(o.port.spec, shell);
   if (!prior) {
-    throw InvalidInput("--free-shell",
+    throw InvalidInput("free_shell",
                        fmt::format("the port file '{}' states no sigma of its shell (its [sigma] "
                                    "table: outer_radius_mm, inner_radius_mm, thickness_mm, "
                                    "inner_offset_mm; docs/presets.md)",
@@ -505,7 +505,7 @@ CentralPrediction CompareCentral(const RefractiveOptions& o, const CalibrationRe
     return cp;
   }
   if (!o.air) {
-    cp.why_not = "needs --air-calibration, the in-air lens the prediction puts behind the port";
+    cp.why_not = "needs `air_calibration`, the in-air lens the prediction puts behind the port";
     return cp;
   }
   const int N = lens.info().num_params, S = N + kPortNumParams, T = S + kShellNumParams;
@@ -650,7 +650,7 @@ std::optional<Prior> MakePrior(const RefractiveOptions& o) {
   }
   const Eigen::LLT<Eigen::MatrixXd> llt(cov);
   if (llt.info() != Eigen::Success) {
-    throw InvalidInput("--air-calibration", "its covariance is not positive definite");
+    throw InvalidInput("air_calibration", "its covariance is not positive definite");
   }
   prior.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
   return prior;
@@ -697,7 +697,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   const camera::Sensor sensor = central.camera.sensor;
   const refraction::Shell shell = refraction::ShellOf(o.port);
   const PortArray predicted = refraction::ParamsOf(o.port);
-  refraction::ValidateParams(shell, predicted.data(), "--port");
+  refraction::ValidateParams(shell, predicted.data(), "port");
 
   RefractiveResult res;
   res.intrinsics = o.intrinsics;
@@ -768,7 +768,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     PortArray p = predicted;
     p[2] = c;
     try {
-      refraction::ValidateParams(shell, p.data(), "--port");
+      refraction::ValidateParams(shell, p.data(), "port");
     } catch (const InvalidInput&) {
       continue;
     }
@@ -783,7 +783,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     if (cost < best_cost) best_cost = cost, best_axial = c;
   }
   if (!std::isfinite(best_cost)) {
-    throw InvalidInput("--port", "no start of the port parameters projects the target points: "
+    throw InvalidInput("port", "no start of the port parameters projects the target points: "
                                  "check the port, the pupil and the water");
   }
   std::copy(start.params.begin(), start.params.end(), adj.lens.begin());
@@ -816,7 +816,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     ss = adj.SumSquares(&n_active);
     const int redundancy = 2 * n_active - n_unknowns_first;
     if (redundancy <= 0) {
-      throw InvalidInput("--images", fmt::format("{} points in {} images give {} observations for "
+      throw InvalidInput("images", fmt::format("{} points in {} images give {} observations for "
                                                  "{} unknowns: add images", n_active, n_total,
                                                  2 * n_active, n_unknowns_first));
     }
@@ -866,11 +866,11 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   lr.covariance_ok = adj.Covariance(&cov);
   constexpr int S = N + kPortNumParams, T = S + kShellNumParams;
   if (!lr.covariance_ok) {
-    throw InvalidInput("--images", std::string("the port parameters and the lens are not determined "
+    throw InvalidInput("images", std::string("the port parameters and the lens are not determined "
                                                "by these images (singular covariance): add views at "
                                                "other ranges and angles, or fix parameters "
-                                               "(--intrinsics fixed, --free") +
-                                       (n_shell_free > 0 ? ", without --free-water-index, --free-shell)" : ")"));
+                                               "(`intrinsics` fixed, `free`") +
+                                       (n_shell_free > 0 ? ", without `free_water_index`, `free_shell`)" : ")"));
   }
   cov *= s0w2;
   std::vector<bool> free_all(T);
@@ -981,7 +981,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   // An estimate that is no shell (a water index below 1: images not taken in water; an inner
   // sphere outside the outer one) is refused, naming the option that freed it.
   refraction::ValidateShellValues(shell, res.shell,
-                                  n_shell_free > res.shell_free[0] ? "--free-shell" : "--free-water-index");
+                                  n_shell_free > res.shell_free[0] ? "free_shell" : "free_water_index");
   res.estimated_port = refraction::SpecWithParams(o.port, res.port, res.shell);
   // The file's σ of a value adjusted here were its prior: the estimate's σ are in the JSON, and a
   // port file read again must not count that prior twice. σ of values not adjusted stay.
@@ -994,7 +994,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   if (res.shell_free[3] || res.shell_free[4] || res.shell_free[5]) sg.inner_offset_mm.reset();
   res.estimated_port.description = fmt::format("{} as calibrated from images ({})",
                                                o.port.spec.name, o.port.spec.description);
-  res.estimated_port.source = "porthole calibrate --port: estimated from images";
+  res.estimated_port.source = "porthole calibrate through the port: estimated from images";
   res.estimated_port.name = o.port.spec.name + "-as-calibrated";
 
   if (o.compare_central && n_air > 0) {
@@ -1025,7 +1025,7 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   constexpr int N = M::kNumParams;
   const refraction::Shell shell = refraction::ShellOf(o.port);
   const PortArray port = refraction::ParamsOf(o.port);
-  refraction::ValidateParams(shell, port.data(), "--port");
+  refraction::ValidateParams(shell, port.data(), "port");
   RefractivePlan plan;
   plan.model = M::kId;
   plan.kind = shell.kind;
@@ -1060,7 +1060,7 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   }
   plan.n_images = static_cast<int>(used.size());
   plan.n_points = static_cast<int>(obs.size());
-  if (used.empty()) throw InvalidInput("--images", "no pose sees 4 target points through the port");
+  if (used.empty()) throw InvalidInput("images", "no pose sees 4 target points through the port");
   RefractiveAdjustment<M> adj(o, sensor, shell, obs, points, TargetNormals(target), plan.n_images);
   for (int i = 0; i < plan.n_images; ++i) {
     const auto& p = *used[i];
@@ -1112,24 +1112,24 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
 void CheckOptions(const RefractiveOptions& o) {
   ShellPriorFor(o, refraction::ShellOf(o.port));  // --free-shell needs the port file's σ
   if (o.intrinsics != IntrinsicsMode::kFree && !o.air) {
-    throw InvalidInput("--intrinsics", ToString(o.intrinsics) + " needs --air-calibration");
+    throw InvalidInput("intrinsics", ToString(o.intrinsics) + " needs `air_calibration`");
   }
   if (o.air && !o.air_detections.empty()) {
-    throw InvalidInput("--air-calibration",
-                       "not with --air-detections: the lens comes from the air images adjusted with the water "
+    throw InvalidInput("air_calibration",
+                       "not with `air_detections`: the lens comes from the air images adjusted with the water "
                        "ones; give one of them");
   }
   if (o.air && o.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort) {
     throw InvalidInput(
-        "--air-calibration",
+        "air_calibration",
         "was it made with the housing on (through this port in air) or of the lens alone? Through the port "
         "a dome still refracts, and taken as the bare lens it biases the port by millimetres: give the air "
-        "images instead (--air-detections or --air-images, modelled through the port), or --air-lens-bare "
+        "images instead (`air_detections` or `air_images`, modelled through the port), or `air_lens_bare` "
         "if it was made without the housing");
   }
   if (o.air) {
     if (o.air->camera.model != o.lens.model) {
-      throw InvalidInput("--air-calibration",
+      throw InvalidInput("air_calibration",
                          fmt::format("a {} calibration cannot start a {} one",
                                      o.air->camera.model_name(), camera::Info(o.lens.model).name));
     }
@@ -1137,9 +1137,9 @@ void CheckOptions(const RefractiveOptions& o) {
     // refused rather than given an invented one.
     if (o.intrinsics == IntrinsicsMode::kPrior && !o.air->has_covariance) {
       throw InvalidInput(
-          "--air-calibration",
-          fmt::format("a prior (--intrinsics prior, the default with --air-calibration) needs the "
-                      "in-air covariance, and this calibration has none{}: give --intrinsics "
+          "air_calibration",
+          fmt::format("a prior (`intrinsics` prior, the default with `air_calibration`) needs the "
+                      "in-air covariance, and this calibration has none{}: give `intrinsics` "
                       "fixed, or a calibration with sigma (porthole JSON, Metashape XML, calibmar)",
                       o.air->covariance_note.empty() ? "" : " (" + o.air->covariance_note + ")"));
     }
@@ -1164,7 +1164,7 @@ CalibrationResult CentralOf(const std::vector<ImageDetections>& detections,
     const camera::Sensor& w = central.camera.sensor;
     if (a.width_px != w.width_px || a.height_px != w.height_px ||
         std::abs(a.pixel_pitch_mm - w.pixel_pitch_mm) > 1e-12) {
-      throw InvalidInput("--air-calibration",
+      throw InvalidInput("air_calibration",
                          fmt::format("its sensor ({}x{} px, pitch {:g} mm) is not the images' "
                                      "({}x{} px, pitch {:g} mm)", a.width_px, a.height_px,
                                      a.pixel_pitch_mm, w.width_px, w.height_px, w.pixel_pitch_mm));
@@ -1179,10 +1179,10 @@ RefractivePlan PlanRefractive(const std::vector<ImageResult>& poses, const Targe
                               const camera::Camera& lens, const RefractiveOptions& o,
                               double sigma0_px) {
   const QuietGlog quiet;
-  RequirePositive("--plan-sigma-px", sigma0_px);
-  if (poses.empty()) throw InvalidInput("--images", "no poses to plan with");
+  RequirePositive("plan_sigma_px", sigma0_px);
+  if (poses.empty()) throw InvalidInput("images", "no poses to plan with");
   if (lens.model != o.lens.model) {
-    throw InvalidInput("--model", fmt::format("the design lens is {}, the plan's model {}",
+    throw InvalidInput("model", fmt::format("the design lens is {}, the plan's model {}",
                                               lens.model_name(), camera::Info(o.lens.model).name));
   }
   CheckOptions(o);
@@ -1196,10 +1196,10 @@ RefractivePlan PlanRefractiveFromImages(const std::vector<ImageDetections>& dete
                                         const TargetSpec& target, const RefractiveOptions& o,
                                         double sigma0_px) {
   const QuietGlog quiet;
-  RequirePositive("--plan-sigma-px", sigma0_px);
+  RequirePositive("plan_sigma_px", sigma0_px);
   CheckOptions(o);
   if (!o.air_detections.empty()) {
-    throw InvalidInput("--plan-only", "plans the water images alone: not with --air-detections");
+    throw InvalidInput("plan_only", "plans the water images alone: not with `air_detections`");
   }
   const CalibrationResult central = CentralOf(detections, target, o);
   const camera::Camera lens = StartLens(o, central, refraction::ShellOf(o.port));
@@ -1297,7 +1297,7 @@ RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detecti
   const auto t0 = std::chrono::steady_clock::now();
   CheckOptions(o);
   if (o.predicted_sigma) {
-    for (double s : *o.predicted_sigma) RequirePositive("--port-sigma", s);
+    for (double s : *o.predicted_sigma) RequirePositive("port_sigma", s);
   }
   // The central calibration of the same images: the poses, the start, and the model choice; the
   // same of the air images.
@@ -1308,7 +1308,7 @@ RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detecti
     const camera::Sensor& a = central_air->camera.sensor;
     const camera::Sensor& w = central.camera.sensor;
     if (a.width_px != w.width_px || a.height_px != w.height_px) {
-      throw InvalidInput("--air-detections",
+      throw InvalidInput("air_detections",
                          fmt::format("the air images are {}x{} px, the water images {}x{} px: one "
                                      "camera takes both", a.width_px, a.height_px, w.width_px, w.height_px));
     }
@@ -1442,7 +1442,7 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
   // the same port, or with an in-air calibration of the lens alone.
   Json air = {{"lens_from", !r.air_images.empty()   ? "air and water images through the port, adjusted together"
                             : !options.air          ? "the water images alone"
-                                                    : "an in-air calibration of the lens without the housing (--air-lens-bare)"}};
+                                                    : "an in-air calibration of the lens without the housing (the bare lens)"}};
   if (!r.air_images.empty()) {
     air["n_images"] = r.air_images.size();
     air["rms_px"] = num(r.air_rms_px);

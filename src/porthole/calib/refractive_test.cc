@@ -447,7 +447,7 @@ TEST(RefractiveCalibration, AnIndexTheImagesCannotSeeIsRefused) {
     CalibrateRefractive(Views(cam, centred, target, 1), target, o);
     FAIL() << "a singular network was not refused";
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--images");
+    EXPECT_EQ(e.field(), "images");
     EXPECT_NE(std::string(e.what()).find("not determined"), std::string::npos) << e.what();
   }
 }
@@ -584,7 +584,7 @@ TEST(RefractiveCalibration, UntraceablePortAndMissingSigmaAreRefused) {
     CalibrateRefractive(views, target, o);
     FAIL() << "an untraceable port was not refused";
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--port") << e.what();
+    EXPECT_EQ(e.field(), "port") << e.what();
   }
   RefractiveOptions s = Options(truth, cam.sensor.pixel_pitch_mm);
   s.free_shell = true;
@@ -592,7 +592,7 @@ TEST(RefractiveCalibration, UntraceablePortAndMissingSigmaAreRefused) {
     CalibrateRefractive(views, target, s);
     FAIL() << "--free-shell without sigma was not refused";
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--free-shell") << e.what();
+    EXPECT_EQ(e.field(), "free_shell") << e.what();
   }
 }
 

@@ -86,9 +86,9 @@ Json AdjustedTargetJson(const CalibrationResult& r, const TargetSpec& target) {
 
 std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& target) {
   if (target.kind != TargetKind::kCoded) {
-    throw InvalidInput("--field-out", "a target-field file is for coded targets (--target coded:...)");
+    throw InvalidInput("field_out", "a target-field file is for coded targets (`target` coded:...)");
   }
-  if (r.datum.a < 0) throw InvalidInput("--field-out", "needs --free-target (without it no point is adjusted)");
+  if (r.datum.a < 0) throw InvalidInput("field_out", "needs `free_target` (without it no point is adjusted)");
   const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
   const std::vector<Eigen::Vector3d> normal = TargetNormals(target);
   int n_adjusted = 0, n_given = 0;
@@ -118,7 +118,7 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
   std::string source = target.field_file.empty() ? std::string("the default sheet") : target.field_file;
   std::replace_if(source.begin(), source.end(), [](char ch) { return ch == '\n' || ch == '\r'; }, '?');
   return fmt::format(
-             "# porthole target field, self-calibrated (porthole calibrate --free-target): {}\n"
+             "# porthole target field, self-calibrated (porthole calibrate, the target points free): {}\n"
              "# from {}; {} images, sigma0 {:.4f} px\n"
              "# datum (held at the given values): ids {} and {} whole, the {} of id {}\n"
              "# {} points adjusted (sigma in mm after each), {} not observed (as given)\n"
@@ -173,7 +173,7 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
       {"sigma", sig},
       {"units", CameraUnitsJson(r.camera.model)},
       {"pixels_are_mm", px},
-      {"note", px ? "no --pixel-pitch-mm: pitch 1, so every _mm value is in pixels (K1 in px^-2 …)"
+      {"note", px ? "no pixel pitch given: pitch 1, so every _mm value is in pixels (K1 in px^-2 …)"
                   : fmt::format("pixel pitch {:g} mm", options.pixel_pitch_mm)},
       {"correlation", Matrix(m, r.free, r.correlation)},
       {"covariance", Matrix(m, r.free, r.covariance)},
@@ -347,7 +347,7 @@ std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit
         sensor.width_px, sensor.height_px, p[M::kFx], p[M::kCx], p[M::kFy], p[M::kCy], p[M::kK1],
         p[M::kK2], p[M::kP1], p[M::kP2], p[M::kK3], p[M::kK4], p[M::kK5], p[M::kK6]);
   }
-  const auto conv = camera::BrownToOpenCV(camera::ToBrown(rec.camera, "--opencv-yaml"), sensor);
+  const auto conv = camera::BrownToOpenCV(camera::ToBrown(rec.camera, "opencv_yaml"), sensor);
   if (fit != nullptr) *fit = conv.fit;
   const auto& o = conv.opencv;
   return fmt::format(

@@ -175,14 +175,14 @@ std::vector<bool> TargetPointMask(const TargetSpec& t) {
 coded::SheetLayout CodedSheet(const TargetSpec& t) {
   coded::SheetOptions o;
   o.bits = t.code_bits;
-  o.profile = coded::ParseProfile(t.code_profile, "--target");
+  o.profile = coded::ParseProfile(t.code_profile, "target");
   o.radius_mm = t.dot_radius_mm;
   return coded::LayoutSheet(o);
 }
 
 void LoadTargetField(const std::string& path, TargetSpec* target, const std::string& field) {
   if (target->kind != TargetKind::kCoded) {
-    throw InvalidInput(field, "a target field holds coded targets: give --target coded:BITS:RADIUS_MM[:PROFILE]");
+    throw InvalidInput(field, "a target field holds coded targets: give `target` coded:BITS:RADIUS_MM[:PROFILE]");
   }
   const std::string text = ReadInputFile(path, field, kMaxTextFileBytes);
   target->field = coded::ParseField(text, fmt::format("{} ({})", field, path));

@@ -59,7 +59,7 @@ struct TargetSpec {
 };
 
 // Parses a spec string (above). Throws InvalidInput(field, ...) naming the rule broken.
-TargetSpec ParseTarget(const std::string& spec, const std::string& field = "--target");
+TargetSpec ParseTarget(const std::string& spec, const std::string& field = "target");
 
 // Every point of the target in the target frame (mm), indexed by id (coded: ids that are no
 // target, 0 among them, at the origin; HasPoint tells them apart).
@@ -75,7 +75,7 @@ std::vector<bool> TargetPointMask(const TargetSpec& target);
 // Reads a target-field file (coded/sheet.h ParseField: "id x_mm y_mm z_mm" lines) into
 // target->field, with the size limit of every text input (core/input.h). Throws
 // InvalidInput(field, ...) naming the file and line, or when the target is not coded.
-void LoadTargetField(const std::string& path, TargetSpec* target, const std::string& field = "--field");
+void LoadTargetField(const std::string& path, TargetSpec* target, const std::string& field = "field");
 
 // A coded target (kind kCoded): the sheet `porthole target-sheet` prints with its defaults for the
 // spec's bits, profile and dot radius.

@@ -149,7 +149,7 @@ void CheckCalibrationFits(const Camera& cal, bool pitch_known, const ExpectedCam
     throw InvalidInput(field, fmt::format("has pixel pitch {:g} mm{}; the {} has {:g} mm", s.pixel_pitch_mm,
                                           s.pixel_pitch_mm == 1
                                               ? fmt::format(" (pitch 1: its millimetres are pixels: calibrated in "
-                                                            "pixels; run calibrate with --pixel-pitch-mm {:g})",
+                                                            "pixels; calibrate it again with the pixel pitch, {:g} mm)",
                                                             e.sensor.pixel_pitch_mm)
                                               : "",
                                           e.name, e.sensor.pixel_pitch_mm));

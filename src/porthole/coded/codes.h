@@ -26,7 +26,7 @@ namespace porthole::coded {
 enum class Profile { kAicon, kMetashape };
 
 // "aicon" or "metashape" (any case); throws InvalidInput(field, ...) otherwise.
-Profile ParseProfile(const std::string& name, const std::string& field = "--profile");
+Profile ParseProfile(const std::string& name, const std::string& field = "profile");
 std::string ProfileName(Profile p);
 
 // Radii of the code ring's inner and outer edges in units of the dot radius.
@@ -37,7 +37,7 @@ struct RingRadii {
 RingRadii Ring(Profile p);
 
 // Throws InvalidInput(field, ...) unless bits is 12 or 14.
-void ValidateBits(int bits, const std::string& field = "--bits");
+void ValidateBits(int bits, const std::string& field = "bits");
 
 // The smallest of the `bits` cyclic rotations of the low `bits` bits of `code`.
 uint32_t MinimalRotation(uint32_t code, int bits);
@@ -53,6 +53,6 @@ const std::vector<uint32_t>& Codes(Profile p, int bits);
 int IdOfRing(Profile p, int bits, uint32_t ring);
 
 // The canonical code of ID `id`; throws InvalidInput(field, ...) when the profile has no such ID.
-uint32_t CodeOfId(Profile p, int bits, int id, const std::string& field = "--first-id");
+uint32_t CodeOfId(Profile p, int bits, int id, const std::string& field = "first_id");
 
 }  // namespace porthole::coded

@@ -73,18 +73,18 @@ Eigen::Vector2d PaperSizeMm(const std::string& paper) {
     } catch (const std::exception&) {
     }
   }
-  throw InvalidInput("--paper", "expected A5, A4, A3, A2, letter, legal or WxH in mm (50 to 5000 a side), got '" +
+  throw InvalidInput("paper", "expected A5, A4, A3, A2, letter, legal or WxH in mm (50 to 5000 a side), got '" +
                                     paper + "'");
 }
 
 SheetLayout LayoutSheet(const SheetOptions& o) {
   ValidateBits(o.bits);
   if (!(o.radius_mm >= 0.5 && o.radius_mm <= 200)) {
-    throw InvalidInput("--radius-mm", fmt::format("the dot radius must be 0.5 to 200 mm, got {}", o.radius_mm));
+    throw InvalidInput("radius_mm", fmt::format("the dot radius must be 0.5 to 200 mm, got {}", o.radius_mm));
   }
-  if (!(o.margin_mm >= 0 && o.margin_mm <= 100)) throw InvalidInput("--margin-mm", "must be 0 to 100 mm");
-  if (o.count < 0) throw InvalidInput("--count", "must be >= 0 (0: as many as fit)");
-  CodeOfId(o.profile, o.bits, o.first_id, "--first-id");
+  if (!(o.margin_mm >= 0 && o.margin_mm <= 100)) throw InvalidInput("margin_mm", "must be 0 to 100 mm");
+  if (o.count < 0) throw InvalidInput("count", "must be >= 0 (0: as many as fit)");
+  CodeOfId(o.profile, o.bits, o.first_id, "first_id");
   SheetLayout l;
   l.options = o;
   Eigen::Vector2d size = PaperSizeMm(o.paper);
@@ -92,7 +92,7 @@ SheetLayout LayoutSheet(const SheetOptions& o) {
   l.width_mm = size.x();
   l.height_mm = size.y();
   if (l.width_mm < kScaleBarMm + 2 * o.margin_mm + 10) {
-    throw InvalidInput("--paper", fmt::format("{} mm wide: the 100 mm scale bar needs {} mm with the margins",
+    throw InvalidInput("paper", fmt::format("{} mm wide: the 100 mm scale bar needs {} mm with the margins",
                                               Num(l.width_mm), Num(kScaleBarMm + 2 * o.margin_mm + 10)));
   }
   l.pitch_mm = std::ceil(2 * (OuterRadiusMm(o) + o.radius_mm) * 2) / 2;
@@ -100,17 +100,17 @@ SheetLayout LayoutSheet(const SheetOptions& o) {
   l.cols = static_cast<int>(std::floor(avail_w / l.pitch_mm));
   l.rows = static_cast<int>(std::floor(avail_h / l.pitch_mm));
   if (l.cols < 1 || l.rows < 1) {
-    throw InvalidInput("--radius-mm", fmt::format("a target of dot radius {} mm needs {} mm a side: none fits on "
+    throw InvalidInput("radius_mm", fmt::format("a target of dot radius {} mm needs {} mm a side: none fits on "
                                                   "the {} x {} mm paper inside the margins",
                                                   Num(o.radius_mm), Num(l.pitch_mm), Num(l.width_mm), Num(l.height_mm)));
   }
   const int available = static_cast<int>(Codes(o.profile, o.bits).size()) - o.first_id + 1;
   const int n = std::min({o.count > 0 ? o.count : l.cols * l.rows, l.cols * l.rows, available});
   if (o.count > l.cols * l.rows) {
-    throw InvalidInput("--count", fmt::format("{} targets do not fit: the sheet holds {}", o.count, l.cols * l.rows));
+    throw InvalidInput("count", fmt::format("{} targets do not fit: the sheet holds {}", o.count, l.cols * l.rows));
   }
   if (o.count > available) {
-    throw InvalidInput("--count", fmt::format("IDs {} on give only {} targets", o.first_id, available));
+    throw InvalidInput("count", fmt::format("IDs {} on give only {} targets", o.first_id, available));
   }
   const double x0 = o.margin_mm + (avail_w - l.cols * l.pitch_mm) / 2 + l.pitch_mm / 2;
   const double y0 = o.margin_mm + (avail_h - l.rows * l.pitch_mm) / 2 + l.pitch_mm / 2;

@@ -70,7 +70,7 @@ std::string FieldText(const SheetLayout& layout);
 // facing another way than −Z (the direction it faces, normalised here). Throws InvalidInput(field,
 // ...) naming the line at fault (duplicate ID, not four or seven numbers, ID < 1, a normal of
 // length 0).
-std::vector<PlacedTarget> ParseField(const std::string& text, const std::string& field = "--field");
+std::vector<PlacedTarget> ParseField(const std::string& text, const std::string& field = "field");
 
 // The ring's filled segments of a code: [start, end) angles in radians, clockwise on the sheet
 // from +X (toward +Y), one interval per run of consecutive 1 bits; bit `bits − 1 − i` (MSB first)

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <initializer_list>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -58,6 +59,43 @@ inline InvalidInput RenameFields(std::initializer_list<FieldName> names, const I
     break;
   }
   return InvalidInput(field, RenameQuotedFields(names, rule, keep_unknown));
+}
+
+// The same renaming by a rule instead of a table: `lookup(field)` gives the front end's word for a
+// field (or the head of a dotted field, "air_calibration" of "air_calibration.camera.K1"), or
+// nothing. The CLI's last table is of this kind: a field is its flag when the command has one of
+// that name (`pixel_pitch_mm` → --pixel-pitch-mm), so the library names its fields and never a flag.
+template <typename Lookup>
+std::string RenameQuotedFieldsBy(const Lookup& lookup, std::string_view rule, std::string_view unknown_suffix = "") {
+  std::string out;
+  std::size_t i = 0;
+  while (i < rule.size()) {
+    const std::size_t open = rule.find('`', i);
+    const std::size_t close = open == std::string_view::npos ? open : rule.find('`', open + 1);
+    if (close == std::string_view::npos) break;
+    out.append(rule.substr(i, open - i));
+    const std::string_view quoted = rule.substr(open + 1, close - open - 1);
+    if (const auto word = lookup(quoted)) {
+      out.append(*word);
+    } else {
+      out.append(quoted);
+      out.append(unknown_suffix);
+    }
+    i = close + 1;
+  }
+  out.append(rule.substr(i));
+  return out;
+}
+
+template <typename Lookup>
+InvalidInput RenameFieldsBy(const Lookup& lookup, const InvalidInput& e) {
+  std::string field = e.field();
+  const std::string rule = std::string(e.what()).substr(field.size() + 2);  // "field: rule"
+  const std::size_t head_end = field.find_first_of(".:[ ");
+  if (const auto word = lookup(std::string_view(field).substr(0, head_end))) {
+    field = *word + (head_end == std::string::npos ? std::string() : field.substr(head_end));
+  }
+  return InvalidInput(field, RenameQuotedFieldsBy(lookup, rule));
 }
 
 // Runs f(); an InvalidInput is rethrown in the table's words (RenameFields; fields the table does

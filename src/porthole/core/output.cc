@@ -171,18 +171,18 @@ void CheckOutput(const fs::path& path, const std::string& field, const OutputRul
     return;
   }
   if (S_ISBLK(st.st_mode)) {
-    if (!rules.force) throw InvalidInput(field, shown + " is a block device: --force writes into it");
+    if (!rules.force) throw InvalidInput(field, shown + " is a block device: `force` writes into it");
     return;
   }
   if (!S_ISREG(st.st_mode)) throw InvalidInput(field, shown + " is not a regular file, a device or a FIFO");
   const FileKind existing = KindOfFile(target);  // rule 5
   if (!rules.force) {
     throw InvalidInput(field, shown + " exists" + (existing == FileKind::kOther ? "" : " (" + FileKindName(existing) + ")") +
-                                  ": --force replaces it");
+                                  ": `force` replaces it");
   }
   if (existing != FileKind::kOther && existing != kind) {
     throw InvalidInput(field, shown + " is " + FileKindName(existing) + ", not " + FileKindName(kind) +
-                                  ": not replaced, even with --force (remove it yourself or choose another name)");
+                                  ": not replaced, even with `force` (remove it yourself or choose another name)");
   }
   if (access(dir.c_str(), W_OK | X_OK) != 0) throw InvalidInput(field, Quote(dir) + " is not writable");
 }

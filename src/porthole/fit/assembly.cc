@@ -94,7 +94,7 @@ FitJson LoadFitJson(const std::string& path, const std::string& field, const std
   } catch (const Json::parse_error& e) {
     const std::size_t line = 1 + std::count(out.text.begin(), out.text.begin() + std::min(e.byte, out.text.size()), '\n');
     throw InvalidInput(field, fmt::format("{}:{}: not valid JSON at byte {} (expected the output of "
-                                          "'porthole fit ... --json')",
+                                          "the JSON of 'porthole fit')",
                                           path, line, e.byte));
   }
   if (!out.j.is_object()) throw InvalidInput(field, out.Where("") + ": not a JSON object");
@@ -125,18 +125,18 @@ Eigen::Vector3d JsonVec3(const FitJson& f, const std::string& key, const std::st
 }  // namespace
 
 HousingAssembly AssembleHousing(const AssemblyInput& in) {
-  const Eigen::Vector3d n_cam = UnitNormal("--camera-flange", in.camera_flange);
-  const Eigen::Vector3d n_housing_s = UnitNormal("--housing-flange", in.housing_flange);
-  CheckSphere("--outer", in.outer);
-  CheckSphere("--inner", in.inner);
+  const Eigen::Vector3d n_cam = UnitNormal("camera_flange", in.camera_flange);
+  const Eigen::Vector3d n_housing_s = UnitNormal("housing_flange", in.housing_flange);
+  CheckSphere("outer", in.outer);
+  CheckSphere("inner", in.inner);
   if (!std::isfinite(in.pupil_to_flange_mm))
-    throw InvalidInput("--pupil-offset", "must be a finite number");
+    throw InvalidInput("pupil_offset", "must be a finite number");
   if (!((in.inner.center_mm - in.outer.center_mm).norm() + in.inner.radius_mm < in.outer.radius_mm))
-    throw InvalidInput("--inner", "the inner sphere must lie inside the outer sphere");
+    throw InvalidInput("inner", "the inner sphere must lie inside the outer sphere");
   const Eigen::Vector3d flanges = in.housing_flange.center_mm - in.camera_flange.center_mm;
   if (!(std::abs(flanges.dot(n_cam)) > 1e-6 * std::max(1.0, flanges.norm())))
-    throw InvalidInput("--housing-flange", "its centre lies in the camera flange's plane");
-  CheckHint("--x-hint", in.survey_x_hint, n_cam);
+    throw InvalidInput("housing_flange", "its centre lies in the camera flange's plane");
+  CheckHint("x_hint", in.survey_x_hint, n_cam);
 
   HousingAssembly a;
   // Origin at the camera flange centre, +Z toward the housing flange (the paper's Section 3.3).
@@ -150,25 +150,25 @@ HousingAssembly AssembleHousing(const AssemblyInput& in) {
 
   if (in.dome_rear) {
     // The dome's rear face seated on the housing flange: rear frame → flange frame → housing.
-    const Eigen::Vector3d n_rear = UnitNormal("--dome-rear", *in.dome_rear);
+    const Eigen::Vector3d n_rear = UnitNormal("dome_rear", *in.dome_rear);
     Eigen::Vector3d c_rear = in.dome_rear->center_mm;
     if (in.dome_centered)
       c_rear = in.outer.center_mm - (in.outer.center_mm - c_rear).dot(n_rear) * n_rear;
-    CheckHint("--dome-x-hint", in.scan_x_hint, n_rear);
-    CheckHint("--housing-flange", Eigen::Vector3d::UnitX(), a.housing_flange_normal);
+    CheckHint("dome_x_hint", in.scan_x_hint, n_rear);
+    CheckHint("housing_flange", Eigen::Vector3d::UnitX(), a.housing_flange_normal);
     const RigidTransform rear_from_scan = PlaneFrame(c_rear, n_rear, in.scan_x_hint);
     const RigidTransform flange_from_housing =
         PlaneFrame(a.housing_flange_center_mm, a.housing_flange_normal, Eigen::Vector3d::UnitX());
     a.housing_from_scan = flange_from_housing.Inverse() * rear_from_scan;
   } else {
-    if (in.dome_centered) throw InvalidInput("--dome-centered", "needs --dome-rear");
+    if (in.dome_centered) throw InvalidInput("dome_centered", "needs `dome_rear`");
     a.housing_from_scan = a.housing_from_survey;
   }
   a.outer = Moved(a.housing_from_scan, in.outer);
   a.inner = Moved(a.housing_from_scan, in.inner);
   a.entrance_pupil_mm = Eigen::Vector3d(0, 0, in.pupil_to_flange_mm);
   if (!((a.entrance_pupil_mm - a.inner.center_mm).norm() < a.inner.radius_mm))
-    throw InvalidInput("--pupil-offset",
+    throw InvalidInput("pupil_offset",
                        fmt::format("the entrance pupil (0, 0, {:.1f}) mm lies outside the dome's "
                                    "inner sphere: check the flanges, the dome rear's normal "
                                    "(it points toward the apex) and the offset",

@@ -336,7 +336,7 @@ SphereFitSummary FitSphere(const Eigen::Matrix3Xd& pts, const SphereFitOptions& 
   if (!out.converged) {
     out.message = "the solver did not converge";
   } else if (n_in < 5) {
-    out.message = fmt::format("only {} inliers (need 5): raise --threshold?", n_in);
+    out.message = fmt::format("only {} inliers (need 5): raise `threshold`?", n_in);
   } else if (!std::isfinite(out.sigma_radius_mm)) {
     out.message = "covariance is singular: the sphere is not determined";
   } else if (out.sigma_radius_mm > 0.1 * out.sphere.radius_mm) {

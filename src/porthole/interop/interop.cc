@@ -483,7 +483,7 @@ ReadResult FromColmapList(const std::vector<ColmapCamera>& list, Format format, 
                               "per camera; cameras.bin a count of at least 1)");
   }
   if (chosen == nullptr) {
-    throw InvalidInput(field, camera_id == 0 ? fmt::format("holds {} cameras (ids {}): choose one with --camera-id",
+    throw InvalidInput(field, camera_id == 0 ? fmt::format("holds {} cameras (ids {}): choose one with `camera_id`",
                                                            list.size(), ids)
                                              : fmt::format("has no camera {} (ids {})", camera_id, ids));
   }
@@ -743,7 +743,7 @@ Format DetectInputFormat(const std::string& path, const std::string& content, co
 }
 
 Format OutputFormat(const std::string& path, const std::optional<std::string>& to, const std::string& field) {
-  if (to) return FormatFromName(*to, "--to");
+  if (to) return FormatFromName(*to, "to");
   const std::string ext = Ext(path);
   if (ext == ".json") return Format::kJson;
   if (ext == ".yml" || ext == ".yaml") return Format::kOpenCVYaml;
@@ -752,7 +752,7 @@ Format OutputFormat(const std::string& path, const std::optional<std::string>& t
   if (ext == ".txt") return Format::kColmapText;
   if (ext == ".xml") return Format::kMetashape;
   throw InvalidInput(field, "'" + path + "': cannot tell the format from the extension (.json, .yml, "
-                            ".cameramodel, cameras.txt, cameras.bin, .xml): give --to");
+                            ".cameramodel, cameras.txt, cameras.bin, .xml): give `to`");
 }
 
 ColmapCamera ToColmap(const Camera& cam, const std::string& field) {
@@ -943,7 +943,7 @@ namespace {
 // ReadCalibration, with `origin` (the file) naming the line of a bad JSON value ("file:N:").
 ReadResult ReadCalibrationFrom(const std::string& content, Format format, double pixel_pitch_mm,
                                const std::string& field, int camera_id, const std::string& origin) {
-  RequirePositive("--pixel-pitch-mm", pixel_pitch_mm);
+  RequirePositive("pixel_pitch_mm", pixel_pitch_mm);
   ReadResult r;
   switch (format) {
     case Format::kJson: {

@@ -325,17 +325,17 @@ std::pair<std::string, std::string> PresetOrFileText(const std::string& kind, co
 }  // namespace
 
 ports::PortSpec LoadPort(const std::string& name_or_path) {
-  const auto [text, origin] = PresetOrFileText("port", name_or_path, "--port");
+  const auto [text, origin] = PresetOrFileText("port", name_or_path, "port");
   return ParsePortToml(text, origin);
 }
 
 lens::CameraBody LoadCamera(const std::string& name_or_path) {
-  const auto [text, origin] = PresetOrFileText("camera", name_or_path, "--camera");
+  const auto [text, origin] = PresetOrFileText("camera", name_or_path, "camera");
   return ParseCameraToml(text, origin);
 }
 
 lens::LensSpec LoadLens(const std::string& name_or_path) {
-  const auto [text, origin] = PresetOrFileText("lens", name_or_path, "--lens");
+  const auto [text, origin] = PresetOrFileText("lens", name_or_path, "lens");
   return ParseLensToml(text, origin);
 }
 

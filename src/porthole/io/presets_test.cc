@@ -44,7 +44,7 @@ TEST(Presets, UnknownPresetListsTheBuiltins) {
     LoadPort("nimar-ni999");
     FAIL();
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--port");
+    EXPECT_EQ(e.field(), "port");
     EXPECT_NE(std::string(e.what()).find("nimar-ni320-nominal"), std::string::npos);
   }
   EXPECT_THROW(LoadPort("/nonexistent/dome.toml"), InvalidInput);

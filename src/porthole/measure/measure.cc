@@ -460,7 +460,7 @@ ScaleBarCheck ScaleBarFromJson(const nlohmann::json& in, const std::string& fiel
   if (in.is_object() && in.contains("measure")) {
     const auto& m = in["measure"];
     if (!m.is_object() || !m.contains("scale_bar")) {
-      throw InvalidInput(field, "a measure output without a scale-bar check (run measure with --scale-bar)");
+      throw InvalidInput(field, "a measure output without a scale-bar check (measure with a scale bar)");
     }
     j = &m["scale_bar"];
   }

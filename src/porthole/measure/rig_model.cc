@@ -160,7 +160,7 @@ Rig RigFromJson(const nlohmann::json& j, const std::string& field) {
   if (!j.is_object() || !j.contains("rig")) {
     if (j.is_object() && j.contains("camera")) {
       throw InvalidInput(field, "a single camera's calibration, not a rig: measure needs the JSON of a rig "
-                                "calibration (calibrate with one --images or --detections per camera), or a "
+                                "calibration (the cameras calibrated together), or a "
                                 "known plane or range for one camera (`plane`)");
     }
     throw InvalidInput(field, "not a rig calibration: no \"rig\" object");

@@ -346,13 +346,13 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   if (ln.min_focus_assumed) {
     warn.push_back(fmt::format("The minimum focus of the {} is assumed, {:g} mm (not known): the minimum working "
                                "distance and the close-up lens advice depend on it. Give the published value "
-                               "(--min-focus-mm; Python min_focus_mm=).",
+                               "(`min_focus_mm`).",
                                ln.name, ln.min_focus_mm));
   }
   if (ln.pupil_estimated) {
     warn.push_back(fmt::format("The entrance pupil of the {} is assumed (estimated, not measured: {}): distances from "
                                "the pupil and the extension ring advice may be off by 10 mm or more. Measure it as in "
-                               "the paper's Section 3.1 and give it (--pupil-mm; Python pupil_mm=).",
+                               "the paper's Section 3.1 and give it (`pupil_mm`).",
                                ln.name, ln.description));
   }
   if (ln.projection_estimated) {

@@ -252,7 +252,7 @@ TEST(FieldRender, SetsOfPartialViewsAreForCodedTargets) {
     SetPoses(board, so);
     ADD_FAILURE() << "a chessboard set of partial views was accepted";
   } catch (const InvalidInput& e) {
-    EXPECT_EQ(e.field(), "--partial");
+    EXPECT_EQ(e.field(), "min_whole_fraction");
   }
 }
 

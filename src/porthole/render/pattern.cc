@@ -93,7 +93,7 @@ Reflectance CharucoReflectance(const TargetSpec& t, const PatternStyle& st) {
   const auto dict = calib::ArucoDictionary(t.dictionary);
   const int n_markers = (t.cols * t.rows) / 2;
   if (n_markers > dict->bytesList.rows) {
-    throw InvalidInput("--target", fmt::format("a {}x{} board needs {} markers; {} holds {}", t.cols, t.rows, n_markers,
+    throw InvalidInput("target", fmt::format("a {}x{} board needs {} markers; {} holds {}", t.cols, t.rows, n_markers,
                                                t.dictionary, dict->bytesList.rows));
   }
   const auto board = cv::aruco::CharucoBoard::create(t.cols, t.rows, static_cast<float>(t.spacing_mm),
@@ -247,7 +247,7 @@ std::shared_ptr<const CodedField> MakeCodedField(const TargetSpec& t, const Patt
   std::vector<std::vector<CodedDisc>> discs(1);
   for (const auto& p : targets) {
     if (!coded::FacesMinusZ(p)) {
-      throw InvalidInput("--field", fmt::format("target {} faces ({:g}, {:g}, {:g}): render draws targets facing -Z "
+      throw InvalidInput("field", fmt::format("target {} faces ({:g}, {:g}, {:g}): render draws targets facing -Z "
                                                 "(parallel to the board) only", p.id, p.normal.x(), p.normal.y(),
                                                 p.normal.z()));
     }
@@ -294,7 +294,7 @@ const TargetDrawing& DrawingOf(const TargetSpec& target) {
   for (const TargetDrawing& d : TargetDrawings()) {
     if (d.kind == target.kind) return d;
   }
-  throw InvalidInput("--target", "the renderer cannot draw a " + target.ToString() + " target yet");
+  throw InvalidInput("target", "the renderer cannot draw a " + target.ToString() + " target yet");
 }
 }  // namespace
 

@@ -36,7 +36,7 @@ struct Extent {
 struct TargetDrawing {
   calib::TargetKind kind;
   std::string_view name;  // as in the spec string ("chessboard", "charuco", ...)
-  // The reflectance of `target` in `style`; throws InvalidInput("--target") for what it cannot
+  // The reflectance of `target` in `style`; throws InvalidInput("target") for what it cannot
   // draw (an unknown ArUco dictionary, more markers than the dictionary holds).
   Reflectance (*make)(const calib::TargetSpec& target, const PatternStyle& style);
   // The board's outline (the pattern and its margin), target frame, mm.
@@ -46,7 +46,7 @@ struct TargetDrawing {
 // Every target kind the renderer draws, one entry each.
 const std::vector<TargetDrawing>& TargetDrawings();
 
-// The reflectance of `target` (its entry of TargetDrawings()). Throws InvalidInput("--target")
+// The reflectance of `target` (its entry of TargetDrawings()). Throws InvalidInput("target")
 // when no entry draws its kind.
 Reflectance MakeReflectance(const calib::TargetSpec& target, const PatternStyle& style = {});
 

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <numbers>
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -113,6 +114,13 @@ bool InsidePort(const ports::PortSystem& sys, const Vec3& p_in_housing) {
 
 }  // namespace
 
+Pose Compose(const Pose& a_from_b, const Pose& b_from_c) {
+  Pose p;
+  p.rotation = a_from_b.rotation * b_from_c.rotation;
+  p.translation_mm = a_from_b.rotation * b_from_c.translation_mm + a_from_b.translation_mm;
+  return p;
+}
+
 Eigen::Vector3d TargetCentre(const calib::TargetSpec& target) {
   Vec3 c = Vec3::Zero();
   const auto pts = calib::TargetPoints(target);
@@ -151,7 +159,7 @@ void Validate(const RenderOptions& o) {
 
 Setup Resolve(const Scene& scene, ColorMode color) {
   housing::HousedCamera h = scene.housed;
-  if (scene.medium == Medium::kAir) h.env.water_index = 1.0;
+  if (scene.medium == Medium::kAir || scene.bare) h.env.water_index = 1.0;
   housing::Validate(h);
   if (!(scene.f_number > 0)) throw InvalidInput("f_number", "must be > 0 (inf: a pinhole)");
   if (scene.bands_nm.empty()) throw InvalidInput("bands_nm", "needs at least one wavelength");
@@ -185,7 +193,16 @@ Setup Resolve(const Scene& scene, ColorMode color) {
   } else {
     const double subject = scene.pose.Apply(TargetCentre(scene.target)).z();
     if (!(subject > 0)) throw InvalidInput("pose", "the target's centre lies behind the camera");
-    const housing::Focused f = housing::FocusOnSubject(h, subject);
+    const housing::Focused f = !scene.bare ? housing::FocusOnSubject(h, subject) : [&] {
+      // The lens alone: it focuses on the target itself.
+      housing::Focused g = housing::SolveFocus(h, [&](const ports::PortSystem&) { return subject; });
+      if (!g.focus.focus_distance_mm) {
+        throw InvalidInput("subject_distance_mm", fmt::format("the {} focuses no closer than {:g} mm (the target's "
+                                                              "centre is {:.0f} mm from the pupil)",
+                                                              h.lens.name, h.lens.min_focus_mm, subject));
+      }
+      return g;
+    }();
     s.system = f.sys;
     s.focus = f.focus;
     s.focused_on_target = true;
@@ -249,9 +266,11 @@ Setup Resolve(const Scene& scene, ColorMode color) {
     Band b;
     b.lambda_nm = l;
     b.channel = ChannelOf(l, color);
-    b.n_glass = env.GlassIndex(s.system.spec.material());
-    b.n_water = env.WaterIndex();
-    b.outward = ports::Place(s.system.spec, s.ep_in_housing_mm, b.n_glass, b.n_water).Outward();
+    if (!scene.bare) {  // bare: no interfaces, the rays leave the pupil unbent (indices 1)
+      b.n_glass = env.GlassIndex(s.system.spec.material());
+      b.n_water = env.WaterIndex();
+      b.outward = ports::Place(s.system.spec, s.ep_in_housing_mm, b.n_glass, b.n_water).Outward();
+    }
     has[b.channel] = true;
     s.bands.push_back(std::move(b));
   }
@@ -383,7 +402,7 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s, LeftOut*
       throw InvalidInput("pose", fmt::format("the target lies behind the camera (its point ({:g}, {:g}, {:g}) mm at z = "
                                              "{:.1f} mm from the pupil)", p.x(), p.y(), p.z(), c.z()));
     }
-    if (InsidePort(s.system, c + s.ep_in_housing_mm)) {
+    if (!scene.bare && InsidePort(s.system, c + s.ep_in_housing_mm)) {
       throw InvalidInput("pose", fmt::format("the target reaches into the port (its point ({:g}, {:g}, {:g}) mm at "
                                              "{:.1f} mm from the pupil)", p.x(), p.y(), p.z(), c.norm()));
     }
@@ -691,7 +710,7 @@ Rendered Render(const Scene& scene, const RenderOptions& o) {
 }
 
 std::string EncodePng(const Image& image, int bit_depth) {
-  if (bit_depth != 8 && bit_depth != 16) throw InvalidInput("--bit-depth", "must be 8 or 16");
+  if (bit_depth != 8 && bit_depth != 16) throw InvalidInput("bit_depth", "must be 8 or 16");
   const int ch = image.channels;
   const int type = bit_depth == 8 ? CV_MAKETYPE(CV_8U, ch) : CV_MAKETYPE(CV_16U, ch);
   cv::Mat mat(image.height, image.width, type);
@@ -758,10 +777,10 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
                 {"focus_distance_mm", s.focus.focus_distance_mm ? length(*s.focus.focus_distance_mm) : Json(nullptr)},
                 {"d_s2ep_mm", length(s.focus.d_s2ep_mm)},
                 {"ep_in_housing_mm", vec(s.ep_in_housing_mm)}};
-  j["port"] = {{"name", s.system.spec.name}, {"toml", io::PortToToml(s.system.spec)}};
-  j["medium"] = scene.medium == Medium::kWater ? "water" : "air";
+  j["port"] = scene.bare ? Json(nullptr) : Json{{"name", s.system.spec.name}, {"toml", io::PortToToml(s.system.spec)}};
+  j["medium"] = scene.medium == Medium::kWater && !scene.bare ? "water" : "air";
   const auto& env = scene.housed.env;
-  j["water"] = {{"name", scene.medium == Medium::kWater ? env.water : "air"},
+  j["water"] = {{"name", scene.medium == Medium::kWater && !scene.bare ? env.water : "air"},
                 {"temperature_c", env.conditions.temperature_c},
                 {"salinity_psu", env.conditions.salinity_psu},
                 {"pressure_dbar", env.conditions.pressure_dbar}};
@@ -806,22 +825,77 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
   return j;
 }
 
-std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
-  if (o.count < 1 || o.count > 10000) throw InvalidInput("--count", "must be 1 to 10000");
-  if (!scene.focus_distance_mm) throw InvalidInput("focus_distance_mm", "a set needs one focus for all its images");
-  if (!(o.max_tilt_deg >= 0 && o.max_tilt_deg < 80)) throw InvalidInput("--max-tilt", "must be 0 to 80 degrees");
-  if (!(o.max_roll_deg >= 0 && o.max_roll_deg <= 180)) throw InvalidInput("--max-roll", "must be 0 to 180 degrees");
+namespace {
+// Where a set's poses are drawn for several cameras (SetPosesSeenBy): ref_from_centre, and the
+// largest distance between two of their pupils.
+struct RigCentre {
+  Pose ref_from_centre;
+  double baseline_mm = 0;
+};
+RigCentre CentreOf(const std::vector<SetView>& views) {
+  RigCentre c;
+  if (views.size() < 2) return c;  // one camera: its own frame (the identity for SetPoses)
+  std::vector<Vec3> pupils;
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (const SetView& v : views) {
+    pupils.push_back(-v.cam_from_ref.rotation.transpose() * v.cam_from_ref.translation_mm);
+    sum += v.cam_from_ref.rotation.transpose();  // ref_from_cam
+  }
+  // The chordal mean of the orientations (the rotation nearest the mean matrix).
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+  if (r.determinant() < 0) {
+    Eigen::Matrix3d u = svd.matrixU();
+    u.col(2) *= -1;
+    r = u * svd.matrixV().transpose();
+  }
+  Vec3 mean = Vec3::Zero();
+  for (const Vec3& p : pupils) mean += p / static_cast<double>(pupils.size());
+  for (const Vec3& a : pupils) {
+    for (const Vec3& b : pupils) c.baseline_mm = std::max(c.baseline_mm, (a - b).norm());
+  }
+  c.ref_from_centre.rotation = r;
+  c.ref_from_centre.translation_mm = mean;
+  return c;
+}
+}  // namespace
+
+std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) { return SetPosesSeenBy({SetView{scene, Pose{}}}, o); }
+
+std::vector<Pose> SetPosesSeenBy(const std::vector<SetView>& views, const SetOptions& o) {
+  if (views.empty()) throw InvalidInput("cameras", "a set needs at least one camera");
+  const Scene& scene = views.front().scene;
+  for (const SetView& v : views) {
+    if (!v.scene.focus_distance_mm) throw InvalidInput("focus_distance_mm", "a set needs one focus for all its images");
+  }
+  if (o.count < 1 || o.count > 10000) throw InvalidInput("count", "must be 1 to 10000");
+  if (!(o.max_tilt_deg >= 0 && o.max_tilt_deg < 80)) throw InvalidInput("max_tilt_deg", "must be 0 to 80 degrees");
+  if (!(o.max_roll_deg >= 0 && o.max_roll_deg <= 180)) throw InvalidInput("max_roll_deg", "must be 0 to 180 degrees");
   if (!(o.margin >= 0 && o.margin < 0.4)) throw InvalidInput("margin", "must be 0 to 0.4");
   if (!(o.min_whole_fraction > 0 && o.min_whole_fraction <= 1)) {
-    throw InvalidInput("--partial", "must be a fraction above 0, up to 1 (the whole target in every image)");
+    throw InvalidInput("min_whole_fraction", "must be a fraction above 0, up to 1 (the whole target in every image)");
   }
   if (o.min_whole_fraction < 1 && scene.target.kind != calib::TargetKind::kCoded) {
-    throw InvalidInput("--partial", "partial views are for coded targets (their detector reads targets one by one)");
+    throw InvalidInput("min_whole_fraction", "partial views are for coded targets (their detector reads targets one by one)");
   }
-  Scene water = scene, air = scene;
-  water.medium = Medium::kWater;
-  air.medium = Medium::kAir;
-  const Setup sw = Resolve(water), sa = Resolve(air);
+  // Each view in water and in air (a bare camera: in air only), resolved once; the ranges are the
+  // first view's.
+  struct Check {
+    Scene scene;
+    Setup setup;
+    Pose cam_from_ref;
+  };
+  std::vector<Check> checks;
+  for (const SetView& v : views) {
+    for (const Medium m : {Medium::kWater, Medium::kAir}) {
+      if (v.scene.bare && m == Medium::kWater) continue;
+      Scene sc = v.scene;
+      sc.medium = m;
+      const Setup st = Resolve(sc);
+      checks.push_back({std::move(sc), st, v.cam_from_ref});
+    }
+  }
+  const Setup& sw = checks.front().setup;
   const camera::Sensor& sensor = sw.camera.sensor;
   std::vector<Vec3> pts;  // the target's points (coded: not the ids that are no target)
   const auto all = calib::TargetPoints(scene.target);
@@ -835,14 +909,19 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
   const std::size_t needed =
       static_cast<std::size_t>(std::ceil(o.min_whole_fraction * static_cast<double>(pts.size()) - 1e-9));
   const double f_px = sw.camera.FocalLengthPx();
+  // Several cameras: the poses are drawn in a frame between them (the mean of their pupils, the
+  // mean of their orientations), through the first camera's model, so the target's centre covers
+  // their common field; one camera: its own frame.
+  const RigCentre centre = CentreOf(views);
   double near = o.near_mm, far = o.far_mm;
-  if (near == 0 && far == 0) {  // the target fills 80 % … 30 % of the frame's width
-    near = f_px * span / (0.8 * sensor.width_px);
-    far = f_px * span / (0.3 * sensor.width_px);
+  if (near == 0 && far == 0) {  // the target fills 80 % … 30 % of the frame's width (less the baseline)
+    near = f_px * (span / 0.8 + centre.baseline_mm) / sensor.width_px;
+    far = f_px * (span / 0.3 + centre.baseline_mm) / sensor.width_px;
   }
-  if (!(near > 0 && far >= near && std::isfinite(far))) throw InvalidInput("--distances", "must be near <= far, both > 0");
-  const double mu = o.margin * std::max(sensor.width_px, sensor.height_px);
+  if (!(near > 0 && far >= near && std::isfinite(far))) throw InvalidInput("near_mm", "must be near <= far, both > 0");
   auto fits = [&](const Scene& sc, const Setup& st) {
+    const camera::Sensor& sensor = st.camera.sensor;
+    const double mu = o.margin * std::max(sensor.width_px, sensor.height_px);
     try {
       const std::vector<TruthPoint> truth = GroundTruth(sc, st);
       if (truth.size() < needed) return false;  // coded targets not whole in the frame are left out
@@ -882,11 +961,12 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
         const auto dir = sw.camera.Unproject(px);
         if (!dir || !(dir->z() > 0.2)) return std::nullopt;
         const Vec3 c = *dir * (dist / dir->z());
-        Pose pose = PoseFacing(scene.target, c.z(), c.head<2>(), tx, ty, roll);
-        water.pose = pose;
-        air.pose = pose;
-        if (fits(water, sw) && fits(air, sa)) return pose;
-        return std::nullopt;
+        Pose pose = Compose(centre.ref_from_centre, PoseFacing(scene.target, c.z(), c.head<2>(), tx, ty, roll));
+        for (Check& ch : checks) {
+          ch.scene.pose = Compose(ch.cam_from_ref, pose);
+          if (!fits(ch.scene, ch.setup)) return std::nullopt;
+        }
+        return pose;
       };
       std::optional<Pose> pose = pose_at(centre_px);
       if (!pose) continue;
@@ -915,7 +995,7 @@ std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& o) {
       found = true;
     }
     if (!found) {
-      throw InvalidInput("--count", fmt::format("no pose puts the whole target inside the frame at {:.0f}-{:.0f} mm "
+      throw InvalidInput("count", fmt::format("no pose puts the whole target inside the frame at {:.0f}-{:.0f} mm "
                                                 "(pose {} of {}): a smaller target or other distances", near, far, i + 1,
                                                 o.count));
     }

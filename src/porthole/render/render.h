@@ -64,6 +64,8 @@ struct Pose {
 // own X axis, then tilt_y_deg about its Y axis, then roll_deg about the optical axis.
 Pose PoseFacing(const calib::TargetSpec& target, double distance_mm, const Eigen::Vector2d& shift_mm = {0, 0},
                 double tilt_x_deg = 0, double tilt_y_deg = 0, double roll_deg = 0);
+// a_from_c = a_from_b ∘ b_from_c.
+Pose Compose(const Pose& a_from_b, const Pose& b_from_c);
 // The centre of the target's points (target frame, mm).
 Eigen::Vector3d TargetCentre(const calib::TargetSpec& target);
 
@@ -78,6 +80,10 @@ struct Scene {
   calib::TargetSpec target;
   Pose pose;
   Medium medium = Medium::kWater;
+  // No port: the lens alone (in air, whatever `medium`): rays leave the pupil unbent, focus is on the
+  // target itself; housed.port only places the pupil (CLI: --port none). An in-air calibration of
+  // the bare lens is made from such renders.
+  bool bare = false;
   // The lens's focus-scale distance FD (sensor to subject, mm; may be infinite). Unset: focused
   // on the target, i.e. on the virtual image of its centre (housing::FocusOnSubject).
   std::optional<double> focus_distance_mm;
@@ -215,7 +221,7 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& option
                                  const std::string& image_file, int bit_depth);
 
 // The image as PNG bytes, 8 or 16 bits per channel (RGB written in PNG's order). Throws
-// InvalidInput("--bit-depth") for another depth.
+// InvalidInput("bit_depth") for another depth.
 std::string EncodePng(const Image& image, int bit_depth);
 
 // ---- Sets: N poses rendered in water and in air, ready for `detect` and `calibrate`.
@@ -236,7 +242,22 @@ struct SetOptions {
 
 // N seeded poses: distances, tilts and rolls spread over their ranges, the target's centre over
 // the frame, each kept only when every point lands inside the frame (with the margin) in water and
-// in air (coded targets with min_whole_fraction < 1: enough of them whole in both). Throws InvalidInput("--count") when poses cannot be found (a target too large).
+// in air (coded targets with min_whole_fraction < 1: enough of them whole in both). Throws InvalidInput("count") when poses cannot be found (a target too large).
 std::vector<Pose> SetPoses(const Scene& scene, const SetOptions& options);
+
+// One camera of a set seen by several (a rig): its scene (its camera, port and focus) and where it
+// sits relative to the reference camera (the set's poses are ref_from_target).
+struct SetView {
+  Scene scene;
+  Pose cam_from_ref;
+};
+// SetPoses for several cameras at once: each pose (ref_from_target) is kept only when it fits every
+// view in water and in air (a bare view: in air). With two or more views the poses are drawn as
+// SetPoses draws them, through the first view's camera model, but from a frame between the cameras
+// (at the mean of their pupils, with the chordal mean of their orientations), the target's centre
+// pushed toward that frame's edges as far as every view still sees it whole; the default distances
+// are SetPoses' plus f·b/W (b the largest distance between two pupils: the target fills 80 % … 30 %
+// of the frame's width less the baseline). SetPoses(scene, o) is this with one view at the identity.
+std::vector<Pose> SetPosesSeenBy(const std::vector<SetView>& views, const SetOptions& options);
 
 }  // namespace porthole::render

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <opencv2/aruco.hpp>
 #include <opencv2/core.hpp>
@@ -433,6 +434,40 @@ TEST(Render, BadScenesAreRefusedBeforeAnyPixel) {
   bad.edge_samples_per_pixel = 50;
   EXPECT_EQ(RefusedField(s, bad), "edge_samples_per_pixel");
   EXPECT_EQ(RefusedField(s, o), "");
+}
+
+// Library errors name the library's fields, never a CLI flag (the CLI renames them to its flags:
+// test_render_cli.py checks its words): the PNG's bit depth, a set's count, tilt, roll, partial
+// views and distances, a target the renderer cannot draw.
+TEST(Render, LibraryErrorsNameTheirFieldsNotFlags) {
+  const auto field = [](const std::function<void()>& f) -> std::string {
+    try {
+      f();
+    } catch (const InvalidInput& e) {
+      return e.field();
+    }
+    return "";
+  };
+  Image im;
+  im.width = im.height = 2;
+  im.data.assign(4, 0.5f);
+  EXPECT_EQ(field([&] { EncodePng(im, 12); }), "bit_depth");
+  Scene s = PaperScene();
+  s.focus_distance_mm = 1000;
+  const auto set = [&](const std::function<void(SetOptions*)>& change) {
+    SetOptions o;
+    o.count = 1;
+    change(&o);
+    return field([&] { SetPoses(s, o); });
+  };
+  EXPECT_EQ(set([](SetOptions* o) { o->count = 0; }), "count");
+  EXPECT_EQ(set([](SetOptions* o) { o->max_tilt_deg = 90; }), "max_tilt_deg");
+  EXPECT_EQ(set([](SetOptions* o) { o->max_roll_deg = 190; }), "max_roll_deg");
+  EXPECT_EQ(set([](SetOptions* o) { o->min_whole_fraction = 0.5; }), "min_whole_fraction");  // a chessboard
+  EXPECT_EQ(set([](SetOptions* o) { o->near_mm = 900, o->far_mm = 500; }), "near_mm");
+  EXPECT_EQ(set([](SetOptions* o) { o->near_mm = 100, o->far_mm = 101; }), "count");  // no pose fits: too near
+  calib::TargetSpec charuco = calib::ParseTarget("charuco:40x40:10:7:DICT_4X4_50");
+  EXPECT_EQ(field([&] { MakeReflectance(charuco, PatternStyle{}); }), "target");
 }
 
 // The calibration sets (docs/render.md, "End to end"): ten poses of SetPoses (distances, tilts

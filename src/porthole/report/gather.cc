@@ -63,7 +63,7 @@ simulate::SystemSpec SimSpec(const ReportInputs& in, const ports::PortSpec& port
   spec.port = port;
   spec.object_distance_mm = in.subject_distance_mm;
   if (in.air_calibration) {
-    spec.air_calibration = camera::ToBrown(in.air_calibration->camera, "--air-calibration");
+    spec.air_calibration = camera::ToBrown(in.air_calibration->camera, "air_calibration");
   }
   return spec;
 }
@@ -121,10 +121,10 @@ OtherPortChoice ChooseOtherPort(const planning::Setup& setup, double subject_dis
 
 Results Gather(const ReportInputs& in, Steps& steps) {
   if (!(in.subject_distance_mm > 0 && std::isfinite(in.subject_distance_mm))) {
-    throw InvalidInput("--subject-distance", "must be a finite distance > 0 mm");
+    throw InvalidInput("subject_distance", "must be a finite distance > 0 mm");
   }
   if (in.water_calibration && !in.air_calibration) {
-    throw InvalidInput("--water-calibration", "needs --air-calibration too (the comparison is air vs water)");
+    throw InvalidInput("water_calibration", "needs `air_calibration` too (the comparison is air vs water)");
   }
   const camera::Sensor& cam = in.setup.camera.sensor;
   for (const auto* rec : {in.air_calibration ? &*in.air_calibration : nullptr,
@@ -135,13 +135,13 @@ Results Gather(const ReportInputs& in, Steps& steps) {
       // A calibration run without the pixel pitch is in pixels (pitch 1 "mm"): say how to fix it.
       const bool in_pixels = rec->camera.sensor.width_px == cam.width_px &&
                              rec->camera.sensor.height_px == cam.height_px && rec->camera.sensor.pixel_pitch_mm == 1;
-      throw InvalidInput(rec == &*in.air_calibration ? "--air-calibration" : "--water-calibration",
+      throw InvalidInput(rec == &*in.air_calibration ? "air_calibration" : "water_calibration",
                          fmt::format("its sensor ({}x{} px, {:g} mm) is not the camera's ({}x{} px, {:g} mm){}",
                                      rec->camera.sensor.width_px, rec->camera.sensor.height_px,
                                      rec->camera.sensor.pixel_pitch_mm,
                                      cam.width_px, cam.height_px, cam.pixel_pitch_mm,
-                                     in_pixels ? fmt::format(": it was calibrated in pixels; run calibrate with "
-                                                             "--pixel-pitch-mm {:g}", cam.pixel_pitch_mm)
+                                     in_pixels ? fmt::format(": it was calibrated in pixels; calibrate it again "
+                                                             "with the pixel pitch, {:g} mm", cam.pixel_pitch_mm)
                                                : std::string()));
     }
   }

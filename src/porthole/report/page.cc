@@ -176,8 +176,8 @@ Json ReportJson(const Results& r, const std::vector<Figure>& figures) {
       {"with_focus_scale_at_infinity",
        {{"assumes", "the lens's focus scale at infinity (the pupil there); the same point in the housing"},
         {"d_s2ep_mm", L(inf.d_s2ep_at_infinity_focus_mm)}, {"ep_z_in_housing_mm", inf.ep_z_at_infinity_focus_mm}}}};
-  j["field_of_view"] = {{"assumes", "the lens focused on the target's virtual image, as `porthole plan "
-                                    "--subject-distance` (without a target plan assumes infinity focus, c = f)"},
+  j["field_of_view"] = {{"assumes", "the lens focused on the target's virtual image at the subject distance "
+                                    "(without a target plan assumes infinity focus, c = f)"},
                         {"principal_distance_mm", r.plan.principal_distance_mm},
                         {"air", {{"horizontal_deg", L(r.plan.fov.air.horizontal_deg)}, {"vertical_deg", L(r.plan.fov.air.vertical_deg)},
                                  {"diagonal_deg", L(r.plan.fov.air.diagonal_deg)}}},

@@ -34,7 +34,7 @@ class TempDir {
   explicit TempDir(const fs::path& out) {
     std::string tmpl = (out.parent_path() / ("." + out.filename().string() + ".tmp-XXXXXX")).string();
     if (!mkdtemp(tmpl.data())) {
-      throw InvalidInput("--out", fmt::format("cannot write in {}: {}", out.parent_path().string(), std::strerror(errno)));
+      throw InvalidInput("out", fmt::format("cannot write in {}: {}", out.parent_path().string(), std::strerror(errno)));
     }
     path_ = tmpl;
   }
@@ -122,7 +122,7 @@ void MoveIntoPlace(const fs::path& tmp, const fs::path& out, bool exists) {
     return;
   }
   if (rename(tmp.c_str(), out.c_str()) != 0) {
-    throw InvalidInput("--out", fmt::format("cannot create {}: {}", out.string(), std::strerror(errno)));
+    throw InvalidInput("out", fmt::format("cannot create {}: {}", out.string(), std::strerror(errno)));
   }
 }
 
@@ -131,23 +131,23 @@ void MoveIntoPlace(const fs::path& tmp, const fs::path& out, bool exists) {
 ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& options) {
   Steps steps(options);
   const auto t0 = std::chrono::steady_clock::now();
-  if (options.out_dir.empty()) throw InvalidInput("--out", "give the report's directory");
+  if (options.out_dir.empty()) throw InvalidInput("out", "give the report's directory");
   fs::path out = fs::absolute(options.out_dir).lexically_normal();
   if (out.filename().empty()) out = out.parent_path();  // a trailing slash
   if (!fs::is_directory(out.parent_path())) {
-    throw InvalidInput("--out", fmt::format("{} is not a directory", out.parent_path().string()));
+    throw InvalidInput("out", fmt::format("{} is not a directory", out.parent_path().string()));
   }
   const bool exists = fs::exists(fs::symlink_status(out));
   if (exists) {
     if (!fs::is_directory(fs::symlink_status(out))) {
-      throw InvalidInput("--out", fmt::format("{} exists and is not a directory", out.string()));
+      throw InvalidInput("out", fmt::format("{} exists and is not a directory", out.string()));
     }
     if (!options.force && !fs::is_empty(out)) {
-      throw InvalidInput("--out", fmt::format("{} exists: --force replaces it", out.string()));
+      throw InvalidInput("out", fmt::format("{} exists: `force` replaces it", out.string()));
     }
     std::string other;
     if (!IsReportDir(out, &other)) {
-      throw InvalidInput("--out", other.empty()
+      throw InvalidInput("out", other.empty()
                                       ? fmt::format("{} is not empty and holds no porthole report: not replaced", out.string())
                                       : fmt::format("{} is not empty and holds {}, which is not part of a porthole report: not replaced",
                                                     out.string(), other));
@@ -167,11 +167,11 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
   steps.Run("figures (gnuplot)", [&] {
     std::string all = "# Remakes every figure of the report: gnuplot all.gp (in this directory).\n";
     for (const auto& f : figures) {
-      WriteFileAtomically(figdir / (f.id + ".dat"), f.data, "--out");
-      WriteFileAtomically(figdir / (f.id + ".gp"), FigureScript(f), "--out");
+      WriteFileAtomically(figdir / (f.id + ".dat"), f.data, "out");
+      WriteFileAtomically(figdir / (f.id + ".gp"), FigureScript(f), "out");
       all += fmt::format("load \"{}.gp\"\n", f.id);
     }
-    WriteFileAtomically(figdir / "all.gp", all, "--out");
+    WriteFileAtomically(figdir / "all.gp", all, "out");
     RunGnuplot(options.gnuplot, figdir, "all.gp");
     for (const auto& f : figures) {
       for (const char* ext : {".png", ".svg"}) {
@@ -185,8 +185,8 @@ ReportSummary WriteReport(const ReportInputs& inputs, const ReportOptions& optio
     }
   });
   steps.Run("page and JSON", [&] {
-    WriteFileAtomically(tmp.path() / "report.json", ReportJson(results, figures).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out");
-    WriteFileAtomically(tmp.path() / "index.html", ValidUtf8(ReportHtml(results, figures, svgs)), "--out");
+    WriteFileAtomically(tmp.path() / "report.json", ReportJson(results, figures).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "out");
+    WriteFileAtomically(tmp.path() / "index.html", ValidUtf8(ReportHtml(results, figures, svgs)), "out");
   });
   chmod(tmp.path().c_str(), 0755);  // mkdtemp made it private
   MoveIntoPlace(tmp.path(), out, exists);
