@@ -229,7 +229,7 @@ const StereoSet& GetStereoSet() {
     const porthole::camera::Camera cams[2] = {
         {porthole::camera::CameraModelId::kOpenCV, sensor, {2000, 2002, 2150, 1420, -0.08, 0.05, 2e-4, -1e-4, 0, 0, 0, 0}},
         {porthole::camera::CameraModelId::kOpenCV, sensor, {1990, 1991, 2130, 1430, -0.07, 0.04, -1e-4, 2e-4, 0, 0, 0, 0}}};
-    const Eigen::Matrix3d r1 = Eigen::AngleAxisd(-5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Matrix3d r1 = Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
     const Eigen::Vector3d t1 = -r1 * Eigen::Vector3d(300, 0, 0);
     const auto points = TargetPoints(out.target);
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();

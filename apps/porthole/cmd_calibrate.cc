@@ -10,6 +10,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <optional>
 
 #include "commands.h"
 #include "common.h"
@@ -263,6 +266,22 @@ struct CalibrateCliOptions {
 
 // A rig (issue 26): --images or --detections repeated, one per camera; frames matched by file name.
 // --model takes one model for all or a comma list, one per camera; --pixel-pitch-mm one value for all.
+// The in-air lenses of a rig given as one rig file (porthole's rig JSON, OpenCV's stereo YAML/XML,
+// VIAME's npz, a Kalibr camchain) or as one ROS camera_info per camera: each camera's calibration,
+// in rig order; nullopt when the files are single cameras' calibrations.
+std::optional<std::vector<calib::CalibrationRecord>> AirLensesOfARigFile(const std::vector<std::string>& files,
+                                                                          double pixel_pitch_mm) {
+  std::ifstream in(files.front(), std::ios::binary);
+  if (!in) return std::nullopt;  // the single-camera reader names the missing file
+  const std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!interop::DetectRigFormat(files.front(), content)) return std::nullopt;
+  interop::RigReadOptions ro;
+  ro.pixel_pitch_mm = pixel_pitch_mm;
+  // Only the lenses are taken: the cameras' poses (and so the unit of T) are not used.
+  ro.length_unit = interop::LengthUnit::kMm;
+  return interop::ReadRigCalibrations(files, ro, "--air-calibration");
+}
+
 void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   const bool from_images = !o.image_dirs.empty();
   if (from_images && !o.detection_paths.empty()) {
@@ -309,7 +328,12 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
                                              port_names.size(), n));
   }
   if (!air_files.empty() && port_names.empty()) throw InvalidInput("--air-calibration", "only with --port");
-  if (!air_files.empty() && static_cast<int>(air_files.size()) != n) {
+  const auto rig_air = air_files.empty() ? std::nullopt : AirLensesOfARigFile(air_files, o.pitch_mm);
+  if (rig_air && static_cast<int>(rig_air->size()) != n) {
+    throw InvalidInput("--air-calibration", fmt::format("the rig file holds {} cameras, the rig {}",
+                                                        rig_air->size(), n));
+  }
+  if (!rig_air && !air_files.empty() && static_cast<int>(air_files.size()) != n) {
     throw InvalidInput("--air-calibration", fmt::format("{} in-air calibrations for {} cameras: one per camera "
                                                         "(a comma list)", air_files.size(), n));
   }
@@ -348,9 +372,26 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
     one.port = name;
     ro.ports.push_back(ports::MakeSystem(one.Spec(), env, std::nullopt));
   }
-  for (int k = 0; k < static_cast<int>(air_files.size()); ++k) {
+  for (int k = 0; !rig_air && k < static_cast<int>(air_files.size()); ++k) {
     const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
     ro.air_lens.push_back(interop::ReadCalibrationFileAs(air_files[k], o.pitch_mm, model, "--air-calibration").calibration);
+  }
+  for (int k = 0; rig_air && k < n; ++k) {  // a rig file: each camera's lens as the camera's model
+    if (!(*rig_air)[k].has_covariance) {
+      throw InvalidInput("--air-calibration",
+                         fmt::format("{} holds no covariance, and a rig takes each in-air lens as a prior with "
+                                     "its covariance: give porthole's JSON of that calibration (the rig's --out, or "
+                                     "each lens's)", air_files.front()));
+    }
+    const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
+    interop::ReadResult r;
+    r.calibration = (*rig_air)[k];
+    const interop::ReadResult as = interop::ConvertRead(std::move(r), model, fmt::format("--air-calibration: camera {}", k));
+    if (!as.exact) {
+      say(fmt::format("air calibration of camera {}: refit to {} over the image, RMS {:.4f} px, max {:.4f} px", k,
+                      camera::Info(model).name, as.fit.rms_px, as.fit.max_px));
+    }
+    ro.air_lens.push_back(as.calibration);
   }
   if (!o.stereo_out.empty()) {  // refused before the work: the first two cameras as OpenCV knows them
     for (int k = 0; k < 2; ++k) {

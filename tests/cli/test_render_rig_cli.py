@@ -121,6 +121,42 @@ def test_a_rig_behind_as_built_domes_calibrates_back_with_its_ports(tmp_path):
     for p in pupils:
         assert math.hypot(p[0] - 0.4, p[1] - 1.0) < 0.1 and abs(p[2] - 5.4) < 0.3
 
+    # The users' way: the bare lenses calibrated as a pair in air, that rig's file given as the
+    # water rig's --air-calibration (opencv lenses, as the air pair's); OpenCV's stereo
+    # YAML of the same pair holds no covariance for the priors and is refused, saying so.
+    run("render", "--baseline", 300, "--convergence", 5, "--port", "none", "--set", 10, "--out",
+        tmp_path / "bare_rig", *common)
+    stereo, pair = tmp_path / "air_pair.yml", tmp_path / "air_pair.json"
+    run("calibrate", "--images", tmp_path / "bare_rig" / "air" / "cam0", "--images", tmp_path / "bare_rig" / "air" / "cam1",
+        "--target", TARGET, "--pixel-pitch-mm", "0.029", "--model", "opencv", "--stereo-out", stereo, "--out", pair,
+        "--quiet")
+    cal2 = tmp_path / "rig2.json"
+    run("calibrate", "--images", tmp_path / "rig" / "water" / "cam0", "--images", tmp_path / "rig" / "water" / "cam1",
+        "--target", TARGET, "--pixel-pitch-mm", "0.029", "--port", "nimar-ni320",
+        "--model", "opencv", "--air-calibration", pair, "--air-lens-bare", "--out", cal2, "--quiet")
+    rig2 = json.loads(cal2.read_text())
+    dt2, dr2, _ = rig_errors(rig2)
+    pupils2 = [[c["port"]["parameters"][k] for k in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
+               for c in rig2["rig"]["cameras"]]
+    print(f"dome rig, air lenses from the air pair's rig file: translation {dt2:.4f} mm, rotation {dr2:.5f} deg; pupils {pupils2}")
+    assert dt2 < 0.2 and dr2 < 0.01
+    for p, q in zip(pupils2, pupils):
+        assert math.hypot(p[0] - 0.4, p[1] - 1.0) < 0.1 and abs(p[2] - 5.4) < 0.3
+    # Without --air-lens-bare the file is refused (which was it?), and a pair file for a rig of
+    # three cameras names the counts.
+    line = run_bad("calibrate", "--images", tmp_path / "rig" / "water" / "cam0", "--images",
+                   tmp_path / "rig" / "water" / "cam1", "--target", TARGET, "--pixel-pitch-mm", "0.029",
+                   "--port", "nimar-ni320", "--air-calibration", pair, "--out", tmp_path / "never.json")
+    assert "--air-lens-bare" in line and not (tmp_path / "never.json").exists()
+    line = run_bad("calibrate", *[a for k in (0, 1, 0) for a in ("--images", tmp_path / "rig" / "water" / f"cam{k}")],
+                   "--target", TARGET, "--pixel-pitch-mm", "0.029", "--port", "nimar-ni320",
+                   "--air-calibration", pair, "--air-lens-bare", "--out", tmp_path / "never.json")
+    assert "holds 2 cameras, the rig 3" in line, line
+    line = run_bad("calibrate", "--images", tmp_path / "rig" / "water" / "cam0", "--images",
+                   tmp_path / "rig" / "water" / "cam1", "--target", TARGET, "--pixel-pitch-mm", "0.029",
+                   "--port", "nimar-ni320", "--air-calibration", stereo, "--air-lens-bare", "--out", tmp_path / "never.json")
+    assert "holds no covariance" in line and not (tmp_path / "never.json").exists(), line
+
 
 def test_bad_rigs_get_one_line_and_no_file(tmp_path):
     rig = write_rig(tmp_path / "rig.json")

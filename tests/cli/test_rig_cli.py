@@ -21,7 +21,7 @@ W, H = 4288, 2848
 K = [np.array([[2000.0, 0, 2150], [0, 2002, 1420], [0, 0, 1]]),
      np.array([[1990.0, 0, 2130], [0, 1991, 1430], [0, 0, 1]])]
 D = [np.array([-0.08, 0.05, 2e-4, -1e-4, 0.0]), np.array([-0.07, 0.04, -1e-4, 2e-4, 0.0])]
-R1, _ = cv2.Rodrigues(np.array([0.0, -5 * math.pi / 180, 0.0]))
+R1, _ = cv2.Rodrigues(np.array([0.0, 5 * math.pi / 180, 0.0]))  # turned 5 deg towards camera 0
 T1 = -R1 @ np.array([300.0, 0, 0])  # camera 1's centre 300 mm right of camera 0's
 
 

@@ -45,7 +45,8 @@ inline Truth TwoCameraRig() {
   t.cams.push_back({camera::CameraModelId::kOpenCV, s, {1990, 1991, 2130, 1430, -0.07, 0.04, -1e-4, 2e-4, 0, 0, 0, 0}});
   t.cam_from_rig.push_back(Eigen::Isometry3d::Identity());
   Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
-  x.linear() = Eigen::AngleAxisd(-5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  // Turned towards camera 0: its axis in the rig frame, Rᵀ·z = (−sin 5°, 0, cos 5°).
+  x.linear() = Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
   // Camera 1's centre 300 mm to the right of camera 0's: t = −R·c.
   x.translation() = -x.linear() * Eigen::Vector3d(300, 0, 0);
   t.cam_from_rig.push_back(x);

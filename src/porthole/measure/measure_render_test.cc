@@ -60,7 +60,7 @@ RigScenes TwoDomeScenes() {
   r.scenes = {base, base};
   r.scenes[1].housed.ep_offset_mm = Eigen::Vector3d(-0.7, -0.5, -2.4);
   r.cam_from_rig.assign(2, Eigen::Isometry3d::Identity());
-  r.cam_from_rig[1].linear() = Eigen::AngleAxisd(-5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  r.cam_from_rig[1].linear() = Eigen::AngleAxisd(5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
   r.cam_from_rig[1].translation() = -r.cam_from_rig[1].linear() * Eigen::Vector3d(300, 0, 0);
   return r;
 }

@@ -138,9 +138,11 @@ Rig DescribedRig(const std::vector<camera::Camera>& cameras, const std::vector<s
       c.port = refraction::ParamsOf(*ports[k]);
     }
     if (k > 0) {
+      // Turned towards camera 0 (at −x from it): its axis in the rig frame, Rᵀ·z, is
+      // (−sin θ, 0, cos θ) for R = R_y(+θ); R_y(−θ) made the axes diverge.
       const Eigen::Matrix3d r =
-          Eigen::AngleAxisd(-convergence_deg * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
-      c.rotation_rad = Eigen::Vector3d(0, -convergence_deg * M_PI / 180, 0);
+          Eigen::AngleAxisd(convergence_deg * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      c.rotation_rad = Eigen::Vector3d(0, convergence_deg * M_PI / 180, 0);
       c.translation_mm = -r * Eigen::Vector3d(baseline_mm * static_cast<double>(k), 0, 0);
     }
     c.intrinsic_index.assign(c.camera.params.size(), -1);

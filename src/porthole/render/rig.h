@@ -39,8 +39,7 @@ struct RigCamera {
 // axes cross in front of the rig: cam_from_rig R = R_y(+conv) (camera k's axis in the rig frame
 // (−sin conv, 0, cos conv)), t = −R·(baseline·k, 0, 0). Named cam0, cam1, … Throws InvalidInput
 // for n < 2 ("cameras"), a baseline ≤ 0 ("baseline_mm"), a convergence outside [0°, 45°)
-// ("convergence_deg"). (measure::DescribedRig, for `porthole plan`, takes R_y(−conv): its second
-// camera's axis points away from the first.)
+// ("convergence_deg"). measure::DescribedRig (`porthole plan`) describes the same rig.
 std::vector<RigCamera> DescribedRig(int n, double baseline_mm, double convergence_deg);
 
 // The port of a refractive camera (refraction.h: its shell and three parameters) as a port spec in
