@@ -1,6 +1,7 @@
 // Python bindings of the calib module: calibrate from detections (dicts as `porthole detect --json`
 // writes them), synthetic detection sets with known truth, and the comparison of two
 // calibrations. Inputs and outputs are the JSON objects of the CLI as Python dicts.
+#include <fmt/format.h>
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -322,7 +323,7 @@ void RegisterCalib(py::module_& m) {
 
   m.def(
       "calibrate_rig",
-      [](const py::list& cameras, const std::string& target, const py::object& model, double pixel_pitch_mm,
+      [](const py::list& cameras, const std::string& target, const py::object& model, const py::object& pixel_pitch_mm,
          const std::string& free, double reject_k, const py::object& port, const py::object& air_calibration,
          bool air_lens_bare, const std::string& water, std::optional<double> water_index, double lambda_nm,
          double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
@@ -351,11 +352,27 @@ void RegisterCalib(py::module_& m) {
               };
               calib::RigOptions o;
               o.names = names;
-              for (const auto& m : list_of(model)) {
-                o.cameras.push_back(LensOptions(m.cast<std::string>(), pixel_pitch_mm, free, reject_k, "none", 1.0,
-                                                progress, "auto"));
+              // One options set for all, or one per camera when the models or the pitches differ.
+              const auto models = list_of(model);
+              std::vector<double> pitches;
+              for (const auto& p : list_of(pixel_pitch_mm)) pitches.push_back(p.cast<double>());
+              if (pitches.empty()) pitches.push_back(1.0);
+              if (models.empty()) throw InvalidInput("model", "give a model (one for all or one per camera)");
+              const std::size_t n = cameras.size();
+              if (pitches.size() != 1 && pitches.size() != n) {
+                throw InvalidInput("pixel_pitch_mm", fmt::format("{} pitches for {} cameras: give one for all or one per "
+                                                                 "camera", pitches.size(), n));
               }
-              if (o.cameras.empty()) throw InvalidInput("model", "give a model (one for all or one per camera)");
+              if (models.size() != 1 && models.size() != n) {
+                throw InvalidInput("model", fmt::format("{} models for {} cameras: give one for all or one per camera",
+                                                        models.size(), n));
+              }
+              const std::size_t n_options = models.size() == 1 && pitches.size() == 1 ? 1 : n;
+              for (std::size_t k = 0; k < n_options; ++k) {
+                const auto& m = models[models.size() == 1 ? 0 : k];
+                o.cameras.push_back(LensOptions(m.cast<std::string>(), pitches[pitches.size() == 1 ? 0 : k], free,
+                                                reject_k, "none", 1.0, progress, "auto"));
+              }
               const ports::Environment env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c,
                                                              salinity_psu, pressure_dbar);
               for (const auto& p : list_of(port)) {
@@ -371,7 +388,7 @@ void RegisterCalib(py::module_& m) {
               }
               for (std::size_t k = 0; k < airs.size(); ++k) {
                 const auto& lens = o.cameras[o.cameras.size() == 1 ? 0 : k];
-                auto rec = CalibrationArg(airs[k], pixel_pitch_mm, lens.model, "air_calibration");
+                auto rec = CalibrationArg(airs[k], lens.pixel_pitch_mm, lens.model, "air_calibration");
                 if (rec) o.air_lens.push_back(*rec);
               }
               calib::RigResult r;
@@ -390,7 +407,7 @@ void RegisterCalib(py::module_& m) {
       py::arg("names") = std::vector<std::string>{},
       "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
       "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
-      "all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
+      "all or a list; pixel_pitch_mm one for all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
       "water; air_calibration a list, one per camera, of each lens alone (with air_lens_bare=True) as a prior. "
       "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}}.");
 

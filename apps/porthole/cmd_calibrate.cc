@@ -250,6 +250,7 @@ struct CalibrateCliOptions {
   std::string images, detections, target, field, model = "brown", free = "default", loss = "none", out,
                                                           yaml, field_out;
   double pitch_mm = 1.0;
+  std::vector<double> pitches_mm;  // --pixel-pitch-mm as given: one, or a rig's one per camera
   calib::CalibrationOptions calib;
   calib::FrameOptions frames;  // --every, --max-frames (a video's frames)
   bool json = false, quiet = false, force = false;
@@ -318,6 +319,16 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
     throw InvalidInput("--model", fmt::format("{} models for {} cameras: give one for all or one per camera",
                                               models.size(), n));
   }
+  std::vector<double> pitches = o.pitches_mm.empty() ? std::vector<double>{1.0} : o.pitches_mm;
+  if (pitches.size() != 1 && static_cast<int>(pitches.size()) != n) {
+    throw InvalidInput("--pixel-pitch-mm", fmt::format("{} pitches for {} cameras: give one for all or one per camera",
+                                                       pitches.size(), n));
+  }
+  for (double p : pitches) {
+    RequirePositive("--pixel-pitch-mm", p);
+    if (p != 1.0) WarnIfImplausible("--pixel-pitch-mm", p, kPixelPitchRange);
+  }
+  const auto pitch_of = [&](int k) { return pitches[pitches.size() == 1 ? 0 : k]; };
   // Cameras behind ports, in water: --port one for all or a comma list; --air-calibration a comma
   // list, one per camera, of each lens alone (--air-lens-bare), as a prior.
   std::vector<std::string> port_names, air_files;
@@ -328,7 +339,12 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
                                              port_names.size(), n));
   }
   if (!air_files.empty() && port_names.empty()) throw InvalidInput("--air-calibration", "only with --port");
-  const auto rig_air = air_files.empty() ? std::nullopt : AirLensesOfARigFile(air_files, o.pitch_mm);
+  const auto rig_air = air_files.empty() ? std::nullopt : AirLensesOfARigFile(air_files, pitch_of(0));
+  if (rig_air && std::any_of(pitches.begin(), pitches.end(), [&](double p) { return p != pitches.front(); })) {
+    // A pixel format read at one pitch would be wrong for the other cameras.
+    throw InvalidInput("--air-calibration", "one rig file with a pitch per camera: give each lens's calibration "
+                                            "(a comma list) instead");
+  }
   if (rig_air && static_cast<int>(rig_air->size()) != n) {
     throw InvalidInput("--air-calibration", fmt::format("the rig file holds {} cameras, the rig {}",
                                                         rig_air->size(), n));
@@ -348,8 +364,7 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   if (o.free != "default" && models.size() > 1) {
     throw InvalidInput("--free", "names one model's parameters: not with a model per camera");
   }
-  o.calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o.pitch_mm);
-  if (o.pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o.pitch_mm, kPixelPitchRange);
+  o.calib.pixel_pitch_mm = pitch_of(0);
   if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
   if (!o.stereo_out.empty()) CheckOutput(o.stereo_out, "--stereo-out", rules);
   using CC = calib::CalibrationOptions::CentreCorrection;
@@ -359,8 +374,12 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
     if (!quiet) fmt::print(stderr, "calibrate: {}\n", m);
   };
   calib::RigOptions ro;
-  for (const std::string& m : models) {
+  // One options set for all, or one per camera when the models or the pitches differ.
+  const int n_options = models.size() == 1 && pitches.size() == 1 ? 1 : n;
+  for (int k = 0; k < n_options; ++k) {
+    const std::string& m = models[models.size() == 1 ? 0 : k];
     calib::CalibrationOptions c = o.calib;
+    c.pixel_pitch_mm = pitch_of(k);
     c.model = camera::ModelFromName(m, "--model");
     c.free = calib::ParseFreeParameters(c.model, o.free);
     c.progress = say;
@@ -374,7 +393,7 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   }
   for (int k = 0; !rig_air && k < static_cast<int>(air_files.size()); ++k) {
     const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
-    ro.air_lens.push_back(interop::ReadCalibrationFileAs(air_files[k], o.pitch_mm, model, "--air-calibration").calibration);
+    ro.air_lens.push_back(interop::ReadCalibrationFileAs(air_files[k], pitch_of(k), model, "--air-calibration").calibration);
   }
   for (int k = 0; rig_air && k < n; ++k) {  // a rig file: each camera's lens as the camera's model
     if (!(*rig_air)[k].has_covariance) {
@@ -433,6 +452,7 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
                                   "the calibration of camera " + c.name);
   }
   auto j = calib::RigToJson(r, target, ro);
+  CliWordsInJson(&j);  // the library's `field` in the CLI's words
   if (from_images) j["images_source"] = rig_sources;
   std::string stereo_note;
   if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T (interop/rig_files.h)
@@ -515,9 +535,10 @@ void RegisterCalibrate(CLI::App& app) {
                   "Coded targets: a target-field file (lines 'id x_mm y_mm z_mm', e.g. from porthole target-sheet, or "
                   "measured; Z != 0 for raised targets; 'id x_mm y_mm z_mm nx ny nz' for a dot facing another way "
                   "than -Z) instead of the default sheet");
-  cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
-                  "Pixel pitch, mm; without it millimetres are pixels")
-      ->capture_default_str();
+  cmd->add_option("--pixel-pitch-mm", o->pitches_mm,
+                  "Pixel pitch, mm; without it millimetres are pixels. A rig: one for all or a comma list, one per camera")
+      ->delimiter(',')
+      ->default_str("1");
   std::string models;
   for (const auto& m : camera::CameraModels()) models += (models.empty() ? "" : " | ") + std::string(m.name);
   cmd->add_option("--model", o->model,
@@ -618,7 +639,12 @@ void RegisterCalibrate(CLI::App& app) {
     const OutputRules rules{.force = o->force,
                             .inputs = InputFiles(cmd, {"--out", "--opencv-yaml", "--field-out", "--port-out",
                                                        "--stereo-out"})};
+    if (!o->pitches_mm.empty()) o->pitch_mm = o->pitches_mm.front();
     if (o->image_dirs.size() > 1 || o->detection_paths.size() > 1) return CalibrateRigCommand(*o, rules);
+    if (o->pitches_mm.size() > 1) {
+      throw InvalidInput("--pixel-pitch-mm", fmt::format("{} pitches for one camera (a comma list is a rig's, one per "
+                                                         "camera)", o->pitches_mm.size()));
+    }
     if (!o->stereo_out.empty()) throw InvalidInput("--stereo-out", "only for a rig (--detections or --images repeated)");
     if (!o->image_dirs.empty()) o->images = o->image_dirs.front();
     if (!o->detection_paths.empty()) o->detections = o->detection_paths.front();
@@ -738,6 +764,7 @@ void RegisterCalibrate(CLI::App& app) {
       if (!o->port_out.empty()) throw InvalidInput("--port-out", "not with --plan-only (nothing is estimated)");
       const auto plan = calib::PlanRefractiveFromImages(dets, target, ro, o->plan_sigma_px);
       auto j = calib::PlanToJson(plan);
+      CliWordsInJson(&j);  // the library's `field` in the CLI's words
       if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
       if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
       return fmt::print("{}", PlanTable(plan, ro));
@@ -747,6 +774,7 @@ void RegisterCalibrate(CLI::App& app) {
       const auto rr = calib::CalibrateRefractive(dets, target, ro);
       RequirePossibleCalibration(rr.lens, o->images.empty() ? "--detections" : "--images");
       auto j = calib::RefractiveToJson(rr, target, ro);
+      CliWordsInJson(&j);  // the library's `field` in the CLI's words
       Json skip = Json::array();
       for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
       j["skipped"] = skip;
@@ -774,6 +802,7 @@ void RegisterCalibrate(CLI::App& app) {
     const auto r = calib::Calibrate(dets, target, o->calib);
     RequirePossibleCalibration(r, o->images.empty() ? "--detections" : "--images");
     auto j = calib::CalibrationToJson(r, target, o->calib);
+    CliWordsInJson(&j);  // the library's `field` in the CLI's words
     Json skip = Json::array();
     for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
     j["skipped"] = skip;

@@ -59,6 +59,16 @@ std::optional<std::string> FlagOfField(std::string_view field);
 // `text` with each backquoted field the running command has as a flag written as that flag; other
 // backquoted words lose their quotes. For the library's warnings and notes before they are printed.
 std::string CliWords(std::string_view text);
+// CliWords on every string of a JSON result the CLI prints or writes (its statuses and notes).
+template <typename J>
+void CliWordsInJson(J* j) {
+  if (j->is_string()) {
+    const auto& s = j->template get_ref<const std::string&>();
+    if (s.find('`') != std::string::npos) *j = CliWords(s);
+  } else if (j->is_structured()) {
+    for (auto& v : *j) CliWordsInJson(&v);
+  }
+}
 
 // A length for JSON: a number, "inf" for infinity, null for NaN.
 Json Length(double mm);

@@ -23,7 +23,7 @@ def stereo(n=12, seed=3):
     pts = np.array([[c * 50.0, r * 50.0, 0.0] for r in range(12) for c in range(16)])
     k = np.array([[2000.0, 0, 2150], [0, 2000, 1420], [0, 0, 1]])
     dist = np.array([-0.08, 0.05, 0, 0, 0.0])
-    r1, _ = cv2.Rodrigues(np.array([0.0, -5 * math.pi / 180, 0.0]))
+    r1, _ = cv2.Rodrigues(np.array([0.0, 5 * math.pi / 180, 0.0]))  # turned 5 deg towards camera 0
     t1 = -r1 @ np.array([300.0, 0, 0])
     cams = [[], []]
     for f in range(n):
@@ -63,6 +63,24 @@ def test_calibrate_rig_matches_the_cli(tmp_path):
     assert ours.sigma0_px == pytest.approx(theirs["sigma0_px"], rel=1e-9)
     assert abs(right.baseline_mm - 300) < 3 * right.baseline_sigma_mm + 0.5
     assert ours.to_dict()["rig"]["n_frames"] == theirs["n_frames"]
+
+
+def test_a_pixel_pitch_per_camera_as_the_cli(tmp_path):
+    cams = stereo()
+    files = []
+    for c, name in zip(cams, ("left", "right")):
+        files.append(tmp_path / f"{name}.json")
+        files[-1].write_text(json.dumps({"target": TARGET, "images": c}))
+    ours = porthole.calibrate_rig(cams, TARGET, model="brown", pixel_pitch_mm=[0.0055, 0.0044])
+    theirs = cli_json("calibrate", "--detections", files[0], "--detections", files[1], "--model", "brown",
+                      "--pixel-pitch-mm", "0.0055,0.0044", "--quiet")["rig"]
+    for cam, t, pitch in zip(ours.cameras, theirs["cameras"], (0.0055, 0.0044)):
+        assert t["sensor"]["pixel_pitch_mm"] == pitch
+        assert cam.params["c_mm"] == pytest.approx(t["camera"]["c_mm"], rel=1e-9)
+    # c in pixels is the same lens whatever the pitch: c_mm / pitch of each camera near 2000 px.
+    assert ours.cameras[1].params["c_mm"] / 0.0044 == pytest.approx(2000, rel=0.01)
+    with pytest.raises(ValueError, match="^pixel_pitch_mm: 3 pitches for 2 cameras"):
+        porthole.calibrate_rig(cams, TARGET, model="brown", pixel_pitch_mm=[0.0055, 0.0044, 0.0043])
 
 
 def test_rig_errors_name_the_keyword():

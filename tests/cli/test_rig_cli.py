@@ -143,6 +143,27 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
                                          "--air-lens-bare")
 
 
+def test_a_pixel_pitch_per_camera(rig):
+    # Two bodies of different pixel pitch: a pitch scales only the millimetre values of its own
+    # camera (Brown's c, x0, y0 are in mm), never the pixels, the poses or the other camera.
+    d, _ = rig
+    base = ["calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "brown",
+            "--json", "--quiet"]
+    one = run(*base, "--pixel-pitch-mm", "0.0055").json()["rig"]["cameras"]
+    two = run(*base, "--pixel-pitch-mm", "0.0055,0.0044").json()["rig"]["cameras"]
+    for key, v in one[0]["camera"].items():
+        if isinstance(v, float):
+            assert abs(two[0]["camera"][key] - v) <= 1e-9 * max(abs(v), 1e-9), key
+    assert two[1]["sensor"]["pixel_pitch_mm"] == 0.0044
+    for key in ("c_mm", "x0_mm", "y0_mm"):
+        assert abs(two[1]["camera"][key] / one[1]["camera"][key] - 0.0044 / 0.0055) < 1e-9, key
+    t1, t2 = np.array(one[1]["cam_from_rig"]["translation_mm"]), np.array(two[1]["cam_from_rig"]["translation_mm"])
+    assert np.abs(t1 - t2).max() < 1e-6
+    assert "3 pitches for 2 cameras" in run_bad(*base, "--pixel-pitch-mm", "0.0055,0.0044,0.0043")
+    line = run_bad("calibrate", "--detections", d / "left.json", "--pixel-pitch-mm", "0.0055,0.0044", "--quiet")
+    assert "2 pitches for one camera" in line, line
+
+
 @pytest.mark.parametrize("ext", ["yml", "xml"])
 def test_stereo_file_is_read_by_opencv(rig, tmp_path, ext):
     """--stereo-out: cv2.FileStorage reads K1 D1 K2 D2 R T (the values of the rig JSON) and

@@ -41,7 +41,14 @@ def rig(tmp_path_factory):
         write_detections(d / name, data, k)
     base = ("calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "opencv", "--quiet")
     run(*base, "--out", d / "rig.json")  # the default free set: k3-k6 fixed at 0
+    # A rig whose lenses have a k3 (radtan has none): calibrated with k3 free, then k3 set to -0.002 in
+    # both cameras (the synthetic truth has k3 = 0, so its estimate is noise: up to -0.013 here, which
+    # no radtan refit holds within 1 px at the corners).
     run(*base, "--free", "fx,fy,cx,cy,k1,k2,p1,p2,k3", "--out", d / "rig_k3.json")
+    k3 = json.loads((d / "rig_k3.json").read_text())
+    for cam in k3["rig"]["cameras"]:
+        cam["camera"]["k3"] = -0.002
+    (d / "rig_k3.json").write_text(json.dumps(k3))
     return d, json.loads((d / "rig.json").read_text())["rig"]
 
 
@@ -198,7 +205,7 @@ def test_kalibr_camchain_passes_kalibrs_reader_checks(rig, tmp_path):
     m = run("convert", d / "rig_k3.json", tmp_path / "k2.yaml", "--to", "kalibr", "--json").json()
     assert not m["exact"]
     rms = max(c["refit_rms_px"] for c in m["cameras"])
-    print(f"Kalibr radtan refit of the opencv rig (k3 free): RMS {rms:.4f} px")
+    print(f"Kalibr radtan refit of the opencv rig (k3 = -0.002): RMS {rms:.4f} px")
     assert 0 < rms < 1
 
 

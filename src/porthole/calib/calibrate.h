@@ -206,7 +206,7 @@ int KeepTargetPoints(const TargetSpec& target, std::vector<ImageDetections>* det
                      const std::function<void(const std::string&)>& progress = {});
 
 // Calibrates from the detections of `target` in images of one camera. Images with fewer than 4
-// points are skipped (listed in the progress messages). Throws InvalidInput (field "--images")
+// points are skipped (listed in the progress messages). Throws InvalidInput (field "images")
 // when fewer than 3 images remain or the redundancy is not positive.
 CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
                             const TargetSpec& target, const CalibrationOptions& options = {});

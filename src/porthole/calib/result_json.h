@@ -56,7 +56,7 @@ nlohmann::ordered_json AdjustedTargetJson(const CalibrationResult& r, const Targ
 // coded::ParseField reads it): a header naming the target, its source and the datum, then every
 // point of the target in ID order, "id x_mm y_mm z_mm" to 1e-6 mm, the adjusted coordinates of the
 // observed points with their σ in a trailing comment, the others as given (marked). Throws
-// InvalidInput("--field-out") unless the target is coded and the result adjusted it.
+// InvalidInput("field_out") unless the target is coded and the result adjusted it.
 std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& target);
 
 // The per-image array of a calibration JSON: image, n_points, n_rejected, rms_px, rotation_rad and
@@ -75,7 +75,7 @@ CalibrationRecord CalibrationFromJson(const nlohmann::json& j, const std::string
 // OpenCV's pixel convention. Export of a Brown calibration refits OpenCV's forward model to the
 // Brown correction over the image (camera::BrownToOpenCV; `fit` receives the refit RMS/max in px);
 // of an OpenCV-model calibration it is exact (k1 k2 p1 p2 k3 k4 k5 k6). Other models throw
-// InvalidInput("--opencv-yaml").
+// InvalidInput("opencv_yaml").
 std::string ExportOpenCVYaml(const CalibrationRecord& rec, camera::ConversionFit* fit);
 
 }  // namespace porthole::calib

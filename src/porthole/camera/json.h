@@ -34,7 +34,7 @@ BrownEstimate BrownFromJson(const nlohmann::json& j, const std::string& where = 
 // The same from a JSON text or a file path (anything not starting with '{' is a path), which may
 // also hold a whole calibration as `porthole calibrate --out` writes it (its "camera" and "sigma",
 // nulls = not adjusted; its model must be brown); `field` names the option in errors (e.g.
-// "--air-calibration").
+// "air_calibration").
 BrownEstimate LoadBrownJson(const std::string& text_or_path, const std::string& field);
 
 }  // namespace porthole::camera

@@ -50,7 +50,7 @@ struct SheetLayout {
   Eigen::Vector2d scale_bar_mm{0, 0};       // left end of the 100 mm scale bar (its top edge)
 };
 
-// Paper size in mm (portrait); throws InvalidInput("--paper", ...) for an unknown name.
+// Paper size in mm (portrait); throws InvalidInput("paper", ...) for an unknown name.
 Eigen::Vector2d PaperSizeMm(const std::string& paper);
 
 // Places the targets on a square grid of pitch 2·(outer ring radius + dot radius), rounded up to

@@ -65,9 +65,9 @@ struct HousingAssembly {
   std::string Report() const;  // the Table 4 rows and the pupil offsets, a few lines
 };
 
-// Throws InvalidInput naming the field by its `porthole assemble` flag ("--camera-flange",
-// "--housing-flange", "--outer", "--inner", "--dome-rear", "--x-hint", "--dome-x-hint",
-// "--pupil-offset") for zero normals, non-finite numbers, non-positive radii,
+// Throws InvalidInput naming the field ("camera_flange",
+// "housing_flange", "outer", "inner", "dome_rear", "x_hint", "dome_x_hint",
+// "pupil_offset") for zero normals, non-finite numbers, non-positive radii,
 // an inner sphere not inside the outer, a housing flange in the camera flange's plane, or a
 // pupil not inside the inner sphere.
 HousingAssembly AssembleHousing(const AssemblyInput& in);

@@ -153,25 +153,25 @@ TEST(Assembly, RejectsImpossibleGeometry) {
   };
   AssemblyInput in = PaperInput();
   in.housing_flange.center_mm.z() = 0;  // in the camera flange's plane
-  throws_field(in, "--housing-flange");
+  throws_field(in, "housing_flange");
   in = PaperInput();
   in.camera_flange.normal.setZero();
-  throws_field(in, "--camera-flange");
+  throws_field(in, "camera_flange");
   in = PaperInput();
   in.inner.radius_mm = 83.0;  // pokes out of the outer sphere
-  throws_field(in, "--inner");
+  throws_field(in, "inner");
   in = PaperInput();
   in.outer.radius_mm = NAN;
-  throws_field(in, "--outer");
+  throws_field(in, "outer");
   in = PaperInput();
   in.pupil_to_flange_mm = 120;  // beyond the inner sphere
-  throws_field(in, "--pupil-offset");
+  throws_field(in, "pupil_offset");
   in = PaperInput();
   in.dome_centered = true;
-  throws_field(in, "--dome-centered");
+  throws_field(in, "dome_centered");
   in = PaperInput();
   in.survey_x_hint = Eigen::Vector3d::UnitZ();
-  throws_field(in, "--x-hint");
+  throws_field(in, "x_hint");
 }
 
 std::string WriteTemp(const std::string& name, const std::string& text) {

@@ -1278,7 +1278,7 @@ RigWriteResult WriteRigFile(const RigFile& rig, RigFormat format, const std::str
 }
 
 RigFormat RigOutputFormat(const std::string& path, const std::optional<std::string>& to, const std::string& field) {
-  if (to) return RigFormatFromName(*to, "--to");
+  if (to) return RigFormatFromName(*to, "to");
   const std::string ext = Lower(std::filesystem::path(path).extension().string());
   if (ext == ".json") return RigFormat::kJson;
   if (ext == ".npz") return RigFormat::kViameNpz;
@@ -1286,10 +1286,10 @@ RigFormat RigOutputFormat(const std::string& path, const std::optional<std::stri
   if (std::filesystem::is_directory(path)) return RigFormat::kRosCameraInfo;
   if (ext == ".yml" || ext == ".yaml") {
     throw InvalidInput(field, fmt::format("'{}': a rig in .yaml could be opencv-stereo or kalibr (or ros-camera-info, one file a "
-                                          "camera into a directory): give --to",
+                                          "camera into a directory): give `to`",
                                           path));
   }
-  throw InvalidInput(field, fmt::format("'{}': no rig format for this name; give --to ({})", path, RigFormatNames()));
+  throw InvalidInput(field, fmt::format("'{}': no rig format for this name; give `to` ({})", path, RigFormatNames()));
 }
 
 std::vector<calib::CalibrationRecord> ReadRigCalibrations(const std::vector<std::string>& paths,

@@ -22,7 +22,7 @@ const std::vector<Preset>& BuiltinPresets();
 std::string PresetDescription(const Preset& p);
 
 // A port from a built-in preset name or a path to a TOML file (anything containing '/' or ending in
-// ".toml" is a path). Throws InvalidInput("--port", ...) for an unknown name or unreadable file,
+// ".toml" is a path). Throws InvalidInput("port", ...) for an unknown name or unreadable file,
 // and InvalidInput("<file>:<line>: <key>", ...) for a malformed or invalid file.
 ports::PortSpec LoadPort(const std::string& name_or_path);
 
@@ -30,7 +30,7 @@ ports::PortSpec LoadPort(const std::string& name_or_path);
 ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin);
 
 // A camera body or a lens from a built-in preset name or a TOML file, as LoadPort (field names
-// "--camera" and "--lens" in errors). Schemas in docs/presets.md.
+// "camera" and "lens" in errors). Schemas in docs/presets.md.
 lens::CameraBody LoadCamera(const std::string& name_or_path);
 lens::LensSpec LoadLens(const std::string& name_or_path);
 lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origin);

@@ -178,8 +178,8 @@ enum class KindHint { kRuntime, kSphere, kPlane };
 
 // One interface: moves *o to the intersection with f.surface and refracts *d there. On a status
 // other than kOk, *o is the intersection (kOutsideAperture, kTotalInternalReflection) or unchanged
-// (kMissed), and *d is unchanged. This is the only implementation of a surface step: the
-// single-ray, the templated (Jet) and the batched tracers all call it.
+// (kMissed), and *d is unchanged. The one surface step of optics/'s tracers: the single-ray, the
+// templated (Jet) and the batched tracers all call it (refraction::TraceOut still has its own).
 template <typename T, KindHint Kind = KindHint::kRuntime>
 PORTHOLE_INLINE RayStatus Step(const Interface& f, P3<T>* o, P3<T>* d) {
   const Surface& s = f.surface;

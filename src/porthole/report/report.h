@@ -68,7 +68,7 @@ struct ReportSummary {
 };
 
 // An empty existing directory is filled; a previous report is replaced only with force.
-// Throws InvalidInput("--out", …) when the output directory cannot be written, is not empty and
+// Throws InvalidInput("out", …) when the output directory cannot be written, is not empty and
 // force is off, or is not empty and holds no porthole report (never replaced, even with force);
 // InvalidInput naming the input for bad inputs; InvalidInput("gnuplot", …) when gnuplot is
 // missing or fails. Nothing is left behind on failure.
