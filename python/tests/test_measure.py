@@ -76,7 +76,9 @@ def test_plan_rig_matches_the_cli(tmp_path):
     ours = porthole.plan_rig(baseline_mm=300, convergence_deg=5, port="nimar-ni320", ranges_mm=[1000, 3000])
     theirs = cli_json("plan", "--baseline", "300", "--convergence", "5", "--port", "nimar-ni320",
                       "--ranges", "1000,3000")["rig_plan"]
-    # The same JSON (numbers within 1e-9: the central calibration's last digits vary between processes).
+    # The same JSON (numbers within 1e-9 relative, or 1e-6 absolute: the central calibration's last
+    # digits vary between processes (threaded sums), and its length errors of a few um are differences
+    # of lengths near 300 mm, so 1e-9 of those lengths is what they can agree to).
     def same(a, b):
         if isinstance(a, dict):
             assert a.keys() == b.keys()
@@ -87,7 +89,7 @@ def test_plan_rig_matches_the_cli(tmp_path):
             for x, y in zip(a, b):
                 same(x, y)
         elif isinstance(a, float):
-            assert a == pytest.approx(b, rel=1e-9, abs=1e-12)
+            assert a == pytest.approx(b, rel=1e-9, abs=1e-6)
         else:
             assert a == b
     same(ours.to_dict(), theirs)

@@ -24,18 +24,20 @@ def test_plan_names_the_adapter_flag():
     assert "allow_adapter" not in line and "`" not in line
 
 
-@pytest.mark.skipif(not os.environ.get("PORTHOLE_PY_DIR"), reason="the Python module is not built")
-def test_python_names_its_keyword():
-    code = ("import porthole\n"
-            "try:\n"
-            "    porthole.plan(camera='sony-a7iv', lens='nikkor-24mm-f2.8d')\n"
-            "except ValueError as e:\n"
-            "    print(e)\n")
+def python_error(call):
+    """The ValueError text of `call` (Python source) in a fresh interpreter with the built module."""
+    code = f"import porthole\ntry:\n    {call}\nexcept ValueError as e:\n    print(e)\n"
     env = dict(os.environ, PYTHONPATH=os.environ["PORTHOLE_PY_DIR"])
     out = subprocess.run(["/usr/bin/python3", "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert "would fit it: set allow_adapter=True" in out.stdout, out.stdout
-    assert "--allow-adapter" not in out.stdout and "`" not in out.stdout
+    return out.stdout.strip()
+
+
+@pytest.mark.skipif(not os.environ.get("PORTHOLE_PY_DIR"), reason="the Python module is not built")
+def test_python_names_its_keyword():
+    text = python_error("porthole.plan(camera='sony-a7iv', lens='nikkor-24mm-f2.8d')")
+    assert "would fit it: set allow_adapter=True" in text, text
+    assert "--allow-adapter" not in text and "`" not in text
 
 
 # --- The library names fields, never a CLI flag (issue 25) -------------------------------------
@@ -115,13 +117,6 @@ def test_a_library_field_reaches_each_front_end_in_its_words():
 
 @pytest.mark.skipif(not os.environ.get("PORTHOLE_PY_DIR"), reason="the Python module is not built")
 def test_python_says_its_keywords_for_the_same_rule():
-    code = ("import porthole\n"
-            "try:\n"
-            "    porthole.assemble(housing_flange=[0,0,100,0,0,1], outer=[0,0,150,50], inner=[0,0,150,45],\n"
-            "                      dome_centered=True, pupil_to_flange_mm=30)\n"
-            "except ValueError as e:\n"
-            "    print(e)\n")
-    env = dict(os.environ, PYTHONPATH=os.environ["PORTHOLE_PY_DIR"])
-    out = subprocess.run(["/usr/bin/python3", "-c", code], capture_output=True, text=True, env=env, timeout=120)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "dome_centered: needs dome_rear", out.stdout
+    text = python_error("porthole.assemble(housing_flange=[0,0,100,0,0,1], outer=[0,0,150,50], "
+                        "inner=[0,0,150,45], dome_centered=True, pupil_to_flange_mm=30)")
+    assert text == "dome_centered: needs dome_rear", text

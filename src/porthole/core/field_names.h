@@ -22,28 +22,7 @@ struct FieldName {
 // A quoted field the table does not list stays quoted for an outer table (keep_unknown), or loses its
 // quotes when this is the last table (the front end's own error handler).
 inline std::string RenameQuotedFields(std::initializer_list<FieldName> names, std::string_view rule,
-                                      bool keep_unknown = false) {
-  std::string out;
-  std::size_t i = 0;
-  while (i < rule.size()) {
-    const std::size_t open = rule.find('`', i);
-    const std::size_t close = open == std::string_view::npos ? open : rule.find('`', open + 1);
-    if (close == std::string_view::npos) break;
-    out.append(rule.substr(i, open - i));
-    const std::string_view quoted = rule.substr(open + 1, close - open - 1);
-    bool found = false;
-    for (const FieldName& n : names) {
-      if (n.field != quoted) continue;
-      out.append(n.name);
-      found = true;
-      break;
-    }
-    if (!found) out.append(keep_unknown ? rule.substr(open, close - open + 1) : quoted);
-    i = close + 1;
-  }
-  out.append(rule.substr(i));
-  return out;
-}
+                                      bool keep_unknown = false);
 
 // `e` in a front end's words: its field renamed when the table lists it (or it begins with a listed
 // field followed by '.'), and the fields its rule names (`quoted`) renamed as well.
@@ -66,7 +45,8 @@ inline InvalidInput RenameFields(std::initializer_list<FieldName> names, const I
 // nothing. The CLI's last table is of this kind: a field is its flag when the command has one of
 // that name (`pixel_pitch_mm` → --pixel-pitch-mm), so the library names its fields and never a flag.
 template <typename Lookup>
-std::string RenameQuotedFieldsBy(const Lookup& lookup, std::string_view rule, std::string_view unknown_suffix = "") {
+std::string RenameQuotedFieldsBy(const Lookup& lookup, std::string_view rule, std::string_view unknown_suffix = "",
+                                 bool keep_unknown = false) {
   std::string out;
   std::size_t i = 0;
   while (i < rule.size()) {
@@ -77,6 +57,8 @@ std::string RenameQuotedFieldsBy(const Lookup& lookup, std::string_view rule, st
     const std::string_view quoted = rule.substr(open + 1, close - open - 1);
     if (const auto word = lookup(quoted)) {
       out.append(*word);
+    } else if (keep_unknown) {
+      out.append(rule.substr(open, close - open + 1));
     } else {
       out.append(quoted);
       out.append(unknown_suffix);
@@ -85,6 +67,17 @@ std::string RenameQuotedFieldsBy(const Lookup& lookup, std::string_view rule, st
   }
   out.append(rule.substr(i));
   return out;
+}
+
+inline std::string RenameQuotedFields(std::initializer_list<FieldName> names, std::string_view rule,
+                                      bool keep_unknown) {
+  const auto lookup = [&](std::string_view quoted) -> std::optional<std::string> {
+    for (const FieldName& n : names) {
+      if (n.field == quoted) return std::string(n.name);
+    }
+    return std::nullopt;
+  };
+  return RenameQuotedFieldsBy(lookup, rule, "", keep_unknown);
 }
 
 template <typename Lookup>
