@@ -20,6 +20,7 @@
 #include "porthole/interop/pyliteral.h"
 #include "porthole/interop/refit.h"
 #include "porthole/interop/refractive.h"
+#include "porthole/interop/text.h"
 
 namespace porthole::interop {
 namespace {
@@ -83,10 +84,6 @@ constexpr std::array<std::pair<std::string_view, int>, 4> kMrcalModels = {{
     {"LENSMODEL_OPENCV8", 8},
 }};
 
-std::string Lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
-  return s;
-}
 
 std::string Ext(const std::string& path) {
   return Lower(std::filesystem::path(path).extension().string());

@@ -6,15 +6,11 @@
 
 #include "porthole/core/error.h"
 #include "porthole/interop/xml.h"
+#include "porthole/interop/text.h"
 
 namespace porthole::interop {
 namespace {
 
-std::string Trim(const std::string& s) {
-  const auto a = s.find_first_not_of(" \t\r\n");
-  if (a == std::string::npos) return "";
-  return s.substr(a, s.find_last_not_of(" \t\r\n") - a + 1);
-}
 
 double Number(const std::string& text, const std::string& field) {
   const std::string s = Trim(text);

@@ -9,24 +9,14 @@
 
 #include "porthole/core/error.h"
 #include "porthole/interop/xml.h"
+#include "porthole/interop/text.h"
 
 namespace porthole::interop {
 namespace {
 
 constexpr std::size_t kMaxNumbers = 20;  // a node porthole reads holds at most 14 (+ slack)
 
-std::string Trim(std::string_view s) {
-  const auto a = s.find_first_not_of(" \t\r\n");
-  if (a == std::string_view::npos) return "";
-  return std::string(s.substr(a, s.find_last_not_of(" \t\r\n") - a + 1));
-}
 
-std::string Unquote(std::string s) {
-  if (s.size() >= 2 && (s.front() == '"' || s.front() == '\'') && s.back() == s.front()) {
-    return s.substr(1, s.size() - 2);
-  }
-  return s;
-}
 
 // A node's content as the file gives it: its data (the numbers of a matrix or sequence, or a
 // scalar) and, for a matrix, its declared rows and cols.

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "porthole/core/error.h"
+#include "porthole/interop/text.h"
 
 namespace porthole::interop {
 namespace {
@@ -28,11 +29,6 @@ std::vector<std::vector<int>> ColmapTargets(const std::string& model) {
 }
 int PortholeParams(const std::string& model) { return model == "OPENCV_FISHEYE" ? 8 : 12; }
 
-std::string Trim(std::string s) {
-  const auto a = s.find_first_not_of(" \t\r");
-  if (a == std::string::npos) return "";
-  return s.substr(a, s.find_last_not_of(" \t\r") - a + 1);
-}
 
 // "a, b, c" (or "[a, b, c]") as at most 32 finite numbers (`allow_nan`: "nan" too, read as NaN).
 std::vector<double> Numbers(std::string text, const std::string& field, bool allow_nan = false) {

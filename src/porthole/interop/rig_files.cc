@@ -21,6 +21,7 @@
 #include "porthole/interop/pyliteral.h"
 #include "porthole/interop/refit.h"
 #include "porthole/interop/xml.h"
+#include "porthole/interop/text.h"
 
 namespace porthole::interop {
 namespace {
@@ -36,19 +37,7 @@ constexpr int kMaxYamlDepth = 16;
 constexpr std::size_t kMaxNpzMembers = 64;
 constexpr std::size_t kMaxNpyBytes = 1u << 20;
 
-std::string Trim(std::string_view s) {
-  const auto a = s.find_first_not_of(" \t\r\n");
-  if (a == std::string_view::npos) return "";
-  const auto b = s.find_last_not_of(" \t\r\n");
-  return std::string(s.substr(a, b - a + 1));
-}
 
-std::string Unquote(const std::string& s) {
-  if (s.size() >= 2 && ((s.front() == '"' && s.back() == '"') || (s.front() == '\'' && s.back() == '\''))) {
-    return s.substr(1, s.size() - 2);
-  }
-  return s;
-}
 
 // 17 significant digits, always with a decimal point (PyYAML reads "500" as an int and "1e-05" as a
 // string; Kalibr's reader insists on floats).
@@ -1021,10 +1010,6 @@ std::string ReadWhole(const std::string& path, const std::string& field) {
   return ReadInputFile(path, field, kMaxCalibrationFileBytes);
 }
 
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 constexpr std::array<std::pair<RigFormat, std::string_view>, 6> kRigFormats{{
     {RigFormat::kJson, "json"},
