@@ -288,8 +288,7 @@ void RegisterCalib(py::module_& m) {
               }
               const std::string mode = !intrinsics.empty() ? intrinsics : o.air ? "prior" : "free";
               o.intrinsics = calib::ParseIntrinsicsMode(mode, "intrinsics");
-              const auto kind = o.port.IsDome() ? refraction::PortKind::kDome : refraction::PortKind::kFlat;
-              o.port_free = calib::ParsePortFree(kind, free_port, "free_port");
+              o.port_free = calib::ParsePortFree(refraction::KindOf(o.port.spec), free_port, "free_port");
               o.predicted_sigma = port_sigma;
               o.free_water_index = free_water_index;
               o.free_shell = free_shell;

@@ -25,6 +25,8 @@ py::dict ToDict(const ports::VirtualImage& v) {
   d["vwd_mm"] = v.vwd_mm;
   d["magnification"] = v.magnification;
   d["lateral_offset_mm"] = v.lateral_offset_mm;
+  d["focal_line_near_d_s2ep_mm"] = v.focal_line_near_d_s2ep_mm;
+  d["focal_line_far_d_s2ep_mm"] = v.focal_line_far_d_s2ep_mm;
   return d;
 }
 
@@ -65,10 +67,10 @@ py::tuple TraceArrays(const std::vector<optics::Interface>& seq, const py::array
 }  // namespace
 
 void RegisterPorts(py::module_& m) {
-  py::class_<ports::PortSpec>(m, "PortSpec", "A dome or flat port as described by a preset or TOML file.")
+  py::class_<ports::PortSpec>(m, "PortSpec", "A dome, flat or cylindrical port as described by a preset or TOML file.")
       .def_readonly("name", &ports::PortSpec::name, "The preset's or file's name.")
       .def_readonly("description", &ports::PortSpec::description, "What the port is, with its source.")
-      .def_property_readonly("_type", [](const ports::PortSpec& p) { return p.IsDome() ? "dome" : "flat"; })
+      .def_property_readonly("_type", [](const ports::PortSpec& p) { return std::string(p.KindName()); })
       .def_property_readonly("material", &ports::PortSpec::material, "The glass (a medium of media()).")
       .def("to_toml", &io::PortToToml, "The port as a TOML file's text (the schema of docs/presets.md).")
       .def("__repr__", [](const ports::PortSpec& p) { return "<PortSpec " + p.name + ">"; });
@@ -95,7 +97,7 @@ void RegisterPorts(py::module_& m) {
       .def_readonly("n_glass", &ports::PortSystem::n_glass, "Glass index relative to air.")
       .def_readonly("n_water", &ports::PortSystem::n_water, "Water index relative to air.")
       .def_readonly("ep_in_housing_mm", &ports::PortSystem::ep_in_housing_mm, "Entrance pupil, housing frame, mm.")
-      .def_property_readonly("_type", [](const ports::PortSystem& s) { return s.IsDome() ? "dome" : "flat"; })
+      .def_property_readonly("_type", [](const ports::PortSystem& s) { return std::string(s.spec.KindName()); })
       .def_property_readonly("is_central", [](const ports::PortSystem& s) { return s.IsCentral(); })
       .def_property_readonly("outer_vertex_z_mm", &ports::PortSystem::OuterVertexZ)
       .def(

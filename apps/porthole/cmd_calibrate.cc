@@ -125,20 +125,22 @@ std::string PortTable(const calib::RefractiveResult& r, const calib::RefractiveO
   const auto& names = refraction::PortParams(r.kind);
   std::string t = fmt::format(
       "port {} ({}, water n = {:.5f}, glass n = {:.5f}), lens intrinsics {}\n", o.port.spec.name,
-      r.kind == refraction::PortKind::kDome ? "dome: entrance pupil minus outer centre"
-                                            : "flat: inner-face normal and pupil distance",
+      refraction::PortParamsMeaning(r.kind),
       o.port.n_water, o.port.n_glass, calib::ToString(r.intrinsics));
-  t += fmt::format("{:<16} {:>11} {:>9} {:>11} {:>9}  {}\n", "port", "estimate", "std",
+  // The name column fits the longest parameter name (a cylinder's), 16 at least.
+  std::size_t w = 16;
+  for (const auto& n : names) w = std::max(w, n.json_key.size() + 1);
+  t += fmt::format("{:<{}} {:>11} {:>9} {:>11} {:>9}  {}\n", "port", w, "estimate", "std",
                    "predicted", "std", "unit");
   for (int i = 0; i < refraction::kPortNumParams; ++i) {
-    t += fmt::format("{:<16} {:>11.4f} {:>9} {:>11.4f} {:>9.3g}  {}\n", names[i].json_key, r.port[i],
+    t += fmt::format("{:<{}} {:>11.4f} {:>9} {:>11.4f} {:>9.3g}  {}\n", names[i].json_key, w, r.port[i],
                      r.port_free[i] ? fmt::format("{:.2g}", r.port_sigma[i]) : "fixed",
                      r.predicted[i], r.predicted_sigma[i], names[i].unit);
   }
   const auto& shell_names = refraction::ShellParams(r.kind);
   for (int i = 0; i < refraction::kShellNumParams; ++i) {
     if (!r.shell_free[i]) continue;
-    t += fmt::format("{:<16} {:>11.5f} {:>9.2g} {:>11.5f} {:>9}  {}{}\n", shell_names[i].json_key,
+    t += fmt::format("{:<{}} {:>11.5f} {:>9.2g} {:>11.5f} {:>9}  {}{}\n", shell_names[i].json_key, w,
                      r.shell[i], r.shell_sigma[i], r.shell_predicted[i],
                      i == 0 ? "" : "file", shell_names[i].unit,
                      i == 0 ? fmt::format(" (water n = {:.5f})", r.n_water) : "");
@@ -712,8 +714,7 @@ void RegisterCalibrate(CLI::App& app) {
       }
       const std::string mode = !o->intrinsics.empty() ? o->intrinsics : o->air.empty() ? "free" : "prior";
       ro.intrinsics = calib::ParseIntrinsicsMode(mode, "--intrinsics");
-      const auto kind = ro.port.IsDome() ? refraction::PortKind::kDome : refraction::PortKind::kFlat;
-      ro.port_free = calib::ParsePortFree(kind, o->free_port, "--free-port");
+      ro.port_free = calib::ParsePortFree(refraction::KindOf(ro.port.spec), o->free_port, "--free-port");
       ro.free_water_index = o->free_water_index;
       ro.free_shell = o->free_shell;
       if (!o->port_sigma.empty()) {

@@ -231,7 +231,7 @@ std::vector<render::RigCamera> RigCameras(const RenderCliOptions& o, const rende
         }
       }
       c.port_use = render::RigCamera::PortUse::kOwn;
-      c.port = render::PortOfShell(*rc.shell, rc.port, material, name.empty() ? rc.name + "-port" : name);
+      c.port = refraction::PortSpecOf(*rc.shell, rc.port, material, name.empty() ? rc.name + "-port" : name);
     }
     cams.push_back(std::move(c));
   }

@@ -95,7 +95,10 @@ std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Predic
   t += fmt::format("\nfocal length water/air = {:.5f}; radial change against the {} projection (water - air):",
                    water.c_mm() / air.c_mm(), camera::ProjectionName(p.lens_projection));
   for (double r : {5.0, 10.0, simulate::ProfileRadiiMm(p.camera.sensor).back()}) {
-    t += fmt::format(" {:.1f} um at r = {:.1f} mm;", 1000 * (water.RadialProfileMm(r) - air.RadialProfileMm(r)), r);
+    const double change_um = 1000 * (water.RadialProfileMm(r) - air.RadialProfileMm(r));
+    // A radius whose rays do not reach the water (beyond the port's rim) has no change.
+    t += std::isfinite(change_um) ? fmt::format(" {:.1f} um at r = {:.1f} mm;", change_um, r)
+                                  : fmt::format(" none at r = {:.1f} mm (not traced through the port);", r);
   }
   if (p.predicted_water_fisheye) t += std::string("\nin-air calibration taken as ") + simulate::kAirCalibrationTakenAs;
   return t + "\n";

@@ -40,6 +40,7 @@ void RegisterVirtualImage(CLI::App& app) {
     Json rows = Json::array();
     std::string table = fmt::format("{:>9} {:>11} {:>9} {:>13} {:>10} {:>11} {:>9}\n", "WD mm", "D_S2EP mm",
                                     "VWD mm", "real D_S2EP", "real VWD", "sph. ab. mm", "magnif.");
+    std::string astigmatism;  // a cylinder's two focal lines
     for (double wd : wds) {
       const ports::VirtualImage par = ports::ParaxialVirtualImage(sys, wd);
       const auto real = ports::RealRayVirtualImage(sys, wd, o->aperture_height_mm);
@@ -52,7 +53,13 @@ void RegisterVirtualImage(CLI::App& app) {
                       {"vwd_real_mm", Length(real_v)},
                       {"spherical_aberration_mm", Length(real_d - par.d_s2ep_mm)},
                       {"image_offset_real_mm", Length(real ? real->lateral_offset_mm : nan)},
+                      {"focal_line_near_d_s2ep_mm", Length(par.focal_line_near_d_s2ep_mm)},
+                      {"focal_line_far_d_s2ep_mm", Length(par.focal_line_far_d_s2ep_mm)},
                       {"magnification", par.magnification}});
+      if (sys.IsCylinder()) {
+        astigmatism += fmt::format("{:>9} {:>11} {:>11}\n", Fixed(wd, 0), Fixed(par.focal_line_near_d_s2ep_mm, 1),
+                                   Fixed(par.focal_line_far_d_s2ep_mm, 1));
+      }
       table += fmt::format("{:>9} {:>11} {:>9} {:>13} {:>10} {:>11} {:>9}\n", Fixed(wd, 0), Fixed(par.d_s2ep_mm, 1),
                            Fixed(par.vwd_mm, 1), Fixed(real_d, 2), Fixed(real_v, 2),
                            Fixed(real_d - par.d_s2ep_mm, 3), Fixed(par.magnification, 4));
@@ -74,6 +81,11 @@ void RegisterVirtualImage(CLI::App& app) {
     text += fmt::format("port focal length {} mm in air, {} mm in water; real rays at {:g} mm pupil height\n\n",
                         Fixed(focal.efl_mm, 1), Fixed(focal.efl_water_mm, 1), o->aperture_height_mm);
     text += table;
+    if (!astigmatism.empty()) {
+      text += "\nA cylinder is astigmatic: it images across its axis as a dome does, along it as a flat port does. "
+              "D_S2EP above is the\nleast-squares image; the two focal lines, from the entrance pupil:\n";
+      text += fmt::format("{:>9} {:>11} {:>11}\n", "WD mm", "nearer mm", "farther mm") + astigmatism;
+    }
     if (sys.IsDome()) {
       text += fmt::format("\nFocus on the virtual image, not on the object: behind this dome even infinity is "
                           "imaged {} mm from the entrance pupil.\n",

@@ -13,6 +13,7 @@
 #include "porthole/core/error.h"
 #include "porthole/core/field_names.h"
 #include "porthole/core/json_length.h"
+#include "porthole/housing/plausible.h"
 #include "porthole/io/presets.h"
 #include "porthole/materials/materials.h"
 
@@ -81,12 +82,18 @@ Json Length(double mm) { return JsonLength<Json>(mm); }
 Json Vec3Json(const ports::Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 Json DescribeSystem(const ports::PortSystem& sys, const ports::Environment& env) {
-  Json port = {{"name", sys.spec.name}, {"type", sys.IsDome() ? "dome" : "flat"},
+  Json port = {{"name", sys.spec.name}, {"type", sys.spec.KindName()},
                {"material", sys.spec.material()}, {"glass_index", sys.n_glass}};
   if (sys.IsDome()) {
     const auto& d = sys.dome();
     port["outer"] = {{"center_mm", Vec3Json(d.outer.center_mm)}, {"radius_mm", d.outer.radius_mm}};
     port["inner"] = {{"center_mm", Vec3Json(d.inner.center_mm)}, {"radius_mm", d.inner.radius_mm}};
+  } else if (sys.IsCylinder()) {
+    const auto& c = sys.cylinder();
+    port["axis_point_mm"] = Vec3Json(c.axis_point_mm);
+    port["axis"] = Vec3Json(c.axis);
+    port["inner_radius_mm"] = c.inner_radius_mm;
+    port["outer_radius_mm"] = c.outer_radius_mm;
   } else {
     const auto& f = sys.flat();
     port["inner_point_mm"] = Vec3Json(f.inner_point_mm);
@@ -111,7 +118,7 @@ std::string DescribeSystemLine(const ports::PortSystem& sys, const ports::Enviro
                                                           env.water, sys.n_water, env.conditions.temperature_c,
                                                           env.conditions.salinity_psu, env.conditions.pressure_dbar);
   return fmt::format("port {} ({}, {} n = {:.5f}); {}; {:g} nm; entrance pupil ({:g}, {:g}, {:g}) mm",
-                     sys.spec.name, sys.IsDome() ? "dome" : "flat", sys.spec.material(), sys.n_glass, water,
+                     sys.spec.name, sys.spec.KindName(), sys.spec.material(), sys.n_glass, water,
                      env.conditions.lambda_nm, ep.x(), ep.y(), ep.z());
 }
 
@@ -173,12 +180,8 @@ bool WarnIfImplausible(const std::string& field, double value, const PlausibleRa
 }
 
 void WarnIfImplausiblePort(const ports::PortSpec& spec, const std::string& where) {
-  if (const auto* d = std::get_if<ports::DomePort>(&spec.shape)) {
-    WarnIfImplausible(where + ".outer.radius_mm", d->outer.radius_mm, kDomeRadiusRange);
-    WarnIfImplausible(where + ".inner.radius_mm", d->inner.radius_mm, kDomeRadiusRange);
-  } else {
-    WarnIfImplausible(where + ".thickness_mm", std::get<ports::FlatPort>(spec.shape).thickness_mm,
-                      kPortThicknessRange);
+  for (const std::string& w : housing::PortPlausibilityWarnings(spec, where)) {
+    fmt::print(stderr, "porthole: warning: {}\n", w);
   }
 }
 

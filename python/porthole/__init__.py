@@ -37,7 +37,7 @@ from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detec
 __version__: str = _porthole.__version__
 
 PortSpec = _porthole.PortSpec
-PortSpec.type = property(lambda self: PortType(self._type), doc="PortType.DOME or PortType.FLAT.")
+PortSpec.type = property(lambda self: PortType(self._type), doc="PortType.DOME, PortType.FLAT or PortType.CYLINDER.")
 
 
 def _plain(value):
@@ -127,7 +127,7 @@ class PortSystem:
 
     @property
     def type(self) -> PortType:
-        """PortType.DOME or PortType.FLAT."""
+        """PortType.DOME, PortType.FLAT or PortType.CYLINDER."""
         return PortType(self._sys._type)
 
     def virtual_image(self, wd_mm: float) -> VirtualImage:

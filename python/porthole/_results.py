@@ -39,6 +39,7 @@ class PortType(str, enum.Enum):
     """The kind of a port."""
     DOME = "dome"
     FLAT = "flat"
+    CYLINDER = "cylinder"
 
 
 class CameraModel(str, enum.Enum):
@@ -642,12 +643,15 @@ class Measurement:
 class VirtualImage:
     """Where a port images an axial object at wd_mm (object to the outer vertex): d_s2ep_mm from the
     entrance pupil, vwd_mm from the outer vertex (the paper's D_S2EP and VWD), lateral magnification,
-    and the image's lateral offset from the axis (decentred ports), all mm."""
+    the image's lateral offset from the axis (decentred ports), and the two focal lines of an
+    astigmatic port (a cylinder; both d_s2ep_mm for a symmetric port; 0 for real rays), all mm."""
     wd_mm: float
     d_s2ep_mm: float
     vwd_mm: float
     magnification: float
     lateral_offset_mm: float
+    focal_line_near_d_s2ep_mm: float = 0.0
+    focal_line_far_d_s2ep_mm: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)

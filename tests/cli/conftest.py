@@ -39,7 +39,7 @@ class Result:
 INFINITE_DISTANCE_KEY = re.compile(
     r"^(wd_mm|wd|subject_distance_mm|object_distance_mm|focus_distance_mm|focus_mm|fd_mm|"
     r"(virtual_)?(far|total)(_wd)?_mm|max_wd_mm|min_wd_mm|d_s2ep_mm|vwd_mm|d_s2ep_real_mm|vwd_real_mm|"
-    r"d_s2ep_infinity_mm|infinity_image_focus_distance_mm|"
+    r"d_s2ep_infinity_mm|infinity_image_focus_distance_mm|focal_line_(near|far)_d_s2ep_mm|"
     r"efl_air_mm|efl_water_mm|back_focal_mm|front_focal_mm|"
     r"hyperfocal_mm|thin_mm|traced_mm|coverage_(thin|traced)_mm|object_height_mm|distance_mm)$")
 # Text: an infinity is allowed where the words around it say it is a distance at infinity.

@@ -18,6 +18,7 @@
 #include "porthole/calib/scales.h"
 #include "porthole/coded/ellipse.h"
 #include "porthole/core/error.h"
+#include "porthole/refraction/shell_json.h"
 #include "porthole/simulate/simulate.h"
 
 namespace porthole::calib {
@@ -393,7 +394,25 @@ class RefractiveAdjustment {
 };
 
 PortArray DefaultPredictedSigma(PortKind kind) {
-  return kind == PortKind::kDome ? PortArray{0.5, 0.5, 0.5} : PortArray{0.005, 0.005, 1.0};
+  switch (kind) {
+    case PortKind::kDome: return {0.5, 0.5, 0.5};
+    case PortKind::kFlat: return {0.005, 0.005, 1.0};
+    case PortKind::kCylinder: return {0.5, 0.5, 1.0};
+  }
+  return {0.5, 0.5, 0.5};
+}
+
+// The parameter along the optical axis, which the start searches (dome ep_z, flat distance,
+// cylinder ep_z), and its candidates around the prediction.
+int AxialParam(PortKind kind) { return kind == PortKind::kCylinder ? 1 : 2; }
+std::vector<double> AxialCandidates(PortKind kind, double predicted) {
+  std::vector<double> c;
+  if (kind == PortKind::kFlat) {
+    for (double f : {1.0, 0.5, 0.75, 1.5, 2.0}) c.push_back(predicted * f);
+  } else {
+    for (double dz : {0.0, -8.0, -4.0, 4.0, 8.0}) c.push_back(predicted + dz);
+  }
+  return c;
 }
 
 // The port file's σ (ports::ShellSigma) as a prior on the shell values of `shell` (refraction::
@@ -411,11 +430,11 @@ std::optional<ShellPrior> ShellPriorOf(const ports::PortSpec& spec, const refrac
   };
   // A σ of 0 states the value exactly: it stays fixed.
   const auto given = [](const std::optional<double>& v) { return v && *v > 0; };
-  if (shell.kind == PortKind::kDome) {
+  if (shell.kind == PortKind::kDome || shell.kind == PortKind::kCylinder) {
     if (given(sg.outer_radius_mm)) row({{1, 1.0}}, *sg.outer_radius_mm), prior.free[1] = true;
     if (given(sg.inner_radius_mm)) row({{2, 1.0}}, *sg.inner_radius_mm), prior.free[2] = true;
     if (given(sg.thickness_mm)) row({{1, 1.0}, {2, -1.0}}, *sg.thickness_mm), prior.free[2] = true;
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < 3 && shell.kind == PortKind::kDome; ++k) {
       const double so = sg.inner_offset_mm ? (*sg.inner_offset_mm)(k) : 0.0;
       if (so > 0) row({{3 + k, 1.0}}, so), prior.free[3 + k] = true;
     }
@@ -746,14 +765,11 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   adj.lens_free = lens_free;
   adj.port_free = o.port_free;
 
-  // 1-D search of the axial port parameter (dome ep_z, flat distance) around the prediction.
-  std::vector<double> candidates;
-  if (shell.kind == PortKind::kDome) {
-    for (double dz : {0.0, -8.0, -4.0, 4.0, 8.0}) candidates.push_back(predicted[2] + dz);
-  } else {
-    for (double f : {1.0, 0.5, 0.75, 1.5, 2.0}) candidates.push_back(predicted[2] * f);
-  }
-  if (!o.port_free[2] || !o.search) candidates.resize(1);
+  // 1-D search of the axial port parameter (dome and cylinder ep_z, flat distance) around the
+  // prediction.
+  const int axial = AxialParam(shell.kind);
+  std::vector<double> candidates = AxialCandidates(shell.kind, predicted[axial]);
+  if (!o.port_free[axial] || !o.search) candidates.resize(1);
   // Circular targets: the centre correction (CalibrationOptions::centre_correction) with the dot
   // radius the central calibration used (0: off). Its offsets are computed at the start (the
   // predicted port) for the search, then recomputed after every adjustment until they settle.
@@ -762,11 +778,11 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   adj.port = predicted;
   set_poses();
   adj.UpdateCentreOffsets(dot_r);
-  double best_cost = INFINITY, best_axial = predicted[2];
+  double best_cost = INFINITY, best_axial = predicted[axial];
   int iterations = 0;
   for (double c : candidates) {
     PortArray p = predicted;
-    p[2] = c;
+    p[axial] = c;
     try {
       refraction::ValidateParams(shell, p.data(), "port");
     } catch (const InvalidInput&) {
@@ -777,8 +793,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     set_poses();
     double cost = INFINITY;
     iterations += adj.Solve(candidates.size() > 1 ? 4 : 0, &cost);
-    say(fmt::format("start: {} = {:.2f} {} -> RMS {:.3f} px", refraction::PortParams(shell.kind)[2].name, c,
-                    refraction::PortParams(shell.kind)[2].unit,
+    say(fmt::format("start: {} = {:.2f} {} -> RMS {:.3f} px", refraction::PortParams(shell.kind)[axial].name, c,
+                    refraction::PortParams(shell.kind)[axial].unit,
                     std::sqrt(2 * cost / obs.size())));
     if (cost < best_cost) best_cost = cost, best_axial = c;
   }
@@ -788,7 +804,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   }
   std::copy(start.params.begin(), start.params.end(), adj.lens.begin());
   adj.port = predicted;
-  adj.port[2] = best_axial;
+  adj.port[axial] = best_axial;
   set_poses();
 
   // Adjust with outlier rejection (as Calibrate), the water index factor free when asked but the
@@ -1240,7 +1256,7 @@ nlohmann::ordered_json PlanToJson(const RefractivePlan& p) {
     }
   }
   return {{"plan",
-           {{"kind", p.kind == PortKind::kDome ? "dome" : "flat"},
+           {{"kind", refraction::PortKindName(p.kind)},
             {"model", std::string(m.name)},
             {"sigma0_px", p.sigma0_px},
             {"n_images", p.n_images},
@@ -1283,7 +1299,7 @@ std::array<bool, kPortNumParams> ParsePortFree(PortKind kind, const std::string&
     }
     if (!found) {
       throw InvalidInput(field, fmt::format("unknown {} port parameter '{}' (use {},{},{}, all or none)",
-                                            kind == PortKind::kDome ? "dome" : "flat", name,
+                                            refraction::PortKindName(kind), name,
                                             names[0].name, names[1].name, names[2].name));
     }
     start = end + 1;
@@ -1371,13 +1387,20 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
   }
   shell["n_water"] = num(r.n_water);
   // The shell as estimated, in the cam frame (what measure/ reads back to trace through the port).
-  const Json estimated_shell = ShellToJson(refraction::WithShellValues(refraction::ShellOf(options.port), r.shell));
+  const Json estimated_shell = refraction::ShellToJson(refraction::WithShellValues(refraction::ShellOf(options.port), r.shell));
   for (const auto& [key, value] : estimated_shell.items()) shell[key] = value;
   Json geometry = Json::object();
   if (const auto* d = std::get_if<ports::DomePort>(&r.estimated_port.shape)) {
     geometry = {{"frame", "housing"},
                 {"outer_center_mm", {d->outer.center_mm.x(), d->outer.center_mm.y(), d->outer.center_mm.z()}},
                 {"inner_center_mm", {d->inner.center_mm.x(), d->inner.center_mm.y(), d->inner.center_mm.z()}},
+                {"entrance_pupil_mm", {r.estimated_port.default_ep_in_housing_mm.x(),
+                                       r.estimated_port.default_ep_in_housing_mm.y(),
+                                       r.estimated_port.default_ep_in_housing_mm.z()}}};
+  } else if (const auto* c = std::get_if<ports::CylinderPort>(&r.estimated_port.shape)) {
+    geometry = {{"frame", "housing"},
+                {"axis_point_mm", {c->axis_point_mm.x(), c->axis_point_mm.y(), c->axis_point_mm.z()}},
+                {"axis", {c->axis.x(), c->axis.y(), c->axis.z()}},
                 {"entrance_pupil_mm", {r.estimated_port.default_ep_in_housing_mm.x(),
                                        r.estimated_port.default_ep_in_housing_mm.y(),
                                        r.estimated_port.default_ep_in_housing_mm.z()}}};
@@ -1412,7 +1435,7 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
     central["why_not"] = cp.why_not;
   }
   j["port"] = {{"name", options.port.spec.name},
-               {"kind", r.kind == PortKind::kDome ? "dome" : "flat"},
+               {"kind", refraction::PortKindName(r.kind)},
                {"intrinsics", ToString(r.intrinsics)},
                {"n_water", options.port.n_water},
                {"n_glass", options.port.n_glass},

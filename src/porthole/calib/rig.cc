@@ -1,6 +1,7 @@
 // CalibrateRig (rig.h): the start from each camera's own calibration, one Ceres adjustment of every
 // camera's intrinsics, cam_from_rig and the frames' poses, and its statistics.
 #include "porthole/calib/rig.h"
+#include "porthole/refraction/shell_json.h"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -690,22 +691,6 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   return res;
 }
 
-nlohmann::ordered_json ShellToJson(const refraction::Shell& s) {
-  using Json = nlohmann::ordered_json;
-  Json j = {{"frame", "cam (origin at the entrance pupil, axes of the housing)"},
-            {"n_glass", s.n_glass},
-            {"n_water", s.n_water}};
-  if (s.kind == refraction::PortKind::kDome) {
-    j["outer_radius_mm"] = s.outer_radius_mm;
-    j["inner_radius_mm"] = s.inner_radius_mm;
-    j["inner_from_outer_mm"] = {s.inner_from_outer_mm.x(), s.inner_from_outer_mm.y(), s.inner_from_outer_mm.z()};
-    j["rim_from_outer_z_mm"] = s.rim_from_outer_z_mm;
-  } else {
-    j["thickness_mm"] = s.thickness_mm;
-  }
-  return j;
-}
-
 namespace {
 
 nlohmann::ordered_json JointCovarianceJson(const RigResult& r) {
@@ -762,12 +747,12 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
         predicted[key] = c.port_predicted[i];
       }
       out["port"] = {{"name", options.ports[options.ports.size() == 1 ? 0 : k].spec.name},
-                     {"kind", c.port_kind == refraction::PortKind::kDome ? "dome" : "flat"},
+                     {"kind", refraction::PortKindName(c.port_kind)},
                      {"n_water", options.ports[options.ports.size() == 1 ? 0 : k].n_water},
                      {"parameters", params},
                      {"sigma", sigma},
                      {"predicted", predicted},
-                     {"shell", ShellToJson(c.shell)}};
+                     {"shell", refraction::ShellToJson(c.shell)}};
     }
     out.update(j);
     cameras.push_back(out);

@@ -123,9 +123,4 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
 // matrix} (RigResult::covariance)}.
 nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, const RigOptions& options);
 
-// A port's fixed part (refraction::Shell) as the rig and refractive calibration files hold it:
-// {frame, n_glass, n_water, and a dome's outer_radius_mm, inner_radius_mm, inner_from_outer_mm,
-// rim_from_outer_z_mm, or a flat port's thickness_mm} (measure::RigFromJson reads it back).
-nlohmann::ordered_json ShellToJson(const refraction::Shell& s);
-
 }  // namespace porthole::calib

@@ -18,17 +18,29 @@ inline void AddPlausibilityWarning(std::vector<std::string>* warnings, std::stri
   if (auto w = PlausibilityWarning(field, value, range)) warnings->push_back(std::move(*w));
 }
 
-// Pixel pitch, focal length, the port's radii (dome) or thickness (flat).
+// The port's radii (dome), radii and wall (cylinder) or thickness (flat), fields named
+// `where`.<key> (the port file's keys).
+inline std::vector<std::string> PortPlausibilityWarnings(const ports::PortSpec& port, const std::string& where = "port") {
+  std::vector<std::string> w;
+  if (const auto* d = std::get_if<ports::DomePort>(&port.shape)) {
+    AddPlausibilityWarning(&w, where + ".outer.radius_mm", d->outer.radius_mm, kDomeRadiusRange);
+    AddPlausibilityWarning(&w, where + ".inner.radius_mm", d->inner.radius_mm, kDomeRadiusRange);
+  } else if (const auto* c = std::get_if<ports::CylinderPort>(&port.shape)) {
+    AddPlausibilityWarning(&w, where + ".outer_radius_mm", c->outer_radius_mm, kDomeRadiusRange);
+    AddPlausibilityWarning(&w, where + ".inner_radius_mm", c->inner_radius_mm, kDomeRadiusRange);
+    AddPlausibilityWarning(&w, where + ".thickness_mm", c->outer_radius_mm - c->inner_radius_mm, kPortThicknessRange);
+  } else if (const auto* f = std::get_if<ports::FlatPort>(&port.shape)) {
+    AddPlausibilityWarning(&w, where + ".thickness_mm", f->thickness_mm, kPortThicknessRange);
+  }
+  return w;
+}
+
+// Pixel pitch, focal length, and the port's (PortPlausibilityWarnings).
 inline std::vector<std::string> PlausibilityWarnings(const housing::HousedCamera& h) {
   std::vector<std::string> w;
   AddPlausibilityWarning(&w, "pixel_pitch_mm", h.camera.sensor.pixel_pitch_mm, kPixelPitchRange);
   AddPlausibilityWarning(&w, "focal_length_mm", h.lens.focal_length_mm, kFocalLengthRange);
-  if (const auto* d = std::get_if<ports::DomePort>(&h.port.shape)) {
-    AddPlausibilityWarning(&w, "port.outer.radius_mm", d->outer.radius_mm, kDomeRadiusRange);
-    AddPlausibilityWarning(&w, "port.inner.radius_mm", d->inner.radius_mm, kDomeRadiusRange);
-  } else if (const auto* f = std::get_if<ports::FlatPort>(&h.port.shape)) {
-    AddPlausibilityWarning(&w, "port.thickness_mm", f->thickness_mm, kPortThicknessRange);
-  }
+  for (std::string& p : PortPlausibilityWarnings(h.port)) w.push_back(std::move(p));
   return w;
 }
 

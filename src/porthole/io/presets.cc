@@ -273,10 +273,19 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
     f.inner_point_mm = r.Vector3("inner_point_mm");
     if (const auto n = r.OptVec3("normal")) f.normal = *n;
     p.shape = f;
+  } else if (type == "cylinder") {
+    ports::CylinderPort c;
+    if (material) c.material = *material;
+    c.axis_point_mm = r.Vector3("axis_point_mm");
+    if (const auto a = r.OptVec3("axis")) c.axis = *a;
+    c.inner_radius_mm = r.Double("inner_radius_mm");
+    c.outer_radius_mm = r.Double("outer_radius_mm");
+    c.rim_z_mm = r.OptDouble("rim_z_mm");
+    p.shape = c;
   } else if (!type) {
-    r.Missing("type", "is required: \"dome\" or \"flat\"");
+    r.Missing("type", "is required: \"dome\", \"flat\" or \"cylinder\"");
   } else {
-    r.Fail("type", "must be \"dome\" or \"flat\"");
+    r.Fail("type", "must be \"dome\", \"flat\" or \"cylinder\"");
   }
   // [sigma]: the port's 1σ (interop::HousingSigmaToml writes calibmar's; docs/presets.md), in this
   // file's units, checked (finite, >= 0). The shell's (outer_radius_mm, inner_radius_mm,
@@ -446,13 +455,17 @@ std::string PortToToml(const ports::PortSpec& p) {
   };
   std::string s;
   s += fmt::format("name = {}\ndescription = {}\nsource = {}\n", str(p.name), str(p.description), str(p.source));
-  s += fmt::format("type = \"{}\"\nframe = \"{}\"\nmaterial = {}\n", p.IsDome() ? "dome" : "flat",
+  s += fmt::format("type = \"{}\"\nframe = \"{}\"\nmaterial = {}\n", p.KindName(),
                    p.frame == ports::PortFrame::kCam ? "cam" : "housing", str(p.material()));
   s += fmt::format("entrance_pupil_mm = {}\n", vec(p.default_ep_in_housing_mm));
   if (const auto* d = std::get_if<ports::DomePort>(&p.shape)) {
     if (d->rim_z_mm) s += fmt::format("rim_z_mm = {}\n", *d->rim_z_mm);
     s += fmt::format("\n[outer]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->outer.center_mm), d->outer.radius_mm);
     s += fmt::format("\n[inner]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->inner.center_mm), d->inner.radius_mm);
+  } else if (const auto* c = std::get_if<ports::CylinderPort>(&p.shape)) {
+    if (c->rim_z_mm) s += fmt::format("rim_z_mm = {}\n", *c->rim_z_mm);
+    s += fmt::format("axis_point_mm = {}\naxis = {}\ninner_radius_mm = {}\nouter_radius_mm = {}\n",
+                     vec(c->axis_point_mm), vec(c->axis), c->inner_radius_mm, c->outer_radius_mm);
   } else {
     const auto& f = std::get<ports::FlatPort>(p.shape);
     s += fmt::format("thickness_mm = {}\ninner_point_mm = {}\nnormal = {}\n", f.thickness_mm,

@@ -60,7 +60,7 @@ TEST(PortToml, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(ErrorOf("colour = \"blue\"\n" + good), "my-dome.toml:1: colour: unknown key");
   EXPECT_EQ(ErrorOf(good + "colour = \"blue\"\n"), "my-dome.toml:8: inner.colour: unknown key");
   EXPECT_NE(ErrorOf("type = \"dome\"\n[outer\n").find("my-dome.toml:2"), std::string::npos);
-  EXPECT_NE(ErrorOf("type = \"cone\"\n").find("type: must be \"dome\" or \"flat\""), std::string::npos);
+  EXPECT_NE(ErrorOf("type = \"cone\"\n").find("type: must be \"dome\", \"flat\" or \"cylinder\""), std::string::npos);
   // Geometry rules come from ports::Validate, with the file named.
   std::string bad = good;
   bad.replace(bad.find("75.7"), 4, "90.0");
@@ -98,7 +98,7 @@ TEST(PortToml, ATypoIsNamedAtItsLineWithTheKeyItResembles) {
 }
 
 TEST(PortToml, WriteThenReadIsLossless) {
-  for (const char* name : {"nimar-ni320", "nimar-ni320-nominal", "flat-acrylic-10mm"}) {
+  for (const char* name : {"nimar-ni320", "nimar-ni320-nominal", "flat-acrylic-10mm", "generic-cylinder-acrylic-4in"}) {
     const auto p = LoadPort(name);
     const auto q = ParsePortToml(PortToToml(p), "roundtrip.toml");
     EXPECT_EQ(PortToToml(q), PortToToml(p)) << name;

@@ -14,6 +14,7 @@
 #include "porthole/core/input.h"
 #include "porthole/core/nearest.h"
 #include "porthole/interop/rig_files.h"
+#include "porthole/refraction/shell_json.h"
 
 namespace porthole::measure {
 namespace {
@@ -41,36 +42,14 @@ Eigen::Vector3d Vector3(const Json& j, const std::string& key, const std::string
 }
 
 refraction::Shell ShellFromJson(const Json& port, const std::string& field) {
-  if (!port.contains("kind") || !port["kind"].is_string()) throw InvalidInput(field + ".kind", "must be dome or flat");
-  const std::string kind = port["kind"].get<std::string>();
+  if (!port.contains("kind") || !port["kind"].is_string()) {
+    throw InvalidInput(field + ".kind", "must be dome, flat or cylinder");
+  }
   if (!port.contains("shell") || !port["shell"].is_object()) {
     throw InvalidInput(field + ".shell", "missing: the rig file predates measure (calibrate it again with this "
                                          "version to record each port's shell)");
   }
-  const Json& s = port["shell"];
-  const std::string f = field + ".shell";
-  refraction::Shell sh;
-  sh.n_glass = Number(s, "n_glass", f);
-  sh.n_water = Number(s, "n_water", f);
-  if (kind == "dome") {
-    sh.kind = refraction::PortKind::kDome;
-    sh.outer_radius_mm = Number(s, "outer_radius_mm", f);
-    sh.inner_radius_mm = Number(s, "inner_radius_mm", f);
-    sh.inner_from_outer_mm = Vector3(s, "inner_from_outer_mm", f);
-    sh.rim_from_outer_z_mm = Number(s, "rim_from_outer_z_mm", f);
-    if (!(sh.outer_radius_mm > 0 && sh.inner_radius_mm > 0 &&
-          sh.inner_from_outer_mm.norm() < sh.outer_radius_mm - sh.inner_radius_mm)) {
-      throw InvalidInput(f, "not a dome: the inner sphere must lie inside the outer one");
-    }
-  } else if (kind == "flat") {
-    sh.kind = refraction::PortKind::kFlat;
-    sh.thickness_mm = Number(s, "thickness_mm", f);
-    if (!(sh.thickness_mm > 0)) throw InvalidInput(f + ".thickness_mm", "must be > 0");
-  } else {
-    throw InvalidInput(field + ".kind", "must be dome or flat, not " + kind);
-  }
-  if (!(sh.n_glass >= 1 && sh.n_water >= 1)) throw InvalidInput(f, "indices must be >= 1");
-  return sh;
+  return refraction::ShellFromJson(port["kind"].get<std::string>(), port["shell"], field + ".shell");
 }
 
 }  // namespace

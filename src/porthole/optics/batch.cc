@@ -246,7 +246,10 @@ batch_detail::SoaView ViewOf(const batch_detail::SoaOut& o) {
 // One interface over rays [0, m) of `in`, written to `out` (which may be `in`).
 void TraceRange(const batch_detail::Kernels& k, const Interface& f, const batch_detail::SoaView& in,
                 const batch_detail::SoaOut& out, std::ptrdiff_t m) {
-  (f.surface.kind == Surface::Kind::kSphere ? k.sphere : k.plane)(f, in, out, 0, m);
+  const Surface::Kind kind = f.surface.kind;
+  (kind == Surface::Kind::kSphere  ? k.sphere
+   : kind == Surface::Kind::kPlane ? k.plane
+                                   : k.cylinder)(f, in, out, 0, m);
 }
 
 // Out-of-place batches of BatchOptions::stream_min rays or more write their results with

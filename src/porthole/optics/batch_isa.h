@@ -26,6 +26,7 @@ using RangeKernel = void (*)(const Interface& f, const SoaView& in, const SoaOut
 struct Kernels {
   RangeKernel sphere;
   RangeKernel plane;
+  RangeKernel cylinder;
 };
 
 Kernels KernelsSse2();  // the compiler's baseline (SSE2 on x86-64): always present

@@ -43,40 +43,55 @@ struct RayT {
 };
 using Ray = RayT<double>;
 
-// A refracting surface. A sphere (centre, radius) or a plane (point, unit normal); the aperture is
-// the half-space dot(p - aperture_point, aperture_normal) >= 0 where the surface has glass
-// (a dome's rim plane); aperture_normal = 0 means unbounded.
-struct Surface {
-  enum class Kind : std::uint8_t { kSphere, kPlane };
+// A refracting surface: a sphere (centre, radius), a plane (point, unit normal) or a circular
+// cylinder (a point on its axis, the axis's unit direction, radius). The aperture is the
+// half-space dot(p - aperture_point, aperture_normal) >= 0 where the surface has glass (a dome's
+// or a cylinder's rim plane); aperture_normal = 0 means unbounded. Templated on the scalar S of
+// its shape (double for the tracers; ceres::Jet where a port's parameters are being estimated,
+// refraction/refraction.h); the aperture is a value only.
+template <typename S>
+struct SurfaceT {
+  enum class Kind : std::uint8_t { kSphere, kPlane, kCylinder };
   Kind kind = Kind::kSphere;
-  Vec3 center = Vec3::Zero();  // sphere centre, or a point on the plane
-  double radius = 0;           // sphere only
-  Vec3 normal = Vec3::Zero();  // plane only (unit)
+  Vec3T<S> center = Vec3T<S>::Zero();  // sphere centre, a point on the plane, a point on the axis
+  S radius = S(0);                     // sphere and cylinder
+  Vec3T<S> normal = Vec3T<S>::Zero();  // plane: unit normal; cylinder: unit axis direction
   Vec3 aperture_point = Vec3::Zero();
   Vec3 aperture_normal = Vec3::Zero();
 
-  static Surface MakeSphere(const Vec3& center, double radius) {
-    Surface s;
+  static SurfaceT MakeSphere(const Vec3T<S>& center, const S& radius) {
+    SurfaceT s;
     s.kind = Kind::kSphere;
     s.center = center;
     s.radius = radius;
     return s;
   }
-  static Surface MakePlane(const Vec3& point, const Vec3& unit_normal) {
-    Surface s;
+  static SurfaceT MakePlane(const Vec3T<S>& point, const Vec3T<S>& unit_normal) {
+    SurfaceT s;
     s.kind = Kind::kPlane;
     s.center = point;
     s.normal = unit_normal;
     return s;
   }
+  static SurfaceT MakeCylinder(const Vec3T<S>& axis_point, const Vec3T<S>& unit_axis, const S& radius) {
+    SurfaceT s;
+    s.kind = Kind::kCylinder;
+    s.center = axis_point;
+    s.normal = unit_axis;
+    s.radius = radius;
+    return s;
+  }
 };
+using Surface = SurfaceT<double>;
 
 // One refraction: the surface, and the indices before and after it along the ray's travel.
-struct Interface {
-  Surface surface;
-  double n_before = 1.0;
-  double n_after = 1.0;
+template <typename S>
+struct InterfaceT {
+  SurfaceT<S> surface;
+  S n_before = S(1.0);
+  S n_after = S(1.0);
 };
+using Interface = InterfaceT<double>;
 
 // ---- Primitives (templated, inline, written with selects instead of early returns so that the
 // batched tracer's loops vectorise; shared by the single-ray, Jet and batched tracers) ----
@@ -149,6 +164,37 @@ PORTHOLE_INLINE T IntersectPlane(const P3<T>& o, const P3<T>& d, const P3<T>& p,
   return t;
 }
 
+// Distance along a unit ray to a circular cylinder (a point c on its axis, unit axis a, radius):
+// the smallest root greater than `eps`, as IntersectSphere, in the plane across the axis. *hit is
+// false when there is none or the ray runs along the axis.
+template <typename T>
+PORTHOLE_INLINE T IntersectCylinder(const P3<T>& o, const P3<T>& d, const P3<T>& c, const P3<T>& a,
+                                    T radius, bool* hit, double eps = 1e-9) {
+  const P3<T> oc = o - c;
+  const P3<T> oc_across = oc - oc.dot(a) * a;  // the parts across the axis
+  const P3<T> d_across = d - d.dot(a) * a;
+  const T aa = d_across.squaredNorm();
+  const bool slanted = aa > T(1e-24);
+  const T inv_aa = T(1) / (slanted ? aa : T(1));
+  const T b = oc_across.dot(d_across) * inv_aa;  // the closest approach, in units of the ray
+  const P3<T> perp = oc_across - b * d_across;
+  const T disc = (radius * radius - perp.squaredNorm()) * inv_aa;
+  const bool real = disc >= T(0);
+  using std::sqrt;
+  const T sq = sqrt(real ? disc : T(0));
+  const T t1 = -b - sq;
+  const T t = t1 > T(eps) ? t1 : -b + sq;
+  *hit = slanted & real & (t > T(eps));
+  return t;
+}
+
+// The unit outward normal of that cylinder at a point p on it.
+template <typename T>
+PORTHOLE_INLINE P3<T> CylinderNormal(const P3<T>& p, const P3<T>& c, const P3<T>& a, T radius) {
+  const P3<T> pc = p - c;
+  return (pc - pc.dot(a) * a) * (T(1) / radius);
+}
+
 // Vector form of Snell's law: unit direction d meets a surface with unit normal n (either
 // orientation) going from index n1 into n2. Returns false on total internal reflection, and then
 // *out is meaningless. Otherwise *out is a unit vector with n1 sin θ1 = n2 sin θ2 to round-off.
@@ -173,27 +219,34 @@ bool Refract(const Vec3T<T>& d, const Vec3T<T>& normal, T n1, T n2, Vec3T<T>* ou
 }
 
 // `Kind` lets a caller that knows the surface kind at compile time (the batched tracer, which
-// dispatches once per surface) remove the sphere/plane choice from its vectorised loop.
-enum class KindHint { kRuntime, kSphere, kPlane };
+// dispatches once per surface) remove the choice of kind from its vectorised loop.
+enum class KindHint { kRuntime, kSphere, kPlane, kCylinder };
 
 // One interface: moves *o to the intersection with f.surface and refracts *d there. On a status
 // other than kOk, *o is the intersection (kOutsideAperture, kTotalInternalReflection) or unchanged
-// (kMissed), and *d is unchanged. The one surface step of optics/'s tracers: the single-ray, the
-// templated (Jet) and the batched tracers all call it (refraction::TraceOut still has its own).
-template <typename T, KindHint Kind = KindHint::kRuntime>
-PORTHOLE_INLINE RayStatus Step(const Interface& f, P3<T>* o, P3<T>* d) {
-  const Surface& s = f.surface;
-  const bool sphere = Kind == KindHint::kRuntime ? s.kind == Surface::Kind::kSphere
-                                                 : Kind == KindHint::kSphere;
+// (kMissed), and *d is unchanged. The one surface step of porthole: the single-ray, the templated
+// (Jet), the batched tracers and the refractive projection (refraction::TraceOut) all call it.
+// The surface's scalar S is double, or T itself (a port whose shape carries derivatives).
+template <typename T, KindHint Kind = KindHint::kRuntime, typename S>
+PORTHOLE_INLINE RayStatus Step(const InterfaceT<S>& f, P3<T>* o, P3<T>* d) {
+  using Kinds = typename SurfaceT<S>::Kind;
+  const SurfaceT<S>& s = f.surface;
+  const bool sphere = Kind == KindHint::kRuntime ? s.kind == Kinds::kSphere : Kind == KindHint::kSphere;
+  const bool cylinder = Kind == KindHint::kRuntime ? s.kind == Kinds::kCylinder : Kind == KindHint::kCylinder;
   const P3<T> c = P3<T>::Cast(s.center);
+  const P3<T> axis_or_normal = P3<T>::Cast(s.normal);
+  const T radius = T(s.radius);
   bool hit = false;
-  const T t = sphere ? IntersectSphere<T>(*o, *d, c, T(s.radius), &hit)
-                     : IntersectPlane<T>(*o, *d, c, P3<T>::Cast(s.normal), &hit);
+  const T t = sphere     ? IntersectSphere<T>(*o, *d, c, radius, &hit)
+              : cylinder ? IntersectCylinder<T>(*o, *d, c, axis_or_normal, radius, &hit)
+                         : IntersectPlane<T>(*o, *d, c, axis_or_normal, &hit);
   const P3<T> p = *o + t * *d;
   const bool bounded = P3<double>::Cast(s.aperture_normal).squaredNorm() > 0;
   const bool inside_aperture =
       !bounded | ((p - P3<T>::Cast(s.aperture_point)).dot(P3<T>::Cast(s.aperture_normal)) >= T(0));
-  const P3<T> n = sphere ? (p - c) * (T(1) / T(s.radius)) : P3<T>::Cast(s.normal);
+  const P3<T> n = sphere     ? (p - c) * (T(1) / radius)
+                  : cylinder ? CylinderNormal<T>(p, c, axis_or_normal, radius)
+                             : axis_or_normal;
   P3<T> d_new;
   const bool refracted = Refract<T>(*d, n, T(f.n_before), T(f.n_after), &d_new);
   const RayStatus status = !hit               ? RayStatus::kMissed

@@ -41,7 +41,7 @@ Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
                     {"min_focus_assumed", ln.min_focus_assumed}, {"pupil_estimated", ln.pupil_estimated},
                     {"projection", camera::ProjectionName(ln.projection)},
                     {"projection_estimated", ln.projection_estimated}}},
-          {"port", {{"name", sys.spec.name}, {"type", sys.IsDome() ? "dome" : "flat"},
+          {"port", {{"name", sys.spec.name}, {"type", sys.spec.KindName()},
                     {"glass_index", sys.n_glass}, {"outer_vertex_z_mm", sys.OuterVertexZ()}}},
           {"water", {{"index", sys.n_water}, {"lambda_nm", s.env.conditions.lambda_nm}}},
           {"ep_in_housing_mm", {sys.ep_in_housing_mm.x(), sys.ep_in_housing_mm.y(), sys.ep_in_housing_mm.z()}}};

@@ -342,7 +342,9 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   auto& warn = plan.warnings;
   warn = housing::PlausibilityWarnings(setup);
   if (o.coc_mm) housing::AddPlausibilityWarning(&warn, "coc_mm", *o.coc_mm, kCocRange);
-  const bool dome = plan.system.IsDome();
+  // A curved port (a dome; a cylinder across its axis) images infinity at a finite distance.
+  const bool dome = plan.system.IsDome() || plan.system.IsCylinder();
+  const std::string kind(plan.system.spec.KindName());
   if (ln.min_focus_assumed) {
     warn.push_back(fmt::format("The minimum focus of the {} is assumed, {:g} mm (not known): the minimum working "
                                "distance and the close-up lens advice depend on it. Give the published value "
@@ -363,7 +365,7 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     warn.push_back(fmt::format("The {} cuts off {} of the frame ({:.1f} % of its area): chief rays beyond {:.1f} deg "
                                "off axis ({:.2f} mm from the image centre along the diagonal) do not reach the water, "
                                "so that part of the image is vignetted: it sees the {} whatever the distance.",
-                               dome ? "dome's rim" : "port's edge", plan.field_cut.what,
+                               dome ? kind + "'s rim" : "port's edge", plan.field_cut.what,
                                100 * plan.field_cut.blocked_fraction, plan.field_cut.clear_angle_deg,
                                plan.field_cut.clear_radius_mm, dome ? "rim and the housing" : "housing"));
   }
@@ -374,9 +376,9 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
                            ? "nothing in the water is then sharp"
                            : fmt::format("only objects beyond WD {:.0f} mm are then sharp",
                                          WdForVirtualImage(plan.system, near_at_inf));
-    warn.push_back(fmt::format("Do not set the focus to infinity: behind this dome even infinity is imaged "
+    warn.push_back(fmt::format("Do not set the focus to infinity: behind this {} even infinity is imaged "
                                "{:.1f} mm from the entrance pupil; at f/{:g} {}.",
-                               plan.d_s2ep_infinity_mm, n, what));
+                               kind, plan.d_s2ep_infinity_mm, n, what));
   }
   if (plan.lens_covers_virtual_range) {
     warn.push_back(fmt::format("The {} focuses on the whole virtual-image range behind this port, from the image of "

@@ -1,5 +1,6 @@
 #include "porthole/ports/port.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "porthole/core/error.h"
@@ -19,7 +20,32 @@ std::optional<double> FrontZ(const SphereSpec& s, const Vec3& p0) {
   return s.center_mm.z() + std::sqrt(h2);
 }
 
+// Distance from `p` to the line through `c` along unit `a`.
+double FromAxis(const Vec3& p, const Vec3& c, const Vec3& a) {
+  const Vec3 q = p - c;
+  return (q - q.dot(a) * a).norm();
+}
+
+// Where the line {p0 + s ẑ} meets a cylinder (axis across Z) on its +Z side.
+std::optional<double> FrontZ(const CylinderPort& c, double radius, const Vec3& p0) {
+  const Vec3 a = c.axis.normalized();
+  const Vec3 across = a.cross(Vec3::UnitZ());  // unit, since a.z = 0
+  const double off = (p0 - c.axis_point_mm).dot(across);
+  const double h2 = radius * radius - off * off;
+  if (h2 < 0) return std::nullopt;
+  return c.axis_point_mm.z() + std::sqrt(h2);
+}
+
 }  // namespace
+
+Vec3 CanonicalAxis(const Vec3& axis) {
+  const Vec3 a = axis.normalized();
+  return a.y() < 0 || (a.y() == 0 && a.x() < 0) ? Vec3(-a) : a;
+}
+
+std::string_view PortSpec::KindName() const {
+  return IsDome() ? "dome" : IsCylinder() ? "cylinder" : "flat";
+}
 
 const std::string& PortSpec::material() const {
   return std::visit([](const auto& p) -> const std::string& { return p.material; }, shape);
@@ -42,6 +68,20 @@ void Validate(const PortSpec& spec, const std::string& where) {
                          "the radius difference)");
     }
     if (d->rim_z_mm) RequireFinite(where + ".rim_z_mm", *d->rim_z_mm);
+  } else if (const auto* c = std::get_if<CylinderPort>(&spec.shape)) {
+    RequireFiniteVec(where + ".axis_point_mm", c->axis_point_mm);
+    RequireFiniteVec(where + ".axis", c->axis);
+    if (std::abs(c->axis.norm() - 1) > 1e-6) throw InvalidInput(where + ".axis", "must be a unit vector");
+    if (std::abs(c->axis.z()) > 1e-9) {
+      throw InvalidInput(where + ".axis", "must lie across the optical axis (its z component 0)");
+    }
+    RequirePositive(where + ".inner_radius_mm", c->inner_radius_mm);
+    RequirePositive(where + ".outer_radius_mm", c->outer_radius_mm);
+    if (c->inner_radius_mm >= c->outer_radius_mm) {
+      throw InvalidInput(where + ".inner_radius_mm", "must be smaller than outer_radius_mm (" +
+                                                         std::to_string(c->outer_radius_mm) + ")");
+    }
+    if (c->rim_z_mm) RequireFinite(where + ".rim_z_mm", *c->rim_z_mm);
   } else {
     const auto& f = std::get<FlatPort>(spec.shape);
     RequireFiniteVec(where + ".inner_point_mm", f.inner_point_mm);
@@ -79,6 +119,9 @@ PortSystem Place(const PortSpec& spec_in, const Vec3& ep, double n_glass, double
       d->outer.center_mm += ep;
       d->inner.center_mm += ep;
       if (d->rim_z_mm) *d->rim_z_mm += ep.z();
+    } else if (auto* c = std::get_if<CylinderPort>(&sys.spec.shape)) {
+      c->axis_point_mm += ep;
+      if (c->rim_z_mm) *c->rim_z_mm += ep.z();
     } else {
       std::get<FlatPort>(sys.spec.shape).inner_point_mm += ep;
     }
@@ -86,6 +129,10 @@ PortSystem Place(const PortSpec& spec_in, const Vec3& ep, double n_glass, double
   if (const auto* d = std::get_if<DomePort>(&sys.spec.shape)) {
     if ((ep - d->inner.center_mm).norm() >= d->inner.radius_mm) {
       throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie inside the dome's inner sphere");
+    }
+  } else if (const auto* c = std::get_if<CylinderPort>(&sys.spec.shape)) {
+    if (FromAxis(ep, c->axis_point_mm, c->axis.normalized()) >= c->inner_radius_mm) {
+      throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie inside the cylinder's inner surface");
     }
   } else {
     const auto& f = std::get<FlatPort>(sys.spec.shape);
@@ -110,6 +157,18 @@ std::vector<optics::Interface> PortSystem::Outward() const {
     }
     return {Interface{inner, 1.0, n_glass}, Interface{outer, n_glass, n_water}};
   }
+  if (IsCylinder()) {
+    const CylinderPort& c = cylinder();
+    const Vec3 a = CanonicalAxis(c.axis);
+    Surface inner = Surface::MakeCylinder(c.axis_point_mm, a, c.inner_radius_mm);
+    Surface outer = Surface::MakeCylinder(c.axis_point_mm, a, c.outer_radius_mm);
+    const double rim = c.rim_z_mm.value_or(c.axis_point_mm.z());
+    for (Surface* s : {&inner, &outer}) {
+      s->aperture_point = Vec3(0, 0, rim);
+      s->aperture_normal = Vec3(0, 0, 1);
+    }
+    return {Interface{inner, 1.0, n_glass}, Interface{outer, n_glass, n_water}};
+  }
   const FlatPort& f = flat();
   return {Interface{Surface::MakePlane(f.inner_point_mm, f.normal), 1.0, n_glass},
           Interface{Surface::MakePlane(f.inner_point_mm + f.thickness_mm * f.normal, f.normal), n_glass,
@@ -117,6 +176,12 @@ std::vector<optics::Interface> PortSystem::Outward() const {
 }
 
 std::vector<optics::Interface> PortSystem::Inward() const { return optics::Reversed(Outward()); }
+
+bool PortSystem::InsideOuterSurface(const Vec3& p) const {
+  if (IsDome()) return (p - dome().outer.center_mm).norm() < dome().outer.radius_mm;
+  if (IsCylinder()) return FromAxis(p, cylinder().axis_point_mm, cylinder().axis.normalized()) < cylinder().outer_radius_mm;
+  return (p - flat().inner_point_mm).dot(flat().normal) < flat().thickness_mm;
+}
 
 bool PortSystem::IsCentral(double tol_mm) const {
   if (!IsDome()) return false;
@@ -130,6 +195,11 @@ double PortSystem::OuterVertexZ() const {
     PORTHOLE_CHECK(z.has_value());  // Place() put the pupil inside the inner sphere
     return *z;
   }
+  if (IsCylinder()) {
+    const auto z = FrontZ(cylinder(), cylinder().outer_radius_mm, ep_in_housing_mm);
+    PORTHOLE_CHECK(z.has_value());  // Place() put the pupil inside the inner cylinder
+    return *z;
+  }
   const FlatPort& f = flat();
   const Vec3 p = f.inner_point_mm + f.thickness_mm * f.normal;
   return ep_in_housing_mm.z() + (p - ep_in_housing_mm).dot(f.normal) / f.normal.z();
@@ -138,6 +208,11 @@ double PortSystem::OuterVertexZ() const {
 double PortSystem::InnerVertexZ() const {
   if (IsDome()) {
     const auto z = FrontZ(dome().inner, ep_in_housing_mm);
+    PORTHOLE_CHECK(z.has_value());
+    return *z;
+  }
+  if (IsCylinder()) {
+    const auto z = FrontZ(cylinder(), cylinder().inner_radius_mm, ep_in_housing_mm);
     PORTHOLE_CHECK(z.has_value());
     return *z;
   }

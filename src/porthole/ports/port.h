@@ -1,4 +1,4 @@
-// Flat and dome ports, placed in front of a camera's entrance pupil.
+// Dome, flat and cylindrical ports, placed in front of a camera's entrance pupil.
 //
 // Frame: the housing frame of docs/conventions.md (origin at the lens-mount flange centre, +Z along
 // the optical axis toward the scene, +X right, +Y down), millimetres. A port is written either in
@@ -8,6 +8,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -40,6 +41,22 @@ struct FlatPort {
   std::string material = "pmma";
 };
 
+// A cylindrical port: glass between two coaxial circular cylinders whose axis crosses the optical
+// axis at a right angle (a tube housing looking out through its wall, as action-camera and ROV
+// housings do). Bent across the axis like a dome, along it like a flat port.
+struct CylinderPort {
+  Vec3 axis_point_mm = Vec3::Zero();  // a point on the axis
+  Vec3 axis = Vec3(0, 1, 0);          // unit, across the optical axis (axis.z = 0); either sense
+  double inner_radius_mm = 0, outer_radius_mm = 0;
+  std::string material = "pmma";
+  // Glass exists only where z >= rim_z_mm (in the port's frame). Unset: the axis's plane (the
+  // front half of the tube).
+  std::optional<double> rim_z_mm;
+};
+
+// The axis of a cylinder in the sense the port parameters use: unit, +Y half (+X where y = 0).
+Vec3 CanonicalAxis(const Vec3& axis);
+
 enum class PortFrame { kHousing, kCam };
 
 // 1σ of a port's shell values where the port file states them (its `[sigma]` table: a scan's
@@ -59,13 +76,17 @@ struct PortSpec {
   std::string description;
   std::string source;  // where the numbers come from
   PortFrame frame = PortFrame::kHousing;
-  std::variant<DomePort, FlatPort> shape;
+  std::variant<DomePort, FlatPort, CylinderPort> shape;
   // The entrance pupil to use when no lens says otherwise (housing frame).
   Vec3 default_ep_in_housing_mm = Vec3(0, 0, 26.9);
   // σ of the shell's values, where the file's [sigma] table states them.
   ShellSigma sigma;
 
   bool IsDome() const { return std::holds_alternative<DomePort>(shape); }
+  bool IsCylinder() const { return std::holds_alternative<CylinderPort>(shape); }
+  bool IsFlat() const { return std::holds_alternative<FlatPort>(shape); }
+  // "dome", "flat", "cylinder".
+  std::string_view KindName() const;
   const std::string& material() const;
 };
 
@@ -78,8 +99,11 @@ struct PortSystem {
   double n_water = 1.341;
 
   bool IsDome() const { return spec.IsDome(); }
+  bool IsCylinder() const { return spec.IsCylinder(); }
+  bool IsFlat() const { return spec.IsFlat(); }
   const DomePort& dome() const { return std::get<DomePort>(spec.shape); }
   const FlatPort& flat() const { return std::get<FlatPort>(spec.shape); }
+  const CylinderPort& cylinder() const { return std::get<CylinderPort>(spec.shape); }
 
   // Interfaces met by a ray leaving the camera (air → glass → water), and by one arriving from the
   // water (water → glass → air).
@@ -89,19 +113,24 @@ struct PortSystem {
   // Non-central: true unless the port is a dome whose two spheres are concentric about the pupil.
   bool IsCentral(double tol_mm = 1e-9) const;
 
+  // True where a point (housing frame) lies inside the port's outer surface: in the dome's outer
+  // sphere, the cylinder's outer tube, behind the flat port's outer face.
+  bool InsideOuterSurface(const Vec3& p_in_housing_mm) const;
+
   // Where the optical axis (through the pupil, along +Z) meets the outer and inner surfaces (z).
   double OuterVertexZ() const;
   double InnerVertexZ() const;
 };
 
-// Checks `spec` (finite numbers, radii and thickness positive, inner sphere inside the outer one,
-// unit-length normal, σ finite and >= 0 where given) and throws InvalidInput naming the field; `where` prefixes field names
+// Checks `spec` (finite numbers, radii and thickness positive, inner sphere or cylinder inside
+// the outer one, unit-length normal, a cylinder's unit axis across Z, σ finite and >= 0 where given) and throws InvalidInput naming the field; `where` prefixes field names
 // (e.g. "port.outer.radius_mm").
 void Validate(const PortSpec& spec, const std::string& where = "port");
 
 // Places `spec` in front of the pupil at `ep_in_housing_mm` (housing frame), with the indices given.
 // Throws InvalidInput when the pupil is not inside the dome's inner sphere (behind its rim), or not
-// behind a flat port's inner plane, or the indices are not finite and >= 1.
+// behind a flat port's inner plane, or not inside a cylinder's inner cylinder, or the indices are
+// not finite and >= 1.
 PortSystem Place(const PortSpec& spec, const Vec3& ep_in_housing_mm, double n_glass, double n_water);
 
 }  // namespace porthole::ports

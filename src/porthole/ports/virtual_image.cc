@@ -29,6 +29,14 @@ std::vector<ParaxialSurface> ParaxialModel(const PortSystem& p) {
     const double r_in = std::copysign(d.inner.radius_mm, -d.inner.center_mm.z() - w_inner);
     return {{w_outer, r_out, p.n_water, p.n_glass}, {w_inner, r_in, p.n_glass, 1.0}};
   }
+  if (p.IsCylinder()) {
+    // The section across the axis (through the pupil): circles, as a dome's. Along the axis the
+    // surfaces are straight, as a flat port's: the port is astigmatic (RealRayVirtualImage).
+    const CylinderPort& c = p.cylinder();
+    const double r_out = std::copysign(c.outer_radius_mm, -c.axis_point_mm.z() - w_outer);
+    const double r_in = std::copysign(c.inner_radius_mm, -c.axis_point_mm.z() - w_inner);
+    return {{w_outer, r_out, p.n_water, p.n_glass}, {w_inner, r_in, p.n_glass, 1.0}};
+  }
   return {{w_outer, kInf, p.n_water, p.n_glass}, {w_inner, kInf, p.n_glass, 1.0}};
 }
 
@@ -125,6 +133,7 @@ VirtualImage AxialParaxialImage(const PortSystem& port, double wd_mm) {
   const double w_img = s.back().w_mm - out.y / u;
   vi.d_s2ep_mm = w_ep - w_img;
   vi.vwd_mm = w_outer - w_img;
+  vi.focal_line_near_d_s2ep_mm = vi.focal_line_far_d_s2ep_mm = vi.d_s2ep_mm;
   // Lagrange invariant: n u h = n' u' h'  =>  m = (n0 u0) / (n' u').
   vi.magnification = std::isinf(wd_mm) ? 0.0 : (n0 * u0) / (out.n * u);
   return vi;
@@ -141,6 +150,7 @@ bool SymmetricAboutAxis(const PortSystem& p) {
     return (d.outer.center_mm - ep).head<2>().norm() <= kTol * d.outer.radius_mm &&
            (d.inner.center_mm - ep).head<2>().norm() <= kTol * d.inner.radius_mm;
   }
+  if (p.IsCylinder()) return false;  // curved across its axis, straight along it
   return p.flat().normal.head<2>().norm() <= kTol;
 }
 
@@ -180,12 +190,30 @@ std::optional<VirtualImage> ChiefRayParaxialImage(const PortSystem& port, double
   const double g2 = ga.squaredNorm();
   if (!(g2 > 1e-24)) {  // parallel air rays: the image is at infinity
     vi.d_s2ep_mm = vi.vwd_mm = kInf;
+    vi.focal_line_near_d_s2ep_mm = vi.focal_line_far_d_s2ep_mm = kInf;
     return vi;
   }
   const Vec3 x = ep - (p0a.cwiseProduct(ga).sum() / g2) * d0;
   vi.d_s2ep_mm = x.z() - ep.z();
   vi.vwd_mm = x.z() - port.OuterVertexZ();
   vi.lateral_offset_mm = (x - ep).head<2>().norm();
+  // The focal lines: the distances s along the chief ray where the rays of one direction a of the
+  // pupil meet, (P0 A + s G A) a = 0 across the ray: det(B + s M) = 0 with B, M those matrices
+  // in a basis across d0, i.e. s = −1/λ for the eigenvalues λ of B⁻¹M (λ = 0: a line at infinity).
+  Vec3 e1 = d0.cross(std::abs(d0.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).normalized();
+  const Vec3 e2 = d0.cross(e1);
+  Eigen::Matrix<double, 2, 3> across;
+  across.row(0) = e1.transpose();
+  across.row(1) = e2.transpose();
+  const Eigen::Matrix2d bm = across * p0a, mm = across * ga;
+  const Eigen::Vector2cd lambda = (bm.inverse() * mm).eigenvalues();
+  double line[2];
+  for (int k = 0; k < 2; ++k) {
+    const double l = lambda(k).real();
+    line[k] = std::abs(l) > 1e-15 ? (-1 / l) * d0.z() : kInf;
+  }
+  vi.focal_line_near_d_s2ep_mm = std::min(line[0], line[1]);
+  vi.focal_line_far_d_s2ep_mm = std::max(line[0], line[1]);
   return vi;
 }
 
@@ -261,6 +289,7 @@ std::optional<VirtualImage> RealRayVirtualImage(const PortSystem& port, double w
   vi.wd_mm = wd_mm;
   if (vp->at_infinity) {
     vi.d_s2ep_mm = vi.vwd_mm = kInf;
+    vi.focal_line_near_d_s2ep_mm = vi.focal_line_far_d_s2ep_mm = kInf;
     return vi;
   }
   const Vec3& v = vp->position_mm;

@@ -23,6 +23,10 @@ struct VirtualImage {
   double vwd_mm = 0;     // virtual image to outer vertex
   double magnification = 0;  // lateral, image height / object height (paraxial only; 0 for real)
   double lateral_offset_mm = 0;  // distance of the image from the axis (real rays, decentred ports)
+  // The two focal lines of an astigmatic port (a cylinder: across and along its axis; a decentred
+  // dome, slightly), as distances from the entrance pupil like d_s2ep_mm, nearer first; both equal
+  // d_s2ep_mm for a port symmetric about the axis. Paraxial only (0 for real rays).
+  double focal_line_near_d_s2ep_mm = 0, focal_line_far_d_s2ep_mm = 0;
 };
 
 // The paraxial virtual image of the axial object at wd_mm (may be infinite): a y-nu trace for a

@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -100,6 +102,53 @@ TEST(VirtualImage, FlatPortApparentDepth) {
   }
   EXPECT_TRUE(std::isinf(ParaxialVirtualImage(port, kInf).d_s2ep_mm));
   EXPECT_TRUE(std::isinf(ParaxialFocal(port).efl_mm));
+}
+
+// A cylindrical port with the pupil on its axis is two ports in one. Across the axis its
+// section is two circles about the pupil: that section is a concentric dome's, and so is its focal
+// line (the dome of the same radii, by the y–nu trace). Along the axis its section is two straight
+// lines square to Z: a flat port r_in from the pupil, t thick, whose closed form is
+// r_in + t/n_g + WD/n_w. The cylinder's focal lines, from its traced parabasal rays, are these two.
+TEST(VirtualImage, CylinderFocalLinesAreTheConcentricDomeAndTheFlatPort) {
+  const double ri = 50, ro = 56, ng = 1.49, nw = 1.341;
+  PortSpec s;
+  s.frame = PortFrame::kCam;
+  CylinderPort c;
+  c.inner_radius_mm = ri;
+  c.outer_radius_mm = ro;
+  s.shape = c;
+  const PortSystem port = Place(s, Vec3(0, 0, 26.9), ng, nw);
+  EXPECT_NEAR(port.OuterVertexZ() - 26.9, ro, 1e-12);
+  EXPECT_NEAR(port.InnerVertexZ() - 26.9, ri, 1e-12);
+  PortSpec ds;
+  ds.frame = PortFrame::kCam;
+  DomePort d;
+  d.outer.radius_mm = ro;
+  d.inner.radius_mm = ri;
+  ds.shape = d;
+  const PortSystem dome = Place(ds, Vec3(0, 0, 26.9), ng, nw);
+  double worst = 0;
+  for (double wd : {300.0, 1000.0, 5000.0}) {
+    const VirtualImage vi = ParaxialVirtualImage(port, wd);
+    const double flat = ri + (ro - ri) / ng + wd / nw, across = ParaxialVirtualImage(dome, wd).d_s2ep_mm;
+    ASSERT_LT(across, flat);  // a dome's image is the nearer
+    EXPECT_NEAR(vi.focal_line_near_d_s2ep_mm, across, 1e-6 * across) << wd;
+    EXPECT_NEAR(vi.focal_line_far_d_s2ep_mm, flat, 1e-6 * flat) << wd;
+    worst = std::max({worst, std::abs(vi.focal_line_near_d_s2ep_mm - across) / across,
+                      std::abs(vi.focal_line_far_d_s2ep_mm - flat) / flat});
+    // The least-squares image lies between its focal lines.
+    EXPECT_GT(vi.d_s2ep_mm, across);
+    EXPECT_LT(vi.d_s2ep_mm, flat);
+    // Real rays through a small pupil meet there too.
+    const auto real = RealRayVirtualImage(port, wd, 0.05);
+    ASSERT_TRUE(real.has_value());
+    EXPECT_NEAR(real->d_s2ep_mm, vi.d_s2ep_mm, 1e-4 * vi.d_s2ep_mm) << wd;
+  }
+  std::printf("cylinder focal lines: worst relative difference from the dome's and the flat port's %.2e\n", worst);
+  // A dome is not astigmatic: both lines are its image.
+  const VirtualImage ni320 = ParaxialVirtualImage(NominalNi320(), 1000);
+  EXPECT_EQ(ni320.focal_line_near_d_s2ep_mm, ni320.d_s2ep_mm);
+  EXPECT_EQ(ni320.focal_line_far_d_s2ep_mm, ni320.d_s2ep_mm);
 }
 
 TEST(VirtualImage, RealRaysTendToParaxialAsApertureShrinks) {

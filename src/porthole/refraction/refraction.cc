@@ -33,6 +33,7 @@ Geometry<S> CastGeometry(const Geometry<double>& g) {
   c.inner_radius = S(g.inner_radius);
   c.rim_z = g.rim_z;
   c.normal = g.normal.cast<S>();
+  c.axis_point = g.axis_point.cast<S>();
   c.distance = S(g.distance);
   c.thickness = S(g.thickness);
   c.n_glass = S(g.n_glass);
@@ -57,6 +58,20 @@ std::optional<Vec3> Axis(const Geometry<double>& g, bool* identity) {
   // Both centres on the line through the pupil along a.
   if ((co - co.dot(a) * a).norm() > tol || (ci - ci.dot(a) * a).norm() > tol) return std::nullopt;
   return a.z() < 0 ? Vec3(-a) : a;
+}
+
+// A cylinder's start: the direction whose ray would reach `x` far away with the pupil on the
+// axis. There every ray meets both surfaces square across the axis, so only its slope along the
+// axis bends, as through a flat port: sin(slope in air) = n_water sin(slope in water).
+Vec3 CylinderStart(const Geometry<double>& g, const Vec3& x) {
+  const Vec3& a = g.normal;
+  const double along = x.dot(a);
+  Vec3 across = x - along * a;
+  const double rho = across.norm();
+  if (rho <= 1e-14 * x.norm()) return x.normalized();
+  across /= rho;
+  const double slope = std::asin(std::clamp(g.n_water * along / x.norm(), -0.999, 0.999));
+  return std::cos(slope) * across + std::sin(slope) * a;
 }
 
 // The approximate axis of a non-axial dome: from the pupil through the outer centre (or the
@@ -130,6 +145,19 @@ bool NewtonSystem(const Geometry<J2>& g, const Vec3& x, Solution* s, Eigen::Vect
 
 }  // namespace
 
+std::string_view PortKindName(PortKind kind) {
+  switch (kind) {
+    case PortKind::kDome: return "dome";
+    case PortKind::kFlat: return "flat";
+    case PortKind::kCylinder: return "cylinder";
+  }
+  return "unknown";
+}
+
+PortKind KindOf(const ports::PortSpec& spec) {
+  return spec.IsDome() ? PortKind::kDome : spec.IsCylinder() ? PortKind::kCylinder : PortKind::kFlat;
+}
+
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind) {
   static constexpr std::array<PortParamInfo, kPortNumParams> kDome = {{
       {"ep_x", "ep_in_dome_x_mm", "mm"},
@@ -141,7 +169,21 @@ const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind) {
       {"n_y", "normal_y", "1"},
       {"distance", "distance_mm", "mm"},
   }};
-  return kind == PortKind::kDome ? kDome : kFlat;
+  static constexpr std::array<PortParamInfo, kPortNumParams> kCylinder = {{
+      {"ep_x", "ep_in_cylinder_x_mm", "mm"},
+      {"ep_z", "ep_in_cylinder_z_mm", "mm"},
+      {"axis_angle", "axis_angle_deg", "deg"},
+  }};
+  return kind == PortKind::kDome ? kDome : kind == PortKind::kFlat ? kFlat : kCylinder;
+}
+
+std::string_view PortParamsMeaning(PortKind kind) {
+  switch (kind) {
+    case PortKind::kDome: return "dome: entrance pupil minus outer centre";
+    case PortKind::kFlat: return "flat: inner-face normal and pupil distance";
+    case PortKind::kCylinder: return "cylinder: entrance pupil minus axis, axis angle";
+  }
+  return "";
 }
 
 const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind) {
@@ -161,7 +203,15 @@ const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind) {
       {"", "", ""},
       {"", "", ""},
   }};
-  return kind == PortKind::kDome ? kDome : kFlat;
+  static constexpr std::array<PortParamInfo, kShellNumParams> kCylinder = {{
+      {"n_water", "water_index_factor", "1"},
+      {"r_outer", "outer_radius_mm", "mm"},
+      {"r_inner", "inner_radius_mm", "mm"},
+      {"", "", ""},
+      {"", "", ""},
+      {"", "", ""},
+  }};
+  return kind == PortKind::kDome ? kDome : kind == PortKind::kFlat ? kFlat : kCylinder;
 }
 
 ShellArray ShellValues(const Shell& s) {
@@ -169,6 +219,7 @@ ShellArray ShellValues(const Shell& s) {
     return {1.0, s.outer_radius_mm, s.inner_radius_mm, s.inner_from_outer_mm.x(),
             s.inner_from_outer_mm.y(), s.inner_from_outer_mm.z()};
   }
+  if (s.kind == PortKind::kCylinder) return {1.0, s.outer_radius_mm, s.inner_radius_mm, 0, 0, 0};
   return {1.0, s.thickness_mm, 0, 0, 0, 0};
 }
 
@@ -179,6 +230,9 @@ Shell WithShellValues(const Shell& s, const ShellArray& v) {
     out.outer_radius_mm = v[1];
     out.inner_radius_mm = v[2];
     out.inner_from_outer_mm = Vec3(v[3], v[4], v[5]);
+  } else if (s.kind == PortKind::kCylinder) {
+    out.outer_radius_mm = v[1];
+    out.inner_radius_mm = v[2];
   } else {
     out.thickness_mm = v[1];
   }
@@ -199,6 +253,11 @@ void ValidateShellValues(const Shell& s, const ShellArray& v, const std::string&
                                             "outer centre) is not inside the outer one (radius {:.4g} mm)",
                                             v[2], Vec3(v[3], v[4], v[5]).norm(), v[1]));
     }
+  } else if (s.kind == PortKind::kCylinder) {
+    if (!(v[2] > 0) || !(v[2] < v[1])) {
+      throw InvalidInput(field, fmt::format("the inner cylinder (radius {:.4g} mm) is not inside the "
+                                            "outer one (radius {:.4g} mm)", v[2], v[1]));
+    }
   } else if (!(v[1] > 0)) {
     throw InvalidInput(field, fmt::format("the glass thickness {:.4g} mm is not positive", v[1]));
   }
@@ -207,6 +266,10 @@ void ValidateShellValues(const Shell& s, const ShellArray& v, const std::string&
 bool InWater(const Geometry<double>& g, const Vec3& x) {
   if (g.kind == PortKind::kDome) {
     return (x - g.outer_center).norm() > g.outer_radius && x.z() > g.rim_z;
+  }
+  if (g.kind == PortKind::kCylinder) {
+    const Vec3 q = x - g.axis_point;
+    return (q - q.dot(g.normal) * g.normal).norm() > g.outer_radius && x.z() > g.rim_z;
   }
   return x.dot(g.normal) > g.distance + g.thickness;
 }
@@ -220,20 +283,30 @@ std::optional<Solution> SolveDirection(const Geometry<double>& g, const Vec3& x)
   if (!x.allFinite() || !InWater(g, x)) return std::nullopt;
   Solution s;
   bool identity = false;
-  const std::optional<Vec3> axis = Axis(g, &identity);
+  // A cylinder has no axis of symmetry through the pupil: the 2-D iteration from its start.
+  const std::optional<Vec3> axis =
+      g.kind == PortKind::kCylinder ? std::nullopt : Axis(g, &identity);
   s.axial = axis.has_value();
   if (identity) {
     s.dir = x.normalized();
     return s;
   }
-  const Vec3 a = axis ? *axis : ApproximateAxis(g);
-  Vec3 e = x - x.dot(a) * a;
-  const double rho = e.norm();
-  if (rho <= 1e-14 * x.norm()) {
+  if (g.kind == PortKind::kCylinder) {
+    s.dir = CylinderStart(g, x);
+    // A start whose ray misses the glass (beyond the rim, for a point seen close to it) is turned
+    // toward +Z until its ray gets through; Newton's backtracking then walks to the solution.
+    Vec3 o, v;
+    for (int k = 0; k < 20 && TraceOut<double>(g, s.dir, &o, &v) != optics::RayStatus::kOk; ++k) {
+      s.dir = (s.dir + 0.1 * Vec3::UnitZ()).normalized();
+    }
+  } else if (const Vec3 a = axis ? *axis : ApproximateAxis(g);
+             (x - x.dot(a) * a).norm() <= 1e-14 * x.norm()) {
     // On the axis: an axial system sends the axial ray straight through it.
     s.dir = x.dot(a) >= 0 ? a : Vec3(-a);
     if (axis) return s;
   } else {
+    Vec3 e = x - x.dot(a) * a;
+    const double rho = e.norm();
     e /= rho;
     // Start: the direction to the point, steepened by the water index for a flat port (its far
     // field: sin θ_air = n_w sin θ_water).
@@ -245,7 +318,8 @@ std::optional<Solution> SolveDirection(const Geometry<double>& g, const Vec3& x)
     s.dir = std::cos(*th) * a + std::sin(*th) * e;
     if (axis) return s;
   }
-  // 2-D Newton from the in-plane solution, backtracking where a step leaves the port.
+  // 2-D Newton from the in-plane solution (a cylinder: its start), backtracking where a step
+  // leaves the port.
   const Geometry<J2> gj = CastGeometry<J2>(g);
   Eigen::Vector2d r;
   if (!NewtonSystem(gj, x, &s, &r)) return std::nullopt;
@@ -286,6 +360,12 @@ Shell ShellOf(const ports::PortSystem& sys) {
     s.inner_radius_mm = d.inner.radius_mm;
     s.inner_from_outer_mm = d.inner.center_mm - d.outer.center_mm;
     s.rim_from_outer_z_mm = d.rim_z_mm ? *d.rim_z_mm - d.outer.center_mm.z() : 0.0;
+  } else if (sys.IsCylinder()) {
+    const ports::CylinderPort& c = sys.cylinder();
+    s.kind = PortKind::kCylinder;
+    s.outer_radius_mm = c.outer_radius_mm;
+    s.inner_radius_mm = c.inner_radius_mm;
+    s.rim_from_outer_z_mm = c.rim_z_mm ? *c.rim_z_mm - c.axis_point_mm.z() : 0.0;
   } else {
     s.kind = PortKind::kFlat;
     s.thickness_mm = sys.flat().thickness_mm;
@@ -297,6 +377,12 @@ std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys) {
   if (sys.IsDome()) {
     const Vec3 p = sys.ep_in_housing_mm - sys.dome().outer.center_mm;
     return {p.x(), p.y(), p.z()};
+  }
+  if (sys.IsCylinder()) {
+    const ports::CylinderPort& c = sys.cylinder();
+    const Vec3 a = ports::CanonicalAxis(c.axis);
+    const Vec3 q = sys.ep_in_housing_mm - c.axis_point_mm;
+    return {q.dot(a.cross(Vec3::UnitZ())), q.z(), std::atan2(a.x(), a.y()) * 180 / M_PI};
   }
   const ports::FlatPort& f = sys.flat();
   return {f.normal.x(), f.normal.y(), (f.inner_point_mm - sys.ep_in_housing_mm).dot(f.normal)};
@@ -321,6 +407,12 @@ ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
     d->outer.radius_mm = g.outer_radius;
     d->inner.radius_mm = g.inner_radius;
     if (d->rim_z_mm) *d->rim_z_mm = ep.z() + g.rim_z;
+  } else if (auto* c = std::get_if<ports::CylinderPort>(&spec.shape)) {
+    c->axis = g.normal;
+    c->axis_point_mm = ep + g.axis_point;
+    c->outer_radius_mm = g.outer_radius;
+    c->inner_radius_mm = g.inner_radius;
+    if (c->rim_z_mm) *c->rim_z_mm = ep.z() + g.rim_z;
   } else {
     auto& f = std::get<ports::FlatPort>(spec.shape);
     f.normal = g.normal;
@@ -331,22 +423,44 @@ ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
   return spec;
 }
 
-std::vector<optics::Interface> Interfaces(const Shell& shell, const double* port) {
-  using optics::Interface;
-  using optics::Surface;
-  const Geometry<double> g = MakeGeometry<double>(shell, port);
-  if (g.kind == PortKind::kDome) {
-    Surface inner = Surface::MakeSphere(g.inner_center, g.inner_radius);
-    Surface outer = Surface::MakeSphere(g.outer_center, g.outer_radius);
-    for (Surface* s : {&inner, &outer}) {
-      s->aperture_point = Vec3(0, 0, g.rim_z);
-      s->aperture_normal = Vec3(0, 0, 1);
-    }
-    return {Interface{inner, 1.0, g.n_glass}, Interface{outer, g.n_glass, g.n_water}};
+ports::PortSpec PortSpecOf(const Shell& shell, const std::array<double, kPortNumParams>& p, const std::string& material,
+                           const std::string& name) {
+  const Geometry<double> g = MakeGeometry<double>(shell, p.data());
+  ports::PortSpec spec;
+  spec.name = name;
+  spec.description = "a calibrated port (shell and parameters), relative to the pupil";
+  spec.frame = ports::PortFrame::kCam;
+  if (shell.kind == PortKind::kDome) {
+    ports::DomePort d;
+    d.outer = {g.outer_center, g.outer_radius};
+    d.inner = {g.inner_center, g.inner_radius};
+    d.material = material;
+    d.rim_z_mm = g.rim_z;
+    spec.shape = d;
+  } else if (shell.kind == PortKind::kCylinder) {
+    ports::CylinderPort c;
+    c.axis = g.normal;
+    c.axis_point_mm = g.axis_point;
+    c.inner_radius_mm = g.inner_radius;
+    c.outer_radius_mm = g.outer_radius;
+    c.material = material;
+    c.rim_z_mm = g.rim_z;
+    spec.shape = c;
+  } else {
+    ports::FlatPort f;
+    f.normal = g.normal;
+    f.inner_point_mm = g.distance * g.normal;
+    f.thickness_mm = g.thickness;
+    f.material = material;
+    spec.shape = f;
   }
-  return {Interface{Surface::MakePlane(g.distance * g.normal, g.normal), 1.0, g.n_glass},
-          Interface{Surface::MakePlane((g.distance + g.thickness) * g.normal, g.normal), g.n_glass,
-                    g.n_water}};
+  ports::Validate(spec, "port");
+  return spec;
+}
+
+std::vector<optics::Interface> Interfaces(const Shell& shell, const double* port) {
+  const auto f = InterfacesOf<double>(MakeGeometry<double>(shell, port));
+  return {f.begin(), f.end()};
 }
 
 void ValidateParams(const Shell& shell, const double* p, const std::string& field) {
@@ -359,6 +473,12 @@ void ValidateParams(const Shell& shell, const double* p, const std::string& fiel
       throw InvalidInput(field, fmt::format("the entrance pupil ({:.2f}, {:.2f}, {:.2f}) mm from "
                                             "the dome centre is not inside the inner sphere",
                                             p[0], p[1], p[2]));
+    }
+  } else if (shell.kind == PortKind::kCylinder) {
+    if (std::hypot(p[0], p[1]) >= shell.inner_radius_mm) {
+      throw InvalidInput(field, fmt::format("the entrance pupil ({:.2f}, {:.2f}) mm from the cylinder's "
+                                            "axis is not inside the inner cylinder (radius {:.4g} mm)",
+                                            p[0], p[1], shell.inner_radius_mm));
     }
   } else {
     if (!(p[0] * p[0] + p[1] * p[1] < 1)) {

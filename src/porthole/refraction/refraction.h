@@ -11,19 +11,25 @@
 //  - three PARAMETERS, what a calibration estimates (kPortNumParams, PortParamInfo):
 //      dome: ep_in_dome_mm (x, y, z), the entrance pupil minus the outer sphere's centre;
 //      flat: the inner face's unit normal n (toward the scene) as (n_x, n_y), n_z = sqrt(1 − n_x² −
-//            n_y²) > 0, and distance_mm, the pupil-to-inner-face distance along n.
+//            n_y²) > 0, and distance_mm, the pupil-to-inner-face distance along n;
+//      cylinder: the axis a = (sin φ, cos φ, 0) across the optical axis, φ = axis_angle_deg from +Y
+//            toward +X, and the pupil minus the axis (ep_in_cylinder_x_mm along a × ẑ, which is +X
+//            at φ = 0, and ep_in_cylinder_z_mm along Z); the pupil's place along the axis does not
+//            matter (a cylinder is the same all along it).
 //
 // Forward projection (ForwardDirection): the direction from the pupil, in air, of the ray that
-// the port bends through a given point in the water. The ray's path is traced exactly (vector
-// Snell, optics/trace.h primitives); the direction is found
+// the port bends through a given point in the water. The ray's path is traced exactly by the one
+// surface step of optics/trace.h (optics::Step, on the port's surfaces in scalar T); the direction
+// is found
 //  - for an AXIAL system (a flat port; a dome whose pupil lies on the line through both centres),
 //    by a safeguarded Newton iteration on one angle in the plane of refraction (the plane through
 //    the axis and the point), the residual being the sine of the angle between the refracted ray
 //    and the direction from its exit point to the point;
 //  - otherwise (a non-concentric dome with the pupil off the line of centres: the paper's as-built
-//    NI320), by a 2-D Newton iteration on the direction started from that in-plane solution, the
-//    residual being the two components of (unit direction to the point − refracted ray direction)
-//    across the ray.
+//    NI320; a cylinder), by a 2-D Newton iteration on the direction started from that in-plane
+//    solution (a cylinder: from its far-field direction with the pupil on the axis), the residual
+//    being the two components of (unit direction to the point − refracted ray direction) across
+//    the ray.
 // Jacobians of the iterations come from Jets through the trace (never finite differences). The
 // iteration runs on values in double; when T is a Jet, one final Newton step in T carries the
 // derivatives with respect to the port parameters and the point (implicit-function theorem), as
@@ -61,15 +67,21 @@ using Vec3T = Eigen::Matrix<T, 3, 1>;
 template <typename T>
 using Vec2T = Eigen::Matrix<T, 2, 1>;
 
-enum class PortKind { kDome, kFlat };
+// The port shapes, one closed list (ports/port.h has their specs).
+enum class PortKind { kDome, kFlat, kCylinder };
+// "dome", "flat", "cylinder": the name the files and the tables use.
+std::string_view PortKindName(PortKind kind);
+// The kind of a port spec's shape.
+PortKind KindOf(const ports::PortSpec& spec);
 
 // The fixed part of a port (see the file comment), cam-frame axes, mm.
 struct Shell {
   PortKind kind = PortKind::kDome;
-  // Dome.
+  // Dome and cylinder.
   double outer_radius_mm = 0, inner_radius_mm = 0;
-  Vec3 inner_from_outer_mm = Vec3::Zero();  // inner centre − outer centre
-  double rim_from_outer_z_mm = 0;           // glass where z ≥ outer centre z + this (rim plane)
+  Vec3 inner_from_outer_mm = Vec3::Zero();  // dome: inner centre − outer centre
+  // Glass where z ≥ (the outer centre's z, a cylinder's axis z) + this: the rim plane.
+  double rim_from_outer_z_mm = 0;
   // Flat.
   double thickness_mm = 0;
   // Indices relative to air (inside the housing n = 1).
@@ -85,13 +97,16 @@ struct PortParamInfo {
 };
 // The three parameters' names of a port kind, in order.
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind);
+// What the three are, in words ("dome: entrance pupil minus outer centre").
+std::string_view PortParamsMeaning(PortKind kind);
 
 // ---- The shell's values as parameters ----
 // What a calibration may adjust beside the three port parameters (kShellNumParams values, in this
 // order; ShellParams(kind) names them), each fixed at the Shell's value unless adjusted:
 //   0     water_index_factor: the water index is factor × Shell::n_water (1: the materials model);
 //   dome  1 outer_radius_mm, 2 inner_radius_mm, 3–5 inner_from_outer_{x,y,z}_mm (cam axes);
-//   flat  1 thickness_mm; 2–5 unused (0).
+//   flat  1 thickness_mm; 2–5 unused (0);
+//   cylinder  1 outer_radius_mm, 2 inner_radius_mm; 3–5 unused (0).
 inline constexpr int kShellNumParams = 6;
 using ShellArray = std::array<double, kShellNumParams>;
 const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind);
@@ -110,9 +125,10 @@ template <typename T>
 struct Geometry {
   PortKind kind = PortKind::kDome;
   Vec3T<T> outer_center, inner_center;  // dome
-  T outer_radius, inner_radius;         // dome
-  double rim_z = 0;                     // dome: glass where z ≥ rim_z (value only)
-  Vec3T<T> normal;                      // flat: unit, toward the scene
+  T outer_radius, inner_radius;         // dome, cylinder
+  double rim_z = 0;                     // dome, cylinder: glass where z ≥ rim_z (value only)
+  Vec3T<T> normal;                      // flat: unit, toward the scene; cylinder: unit axis
+  Vec3T<T> axis_point;                  // cylinder: the axis's point nearest the pupil
   T distance, thickness;                // flat: pupil to inner face along normal; glass
   T n_glass, n_water;
 };
@@ -130,6 +146,16 @@ Geometry<T> MakeGeometry(const Shell& s, const T* p, const T* shell_values = nul
     g.outer_radius = v ? v[1] : T(s.outer_radius_mm);
     g.inner_radius = v ? v[2] : T(s.inner_radius_mm);
     g.rim_z = -camera::ScalarValue(p[2]) + s.rim_from_outer_z_mm;
+  } else if (s.kind == PortKind::kCylinder) {
+    using std::cos;
+    using std::sin;
+    const T phi = p[2] * T(M_PI / 180);
+    g.normal = Vec3T<T>(sin(phi), cos(phi), T(0));
+    const Vec3T<T> across(cos(phi), -sin(phi), T(0));  // a × ẑ
+    g.axis_point = -(across * p[0] + Vec3T<T>(T(0), T(0), p[1]));
+    g.outer_radius = v ? v[1] : T(s.outer_radius_mm);
+    g.inner_radius = v ? v[2] : T(s.inner_radius_mm);
+    g.rim_z = -camera::ScalarValue(p[1]) + s.rim_from_outer_z_mm;
   } else {
     using std::sqrt;
     g.normal = Vec3T<T>(p[0], p[1], sqrt(T(1) - p[0] * p[0] - p[1] * p[1]));
@@ -139,47 +165,57 @@ Geometry<T> MakeGeometry(const Shell& s, const T* p, const T* shell_values = nul
   return g;
 }
 
+// The port's two surfaces in the cam frame, as the tracer takes them (inner then outer, air →
+// glass → water), in scalar T: the one description of a port's shape that the refractive
+// projection, the backward trace (Interfaces below) and, placed in the housing frame,
+// ports::PortSystem trace.
+template <typename T>
+std::array<optics::InterfaceT<T>, 2> InterfacesOf(const Geometry<T>& g) {
+  using S = optics::SurfaceT<T>;
+  std::array<optics::InterfaceT<T>, 2> f;
+  switch (g.kind) {
+    case PortKind::kDome:
+      f[0].surface = S::MakeSphere(g.inner_center, g.inner_radius);
+      f[1].surface = S::MakeSphere(g.outer_center, g.outer_radius);
+      break;
+    case PortKind::kCylinder:
+      f[0].surface = S::MakeCylinder(g.axis_point, g.normal, g.inner_radius);
+      f[1].surface = S::MakeCylinder(g.axis_point, g.normal, g.outer_radius);
+      break;
+    case PortKind::kFlat:
+      f[0].surface = S::MakePlane(Vec3T<T>(g.normal * g.distance), g.normal);
+      f[1].surface = S::MakePlane(Vec3T<T>(g.normal * (g.distance + g.thickness)), g.normal);
+      break;
+  }
+  if (g.kind != PortKind::kFlat) {
+    for (auto& i : f) {
+      i.surface.aperture_point = Vec3(0, 0, g.rim_z);
+      i.surface.aperture_normal = Vec3(0, 0, 1);
+    }
+  }
+  f[0].n_before = T(1);
+  f[0].n_after = g.n_glass;
+  f[1].n_before = g.n_glass;
+  f[1].n_after = g.n_water;
+  return f;
+}
+
 // Traces the ray leaving the pupil (the cam-frame origin) along `dir` (any length) out through
 // the port: on kOk, *origin is its exit point on the outer surface and *out_dir its unit
-// direction in the water. The same vector Snell and intersections as the optics tracer.
+// direction in the water. optics::Step on InterfacesOf(g): the tracer of optics/trace.h.
 template <typename T>
 optics::RayStatus TraceOut(const Geometry<T>& g, const Vec3T<T>& dir, Vec3T<T>* origin,
                            Vec3T<T>* out_dir) {
   using optics::P3;
-  using optics::RayStatus;
   P3<T> o{T(0), T(0), T(0)};
   P3<T> d = P3<T>::From(Vec3T<T>(dir.normalized()));
-  const T n_in[2] = {T(1), g.n_glass};
-  const T n_out[2] = {g.n_glass, g.n_water};
-  for (int i = 0; i < 2; ++i) {
-    bool hit = false;
-    P3<T> normal;
-    T t;
-    if (g.kind == PortKind::kDome) {
-      const P3<T> c = P3<T>::From(i == 0 ? g.inner_center : g.outer_center);
-      const T r = i == 0 ? g.inner_radius : g.outer_radius;
-      t = optics::IntersectSphere<T>(o, d, c, r, &hit);
-      if (!hit) return RayStatus::kMissed;
-      const P3<T> p = o + t * d;
-      if (camera::ScalarValue(p.z) < g.rim_z) return RayStatus::kOutsideAperture;
-      normal = (p - c) * (T(1) / r);
-    } else {
-      const P3<T> n = P3<T>::From(g.normal);
-      const T dist = i == 0 ? g.distance : g.distance + g.thickness;
-      t = optics::IntersectPlane<T>(o, d, n * dist, n, &hit);
-      if (!hit) return RayStatus::kMissed;
-      normal = n;
-    }
-    o = o + t * d;
-    P3<T> refracted;
-    if (!optics::Refract<T>(d, normal, n_in[i], n_out[i], &refracted)) {
-      return RayStatus::kTotalInternalReflection;
-    }
-    d = refracted;
+  for (const optics::InterfaceT<T>& f : InterfacesOf<T>(g)) {
+    const optics::RayStatus st = optics::Step<T>(f, &o, &d);
+    if (st != optics::RayStatus::kOk) return st;
   }
   *origin = o.ToEigen();
   *out_dir = d.ToEigen();
-  return RayStatus::kOk;
+  return optics::RayStatus::kOk;
 }
 
 // True where `point_in_cam` lies in the water beyond the port's outer surface (values only).
@@ -275,7 +311,8 @@ std::optional<Vec2T<T>> Project(const camera::Sensor& sensor, const T* cam, cons
 // The shell of a placed port (housing frame → cam-frame axes; the dome's rim default is its outer
 // centre's plane, as ports::PortSystem::Outward).
 Shell ShellOf(const ports::PortSystem& sys);
-// Its parameters (ep − outer centre; or n_x, n_y and the pupil-to-inner-face distance).
+// Its parameters (ep − outer centre; n_x, n_y and the pupil-to-inner-face distance; a cylinder's
+// pupil from the axis and the axis angle).
 std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys);
 // The port spec (housing frame, pupil at sys.ep_in_housing_mm) with the parameters `p` in place of
 // the system's own: a dome's two spheres moved together so the pupil sits at `p` from the outer
@@ -287,13 +324,20 @@ ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
 // thickness) in place of the system's; the water index factor v[0] is not part of a port.
 ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
                                const std::array<double, kPortNumParams>& p, const ShellArray& v);
+// The port of a refractive camera (its shell and three parameters) as a port spec in the cam
+// frame, made of `material` (the glass whose dispersion a render's bands use): a dome's spheres at
+// −p and −p + inner_from_outer with its rim plane; a flat port's inner face at distance p[2] along
+// its normal; a cylinder's axis as MakeGeometry puts it. Traced from the pupil it is
+// Interfaces(shell, p) (the shell's indices aside). Throws InvalidInput when it is no valid port.
+ports::PortSpec PortSpecOf(const Shell& shell, const std::array<double, kPortNumParams>& p,
+                           const std::string& material, const std::string& name);
 // The interfaces met by a ray leaving the pupil, in the CAM frame (the optics tracer's input):
 // the backward projection through optics::TraceSequence.
 std::vector<optics::Interface> Interfaces(const Shell& shell, const double* port);
 
 // Throws InvalidInput(field) unless the parameters describe a port the pupil sits in: a dome's
 // pupil inside the inner sphere; a flat normal with n_x² + n_y² < 1
-// and a positive distance.
+// and a positive distance; a cylinder's pupil inside the inner cylinder.
 void ValidateParams(const Shell& shell, const double* port, const std::string& field);
 
 }  // namespace porthole::refraction

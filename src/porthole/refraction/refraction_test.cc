@@ -2,7 +2,8 @@
 // Snell trace out through the port (optics::TraceSequence, the brute-force backward projection)
 // → a point 0.2–20 m out → ForwardDirection → lens → the same pixel to 1e-9 px over the whole
 // image, for flat ports tilted up to 5°, concentric and non-concentric domes with the pupil up to
-// 10 mm off centre and the paper's as-built NI320; and that its Jets equal central differences.
+// 10 mm off centre, the paper's as-built NI320 and cylindrical ports with the pupil on and off
+// the axis; and that its Jets equal central differences.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -62,6 +63,22 @@ PortSystem Flat(double tilt_deg, double azimuth_deg, double distance, double thi
   return ports::Place(s, ep, n_glass, 1.341);
 }
 
+// An acrylic tube (inner radius 50 mm, 6 mm wall) whose axis lies at `angle_deg` from +Y toward
+// +X, the pupil at `pupil_from_axis` from its axis.
+PortSystem Cylinder(const Vec3& pupil_from_axis, double angle_deg, double ri = 50, double ro = 56) {
+  PortSpec s;
+  s.name = "cylinder";
+  ports::CylinderPort c;
+  const double a = angle_deg * kPi / 180;
+  const Vec3 ep(0, 0, 26.9);
+  c.axis = Vec3(std::sin(a), std::cos(a), 0);
+  c.axis_point_mm = ep - pupil_from_axis;
+  c.inner_radius_mm = ri;
+  c.outer_radius_mm = ro;
+  s.shape = c;
+  return ports::Place(s, ep, 1.49, 1.341);
+}
+
 struct Case {
   std::string name;
   PortSystem sys;
@@ -86,6 +103,9 @@ std::vector<Case> Cases() {
   c.push_back({"non-concentric dome, pupil 10 mm off centre",
                Dome(ep - Vec3(3, -4, 8.66), ep - Vec3(3, -4, 8.66) + Vec3(0.3, -0.5, -1.2), ep),
                false});
+  c.push_back({"cylinder, pupil on the axis", Cylinder(Vec3::Zero(), 0), false});
+  c.push_back({"cylinder rolled 4 deg, pupil 3 mm off, 5 mm behind the axis",
+               Cylinder(Vec3(3, 1, -5), 4), false});
   return c;
 }
 
@@ -282,6 +302,19 @@ TEST(PortParameters, SpecWithParamsPutsThePupilWhereTheParametersSay) {
   EXPECT_NEAR((again.dome().inner.center_mm - again.dome().outer.center_mm -
                (dome.dome().inner.center_mm - dome.dome().outer.center_mm)).norm(), 0, 1e-12);
 
+  // A cylinder: the pupil's offset across the axis and along Z, and the axis angle.
+  const PortSystem cyl = Cylinder(Vec3(2, 7, -3), 10);
+  const auto pc = ParamsOf(cyl);
+  EXPECT_NEAR(pc[0], 2 * std::cos(10 * kPi / 180) - 7 * std::sin(10 * kPi / 180), 1e-12);
+  EXPECT_NEAR(pc[1], -3, 1e-12);
+  EXPECT_NEAR(pc[2], 10, 1e-12);
+  const PortSystem cyl2 = ports::Place(SpecWithParams(cyl, {1.5, 4, -20}), ep, 1.49, 1.341);
+  const auto qc = ParamsOf(cyl2);
+  EXPECT_NEAR(qc[0], 1.5, 1e-12);
+  EXPECT_NEAR(qc[1], 4, 1e-12);
+  EXPECT_NEAR(qc[2], -20, 1e-12);
+  EXPECT_NEAR(cyl2.cylinder().outer_radius_mm - cyl2.cylinder().inner_radius_mm, 6, 1e-12);
+
   const PortSystem flat = Flat(4, 10, 30, 8, 1.49);
   const auto pf = ParamsOf(flat);
   EXPECT_NEAR(pf[2], 30, 1e-12);
@@ -297,7 +330,7 @@ TEST(PortParameters, InterfacesAreTheSystemsOwn) {
   // The cam-frame interfaces trace every ray as the housing-frame system does.
   const Vec3 ep(0, 0, 26.9);
   for (const PortSystem& sys : {Dome(Vec3(-0.4, -1.0, 21.5), Vec3(-0.4, -1.5, 20.3), ep),
-                                Flat(5, 30, 20, 10, 1.49)}) {
+                                Flat(5, 30, 20, 10, 1.49), Cylinder(Vec3(3, 1, -5), 4)}) {
     const auto p = ParamsOf(sys);
     const auto cam_seq = Interfaces(ShellOf(sys), p.data());
     const Vec3 dir = Vec3(0.3, -0.2, 1).normalized();
@@ -324,6 +357,11 @@ TEST(PortParameters, InvalidParametersAreRefused) {
   EXPECT_THROW(ValidateParams(flat, sideways, "port"), InvalidInput);
   const double ok[3] = {0.01, 0, 20};
   EXPECT_NO_THROW(ValidateParams(flat, ok, "port"));
+  const Shell cyl = ShellOf(Cylinder(Vec3::Zero(), 0));
+  const double outside[3] = {30, 45, 0};  // 54 mm from the axis: beyond the inner radius
+  EXPECT_THROW(ValidateParams(cyl, outside, "port"), InvalidInput);
+  const double inside[3] = {3, -5, 7};
+  EXPECT_NO_THROW(ValidateParams(cyl, inside, "port"));
 }
 
 }  // namespace

@@ -106,12 +106,6 @@ std::optional<Vec2> ChiefOnBoard(const Setup& s, const Band& band, const Plane& 
 
 std::string Px(const Vec2& uv) { return fmt::format("({:.1f}, {:.1f}) px", uv.x(), uv.y()); }
 
-bool InsidePort(const ports::PortSystem& sys, const Vec3& p_in_housing) {
-  if (sys.IsDome()) return (p_in_housing - sys.dome().outer.center_mm).norm() < sys.dome().outer.radius_mm;
-  const auto& f = sys.flat();
-  return (p_in_housing - f.inner_point_mm).dot(f.normal) < f.thickness_mm;
-}
-
 }  // namespace
 
 Pose Compose(const Pose& a_from_b, const Pose& b_from_c) {
@@ -402,7 +396,7 @@ std::vector<TruthPoint> GroundTruth(const Scene& scene, const Setup& s, LeftOut*
       throw InvalidInput("pose", fmt::format("the target lies behind the camera (its point ({:g}, {:g}, {:g}) mm at z = "
                                              "{:.1f} mm from the pupil)", p.x(), p.y(), p.z(), c.z()));
     }
-    if (!scene.bare && InsidePort(s.system, c + s.ep_in_housing_mm)) {
+    if (!scene.bare && s.system.InsideOuterSurface(c + s.ep_in_housing_mm)) {
       throw InvalidInput("pose", fmt::format("the target reaches into the port (its point ({:g}, {:g}, {:g}) mm at "
                                              "{:.1f} mm from the pupil)", p.x(), p.y(), p.z(), c.norm()));
     }

@@ -77,32 +77,6 @@ std::vector<RigCamera> DescribedRig(int n, double baseline_mm, double convergenc
   return rig;
 }
 
-ports::PortSpec PortOfShell(const refraction::Shell& shell, const std::array<double, refraction::kPortNumParams>& p,
-                            const std::string& material, const std::string& name) {
-  const refraction::Geometry<double> g = refraction::MakeGeometry<double>(shell, p.data());
-  ports::PortSpec spec;
-  spec.name = name;
-  spec.description = "a calibrated port (shell and parameters), relative to the pupil";
-  spec.frame = ports::PortFrame::kCam;
-  if (shell.kind == refraction::PortKind::kDome) {
-    ports::DomePort d;
-    d.outer = {g.outer_center, g.outer_radius};
-    d.inner = {g.inner_center, g.inner_radius};
-    d.material = material;
-    d.rim_z_mm = g.rim_z;
-    spec.shape = d;
-  } else {
-    ports::FlatPort f;
-    f.normal = g.normal;
-    f.inner_point_mm = g.distance * g.normal;
-    f.thickness_mm = g.thickness;
-    f.material = material;
-    spec.shape = f;
-  }
-  ports::Validate(spec, "port");
-  return spec;
-}
-
 void ValidateRig(const std::vector<RigCamera>& cameras) {
   if (cameras.empty()) throw InvalidInput("cameras", "a rig needs at least one camera");
   std::set<std::string> names;

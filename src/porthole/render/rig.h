@@ -42,14 +42,6 @@ struct RigCamera {
 // ("convergence_deg"). measure::DescribedRig (`porthole plan`) describes the same rig.
 std::vector<RigCamera> DescribedRig(int n, double baseline_mm, double convergence_deg);
 
-// The port of a refractive camera (refraction.h: its shell and three parameters) as a port spec in
-// the cam frame, made of `material` (the glass whose dispersion the bands use): a dome's spheres at
-// −p and −p + inner_from_outer with its rim plane; a flat port's inner face at distance p[2] along
-// its normal. Traced from the pupil it is refraction::Interfaces(shell, p) (the shell's indices
-// aside: the render takes them from the glass and the water at each band).
-ports::PortSpec PortOfShell(const refraction::Shell& shell, const std::array<double, refraction::kPortNumParams>& p,
-                            const std::string& material, const std::string& name);
-
 // Checks the cameras: at least one, names usable as folder names and distinct (InvalidInput
 // "cameras"), each camera, port and cam_from_rig valid ("cameras.<name>.camera", ".port",
 // ".cam_from_rig").

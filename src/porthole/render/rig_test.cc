@@ -58,7 +58,7 @@ TwoCameras MakeRig() {
   t.rig[0].port_use = RigCamera::PortUse::kNone;
   t.rig[1].camera = OpenCVCamera(t.base.housed.camera.sensor, -0.09);
   t.rig[1].port_use = RigCamera::PortUse::kOwn;
-  t.rig[1].port = PortOfShell(t.shell, t.p, "pmma", "ni320-calibrated");
+  t.rig[1].port = refraction::PortSpecOf(t.shell, t.p, "pmma", "ni320-calibrated");
   return t;
 }
 

@@ -177,8 +177,17 @@ Figure PortRays(const Results& r) {
   const double z_inf = r.infinity.focused.image_z_mm;  // a point fixed in the housing
   double half = 100, zmin = 0, zmax = 0;
   std::string glass_note;
-  if (sys.IsDome()) {
-    const auto& dome = sys.dome();
+  if (sys.IsDome() || sys.IsCylinder()) {
+    // A dome's spheres; a cylinder's section across its axis (circles about the axis).
+    ports::DomePort dome;
+    if (sys.IsDome()) {
+      dome = sys.dome();
+    } else {
+      const auto& c = sys.cylinder();
+      dome.outer = {c.axis_point_mm, c.outer_radius_mm};
+      dome.inner = {c.axis_point_mm, c.inner_radius_mm};
+      dome.rim_z_mm = c.rim_z_mm;
+    }
     // The glass as the tracer sees it (ports::PortSystem::Outward): only where z >= the rim plane.
     const double rim_z = dome.rim_z_mm.value_or(dome.outer.center_mm.z());
     const auto outer = DomeArc(dome.outer, rim_z), inner = DomeArc(dome.inner, rim_z);
@@ -269,7 +278,7 @@ Figure PortRays(const Results& r) {
       "glass into the water (like the paper's Figs. 5–6).{} The camera sees the object plane at WD {:.0f} mm "
       "as the green virtual image {:.1f} mm ahead of the pupil{}.",
       sys.spec.name, glass_note, r.plan.target->wd_mm, d_target,
-      sys.IsDome() ? ", curved because of the port's field curvature" : " (beyond the chart)");
+      sys.IsFlat() ? " (beyond the chart)" : ", curved because of the port's field curvature");
   f.body = fmt::format(
       "set size ratio -1\nset xlabel \"z (mm, housing frame: toward the scene)\"\nset ylabel \"x (mm)\"\n"
       "set xrange [{}:{}]\nset yrange [{}:{}]\nset key outside below center horizontal maxcols 2 samplen 2.5\nset bmargin 7\n"

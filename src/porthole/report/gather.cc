@@ -155,8 +155,8 @@ Results Gather(const ReportInputs& in, Steps& steps) {
   steps.Run("dive plan (focus, minimum WD, DOF, field curvature)", [&] {
     r.plan = planning::MakePlan(in.setup, PlanFor(in, in.subject_distance_mm, 11));
     r.other_plan = planning::MakePlan(other, PlanFor(in, in.subject_distance_mm, 2));
-    if (!in.setup.port.IsDome()) r.flat = planning::AnalyseFlat(in.setup, {});
-    if (!in.other_port.IsDome()) r.flat = planning::AnalyseFlat(other, {});
+    if (in.setup.port.IsFlat()) r.flat = planning::AnalyseFlat(in.setup, {});
+    if (in.other_port.IsFlat()) r.flat = planning::AnalyseFlat(other, {});
   });
 
   steps.Run("virtual image against working distance", [&] {
@@ -225,7 +225,7 @@ Results Gather(const ReportInputs& in, Steps& steps) {
     // Toward the glass the pupil may not reach a flat port's inner face: an action camera's window
     // is a few mm ahead of it (generic-flat-action-housing: 8 mm), so the sweep stops 1 mm short.
     double z_max = 10;
-    if (!r.plan.system.IsDome()) {
+    if (r.plan.system.IsFlat()) {
       const ports::FlatPort& fp = r.plan.system.flat();
       const double gap = (fp.inner_point_mm - r.plan.system.ep_in_housing_mm).dot(fp.normal.normalized());
       z_max = std::min(z_max, 2 * std::floor((gap - 1) / 2));

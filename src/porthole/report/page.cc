@@ -258,7 +258,7 @@ std::string ReportHtml(const Results& r, const std::vector<Figure>& figures,
       "(WD {:.0f} mm) at f/{:g}</p>\n"
       "<p>Made by <code>porthole report</code> after Menna et al. 2016, <i>Sensors</i> 16(1):48. Lengths in mm, "
       "angles in degrees, distortions in µm.</p></div></header>\n<main>\n",
-      Html(s.camera.name), Html(s.lens.name), Html(port), p.system.IsDome() ? "dome" : "flat", Html(s.port.material()),
+      Html(s.camera.name), Html(s.lens.name), Html(port), p.system.spec.KindName(), Html(s.port.material()),
       p.system.n_water, s.env.conditions.lambda_nm, p.system.n_glass, t.subject_distance_mm, t.wd_mm, p.f_number);
   h += "<nav class=\"toc\"><a href=\"#summary\">Summary</a><a href=\"#inputs\">Inputs</a><a href=\"#port\">Port and rays</a>"
        "<a href=\"#focus\">Focus and minimum WD</a><a href=\"#dof\">Depth of field</a><a href=\"#ports\">Dome vs flat</a>"
