@@ -78,12 +78,19 @@ void RegisterRender(py::module_& m) {
          std::optional<double> f_number, const py::object& camera_model, std::optional<double> c_mm,
          std::vector<double> bands_nm, const std::string& color, int bit_depth, int samples_per_pixel,
          int edge_samples_per_pixel, std::uint64_t seed, double exposure, bool white_on_black, int threads,
-         bool force) {
+         bool force, std::optional<std::array<double, 3>> ep_mm, bool natural_vignetting,
+         std::array<double, 3> vignetting_pa, std::optional<std::array<double, 2>> noise_e) {
         render::Scene scene;
         const bool bare = port == "none";  // the lens alone: the port only places the pupil
         scene.housed = MakeSetup(camera, lens, bare ? "nimar-ni320" : port, water, water_index, lambda_nm,
                                  temperature_c, salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
         scene.bare = bare;
+        if (ep_mm) {
+          for (const double v : *ep_mm) RequireFinite("ep_mm", v);
+          scene.housed.ep_in_housing_mm = ports::Vec3((*ep_mm)[0], (*ep_mm)[1], (*ep_mm)[2]);
+        }
+        scene.natural_vignetting = natural_vignetting;
+        scene.vignetting_pa = vignetting_pa;
         std::vector<std::string> warnings = housing::PlausibilityWarnings(scene.housed);
         scene.target = calib::ParseTarget(target);
         const std::string field_path = field.is_none() ? std::string() : Path(field);
@@ -115,6 +122,10 @@ void RegisterRender(py::module_& m) {
         ro.seed = seed;
         ro.exposure = exposure;
         ro.threads = threads;
+        if (noise_e) {  // full well and read noise, electrons
+          ro.full_well_e = RequirePositive("noise_e", (*noise_e)[0]);
+          ro.read_noise_e = (*noise_e)[1];
+        }
         if (color != "grey" && color != "rgb") throw InvalidInput("color", "must be grey or rgb");
         ro.color = color == "rgb" ? render::ColorMode::kRgb : render::ColorMode::kGrey;
         render::Validate(ro);
@@ -160,7 +171,8 @@ void RegisterRender(py::module_& m) {
       py::arg("bands_nm") = render::kDefaultBandsNm, py::arg("color") = "grey", py::arg("bit_depth") = 8,
       py::arg("samples_per_pixel") = 16, py::arg("edge_samples_per_pixel") = 0, py::arg("seed") = 1,
       py::arg("exposure") = 1.0, py::arg("white_on_black") = false, py::arg("threads") = 0,
-      py::arg("force") = false,
+      py::arg("force") = false, py::arg("ep_mm") = py::none(), py::arg("natural_vignetting") = false,
+      py::arg("vignetting_pa") = std::array<double, 3>{0, 0, 0}, py::arg("noise_e") = py::none(),
       "Render what the camera sees through the port, as `porthole render --out NAME.png` with its defaults: "
       "target (a spec string, as detect and calibrate take) at distance_mm from the entrance pupil, shifted "
       "shift_mm (x, y, cam frame), tilted tilt_deg (about its x, then y axis) and rolled roll_deg; camera, "
@@ -169,7 +181,9 @@ void RegisterRender(py::module_& m) {
       "(None: focused on the target); f_number (None: f/8 or the nearest the lens has; math.inf: a pinhole); "
       "camera_model: a calibration file (any format; default the ideal camera of the lens) or c_mm; bands_nm, "
       "color (grey, rgb), bit_depth (8, 16), samples_per_pixel and edge_samples_per_pixel (squares), seed, "
-      "exposure, white_on_black. Writes out (a .png) and its ground truth beside it (.json) and returns what "
+      "exposure, white_on_black; ep_mm: the entrance pupil (x, y, z) in the housing frame (default the lens's); "
+      "natural_vignetting (cos^4 for a rectilinear lens), vignetting_pa (lensfun's pa k1, k2, k3); noise_e: "
+      "(full well, read noise) in electrons (default none). Writes out (a .png) and its ground truth beside it (.json) and returns what "
       "`render --json` prints, with ground_truth (that JSON) and warnings.");
 }
 

@@ -1,6 +1,6 @@
 """Proves porthole.render() is `porthole render --out NAME.png` (issue 25): the same options give the same
 ground truth as the CLI's (every point's pixel in every band within 1e-9 px, read from both files) and
-the same PNG byte for byte; OpenCV's detector (porthole.detect) finds the corners where the truth puts
+the same PNG byte for byte (also with vignetting, seeded noise and a pupil off the axis); OpenCV's detector (porthole.detect) finds the corners where the truth puts
 them; six renders of the lens alone (port='none', a pinhole) calibrate to the truth's principal distance within 3 sigma; bad options raise one-line
 ValueErrors naming the keyword and write nothing."""
 import json
@@ -42,6 +42,24 @@ def test_render_matches_the_cli(tmp_path):
     assert len(err) == 54 and max(err) < 0.3, max(err)  # measured 0.187 px
 
 
+def test_vignetting_noise_and_pupil_as_the_cli(tmp_path):
+    """The lens's vignetting, the sensor's noise (seeded) and a pupil moved off the axis, as the CLI's
+    --vignetting natural --vignetting-pa --noise --ep: the same truth and the same PNG byte for byte."""
+    r = porthole.render(tmp_path / "py.png", distance_mm=1500, natural_vignetting=True, vignetting_pa=(-0.2, 0, 0),
+                        noise_e=(5000, 5), ep_mm=(2, -1, 30), seed=7, **SMALL)
+    subprocess.run([BIN, "render", "--out", tmp_path / "cli.png", "--distance", "1500", "--vignetting", "natural",
+                    "--vignetting-pa", "-0.2,0,0", "--noise", "5000,5", "--ep", "2,-1,30", "--seed", "7",
+                    "--pixel-pitch-mm", "0.029", "--spp", "4", "--quiet"], check=True, capture_output=True)
+    py, cli = (json.loads((tmp_path / f"{n}.json").read_text()) for n in ("py", "cli"))
+    assert py["vignetting"] == cli["vignetting"] == {"natural": True, "pa": [-0.2, 0, 0]}
+    assert py["focus"]["ep_in_housing_mm"] == cli["focus"]["ep_in_housing_mm"] == [2, -1, 30]
+    assert py["noise"] == cli["noise"] and py["seed"] == cli["seed"] == 7
+    assert r.ground_truth.to_dict() == py and len(py["points"]) == 54
+    for a, b in zip(py["points"], cli["points"]):
+        assert a["id"] == b["id"] and np.max(np.abs(np.subtract(a["px"], b["px"]))) <= 1e-9
+    assert (tmp_path / "py.png").read_bytes() == (tmp_path / "cli.png").read_bytes()
+
+
 def test_renders_in_air_calibrate_to_the_truth(tmp_path):
     poses = [((0, 0), (0, 0), 0), ((25, 0), (-80, 40), 5), ((-25, 10), (80, -40), -5), ((0, 30), (0, 60), 10),
              ((10, -30), (40, -60), -10), ((-20, -20), (-60, -50), 3)]
@@ -63,7 +81,8 @@ def test_bad_options_raise_one_line_naming_the_keyword(tmp_path):
              (dict(out=tmp_path / "x.png", samples_per_pixel=5), "samples_per_pixel"),
              (dict(out=tmp_path / "x.png", medium="oil"), "medium: must be water or air"),
              (dict(out=tmp_path / "x.png", distance_mm=-500), "behind the camera"),
-             (dict(out=tmp_path / "x.png", f_number=0), "f_number: must be > 0")]
+             (dict(out=tmp_path / "x.png", f_number=0), "f_number: must be > 0"),
+             (dict(out=tmp_path / "x.png", noise_e=(0, 5)), "noise_e: must be > 0")]
     for kwargs, start in cases:
         with pytest.raises(ValueError) as e:
             porthole.render(**SMALL, **kwargs) if "samples_per_pixel" not in kwargs else \
