@@ -1,7 +1,7 @@
 """Proves porthole.convert() is `porthole convert` (issue 25) and that what it writes is what the real
 clients read: OpenCV (cv2.FileStorage + cv2.projectPoints) reads its YAML and projects as porthole to
 <= 1e-6 px; COLMAP 3.8 (`colmap model_converter`) reads the cameras.txt of two inputs; a stereo file cv2
-writes itself (T in metres) comes in as a rig whose K, D, R and T are cv2's, and goes back out as
+writes itself (T in metres) comes in as a rig (the CLI's JSON and file) whose K, D, R and T are cv2's, and goes back out as
 cv2 reads it; a Brown calibration written to OpenCV YAML is a refit (RMS < 0.01 px) reported as the
 CLI reports it; bad input raises one-line ValueErrors naming the keyword and writes nothing."""
 import json
@@ -116,6 +116,14 @@ def test_cv2s_own_stereo_file_becomes_a_rig_and_goes_back(tmp_path):
     rig = porthole.convert(own, tmp_path / "rig.json", length_unit="m")
     assert rig.in_format == "opencv-stereo" and rig.out_format == "json" and rig.n_cameras == 2
     assert rig.pitch == "none: pixels are mm" and rig.exact
+    cli = json.loads(subprocess.run([BIN, "convert", own, tmp_path / "cli.json", "--length-unit", "m", "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    py = rig.to_dict()
+    assert py.pop("warnings") == [] and py["out"] == str(tmp_path / "rig.json") and cli["out"] == str(tmp_path / "cli.json")
+    for d in (py, cli):
+        d.pop("out"), d.pop("out_files")
+    assert py == cli  # the CLI's --json, the rig's cameras and notes included
+    assert (tmp_path / "rig.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
     cams = json.loads((tmp_path / "rig.json").read_text())["rig"]["cameras"]
     assert [cams[0]["camera"][k] for k in ("fx_px", "fy_px", "cx_px", "cy_px")] == [1500.5, 1501.5, 960.25, 540.75]
     assert cams[1]["camera"]["k1"] == -0.09
@@ -128,6 +136,39 @@ def test_cv2s_own_stereo_file_becomes_a_rig_and_goes_back(tmp_path):
     assert np.abs(got["K1"] - k1).max() < 1e-12 and np.abs(got["K2"] - k2).max() < 1e-12
     assert np.abs(got["D1"].ravel()[:5] - d1.ravel()).max() < 1e-15
     assert np.abs(got["R"] - r).max() < 1e-12 and np.abs(got["T"].ravel() - 1000 * t.ravel()).max() < 1e-9
+
+
+CALIBMAR_DOME = """model: OPENCV
+# fx, fy, cx, cy, k1, k2, p1, p2
+parameters: [1500.5, 1501.25, 960.5, 540.5, -0.1, 0.05, 0.0001, -0.0002]
+# params_est_std_dev: 0.8, 0.7, 0.5, 0.4, 0.001, 0.002, 1e-05, 2e-05
+non_svp_model: DOMEPORT
+# Cx, Cy, Cz, int_radius, int_thick, na, ng, nw
+non_svp_parameters: [0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334]
+width: 1920
+height: 1080
+# overall_rms: 0.21
+"""
+
+
+def test_calibmar_housing_to_a_port_and_back(tmp_path):
+    """calibmar's DOMEPORT (metres) as a porthole port (port_out; load_port reads it: a 100 mm inner radius
+    2, -1, 3 mm from the pupil), and that port (a PortSpec) with water_index back into calibmar's file: the
+    same eight housing parameters to 1e-12."""
+    src = tmp_path / "calibration.yaml"
+    src.write_text(CALIBMAR_DOME)
+    r = porthole.convert(src, tmp_path / "cal.json", port_out=tmp_path / "dome.toml")
+    assert r.in_format == "calibmar" and r.housing == "DOMEPORT" and r.water_index == 1.334 and r.in_rms_px == 0.21
+    assert r.out_files == [str(tmp_path / "cal.json"), str(tmp_path / "dome.toml")]
+    port = porthole.load_port(str(tmp_path / "dome.toml"))
+    toml = port.to_toml()
+    assert "radius_mm = 100" in toml and "center_mm = [2, -1, 3]" in toml
+    assert "give water_index=" in (tmp_path / "dome.toml").read_text()  # the keyword, in Python's words
+    back = porthole.convert(tmp_path / "cal.json", tmp_path / "back.yaml", to="calibmar", port=port, water_index=1.334)
+    assert back.housing_written and back.out_format == "calibmar"
+    text = (tmp_path / "back.yaml").read_text()
+    housing = [float(x) for x in text.split("non_svp_parameters: [")[1].split("]")[0].split(",")]
+    assert housing == pytest.approx([0.002, -0.001, 0.003, 0.1, 0.008, 1, 1.5, 1.334], rel=1e-12)
 
 
 def test_bad_input_raises_one_line_naming_the_keyword(tmp_path):
