@@ -1,8 +1,10 @@
 """Proves porthole.render() is `porthole render --out NAME.png` (issue 25): the same options give the same
 ground truth as the CLI's (every point's pixel in every band within 1e-9 px, read from both files) and
-the same PNG byte for byte (also with vignetting, seeded noise and a pupil off the axis); OpenCV's detector (porthole.detect) finds the corners where the truth puts
-them; six renders of the lens alone (port='none', a pinhole) calibrate to the truth's principal distance within 3 sigma; bad options raise one-line
-ValueErrors naming the keyword and write nothing."""
+the same PNG byte for byte (also with vignetting, seeded noise and a pupil off the axis); OpenCV's
+detector (porthole.detect) finds the corners where the truth puts them; a pitch outside any camera's
+range warns as the CLI does; six renders of the lens alone (port='none', a pinhole) calibrate to the
+truth's principal distance within 3 sigma; bad options raise one-line ValueErrors naming the keyword
+and write nothing."""
 import json
 import math
 import os
@@ -73,6 +75,18 @@ def test_renders_in_air_calibrate_to_the_truth(tmp_path):
     assert cal.status == porthole.Status.OK
     # Measured: c 24.6804 mm against the truth's 24.6575 mm (1.1 sigma, sigma 0.021 mm), RMS 0.081 px.
     assert abs(cal.params["c_mm"] - c_true) < 3 * cal.sigma["c_mm"] and cal.rms_px < 0.15, (cal.params, c_true)
+
+
+def test_warns_where_the_cli_warns(tmp_path):
+    """A pixel pitch outside any camera's range (0.05 mm): the CLI's stderr warning, as a PortholeWarning
+    naming the keyword."""
+    with pytest.warns(porthole.PortholeWarning) as caught:
+        r = porthole.render(tmp_path / "py.png", pixel_pitch_mm=0.05, samples_per_pixel=1)
+    cli = subprocess.run([BIN, "render", "--out", tmp_path / "cli.png", "--pixel-pitch-mm", "0.05", "--spp", "1",
+                          "--quiet"], check=True, capture_output=True, text=True).stderr.strip().splitlines()
+    assert cli == ["porthole: warning: --pixel-pitch-mm: " + r.warnings[0].split(": ", 1)[1]]
+    assert r.warnings[0].startswith("pixel_pitch_mm: 0.05 mm is outside") and len(r.warnings) == 1
+    assert [str(w.message) for w in caught] == r.warnings
 
 
 def test_bad_options_raise_one_line_naming_the_keyword(tmp_path):
