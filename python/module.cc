@@ -39,4 +39,6 @@ PYBIND11_MODULE(_porthole, m) {
   porthole::python::RegisterReport(m);
   porthole::python::RegisterMeasure(m);
   porthole::python::RegisterUndistort(m);
+  porthole::python::RegisterConvert(m);
+  porthole::python::RegisterRender(m);
 }

@@ -102,5 +102,7 @@ void RegisterFit(pybind11::module_& m);
 void RegisterReport(pybind11::module_& m);
 void RegisterMeasure(pybind11::module_& m);
 void RegisterUndistort(pybind11::module_& m);
+void RegisterConvert(pybind11::module_& m);
+void RegisterRender(pybind11::module_& m);
 
 }  // namespace porthole::python

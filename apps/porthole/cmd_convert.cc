@@ -1,53 +1,24 @@
 // `porthole convert IN [IN …] OUT [--to FORMAT]`: a calibration from one tool's file format to
 // another's (porthole JSON, OpenCV YAML/XML, COLMAP cameras.txt/.bin, mrcal .cameramodel, Metashape
 // XML, calibmar; several INs: one COLMAP file holding them all; docs/interop.md), and a rig between
-// porthole's rig JSON and OpenCV stereo, VIAME npz, ROS camera_info and Kalibr files (RunRig).
+// porthole's rig JSON and OpenCV stereo, VIAME npz, ROS camera_info and Kalibr files. The format
+// rules are the library's (interop/convert.h); here the options are parsed and the result printed.
 #include <fmt/format.h>
 
-#include <filesystem>
+#include <cmath>
 #include <optional>
+#include <string_view>
 
 #include "commands.h"
 #include "common.h"
-#include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
-#include "porthole/core/input.h"
+#include "porthole/core/field_names.h"
+#include "porthole/interop/convert.h"
 #include "porthole/interop/interop.h"
-#include "porthole/interop/refractive.h"
 #include "porthole/interop/rig_files.h"
-#include "porthole/io/presets.h"
-#include "porthole/materials/materials.h"
 
 namespace porthole::cli {
 namespace {
-
-struct ConvertRigOptions {
-  std::string length_unit, image_size;
-};
-
-// Whether the INs (and --to) make this a rig conversion: the first IN is a rig file (several INs:
-// ROS camera_info files, one per camera, written to a rig format), or --to names a rig format.
-bool IsRigConversion(const std::vector<std::string>& ins, const std::string& out, const std::string& to) {
-  if (!to.empty()) {
-    for (const std::string_view name : {"opencv-stereo", "opencv-stereo-xml", "viame-npz", "ros-camera-info", "kalibr"}) {
-      if (to == name) return true;
-    }
-  }
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(ins.front(), ec)) return false;
-  std::string head;
-  try {
-    head = ReadInputFile(ins.front(), "IN", kMaxCalibrationFileBytes);
-  } catch (const InvalidInput&) {
-    return false;  // the ordinary path reports it
-  }
-  const auto f = interop::DetectRigFormat(ins.front(), head);
-  if (!f) return false;
-  if (*f == interop::RigFormat::kRosCameraInfo) {  // one camera_info is a camera (opencv-yaml), two a rig into JSON
-    return ins.size() > 1 && (to == "json" || std::filesystem::path(out).extension() == ".json");
-  }
-  return true;
-}
 
 std::pair<int, int> ParseImageSize(const std::string& s) {
   const auto x = s.find('x');
@@ -63,75 +34,67 @@ std::pair<int, int> ParseImageSize(const std::string& s) {
   return {w, h};
 }
 
-// IN … OUT as a rig: read every IN as one rig file (ROS: one per camera), write OUT in its format.
-void RunRig(const std::vector<std::string>& ins, const std::string& out_arg, const std::string& to,
-            std::optional<double> pitch_mm, const ConvertRigOptions& ro, bool json, bool force) {
-  interop::RigReadOptions opt;
-  opt.pixel_pitch_mm = pitch_mm.value_or(1.0);
-  if (!ro.length_unit.empty()) opt.length_unit = interop::LengthUnitFromName(ro.length_unit, "--length-unit");
-  if (!ro.image_size.empty()) opt.image_size = ParseImageSize(ro.image_size);
-  const interop::RigFile rig = interop::ReadRigFiles(ins, opt, "IN");
-  const std::optional<std::string> to_opt = to.empty() ? std::nullopt : std::optional(to);
-  const interop::RigFormat format = interop::RigOutputFormat(out_arg, to_opt, "OUT");
-  const interop::RigWriteResult w = interop::WriteRigFile(rig, format, "OUT '" + out_arg + "'");
-  OutputRules rules{.force = force, .inputs = {}};
-  for (const auto& path : ins) rules.inputs.emplace_back(path);
-  std::vector<std::filesystem::path> paths;
-  if (format == interop::RigFormat::kRosCameraInfo) {
-    if (std::filesystem::exists(out_arg) && !std::filesystem::is_directory(out_arg)) {
-      throw InvalidInput("OUT", "'" + out_arg + "': ros-camera-info writes one file per camera into a directory");
+// --image-size WIDTHxHEIGHT, parsed only where Convert reads it: a rig conversion whose options Convert
+// accepts up to there (else it is refused first, as the image size of no rig or behind another error).
+std::pair<int, int> ImageSizeWhenUsed(const interop::ConvertOptions& c, const std::string& text) {
+  const bool pitch_ok = !c.pixel_pitch_mm || (std::isfinite(*c.pixel_pitch_mm) && *c.pixel_pitch_mm > 0);
+  const bool rig_ok = c.port.empty() && c.port_out.empty() && !c.water_index && c.camera_id == 0;
+  if (pitch_ok && rig_ok && interop::IsRigConversion(c)) return ParseImageSize(text);
+  return {1, 1};  // Convert refuses the options before it uses the size
+}
+
+// The library's fields in convert's words: the positional IN and OUT, --image-size (WIDTHxHEIGHT for
+// image_size_px), and every other field the flag of its name (FlagOfField: port_out → --port-out).
+std::optional<std::string> ConvertWord(std::string_view field) {
+  if (field == "inputs") return "IN";
+  if (field == "out") return "OUT";
+  if (field == "image_size_px") return "--image-size";
+  return FlagOfField(field);
+}
+
+std::string RefitText(bool exact, const camera::ConversionFit& fit) {
+  return exact ? std::string("exact")
+               : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px ({} points)", fit.rms_px, fit.max_px,
+                             fit.num_points);
+}
+
+void PrintRig(const interop::ConvertResult& r) {
+  const std::string in_text = r.inputs.size() == 1 ? r.inputs.front() : fmt::format("{} files", r.inputs.size());
+  fmt::print("rig of {} cameras: {} ({}) -> {} ({})\n", r.rig_in.cameras.size(), in_text,
+             interop::RigFormatName(r.rig_in.format), r.out, interop::RigFormatName(r.rig_format));
+  for (const auto& c : r.rig_written.cameras) fmt::print("  {}: {} {}\n", c.name, c.format_model, RefitText(c.exact, c.fit));
+  if (r.rig_in.format != interop::RigFormat::kJson) {
+    fmt::print("T in {}; no sigma (the format holds no covariance)\n", r.rig_in.length_unit_note);
+  } else if (r.rig_format != interop::RigFormat::kJson) {
+    fmt::print("sigma and the rig's covariance not written ({} holds none)\n", interop::RigFormatName(r.rig_format));
+  }
+}
+
+void PrintCalibration(const interop::ConvertResult& r) {
+  const interop::ReadResult& in = r.reads.front().read;
+  const std::string how = RefitText(r.exact, r.fit);
+  std::string extra;
+  if (!r.port_out.empty()) {
+    extra = fmt::format("\nhousing {} -> {} (porthole port, cam frame, mm); water index {:g}: give "
+                        "--water-index {:g} to commands using it", in.housing->model, r.port_out,
+                        r.port_water_index, r.port_water_index);
+  } else if (in.housing && !r.housing_written) {
+    extra = fmt::format("\nhousing {} not converted: give --port-out FILE.toml", in.housing->model);
+  }
+  if (r.format == interop::Format::kColmapText && r.written.format_model.find("PORT") != std::string::npos) {
+    extra += "\nthe housing is refractive COLMAP's (COLMAP-Underwater reads it; stock COLMAP does not)";
+  }
+  const std::string_view out_format = interop::FormatName(r.format);
+  if (r.several) {
+    for (std::size_t i = 0; i < r.reads.size(); ++i) {
+      fmt::print("{} ({} {}) -> camera {}\n", r.reads[i].path, interop::FormatName(r.reads[i].read.format),
+                 r.reads[i].read.format_model, i + 1);
     }
-    std::error_code ec;
-    std::filesystem::create_directories(out_arg, ec);
-    if (ec) throw InvalidInput("OUT", "'" + out_arg + "': cannot create the directory: " + ec.message());
-    for (const auto& [name, unused] : w.files) paths.push_back(std::filesystem::path(out_arg) / name);
-  } else {
-    paths.emplace_back(out_arg);
+    return fmt::print("{} cameras -> {} ({} {}): {}{}\n", r.reads.size(), r.out, out_format, r.written.format_model,
+                      how, extra);
   }
-  for (std::size_t i = 0; i < paths.size(); ++i) {
-    CheckOutput(paths[i], "OUT", rules, format == interop::RigFormat::kJson ? FileKind::kCalibration : FileKind::kOther);
-  }
-  for (std::size_t i = 0; i < paths.size(); ++i) WriteOutput(paths[i], w.files[i].second, "OUT", rules);
-  const std::string in_text = ins.size() == 1 ? ins.front() : fmt::format("{} files", ins.size());
-  if (json) {
-    Json cams = Json::array();
-    for (const auto& c : w.cameras) {
-      cams.push_back({{"name", c.name},
-                      {"out_model", c.format_model},
-                      {"exact", c.exact},
-                      {"refit_rms_px", c.exact ? 0.0 : c.fit.rms_px},
-                      {"refit_max_px", c.exact ? 0.0 : c.fit.max_px}});
-    }
-    Json files = Json::array();
-    for (const auto& p : paths) files.push_back(p.string());
-    Json j = {{"in", ins},
-              {"in_format", std::string(interop::RigFormatName(rig.format))},
-              {"out", out_arg},
-              {"out_files", files},
-              {"out_format", std::string(interop::RigFormatName(format))},
-              {"n_cameras", rig.cameras.size()},
-              {"length_unit", rig.length_unit_note},
-              {"pitch", rig.pitch_known ? "from the file" : pitch_mm ? "--pixel-pitch-mm" : "none: pixels are mm"},
-              {"exact", w.exact()},
-              {"sigma", rig.format != interop::RigFormat::kJson ? "unknown: the input holds none"
-                        : format != interop::RigFormat::kJson   ? "dropped: the format holds none"
-                                                                : "dropped: the rig JSON is rewritten without its covariance"},
-              {"cameras", cams}};
-    return fmt::print("{}\n", PrintableJson(j));
-  }
-  fmt::print("rig of {} cameras: {} ({}) -> {} ({})\n", rig.cameras.size(), in_text, interop::RigFormatName(rig.format),
-             out_arg, interop::RigFormatName(format));
-  for (const auto& c : w.cameras) {
-    fmt::print("  {}: {} {}\n", c.name, c.format_model,
-               c.exact ? std::string("exact")
-                       : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px ({} points)", c.fit.rms_px,
-                                     c.fit.max_px, c.fit.num_points));
-  }
-  if (rig.format != interop::RigFormat::kJson) {
-    fmt::print("T in {}; no sigma (the format holds no covariance)\n", rig.length_unit_note);
-  } else if (format != interop::RigFormat::kJson) {
-    fmt::print("sigma and the rig's covariance not written ({} holds none)\n", interop::RigFormatName(format));
-  }
+  fmt::print("{} ({} {}) -> {} ({} {}): {}{}\n", r.reads.front().path, interop::FormatName(in.format), in.format_model,
+             r.out, out_format, r.written.format_model, how, extra);
 }
 
 }  // namespace
@@ -139,11 +102,10 @@ void RunRig(const std::vector<std::string>& ins, const std::string& out_arg, con
 void RegisterConvert(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;  // IN [IN …] OUT
-    std::string to, port_out, port;
+    std::string to, port_out, port, length_unit, image_size;
     std::optional<double> pitch_mm, water_index;
     int camera_id = 0;
     bool json = false, force = false;
-    ConvertRigOptions rig;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -208,163 +170,43 @@ void RegisterConvert(CLI::App& app) {
                   "must be concentric)");
   cmd->add_option("--water-index", o->water_index,
                   "With --port: the water index nw (default: seawater, Quan-Fry at 20 C, 35 PSU, 546.07 nm)");
-  cmd->add_option("--length-unit", o->rig.length_unit,
+  cmd->add_option("--length-unit", o->length_unit,
                   "Rig files whose T has no stated unit (OpenCV stereo, VIAME npz not written by porthole): mm, cm or m")
       ->check(CLI::IsMember({"mm", "cm", "m"}));
-  cmd->add_option("--image-size", o->rig.image_size,
+  cmd->add_option("--image-size", o->image_size,
                   "VIAME npz not written by porthole (it holds no image size): WIDTHxHEIGHT, px");
   cmd->add_flag("--json", o->json, "JSON summary for scripts");
   AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
-    if (o->pitch_mm) {
-      RequirePositive("--pixel-pitch-mm", *o->pitch_mm);
-      WarnIfImplausible("--pixel-pitch-mm", *o->pitch_mm, kPixelPitchRange);
+    interop::ConvertOptions c;
+    c.inputs.assign(o->files.begin(), o->files.end() - 1);
+    c.out = o->files.back();
+    if (!o->to.empty()) c.to = o->to;
+    c.pixel_pitch_mm = o->pitch_mm;
+    c.camera_id = o->camera_id;
+    c.port_out = o->port_out;
+    c.port = o->port;
+    c.water_index = o->water_index;
+    c.length_unit = o->length_unit;
+    c.force = o->force;
+    c.words = [](std::string_view text) { return CliWords(text); };
+    for (const std::string& w : interop::ConvertWarnings(c)) {  // "pixel_pitch_mm: …" → "--pixel-pitch-mm: …"
+      const std::string field = w.substr(0, w.find(':'));
+      fmt::print(stderr, "porthole: warning: {}{}\n", ConvertWord(field).value_or(field), w.substr(field.size()));
     }
-    const std::vector<std::string> ins(o->files.begin(), o->files.end() - 1);
-    const std::string out_arg = o->files.back();
-    if (IsRigConversion(ins, out_arg, o->to)) {
-      if (!o->port.empty() || !o->port_out.empty() || o->water_index || o->camera_id != 0) {
-        throw InvalidInput(!o->port.empty() ? "--port" : !o->port_out.empty() ? "--port-out"
-                           : o->water_index        ? "--water-index"
-                                                   : "--camera-id",
-                           "is for a single camera's calibration, not a rig");
-      }
-      return RunRig(ins, out_arg, o->to, o->pitch_mm, o->rig, o->json, o->force);
+    interop::ConvertResult r;
+    try {
+      if (!o->image_size.empty()) c.image_size_px = ImageSizeWhenUsed(c, o->image_size);
+      r = interop::Convert(c);
+    } catch (const InvalidInput& e) {
+      throw RenameFieldsBy(ConvertWord, e);
     }
-    if (!o->rig.length_unit.empty() || !o->rig.image_size.empty()) {
-      throw InvalidInput(o->rig.length_unit.empty() ? "--image-size" : "--length-unit", "is for rig files (IN is not one)");
-    }
-    std::vector<interop::ReadResult> reads;
-    for (const auto& path : ins) reads.push_back(interop::ReadCalibrationFile(path, o->pitch_mm.value_or(1.0), "IN", o->camera_id));
-    std::filesystem::path out = out_arg;
-    const std::optional<std::string> to = o->to.empty() ? std::nullopt : std::optional(o->to);
-    if (std::filesystem::is_directory(out)) {
-      const auto dir_format = to ? interop::FormatFromName(*to, "--to") : interop::Format::kColmapText;
-      if (dir_format != interop::Format::kColmapText && dir_format != interop::Format::kColmapBinary) {
-        throw InvalidInput("OUT", "'" + out_arg + "' is a directory: only COLMAP writes into one");
-      }
-      out /= dir_format == interop::Format::kColmapText ? "cameras.txt" : "cameras.bin";
-    }
-    const auto format = interop::OutputFormat(out.string(), to, "OUT");
-    const bool several = reads.size() > 1;
-    if (several && format != interop::Format::kColmapText && format != interop::Format::kColmapBinary) {
-      throw InvalidInput("OUT", fmt::format("{} INs: only COLMAP's cameras.txt / cameras.bin hold several cameras, "
-                                            "not {}", reads.size(), interop::FormatName(format)));
-    }
-    // The refractive housing: the input's, or a porthole port given with --port (for every camera).
-    if (o->water_index && o->port.empty()) throw InvalidInput("--water-index", "goes with --port");
-    std::optional<interop::RefractiveHousing> port_housing;
-    if (!o->port.empty()) {
-      if (format != interop::Format::kCalibmar && format != interop::Format::kColmapText) {
-        throw InvalidInput("--port", "only calibmar and COLMAP cameras.txt (refractive COLMAP) outputs hold a housing");
-      }
-      const ports::PortSpec port = io::LoadPort(o->port);
-      const double n_water = o->water_index ? *o->water_index : materials::Index("seawater");
-      port_housing = interop::RefractiveFromPort(port, materials::Index(port.material()), n_water, "--port");
-    }
-    const interop::ReadResult& in = reads.front();
-    std::string port_toml;
-    double port_water_index = NAN;
-    if (!o->port_out.empty()) {
-      if (several) throw InvalidInput("--port-out", "goes with one IN");
-      if (!in.housing) {
-        throw InvalidInput("--port-out", "IN has no housing (only calibmar files and refractive COLMAP cameras.txt hold one)");
-      }
-      ports::PortSpec port = interop::PortFromRefractive(*in.housing, "IN '" + ins.front() + "'", &port_water_index);
-      port.description += fmt::format("; water index {:g} (give --water-index)", port_water_index);
-      port_toml = io::PortToToml(port) + interop::HousingSigmaToml(*in.housing);
-      io::ParsePortToml(port_toml, "--port-out");  // porthole reads what it writes
-    }
-    const std::string out_field = "OUT '" + out.string() + "'";
-    interop::WriteResult w;
-    if (several) {
-      std::vector<interop::ColmapEntry> entries;
-      for (std::size_t i = 0; i < reads.size(); ++i) {
-        entries.push_back({reads[i].calibration, static_cast<int>(i) + 1,
-                           port_housing ? port_housing : reads[i].housing});
-        if (format == interop::Format::kColmapBinary) entries.back().housing.reset();  // cameras.txt only
-      }
-      w = interop::WriteColmapCameras(entries, format, out_field);
-    } else {
-      interop::WriteExtras extras{port_housing ? port_housing : in.housing, in.rt_fromref};  // where the output holds them
-      w = interop::WriteCalibration(in.calibration, format, out_field, extras);
-    }
-    // The overwrite rule (core/output.h): never an IN (a COLMAP folder's cameras.txt/.bin included),
-    // an existing file only with --force, both outputs checked before either is written.
-    OutputRules rules{.force = o->force, .inputs = {}};
-    if (!o->port.empty()) rules.inputs.emplace_back(o->port);
-    for (const auto& path : ins) {
-      rules.inputs.emplace_back(path);
-      for (const char* name : {"cameras.txt", "cameras.bin"}) rules.inputs.push_back(std::filesystem::path(path) / name);
-    }
-    CheckOutput(out, "OUT", rules, KindOfText(w.content));
-    if (!port_toml.empty()) CheckOutput(o->port_out, "--port-out", rules);
-    WriteOutput(out, w.content, "OUT", rules);
-    if (!port_toml.empty()) WriteOutput(o->port_out, port_toml, "--port-out", rules);
-
-    // Reading (a Metashape model with terms porthole's lacks) or writing (Brown to a pixel format)
-    // may be a refit: report the one that is, the largest if several are.
-    bool exact = w.exact;
-    camera::ConversionFit fit = w.fit;
-    for (const auto& r : reads) {
-      if (!r.exact && (exact || r.fit.rms_px > fit.rms_px)) fit = r.fit;
-      exact = exact && r.exact;
-    }
-    const std::string how = exact ? "exact"
-                                  : fmt::format("refit over the image: RMS {:.6f} px, max {:.6f} px "
-                                                "({} points)", fit.rms_px, fit.max_px, fit.num_points);
-    const bool housing_written = format == interop::Format::kCalibmar || format == interop::Format::kColmapText;
     if (o->json) {
-      Json cameras = Json::array();
-      for (std::size_t i = 0; i < reads.size(); ++i) {
-        cameras.push_back({{"in", ins[i]},
-                           {"in_format", std::string(interop::FormatName(reads[i].format))},
-                           {"in_model", reads[i].format_model},
-                           {"camera_id", several ? Json(i + 1) : Json(nullptr)}});
-      }
-      Json j = {{"in", ins.front()},
-                {"in_format", std::string(interop::FormatName(in.format))},
-                {"in_model", in.format_model},
-                {"camera_model", std::string(in.camera().model_name())},
-                {"cameras", cameras},
-                {"out", out.string()},
-                {"out_format", std::string(interop::FormatName(format))},
-                {"out_model", w.format_model},
-                {"exact", exact},
-                {"refit_rms_px", exact ? Json(0.0) : Json(fit.rms_px)},
-                {"refit_max_px", exact ? Json(0.0) : Json(fit.max_px)},
-                {"sigma", w.sigma_written ? "written" : in.calibration.has_covariance ? "dropped: the format holds none"
-                                                                                       : "unknown"},
-                {"housing", in.housing ? Json(in.housing->model) : Json(nullptr)},
-                {"housing_written", housing_written && (in.housing || port_housing)},
-                {"port_out", o->port_out.empty() ? Json(nullptr) : Json(o->port_out)},
-                {"water_index", std::isfinite(port_water_index) ? Json(port_water_index) : Json(nullptr)},
-                {"in_rms_px", std::isfinite(in.file_rms_px) ? Json(in.file_rms_px) : Json(nullptr)},
-                {"width_px", in.camera().sensor.width_px},
-                {"height_px", in.camera().sensor.height_px}};
+      Json j = interop::ConvertJson(r);
+      if (r.rig) j["pitch"] = CliWords(j["pitch"].get<std::string>());  // `pixel_pitch_mm` → --pixel-pitch-mm
       return fmt::print("{}\n", PrintableJson(j));
     }
-    std::string extra;
-    if (!port_toml.empty()) {
-      extra = fmt::format("\nhousing {} -> {} (porthole port, cam frame, mm); water index {:g}: give "
-                          "--water-index {:g} to commands using it", in.housing->model, o->port_out,
-                          port_water_index, port_water_index);
-    } else if (in.housing && !housing_written) {
-      extra = fmt::format("\nhousing {} not converted: give --port-out FILE.toml", in.housing->model);
-    }
-    if (format == interop::Format::kColmapText && w.format_model.find("PORT") != std::string::npos) {
-      extra += "\nthe housing is refractive COLMAP's (COLMAP-Underwater reads it; stock COLMAP does not)";
-    }
-    if (several) {
-      for (std::size_t i = 0; i < reads.size(); ++i) {
-        fmt::print("{} ({} {}) -> camera {}\n", ins[i], interop::FormatName(reads[i].format), reads[i].format_model,
-                   i + 1);
-      }
-      return fmt::print("{} cameras -> {} ({} {}): {}{}\n", reads.size(), out.string(), interop::FormatName(format),
-                        w.format_model, how, extra);
-    }
-    fmt::print("{} ({} {}) -> {} ({} {}): {}{}\n", ins.front(), interop::FormatName(in.format),
-               in.format_model, out.string(), interop::FormatName(format), w.format_model, how, extra);
+    r.rig ? PrintRig(r) : PrintCalibration(r);
   });
 }
 

@@ -33,6 +33,7 @@ from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detec
                        RefractiveCalibration, RigCalibration, RigCamera, Measurement, MeasuredPoint, MeasuredLength,
                        Record, ReportSummary, Simulation,
                        SkippedImage, SphereFit, Status, Table, TraceResult, VirtualImage, VirtualImageTable)
+from ._results import ConvertResult, RenderResult
 
 __version__: str = _porthole.__version__
 
@@ -375,6 +376,19 @@ def load_calibration(path) -> Calibration:
         return Calibration.from_dict(json.load(f))
 
 
+@_wraps(_porthole.convert, "porthole.ConvertResult", "inputs may be one path or a list; port may also be a PortSpec.")
+def convert(inputs, out, **kwargs) -> ConvertResult:
+    inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else [os.fspath(i) for i in inputs]
+    with _port_files(kwargs, "port"):
+        return ConvertResult(_porthole.convert(inputs, os.fspath(out), **kwargs))
+
+
+@_wraps(_porthole.render, "porthole.RenderResult", "port may also be a PortSpec.")
+def render(out, **kwargs) -> RenderResult:
+    with _port_files(kwargs, "port"):
+        return RenderResult(_porthole.render(os.fspath(out), **kwargs))
+
+
 # --- scans and fits ---------------------------------------------------------------------------
 
 read_point_cloud = _porthole.read_point_cloud
@@ -430,4 +444,5 @@ __all__ = [
     "Detections", "SkippedImage", "DetectionSet", "Calibration", "PortCalibration", "RefractiveCalibration",
     "VirtualImage", "VirtualImageTable",
     "PortFocal", "TraceResult", "SphereFit", "DomeFit", "Preset", "Medium", "DEFAULT_WD_MM",
+    "convert", "ConvertResult", "render", "RenderResult",
 ]

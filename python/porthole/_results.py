@@ -23,7 +23,7 @@ __all__ = [
     "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis",
     "Simulation", "Comparison", "HousingAssembly", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
     "Calibration", "PortCalibration", "RefractiveCalibration", "VirtualImage", "VirtualImageTable", "PortFocal", "TraceResult", "SphereFit",
-    "DomeFit", "Preset", "Medium",
+    "DomeFit", "Preset", "Medium", "ConvertResult", "RenderResult",
 ]
 
 
@@ -246,6 +246,19 @@ class HousingAssembly(Record):
 
 class ReportSummary(Record):
     """porthole.report(): where the report is (index_html, report_json), its figures and timings."""
+
+
+class ConvertResult(_WarnsRecord):
+    """porthole.convert(): what `porthole convert --json` prints (in, in_format, out, out_format,
+    out_model, exact, refit_rms_px, sigma, housing, ...; a rig: n_cameras, cameras, pitch, ...), with
+    out_files (every file written) and warnings (the options' plausibility, also emitted as
+    PortholeWarning)."""
+
+
+class RenderResult(_WarnsRecord):
+    """porthole.render(): what `porthole render --json` prints (image, truth: the files written;
+    width_px, height_px, points, blocked_fraction, seconds, ...), ground_truth (the truth JSON beside
+    the image: camera, pose, bands, and every target point's pixel per band) and warnings."""
 
 
 class Preset(NamedTuple):
