@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "common.h"
+#include "convert_photomodeler.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
@@ -139,7 +140,7 @@ void RunRig(const std::vector<std::string>& ins, const std::string& out_arg, con
 void RegisterConvert(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;  // IN [IN …] OUT
-    std::string to, port_out, port;
+    std::string to, port_out, port, field_out;
     std::optional<double> pitch_mm, water_index;
     int camera_id = 0;
     bool json = false, force = false;
@@ -195,7 +196,7 @@ void RegisterConvert(CLI::App& app) {
       ->required()
       ->expected(2, -1);
   cmd->add_option("--to", o->to, "Output format: " + interop::FormatNames() + "; rigs: " + interop::RigFormatNames() +
-                                     " (default: from OUT's extension)");
+                                     "; detections (a PhotoModeler export, see --field-out) (default: from OUT's extension)");
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch for inputs that have none (all but porthole JSON), mm; without it "
                   "pitch 1 (pixels are mm)");
@@ -213,6 +214,9 @@ void RegisterConvert(CLI::App& app) {
       ->check(CLI::IsMember({"mm", "cm", "m"}));
   cmd->add_option("--image-size", o->rig.image_size,
                   "VIAME npz not written by porthole (it holds no image size): WIDTHxHEIGHT, px");
+  cmd->add_option("--field-out", o->field_out,
+                  "--to detections: write the PhotoModeler export's 3-D points as a target-field file (for "
+                  "calibrate --field)");
   cmd->add_flag("--json", o->json, "JSON summary for scripts");
   AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
@@ -222,6 +226,11 @@ void RegisterConvert(CLI::App& app) {
     }
     const std::vector<std::string> ins(o->files.begin(), o->files.end() - 1);
     const std::string out_arg = o->files.back();
+    if (o->to == "detections") {  // a PhotoModeler export (+ DBAT control points): convert_photomodeler.h
+      return RunPhotoModelerConvert(ins, out_arg, o->field_out, o->rig.image_size.empty() ? std::nullopt
+                                    : std::optional(ParseImageSize(o->rig.image_size)), o->json, o->force);
+    }
+    if (!o->field_out.empty()) throw InvalidInput("--field-out", "goes with --to detections");
     if (IsRigConversion(ins, out_arg, o->to)) {
       if (!o->port.empty() || !o->port_out.empty() || o->water_index || o->camera_id != 0) {
         throw InvalidInput(!o->port.empty() ? "--port" : !o->port_out.empty() ? "--port-out"

@@ -1,0 +1,318 @@
+// PhotoModeler's text export and DBAT's control-point file (photomodeler.h).
+#include "porthole/interop/photomodeler.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "porthole/core/error.h"
+#include "porthole/core/input.h"
+#include "porthole/interop/text.h"
+
+namespace porthole::interop {
+namespace {
+
+constexpr double kMmPerMetre = 1000.0;
+constexpr int kMaxId = 1000000;  // the target-field file's ID range (coded/sheet.h ParseField)
+
+// The export's lines, one at a time, with the file name and line number for messages.
+class Lines {
+ public:
+  Lines(const std::string& text, std::string origin, std::string field)
+      : in_(text), origin_(std::move(origin)), field_(std::move(field)) {}
+
+  // The next line (without its line end); false at the end of the text.
+  bool Next(std::string* line) {
+    if (!std::getline(in_, *line)) return false;
+    ++n_;
+    if (!line->empty() && line->back() == '\r') line->pop_back();
+    return true;
+  }
+  [[noreturn]] void Fail(const std::string& what) const {
+    throw InvalidInput(field_, fmt::format("'{}' line {}: {}", origin_, n_, what));
+  }
+  int number() const { return n_; }
+
+ private:
+  std::istringstream in_;
+  std::string origin_, field_;
+  int n_ = 0;
+};
+
+// The whitespace-separated numbers of `line`, each finite; refuses any other word.
+std::vector<double> Numbers(const std::string& line, const Lines& lines) {
+  std::istringstream ls(line);
+  std::vector<double> v;
+  for (std::string w; ls >> w;) {
+    double x = 0;
+    std::size_t used = 0;
+    try {
+      x = std::stod(w, &used);
+    } catch (const std::out_of_range&) {  // 1e999: a number, not a finite one
+      x = HUGE_VAL, used = w.size();
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != w.size()) lines.Fail(fmt::format("'{}' is not a number", w.substr(0, 40)));
+    if (!std::isfinite(x)) lines.Fail(fmt::format("'{}' is not a finite number", w.substr(0, 40)));
+    v.push_back(x);
+  }
+  return v;
+}
+
+bool Blank(const std::string& line) { return Trim(line).empty(); }
+
+// A whole number in [lo, hi] (an id or a photo number).
+int WholeNumber(double x, int lo, int hi, const char* what, const Lines& lines) {
+  if (x != std::floor(x) || x < lo || x > hi) lines.Fail(fmt::format("{} {:g} must be a whole number in [{}, {}]", what, x, lo, hi));
+  return static_cast<int>(x);
+}
+
+// The next line as exactly `n` numbers (or at least `n` when `at_least`).
+std::vector<double> NumberLine(Lines& lines, std::size_t n, const char* what, bool at_least = false) {
+  std::string line;
+  if (!lines.Next(&line)) lines.Fail(fmt::format("the file ends before {}", what));
+  std::vector<double> v = Numbers(line, lines);
+  if (at_least ? v.size() < n : v.size() != n) {
+    lines.Fail(fmt::format("{}: expected {}{} numbers, the line has {}", what, at_least ? "at least " : "", n, v.size()));
+  }
+  return v;
+}
+
+// One photo block after its name line: five lines opening with N (the covariance line may be blank).
+void ReadPhotoBlock(int photo, Lines& lines) {
+  const struct {
+    const char* what;
+    std::size_t n;
+    bool may_be_blank;
+  } rows[] = {{"the exterior orientation (N X Y Z kappa phi omega)", 7, false},
+              {"its deviations (N and 6 numbers)", 7, false},
+              {"its covariances (N and 3 numbers, or a blank line)", 4, true},
+              {"the photo's camera (N c xp yp w h K1 K2 K3 P1 P2)", 11, false},
+              {"its deviations (N and 10 numbers)", 11, false}};
+  for (const auto& r : rows) {
+    std::string line;
+    if (!lines.Next(&line)) lines.Fail(fmt::format("the file ends inside photo {} (before {})", photo, r.what));
+    if (r.may_be_blank && Blank(line)) continue;
+    const std::vector<double> v = Numbers(line, lines);
+    if (v.size() != r.n) lines.Fail(fmt::format("photo {}: {}: the line has {} numbers", photo, r.what, v.size()));
+    if (v[0] != photo) lines.Fail(fmt::format("photo {}: the line opens with {:g}, not the photo's number", photo, v[0]));
+  }
+}
+
+// "id X Y Z sX sY sZ" lines up to a blank line or the end (metres → mm).
+std::vector<FieldPoint> ReadPointBlock(Lines& lines, const char* what, bool control) {
+  std::vector<FieldPoint> out;
+  std::set<int> seen;
+  for (std::string line; lines.Next(&line);) {
+    if (Blank(line)) break;
+    const std::vector<double> v = Numbers(line, lines);
+    if (v.size() != 7) lines.Fail(fmt::format("{}: expected 'id X Y Z sX sY sZ', the line has {} numbers", what, v.size()));
+    FieldPoint p;
+    p.id = WholeNumber(v[0], 1, kMaxId, "the point id", lines);
+    if (!seen.insert(p.id).second) lines.Fail(fmt::format("{}: point {} appears twice", what, p.id));
+    p.xyz_mm = Eigen::Vector3d(v[1], v[2], v[3]) * kMmPerMetre;
+    p.sigma_mm = Eigen::Vector3d(v[4], v[5], v[6]) * kMmPerMetre;
+    if ((p.sigma_mm.array() < 0).any()) lines.Fail(fmt::format("{}: point {}: a negative deviation", what, p.id));
+    p.control = control;
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace
+
+PhotoModelerProject ParsePhotoModelerExport(const std::string& text, const std::string& origin,
+                                            const PhotoModelerOptions& options, const std::string& field) {
+  Lines lines(text, origin, field);
+  PhotoModelerProject p;
+  if (!lines.Next(&p.title)) lines.Fail("the file is empty (expected PhotoModeler's text export)");
+  p.title = Trim(p.title);
+
+  // Line 2: tolerance, iterations [, width, height].
+  const std::vector<double> l2 = NumberLine(lines, 2, "line 2 (tolerance, iterations[, width_px, height_px])", true);
+  if (l2.size() != 2 && l2.size() != 4) {
+    lines.Fail(fmt::format("line 2: expected 'tolerance iterations [width_px height_px]', the line has {} numbers", l2.size()));
+  }
+  if (options.image_size_px) {
+    std::tie(p.width_px, p.height_px) = *options.image_size_px;
+  } else if (l2.size() == 4) {
+    p.width_px = WholeNumber(l2[2], 1, 1000000, "the image width", lines);
+    p.height_px = WholeNumber(l2[3], 1, 1000000, "the image height", lines);
+  } else {
+    lines.Fail("line 2 holds no image size: append 'width_px height_px' to it (as DBAT's manual says) or give image_size_px");
+  }
+  if (!(p.width_px >= 1 && p.height_px >= 1)) lines.Fail("image_size_px must be positive");
+
+  NumberLine(lines, 9, "line 3 (9 default deviations)");
+  const std::vector<double> cam = NumberLine(lines, 10, "line 4 (the camera: c xp yp format_w format_h K1 K2 K3 P1 P2)");
+  p.camera = {cam[0], cam[1], cam[2], cam[3], cam[4], cam[5], cam[6], cam[7], cam[8], cam[9]};
+  if (!(p.camera.c_mm > 0 && p.camera.format_w_mm > 0 && p.camera.format_h_mm > 0)) {
+    lines.Fail("the camera's c, format width and height must be positive");
+  }
+  NumberLine(lines, 10, "line 5 (the camera's 10 deviations)");
+
+  // Photos: "N name" then five lines, until a blank line.
+  std::map<int, std::size_t> photo_index;
+  for (std::string line;;) {
+    if (!lines.Next(&line)) lines.Fail("the file ends in the photo list (expected a blank line, then the points)");
+    if (Blank(line)) break;
+    std::istringstream ls(line);
+    std::string number;
+    ls >> number;
+    const std::vector<double> n = Numbers(number, lines);
+    const int photo = WholeNumber(n.at(0), 0, 1000000, "the photo number", lines);
+    std::string name;
+    std::getline(ls, name);
+    name = Trim(name);
+    if (name.empty()) lines.Fail(fmt::format("photo {} has no file name", photo));
+    if (!photo_index.emplace(photo, p.detections.size()).second) lines.Fail(fmt::format("photo {} appears twice", photo));
+    calib::ImageDetections d;
+    d.image = name;
+    d.width_px = p.width_px;
+    d.height_px = p.height_px;
+    p.detections.push_back(d);
+    p.photo_numbers.push_back(photo);
+    ReadPhotoBlock(photo, lines);
+  }
+  if (p.detections.empty()) lines.Fail("the export holds no photo");
+
+  std::vector<FieldPoint> control = ReadPointBlock(lines, "control points", true);
+  p.field = ReadPointBlock(lines, "object points", false);
+  std::set<int> object_ids;
+  for (const auto& q : p.field) object_ids.insert(q.id);
+  for (const auto& c : control) {  // a control point is an object point held to its given position
+    const auto it = std::find_if(p.field.begin(), p.field.end(), [&](const FieldPoint& q) { return q.id == c.id; });
+    if (it == p.field.end()) {
+      p.field.push_back(c);
+    } else {
+      *it = c;
+    }
+  }
+  std::sort(p.field.begin(), p.field.end(), [](const FieldPoint& a, const FieldPoint& b) { return a.id < b.id; });
+  if (p.field.empty()) lines.Fail("the export holds no object point");
+  std::set<int> field_ids;
+  for (const auto& q : p.field) field_ids.insert(q.id);
+
+  // Marks: "N id x y sx sy", until a blank line or the end.
+  std::set<std::pair<int, int>> marked;
+  for (std::string line; lines.Next(&line);) {
+    if (Blank(line)) break;
+    const std::vector<double> v = Numbers(line, lines);
+    if (v.size() != 6) lines.Fail(fmt::format("image point: expected 'photo id x_px y_px sx sy', the line has {} numbers", v.size()));
+    const int photo = WholeNumber(v[0], 0, 1000000, "the photo number", lines);
+    const int id = WholeNumber(v[1], 1, kMaxId, "the point id", lines);
+    const auto ph = photo_index.find(photo);
+    if (ph == photo_index.end()) lines.Fail(fmt::format("image point {} on photo {}, which the photo list does not hold", id, photo));
+    if (!field_ids.count(id)) lines.Fail(fmt::format("image point {} on photo {}: no object point has that id", id, photo));
+    if (!marked.emplace(photo, id).second) lines.Fail(fmt::format("point {} is marked twice on photo {}", id, photo));
+    if (v[2] < 0 || v[3] < 0 || v[2] > p.width_px || v[3] > p.height_px) {
+      lines.Fail(fmt::format("image point {} on photo {} at ({:g}, {:g}) px lies outside the {}x{} image", id, photo, v[2], v[3],
+                             p.width_px, p.height_px));
+    }
+    calib::ImageDetections& d = p.detections[ph->second];
+    if (d.ids.size() >= kMaxPointsPerImage) lines.Fail(fmt::format("photo {} holds more than {} points", photo, kMaxPointsPerImage));
+    d.ids.push_back(id);
+    d.points_px.emplace_back(v[2] - 0.5, v[3] - 0.5);  // corner origin → centre of the top-left pixel at 0
+    ++p.n_marks;
+  }
+  if (p.n_marks == 0) lines.Fail("the export holds no image point (the marks after the object points)");
+  return p;
+}
+
+PhotoModelerProject ReadPhotoModelerExport(const std::string& path, const PhotoModelerOptions& options,
+                                           const std::string& field) {
+  return ParsePhotoModelerExport(ReadInputFile(path, field, kMaxJsonFileBytes), path, options, field);
+}
+
+std::vector<FieldPoint> ParseDbatControlPoints(const std::string& text, const std::string& origin, const std::string& field) {
+  Lines lines(text, origin, field);
+  std::vector<FieldPoint> out;
+  std::set<int> seen;
+  for (std::string line; lines.Next(&line);) {
+    const std::string t = Trim(line);
+    if (t.empty() || t[0] == '#') continue;
+    std::vector<std::string> parts;
+    std::istringstream ls(t);
+    for (std::string part; std::getline(ls, part, ',');) parts.push_back(Trim(part));
+    if (parts.size() < 5 || parts.size() > 8) {
+      lines.Fail(fmt::format("expected 'id, name, X, Y, Z[, sigma[, sigma[, sigma]]]' (a full covariance is not read), "
+                             "the line has {} fields", parts.size()));
+    }
+    std::vector<double> v;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      if (i == 1) continue;  // the name
+      const std::vector<double> x = Numbers(parts[i], lines);
+      if (x.size() != 1) lines.Fail(fmt::format("field {} '{}' is not one number", i + 1, parts[i].substr(0, 40)));
+      v.push_back(x[0]);
+    }
+    FieldPoint p;
+    p.id = WholeNumber(v[0], 1, kMaxId, "the point id", lines);
+    if (!seen.insert(p.id).second) lines.Fail(fmt::format("control point {} appears twice", p.id));
+    p.name = parts[1];
+    p.xyz_mm = Eigen::Vector3d(v[1], v[2], v[3]) * kMmPerMetre;
+    const std::size_t ns = v.size() - 4;  // 0: fixed, 1: all axes, 2: xy and z, 3: each axis
+    p.sigma_mm = ns == 0   ? Eigen::Vector3d::Zero()
+                 : ns == 1 ? Eigen::Vector3d::Constant(v[4])
+                 : ns == 2 ? Eigen::Vector3d(v[4], v[4], v[5])
+                           : Eigen::Vector3d(v[4], v[5], v[6]);
+    p.sigma_mm *= kMmPerMetre;
+    if ((p.sigma_mm.array() < 0).any()) lines.Fail(fmt::format("control point {}: a negative sigma", p.id));
+    p.control = true;
+    out.push_back(p);
+  }
+  if (out.empty()) lines.Fail("holds no control point");
+  return out;
+}
+
+std::vector<FieldPoint> ReadDbatControlPoints(const std::string& path, const std::string& field) {
+  return ParseDbatControlPoints(ReadInputFile(path, field), path, field);
+}
+
+void ApplyControlPoints(const std::vector<FieldPoint>& control, PhotoModelerProject* project, const std::string& field) {
+  for (const FieldPoint& c : control) {
+    const auto it = std::find_if(project->field.begin(), project->field.end(), [&](const FieldPoint& q) { return q.id == c.id; });
+    if (it == project->field.end()) {
+      throw InvalidInput(field, fmt::format("control point {} ('{}') is no point of the project", c.id, c.name));
+    }
+    *it = c;
+  }
+}
+
+BrownFromPhotoModeler BrownCamera(const PhotoModelerProject& project) {
+  const PhotoModelerCamera& c = project.camera;
+  BrownFromPhotoModeler b;
+  b.pixel_pitch_mm = c.format_h_mm / project.height_px;
+  b.c_mm = c.c_mm;
+  b.x0_mm = c.xp_mm - c.format_w_mm / 2;
+  b.y0_mm = c.format_h_mm / 2 - c.yp_mm;
+  b.K1 = c.K1, b.K2 = c.K2, b.K3 = c.K3, b.P1 = c.P1, b.P2 = c.P2;
+  return b;
+}
+
+std::string FieldFileText(const PhotoModelerProject& project, const std::string& source) {
+  std::string s = source;
+  std::replace_if(s.begin(), s.end(), [](char ch) { return ch == '\n' || ch == '\r'; }, '?');
+  int n_control = 0;
+  for (const auto& q : project.field) n_control += q.control;
+  std::string out = fmt::format(
+      "# porthole target field from PhotoModeler's text export {}\n"
+      "# {} points ({} control), metres x 1000; after '#': sigma_mm sx sy sz as given, 'control' for a control point\n"
+      "# id x_mm y_mm z_mm\n",
+      s, project.field.size(), n_control);
+  for (const auto& q : project.field) {
+    out += fmt::format("{} {:.6f} {:.6f} {:.6f}", q.id, q.xyz_mm.x(), q.xyz_mm.y(), q.xyz_mm.z());
+    std::string note;
+    if (q.sigma_mm.allFinite()) note += fmt::format(" sigma_mm {:.6g} {:.6g} {:.6g}", q.sigma_mm.x(), q.sigma_mm.y(), q.sigma_mm.z());
+    if (q.control) note += " control";
+    out += note.empty() ? "\n" : "  #" + note + "\n";
+  }
+  return out;
+}
+
+}  // namespace porthole::interop

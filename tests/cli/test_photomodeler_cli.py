@@ -1,0 +1,168 @@
+"""A photogrammetric project from PhotoModeler (issue 26, "Rig files users have"): its text export and
+DBAT's control-point file become porthole detections and a target field through `porthole convert
+--to detections`, and `porthole calibrate` on them gives the camera DBAT's published self-calibration
+of the same project gives (tests/data/README.md: dbat_camcal_*), within DBAT's sigma.
+
+The user's path, end to end:
+    porthole convert dbat_camcal_pmexport.txt dbat_camcal_fixed.txt det.json --to detections \\
+        --field-out field.txt
+    porthole calibrate --detections det.json --field field.txt --free-target \\
+        --pixel-pitch-mm 0.0031910798 --centre-correction off
+Bad input: one line, exit 2."""
+import json
+import math
+import os
+
+import pytest
+
+from conftest import DATA, read_table, run, run_bad
+
+EXPORT = os.path.join(DATA, "dbat_camcal_pmexport.txt")
+CONTROL = os.path.join(DATA, "dbat_camcal_fixed.txt")
+W, H = 2272, 1704      # DBAT's report: image width and height, px
+PIXEL_H_MM = 0.0031911  # DBAT's report: pixel height (its pixel size; the width is this x (1 + aspect))
+
+
+@pytest.fixture(scope="module")
+def converted(tmp_path_factory):
+    d = tmp_path_factory.mktemp("pm")
+    det, field = d / "det.json", d / "field.txt"
+    res = run("convert", EXPORT, CONTROL, det, "--to", "detections", "--field-out", field, "--json")
+    return d, det, field, res.json()
+
+
+def export_marks():
+    """The export's marks read here, independently of porthole: lines of six numbers after the
+    third blank line that follows the photo list (DBAT's loadpm)."""
+    with open(EXPORT) as f:
+        lines = f.read().split("\n")
+    blanks = [i for i, line in enumerate(lines) if not line.strip()]
+    # Photo blocks hold a blank covariance line every 6 lines; the list ends with two blanks in a row
+    # (end of photos, empty control block), then the object points, then the marks.
+    end = next(b for b in blanks if b + 1 in blanks)
+    after_points = next(b for b in blanks if b > end + 1)
+    marks = []
+    for line in lines[after_points + 1:]:
+        if not line.strip():
+            break
+        n, pid, x, y, _, _ = line.split()
+        marks.append((int(n), int(pid), float(x), float(y)))
+    return marks
+
+
+def test_export_becomes_detections_and_field(converted):
+    d, det, field, j = converted
+    # DBAT's report of this project: 21 photos, 4148 image observations (2074 points x 2),
+    # 96 free points (288 OP parameters) + 4 fixed control points.
+    assert j["n_images"] == 21 and j["n_image_points"] == 2074, j
+    assert j["n_points"] == 100 and j["n_control_points"] == 4, j
+    assert (j["width_px"], j["height_px"]) == (W, H)
+    data = json.loads(det.read_text())
+    assert data["target"] == "coded:12:1:aicon"
+    assert len(data["images"]) == 21
+    assert sum(len(im["ids"]) for im in data["images"]) == 2074
+    # Every mark is the export's less half a pixel (PhotoModeler's origin is the image's corner).
+    marks = export_marks()
+    assert len(marks) == 2074
+    got = {}
+    for k, im in enumerate(data["images"]):
+        for pid, (u, v) in zip(im["ids"], im["points_px"]):
+            got[(k, pid)] = (u, v)
+    for n, pid, x, y in marks:
+        u, v = got[(n, pid)]
+        assert abs(u - (x - 0.5)) < 1e-9 and abs(v - (y - 0.5)) < 1e-9, (n, pid)
+    # The field: 100 points in mm, the 4 control points held (sigma 0: camcal-fixed.txt gives none).
+    rows = [line.split("#")[0].split() for line in field.read_text().splitlines() if line.split("#")[0].strip()]
+    assert len(rows) == 100
+    controls = [line for line in field.read_text().splitlines() if line.endswith(" control")]
+    assert [c.split()[0] for c in controls] == ["1001", "1002", "1003", "1004"]
+    assert controls[1].startswith("1002 1000.000000 1000.000000 0.000000")
+    assert "next" in j and "--centre-correction off" in j["next"]
+
+
+def reference():
+    return {r["parameter"]: (float(r["value"]), float(r["sigma"])) for r in read_table("dbat_camcal_reference.csv")}
+
+
+# porthole's figures against DBAT's (difference / DBAT's sigma), measured: c 0.20, u0 -0.56, v0 0.17,
+# K1 0.72, K2 -0.41, K3 0.31, P1 0.18, P2 -0.46; B1 against DBAT's aspect parameter 1.07 (not quite the
+# same parameter: DBAT scales x after the distortion correction, porthole adds B1 x-bar to it).
+LIMITS = {"B1": 1.5}
+
+
+def test_calibration_on_the_import_matches_dbats_reference_within_its_sigma(converted, tmp_path):
+    d, det, field, j = converted
+    pitch = j["camera"]["pixel_pitch_mm"]
+    assert abs(pitch - PIXEL_H_MM) < 1e-7
+    out = tmp_path / "cal.json"
+    # DBAT's model of this run: c, xp, yp, aspect, K1-K3, P1, P2 free, no point rejected.
+    run("calibrate", "--detections", det, "--field", field, "--free-target", "--pixel-pitch-mm", pitch,
+        "--centre-correction", "off", "--free", "c,x0,y0,K1,K2,K3,P1,P2,B1", "--reject-k", "0",
+        "--out", out, "--quiet")
+    cal = json.loads(out.read_text())
+    assert cal["n_points"] == 2074 and cal["n_images"] == 21
+    figures = compare(cal["camera"], pitch)
+    for name, (diff, sigma) in figures.items():
+        assert abs(diff) <= LIMITS.get(name, 1.0) * sigma, (name, diff / sigma, figures)
+    # Without the control points' datum the network's scale and shape are free: porthole's sigma0 is
+    # below DBAT's 0.16148 px (DBAT holds the four corners at their nominal 1 m square).
+    assert 0.1 < cal["sigma0_px"] < 0.16148
+
+
+def compare(p, pitch):
+    """porthole's calibration against DBAT's, each figure as (difference, DBAT's sigma)."""
+    ref = reference()
+    out = {}
+    # c: both in mm of the pixel height (DBAT's pixel size for both axes before its aspect term).
+    out["c_mm"] = (p["c_mm"] - ref["c"][0], ref["c"][1])
+    # Principal point in porthole pixels: DBAT's xp, yp are mm from the corner, y down, in units of
+    # the pixel height (res_euler_brown_2.m: scale2 by one pixel size, then the flip and xp, yp),
+    # less half a pixel; porthole's x0, y0 are from the centre, y up.
+    u0_ref = ref["xp"][0] / PIXEL_H_MM - 0.5
+    v0_ref = ref["yp"][0] / PIXEL_H_MM - 0.5
+    u0 = p["x0_mm"] / pitch + (W - 1) / 2
+    v0 = -p["y0_mm"] / pitch + (H - 1) / 2
+    out["u0_px"] = (u0 - u0_ref, ref["xp"][1] / PIXEL_H_MM)
+    out["v0_px"] = (v0 - v0_ref, ref["yp"][1] / PIXEL_H_MM)
+    for k in ("K1", "K2", "K3", "P1", "P2"):
+        out[k] = (p[k] - ref[k][0], ref[k][1])
+    out["B1"] = (p["B1"] - ASPECT[0], ASPECT[1])
+    return out
+
+
+ASPECT = (0.000389598, 2.08e-05)  # DBAT's report: "as - off-unit aspect parameter"
+
+
+def test_bad_exports_are_refused_in_one_line(tmp_path):
+    text = open(EXPORT).read().split("\n")
+
+    def variant(n, replacement):
+        lines = list(text)
+        lines[n - 1] = replacement
+        f = tmp_path / f"v{n}_{abs(hash(replacement))}.txt"
+        f.write_text("\n".join(lines))
+        return f
+
+    cases = [
+        (variant(7, "   0    0.455    nan    1.468 -179.839   -1.181  -39.420"), "line 7", "not a finite number"),
+        (variant(235, "  21        2 1429.1871 1456.4278  0.10000  0.10000"), "line 235",
+         "photo 21, which the photo list does not hold"),
+        (variant(135, "       2    0.28573    1.14303   -0.00098   0.000042   0.000041   0.000072"), "line 135",
+         "point 2 appears twice"),
+        (variant(235, "   0        2 1429.1871"), "line 235", "the line has 3 numbers"),
+    ]
+    for f, where, what in cases:
+        line = run_bad("convert", f, tmp_path / "d.json", "--to", "detections", "--field-out", tmp_path / "f.txt")
+        assert f"IN: '{f}' {where}" in line and what in line, line
+        assert not (tmp_path / "d.json").exists() and not (tmp_path / "f.txt").exists()
+    truncated = tmp_path / "cut.txt"
+    truncated.write_text("\n".join(text[:40]))
+    line = run_bad("convert", truncated, tmp_path / "d.json", "--to", "detections", "--field-out", tmp_path / "f.txt")
+    assert "ends inside photo 5" in line, line
+    bad_control = tmp_path / "c.txt"
+    bad_control.write_text("7777, X, 0, 0, 0\n")
+    line = run_bad("convert", EXPORT, bad_control, tmp_path / "d.json", "--to", "detections", "--field-out",
+                   tmp_path / "f.txt")
+    assert "control point 7777" in line, line
+    line = run_bad("convert", EXPORT, tmp_path / "d.json", "--to", "detections")
+    assert "--field-out" in line, line
