@@ -213,7 +213,8 @@ void RegisterConvert(CLI::App& app) {
                   "Rig files whose T has no stated unit (OpenCV stereo, VIAME npz not written by porthole): mm, cm or m")
       ->check(CLI::IsMember({"mm", "cm", "m"}));
   cmd->add_option("--image-size", o->rig.image_size,
-                  "VIAME npz not written by porthole (it holds no image size): WIDTHxHEIGHT, px");
+                  "VIAME npz not written by porthole, PhotoModeler point tables or an export whose line 2 has none "
+                  "(they hold no image size): WIDTHxHEIGHT, px");
   cmd->add_option("--field-out", o->field_out,
                   "--to detections: write the PhotoModeler export's 3-D points as a target-field file (for "
                   "calibrate --field)");

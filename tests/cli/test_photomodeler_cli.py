@@ -80,6 +80,33 @@ def test_export_becomes_detections_and_field(converted):
     assert "next" in j and "--centre-correction off" in j["next"]
 
 
+def test_point_tables_give_the_same_detections(converted, tmp_path):
+    """PhotoModeler's CSV point tables of the same marks (either order, with --image-size) give the
+    export's detections to its 4 decimals, the 3-D table's control points marked."""
+    d, det, field, j = converted
+    t2 = os.path.join(DATA, "dbat_prague2016_cam_2dpts.txt")
+    t3 = os.path.join(DATA, "dbat_prague2016_cam_3dpts.txt")
+    line = run_bad("convert", t2, t3, tmp_path / "t.json", "--to", "detections", "--field-out", tmp_path / "tf.txt")
+    assert "holds no image size" in line and "--image-size" in line, line
+    line = run_bad("convert", t2, tmp_path / "t.json", "--to", "detections", "--field-out", tmp_path / "tf.txt",
+                   "--image-size", "2272x1704")
+    assert "come in pairs" in line, line
+    tj = run("convert", t3, t2, tmp_path / "t.json", "--to", "detections", "--field-out", tmp_path / "tf.txt",
+             "--image-size", "2272x1704", "--json").json()
+    assert (tj["n_images"], tj["n_image_points"], tj["n_points"], tj["n_control_points"]) == (21, 2074, 100, 4)
+    assert tj["camera"] is None and "PITCH_MM" in tj["next"]
+    a = json.loads(det.read_text())["images"]
+    b = json.loads((tmp_path / "t.json").read_text())["images"]
+    assert [im["image"] for im in b] == [f"photo {k}" for k in range(1, 22)]
+    worst = 0
+    for ia, ib in zip(a, b):
+        pa = dict(zip(ia["ids"], ia["points_px"]))
+        assert sorted(pa) == sorted(ib["ids"])
+        for pid, (u, v) in zip(ib["ids"], ib["points_px"]):
+            worst = max(worst, abs(u - pa[pid][0]), abs(v - pa[pid][1]))
+    assert 0 < worst <= 5e-5 + 1e-9
+
+
 def reference():
     return {r["parameter"]: (float(r["value"]), float(r["sigma"])) for r in read_table("dbat_camcal_reference.csv")}
 
@@ -106,7 +133,27 @@ def test_calibration_on_the_import_matches_dbats_reference_within_its_sigma(conv
         assert abs(diff) <= LIMITS.get(name, 1.0) * sigma, (name, diff / sigma, figures)
     # Without the control points' datum the network's scale and shape are free: porthole's sigma0 is
     # below DBAT's 0.16148 px (DBAT holds the four corners at their nominal 1 m square).
-    assert 0.1 < cal["sigma0_px"] < 0.16148
+    assert round(cal["sigma0_px"], 3) == 0.137
+    # A sign error in K or P would be tens of sigma off, a principal point mirrored in y hundreds.
+    ref = reference()
+    p = cal["camera"]
+    assert min(abs(-p[k] - ref[k][0]) / ref[k][1] for k in ("K1", "K2", "K3", "P1", "P2")) > 20
+    v0_mirrored = p["y0_mm"] / pitch + (H - 1) / 2
+    assert abs(v0_mirrored - (ref["yp"][0] / PIXEL_H_MM - 0.5)) / (ref["yp"][1] / PIXEL_H_MM) > 100
+
+    # Without the half-pixel shift (the export's pixels taken as porthole's) the principal point moves
+    # by half a pixel: 1.38 sigma (u) and 1.8 sigma (v) from DBAT's.
+    data = json.loads(det.read_text())
+    for im in data["images"]:
+        im["points_px"] = [[u + 0.5, v + 0.5] for u, v in im["points_px"]]
+    unshifted = tmp_path / "unshifted.json"
+    unshifted.write_text(json.dumps(data))
+    run("calibrate", "--detections", unshifted, "--field", field, "--free-target", "--pixel-pitch-mm", pitch,
+        "--centre-correction", "off", "--free", "c,x0,y0,K1,K2,K3,P1,P2,B1", "--reject-k", "0",
+        "--out", tmp_path / "cal_unshifted.json", "--quiet")
+    bad = compare(json.loads((tmp_path / "cal_unshifted.json").read_text())["camera"], pitch)
+    assert round(bad["u0_px"][0] / bad["u0_px"][1], 2) == 1.38, bad
+    assert round(bad["v0_px"][0] / bad["v0_px"][1], 1) == 1.8, bad
 
 
 def compare(p, pitch):
@@ -146,7 +193,7 @@ def test_bad_exports_are_refused_in_one_line(tmp_path):
     cases = [
         (variant(7, "   0    0.455    nan    1.468 -179.839   -1.181  -39.420"), "line 7", "not a finite number"),
         (variant(235, "  21        2 1429.1871 1456.4278  0.10000  0.10000"), "line 235",
-         "photo 21, which the photo list does not hold"),
+         "image point 2 on photo 21, which the photo list does not hold"),
         (variant(135, "       2    0.28573    1.14303   -0.00098   0.000042   0.000041   0.000072"), "line 135",
          "point 2 appears twice"),
         (variant(235, "   0        2 1429.1871"), "line 235", "the line has 3 numbers"),
@@ -155,6 +202,15 @@ def test_bad_exports_are_refused_in_one_line(tmp_path):
         line = run_bad("convert", f, tmp_path / "d.json", "--to", "detections", "--field-out", tmp_path / "f.txt")
         assert f"IN: '{f}' {where}" in line and what in line, line
         assert not (tmp_path / "d.json").exists() and not (tmp_path / "f.txt").exists()
+    # Line 2 without the image size (PhotoModeler writes none; DBAT's manual has it appended): --image-size.
+    no_size = variant(2, " 0.000500 20")
+    line = run_bad("convert", no_size, tmp_path / "d.json", "--to", "detections", "--field-out", tmp_path / "f.txt")
+    assert "line 2 holds no image size" in line and "--image-size" in line, line
+    j = run("convert", no_size, tmp_path / "d.json", "--to", "detections", "--field-out", tmp_path / "f.txt",
+            "--image-size", "2272x1704", "--json").json()
+    assert j["n_image_points"] == 2074 and (j["width_px"], j["height_px"]) == (W, H)
+    (tmp_path / "d.json").unlink()
+    (tmp_path / "f.txt").unlink()
     truncated = tmp_path / "cut.txt"
     truncated.write_text("\n".join(text[:40]))
     line = run_bad("convert", truncated, tmp_path / "d.json", "--to", "detections", "--field-out", tmp_path / "f.txt")

@@ -30,13 +30,15 @@ class Lines {
   bool Next(std::string* line) {
     if (!std::getline(in_, *line)) return false;
     ++n_;
-    if (!line->empty() && line->back() == '\r') line->pop_back();
+    while (!line->empty() && line->back() == '\r') line->pop_back();  // the tables end lines with \r\r\n
     return true;
   }
   [[noreturn]] void Fail(const std::string& what) const {
+    if (n_ == 0) throw InvalidInput(field_, fmt::format("'{}': {}", origin_, what));
     throw InvalidInput(field_, fmt::format("'{}' line {}: {}", origin_, n_, what));
   }
   int number() const { return n_; }
+  void At(int n) { n_ = n; }  // messages about a line read earlier (a table's rows)
 
  private:
   std::istringstream in_;
@@ -145,9 +147,9 @@ PhotoModelerProject ParsePhotoModelerExport(const std::string& text, const std::
     p.width_px = WholeNumber(l2[2], 1, 1000000, "the image width", lines);
     p.height_px = WholeNumber(l2[3], 1, 1000000, "the image height", lines);
   } else {
-    lines.Fail("line 2 holds no image size: append 'width_px height_px' to it (as DBAT's manual says) or give image_size_px");
+    lines.Fail("line 2 holds no image size: append 'width_px height_px' to it (as DBAT's manual says) or give `image_size` (WIDTHxHEIGHT)");
   }
-  if (!(p.width_px >= 1 && p.height_px >= 1)) lines.Fail("image_size_px must be positive");
+  if (!(p.width_px >= 1 && p.height_px >= 1)) lines.Fail("`image_size` must be positive");
 
   NumberLine(lines, 9, "line 3 (9 default deviations)");
   const std::vector<double> cam = NumberLine(lines, 10, "line 4 (the camera: c xp yp format_w format_h K1 K2 K3 P1 P2)");
@@ -313,6 +315,171 @@ std::string FieldFileText(const PhotoModelerProject& project, const std::string&
     out += note.empty() ? "\n" : "  #" + note + "\n";
   }
   return out;
+}
+
+// ---- PhotoModeler's point tables (CSV) ----
+
+namespace {
+
+// The comma-separated fields of `line`, a quoted field ("1,2,3") as one, without its quotes.
+std::vector<std::string> CsvFields(const std::string& line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (const char ch : line) {
+    if (ch == '"') {
+      quoted = !quoted;
+    } else if (ch == ',' && !quoted) {
+      out.emplace_back();
+    } else {
+      out.back() += ch;
+    }
+  }
+  for (auto& f : out) f = Trim(f);
+  return out;
+}
+
+// mm per project unit from the table's "Project Units: …" line; metres when it has none.
+double MmPerUnit(const std::string& unit, const Lines& lines) {
+  const std::string u = Lower(Trim(unit));
+  if (u == "meters" || u == "metres" || u == "m") return 1000;
+  if (u == "centimeters" || u == "centimetres" || u == "cm") return 10;
+  if (u == "millimeters" || u == "millimetres" || u == "mm") return 1;
+  if (u == "feet" || u == "ft") return 304.8;
+  if (u == "inches" || u == "in") return 25.4;
+  lines.Fail(fmt::format("project units '{}': expected meters, centimeters, millimeters, feet or inches", u.substr(0, 40)));
+}
+
+// One table: its project unit, its header (the first line opening with `first_column`) and its data
+// lines (those opening with a digit, as DBAT's loadpm2dtbl/loadpm3dtbl take them).
+struct Table {
+  double mm_per_unit = kMmPerMetre;
+  std::vector<std::string> header;
+  std::vector<std::pair<int, std::vector<std::string>>> rows;  // line number, fields
+};
+
+Table ReadTable(Lines& lines, const std::string& first_column) {
+  Table t;
+  for (std::string line; lines.Next(&line);) {
+    const std::string s = Trim(line);
+    if (s.rfind("Project Units:", 0) == 0) t.mm_per_unit = MmPerUnit(s.substr(14), lines);
+    if (s.rfind(first_column + ",", 0) == 0 && t.header.empty()) t.header = CsvFields(s);
+    if (s.empty() || !std::isdigit(static_cast<unsigned char>(s[0]))) continue;
+    if (t.header.empty()) lines.Fail(fmt::format("a data line before the header ('{},…')", first_column));
+    std::vector<std::string> f = CsvFields(s);
+    if (f.size() != t.header.size()) lines.Fail(fmt::format("{} fields, the header has {}", f.size(), t.header.size()));
+    t.rows.emplace_back(lines.number(), std::move(f));
+  }
+  if (t.header.empty()) lines.Fail(fmt::format("no header line '{},…' (expected PhotoModeler's point table)", first_column));
+  return t;
+}
+
+// The column named `name` (the first whose header opens with it).
+std::size_t Column(const Table& t, const std::string& name, const Lines& lines) {
+  for (std::size_t i = 0; i < t.header.size(); ++i) {
+    if (t.header[i].rfind(name, 0) == 0) return i;
+  }
+  lines.Fail(fmt::format("the header has no column '{}'", name));
+}
+
+}  // namespace
+
+int PhotoModelerTableKind(const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  for (int i = 0; i < 20 && std::getline(in, line); ++i) {
+    if (line.rfind("Object Point ID,Photo #", 0) == 0) return 2;
+    if (line.rfind("Id,Name,", 0) == 0) return 3;
+  }
+  return 0;
+}
+
+PhotoModelerProject ParsePhotoModelerTables(const std::string& text_2d, const std::string& origin_2d,
+                                            const std::string& text_3d, const std::string& origin_3d,
+                                            const PhotoModelerOptions& options, const std::string& field) {
+  PhotoModelerProject p;
+  Lines l3(text_3d, origin_3d, field);
+  const Table t3 = ReadTable(l3, "Id");
+  const std::size_t cx = Column(t3, "X (", l3), cy = Column(t3, "Y (", l3), cz = Column(t3, "Z (", l3);
+  const std::size_t sx = Column(t3, "X Precision", l3), sy = Column(t3, "Y Precision", l3), sz = Column(t3, "Z Precision", l3);
+  const std::size_t ctype = Column(t3, "Type", l3), cname = Column(t3, "Name", l3);
+  std::set<int> ids;
+  for (const auto& [n, f] : t3.rows) {
+    l3.At(n);
+    const auto fail = [&, n = n](const std::string& what) {
+      throw InvalidInput(field, fmt::format("'{}' line {}: {}", origin_3d, n, what));
+    };
+    FieldPoint q;
+    const std::vector<double> id = Numbers(f[0], l3);
+    if (id.size() != 1 || id[0] != std::floor(id[0]) || id[0] < 1 || id[0] > kMaxId) fail("the point id must be a whole number in [1, 1000000]");
+    q.id = static_cast<int>(id[0]);
+    if (!ids.insert(q.id).second) fail(fmt::format("point {} appears twice", q.id));
+    double v[6];
+    const std::size_t col[6] = {cx, cy, cz, sx, sy, sz};
+    for (int k = 0; k < 6; ++k) {
+      const std::vector<double> x = Numbers(f[col[k]], l3);
+      if (x.size() != 1) fail(fmt::format("{} '{}' is not one number", t3.header[col[k]], f[col[k]].substr(0, 40)));
+      v[k] = x[0];
+    }
+    q.xyz_mm = Eigen::Vector3d(v[0], v[1], v[2]) * t3.mm_per_unit;
+    q.sigma_mm = Eigen::Vector3d(v[3], v[4], v[5]) * t3.mm_per_unit;
+    if ((q.sigma_mm.array() < 0).any()) fail(fmt::format("point {}: a negative precision", q.id));
+    q.control = Lower(f[ctype]) == "control";
+    q.name = f[cname];
+    p.field.push_back(q);
+  }
+  if (p.field.empty()) l3.Fail("the table holds no point");
+  std::sort(p.field.begin(), p.field.end(), [](const FieldPoint& a, const FieldPoint& b) { return a.id < b.id; });
+
+  Lines l2(text_2d, origin_2d, field);
+  if (!options.image_size_px) l2.Fail("the point table holds no image size: give `image_size` (WIDTHxHEIGHT)");
+  const Table t2 = ReadTable(l2, "Object Point ID");
+  const std::size_t cphoto = Column(t2, "Photo #", l2), cu = Column(t2, "X (pixels)", l2), cv = Column(t2, "Y (pixels)", l2);
+  std::tie(p.width_px, p.height_px) = *options.image_size_px;
+  std::map<int, std::size_t> photo_index;  // photo number → detection, in order of first appearance sorted below
+  std::map<int, std::vector<std::pair<int, Eigen::Vector2d>>> marks;
+  std::set<std::pair<int, int>> marked;
+  for (const auto& [n, f] : t2.rows) {
+    l2.At(n);
+    const auto fail = [&, n = n](const std::string& what) {
+      throw InvalidInput(field, fmt::format("'{}' line {}: {}", origin_2d, n, what));
+    };
+    double v[4];
+    const std::size_t col[4] = {0, cphoto, cu, cv};
+    for (int k = 0; k < 4; ++k) {
+      const std::vector<double> x = Numbers(f[col[k]], l2);
+      if (x.size() != 1) fail(fmt::format("{} '{}' is not one number", t2.header[col[k]], f[col[k]].substr(0, 40)));
+      v[k] = x[0];
+    }
+    if (v[0] != std::floor(v[0]) || v[0] < 1 || v[0] > kMaxId) fail("the point id must be a whole number in [1, 1000000]");
+    if (v[1] != std::floor(v[1]) || v[1] < 1 || v[1] > 1000000) fail("the photo number must be a whole number >= 1");
+    const int id = static_cast<int>(v[0]), photo = static_cast<int>(v[1]);
+    if (!ids.count(id)) fail(fmt::format("image point {} on photo {}: the 3-D table has no point {}", id, photo, id));
+    if (!marked.emplace(photo, id).second) fail(fmt::format("point {} is marked twice on photo {}", id, photo));
+    if (v[2] < 0 || v[3] < 0 || v[2] > p.width_px || v[3] > p.height_px) {
+      fail(fmt::format("image point {} on photo {} at ({:g}, {:g}) px lies outside the {}x{} image", id, photo, v[2], v[3],
+                       p.width_px, p.height_px));
+    }
+    if (marks[photo].size() >= kMaxPointsPerImage) fail(fmt::format("photo {} holds more than {} points", photo, kMaxPointsPerImage));
+    marks[photo].emplace_back(id, Eigen::Vector2d(v[2] - 0.5, v[3] - 0.5));  // corner origin, as the export
+    ++p.n_marks;
+  }
+  if (p.n_marks == 0) l2.Fail("the table holds no image point");
+  for (const auto& [photo, list] : marks) {  // photos in number order, named by their number
+    calib::ImageDetections d;
+    d.image = fmt::format("photo {}", photo);
+    d.width_px = p.width_px;
+    d.height_px = p.height_px;
+    for (const auto& [id, uv] : list) d.ids.push_back(id), d.points_px.push_back(uv);
+    p.detections.push_back(std::move(d));
+    p.photo_numbers.push_back(photo);
+  }
+  return p;
+}
+
+PhotoModelerProject ReadPhotoModelerTables(const std::string& path_2d, const std::string& path_3d,
+                                           const PhotoModelerOptions& options, const std::string& field) {
+  return ParsePhotoModelerTables(ReadInputFile(path_2d, field, kMaxJsonFileBytes), path_2d,
+                                 ReadInputFile(path_3d, field, kMaxJsonFileBytes), path_3d, options, field);
 }
 
 }  // namespace porthole::interop

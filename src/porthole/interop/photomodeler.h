@@ -95,6 +95,21 @@ PhotoModelerProject ParsePhotoModelerExport(const std::string& text, const std::
                                             const PhotoModelerOptions& options = {},
                                             const std::string& field = "photomodeler");
 
+// PhotoModeler's point tables (CSV, as DBAT's loadpm2dtbl / loadpm3dtbl read them): a "Project
+// Units: meters" line (metres when absent; centimeters, millimeters, feet, inches too), a header line,
+// then data lines opening with a digit, fields by the header's names. The 2-D table ("Object Point
+// ID,Photo #,X (pixels),Y (pixels),…"): the marks, photos numbered from 1 (the export's N + 1), the
+// same pixel origin as the export; it names no image file ("photo N") and holds no image size
+// (`image_size_px` required). The 3-D table ("Id,Name,Photos (used),X (project units),…"): the points,
+// "X Precision" … as σ, "Type" Control marks a control point. No camera is read (`camera` stays 0).
+// 2 for a 2-D table, 3 for a 3-D table, 0 for anything else (from the first 20 lines).
+int PhotoModelerTableKind(const std::string& text);
+PhotoModelerProject ReadPhotoModelerTables(const std::string& path_2d, const std::string& path_3d,
+                                           const PhotoModelerOptions& options, const std::string& field = "photomodeler");
+PhotoModelerProject ParsePhotoModelerTables(const std::string& text_2d, const std::string& origin_2d,
+                                            const std::string& text_3d, const std::string& origin_3d,
+                                            const PhotoModelerOptions& options, const std::string& field = "photomodeler");
+
 // Reads DBAT's control-point file: every point control, in mm.
 std::vector<FieldPoint> ReadDbatControlPoints(const std::string& path, const std::string& field = "control_points");
 std::vector<FieldPoint> ParseDbatControlPoints(const std::string& text, const std::string& origin,

@@ -3,6 +3,7 @@
 // report states, and hostile inputs refused in one line.
 #include "porthole/interop/photomodeler.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -149,7 +150,8 @@ void ExpectRefused(const std::string& text, const std::string& line_tag, const s
   } catch (const InvalidInput& e) {
     const std::string m = e.what();
     EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-    EXPECT_NE(m.find("photomodeler: 'pm.txt' " + line_tag), std::string::npos) << m;
+    EXPECT_NE(m.find(line_tag.empty() ? "photomodeler: 'pm.txt': " : "photomodeler: 'pm.txt' " + line_tag + ": "),
+              std::string::npos) << m;
     EXPECT_NE(m.find(what), std::string::npos) << m;
   }
 }
@@ -174,7 +176,7 @@ TEST(PhotoModeler, RefusesHostileInputsInOneLineNamingFileAndLine) {
   ExpectRefused(WithLine(t, 2, " 0.000500 20"), "line 2", "holds no image size");
   ExpectRefused(WithLine(t, 12, "   0 data/dbat/images/cam/P8250022.JPG"), "line 12", "photo 0 appears twice");
   ExpectRefused(FirstLines(t, 40), "line 40", "the file ends inside photo 5");
-  ExpectRefused("", "line 0", "the file is empty");
+  ExpectRefused("", "", "the file is empty");
   // The image size from the caller when line 2 has none.
   PhotoModelerOptions opt;
   opt.image_size_px = std::pair(2272, 1704);
@@ -195,6 +197,72 @@ TEST(PhotoModeler, RefusesHostileInputsInOneLineNamingFileAndLine) {
   }
   PhotoModelerProject p = ReadPhotoModelerExport(kExport);
   EXPECT_THROW(ApplyControlPoints(ParseDbatControlPoints("7777, X, 0, 0, 0\n", "c.txt"), &p), InvalidInput);
+}
+
+// PhotoModeler's point tables of the same calibration (DBAT's prague2016/cam "weighted" project,
+// PhotoModeler Scanner 2016): the same 2074 marks as the export above, read by the other reader, to
+// the export's rounding (4 decimals: 5e-5 px); 100 points, the four "Control" ones marked.
+TEST(PhotoModeler, PointTablesGiveTheExportsMarks) {
+  PhotoModelerOptions opt;
+  opt.image_size_px = std::pair(2272, 1704);
+  const PhotoModelerProject t = ReadPhotoModelerTables(kData + "/dbat_prague2016_cam_2dpts.txt",
+                                                       kData + "/dbat_prague2016_cam_3dpts.txt", opt);
+  const PhotoModelerProject e = ReadPhotoModelerExport(kExport);
+  ASSERT_EQ(t.detections.size(), 21u);
+  EXPECT_EQ(t.n_marks, 2074);
+  EXPECT_EQ(t.field.size(), 100u);
+  double worst = 0;
+  for (std::size_t k = 0; k < 21; ++k) {
+    EXPECT_EQ(t.photo_numbers[k], e.photo_numbers[k] + 1);  // the tables count photos from 1
+    EXPECT_EQ(t.detections[k].image, fmt::format("photo {}", k + 1));
+    std::map<int, Eigen::Vector2d> mine;
+    for (std::size_t i = 0; i < e.detections[k].ids.size(); ++i) mine[e.detections[k].ids[i]] = e.detections[k].points_px[i];
+    ASSERT_EQ(t.detections[k].ids.size(), mine.size());
+    for (std::size_t i = 0; i < t.detections[k].ids.size(); ++i) {
+      ASSERT_TRUE(mine.count(t.detections[k].ids[i]));
+      worst = std::max(worst, (t.detections[k].points_px[i] - mine[t.detections[k].ids[i]]).cwiseAbs().maxCoeff());
+    }
+  }
+  EXPECT_LE(worst, 5e-5 + 1e-9);
+  EXPECT_GT(worst, 0);  // the tables carry 6 decimals: not a copy of the export
+  std::vector<int> control;
+  for (const auto& q : t.field) {
+    if (q.control) control.push_back(q.id);
+  }
+  EXPECT_EQ(control, (std::vector<int>{1001, 1002, 1003, 1004}));
+  // "2," ","1,…,21",0.285750,1.143047,-0.000977,0.001116,0.001116,0.001357,…" (metres).
+  EXPECT_NEAR(t.field[0].xyz_mm.x(), 285.750, 1e-9);
+  EXPECT_NEAR(t.field[0].xyz_mm.z(), -0.977, 1e-9);
+  EXPECT_NEAR(t.field[0].sigma_mm.z(), 1.357, 1e-9);
+}
+
+TEST(PhotoModeler, PointTablesRefuseHostileRowsInOneLine) {
+  const std::string t2 = FileText(kData + "/dbat_prague2016_cam_2dpts.txt");
+  const std::string t3 = FileText(kData + "/dbat_prague2016_cam_3dpts.txt");
+  EXPECT_EQ(PhotoModelerTableKind(t2), 2);
+  EXPECT_EQ(PhotoModelerTableKind(t3), 3);
+  EXPECT_EQ(PhotoModelerTableKind(FileText(kExport)), 0);
+  PhotoModelerOptions opt;
+  opt.image_size_px = std::pair(2272, 1704);
+  const auto refused = [&](const std::string& a, const std::string& b, const PhotoModelerOptions& o, const std::string& what) {
+    try {
+      ParsePhotoModelerTables(a, "2d.txt", b, "3d.txt", o);
+      ADD_FAILURE() << "accepted: " << what;
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  // Line 5 of the 2-D table is its first mark "2,1,1429.187065,1456.427823,…".
+  refused(WithLine(t2, 5, "2,1,nan,1456.427823,-0.126644,0.188202,0.226846,LSM Circular,Default,White, "), t3, opt,
+          "'2d.txt' line 5: 'nan' is not a finite number");
+  refused(WithLine(t2, 5, "5000,1,1429.187065,1456.427823,-0.126644,0.188202,0.226846,LSM Circular,Default,White, "), t3,
+          opt, "'2d.txt' line 5: image point 5000 on photo 1: the 3-D table has no point 5000");
+  refused(WithLine(t2, 5, "2,1,1429.187065"), t3, opt, "'2d.txt' line 5: 3 fields, the header has 11");
+  refused(t2, WithLine(t3, 6, FirstLines(t3, 5).substr(FirstLines(t3, 4).size())), opt, "'3d.txt' line 6: point 2 appears twice");
+  refused(t2, WithLine(t3, 1, "Project Units: furlongs"), opt, "'3d.txt' line 1: project units 'furlongs'");
+  refused(t2, t3, {}, "'2d.txt': the point table holds no image size");
+  refused(t2, "x\n", opt, "'3d.txt' line 1: no header line 'Id,…'");
 }
 
 }  // namespace
