@@ -77,7 +77,7 @@ def test_export_becomes_detections_and_field(converted):
     controls = [line for line in field.read_text().splitlines() if line.endswith(" control")]
     assert [c.split()[0] for c in controls] == ["1001", "1002", "1003", "1004"]
     assert controls[1].startswith("1002 1000.000000 1000.000000 0.000000")
-    assert "next" in j and "--centre-correction off" in j["next"]
+    assert "--pixel-pitch-mm 0.0031911033 --centre-correction off" in j["next"], j["next"]
 
 
 def test_point_tables_give_the_same_detections(converted, tmp_path):
@@ -115,6 +115,9 @@ def reference():
 # K1 0.72, K2 -0.41, K3 0.31, P1 0.18, P2 -0.46; B1 against DBAT's aspect parameter 1.07 (not quite the
 # same parameter: DBAT scales x after the distortion correction, porthole adds B1 x-bar to it).
 LIMITS = {"B1": 1.5}
+# The same figures as docs/interop.md states them (difference / sigma, 2 decimals).
+DOC_FIGURES = {"c_mm": 0.20, "u0_px": -0.56, "v0_px": 0.17, "K1": 0.72, "K2": -0.41, "K3": 0.31, "P1": 0.18,
+               "P2": -0.46, "B1": 1.07}
 
 
 def test_calibration_on_the_import_matches_dbats_reference_within_its_sigma(converted, tmp_path):
@@ -131,6 +134,7 @@ def test_calibration_on_the_import_matches_dbats_reference_within_its_sigma(conv
     figures = compare(cal["camera"], pitch)
     for name, (diff, sigma) in figures.items():
         assert abs(diff) <= LIMITS.get(name, 1.0) * sigma, (name, diff / sigma, figures)
+        assert abs(diff / sigma - DOC_FIGURES[name]) < 0.0051, (name, diff / sigma)
     # Without the control points' datum the network's scale and shape are free: porthole's sigma0 is
     # below DBAT's 0.16148 px (DBAT holds the four corners at their nominal 1 m square).
     assert round(cal["sigma0_px"], 3) == 0.137

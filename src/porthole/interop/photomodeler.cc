@@ -174,6 +174,7 @@ PhotoModelerProject ParsePhotoModelerExport(const std::string& text, const std::
     name = Trim(name);
     if (name.empty()) lines.Fail(fmt::format("photo {} has no file name", photo));
     if (!photo_index.emplace(photo, p.detections.size()).second) lines.Fail(fmt::format("photo {} appears twice", photo));
+    if (p.detections.size() >= kMaxImagesPerSet) lines.Fail(fmt::format("more than {} photos", kMaxImagesPerSet));
     calib::ImageDetections d;
     d.image = name;
     d.width_px = p.width_px;
@@ -186,8 +187,6 @@ PhotoModelerProject ParsePhotoModelerExport(const std::string& text, const std::
 
   std::vector<FieldPoint> control = ReadPointBlock(lines, "control points", true);
   p.field = ReadPointBlock(lines, "object points", false);
-  std::set<int> object_ids;
-  for (const auto& q : p.field) object_ids.insert(q.id);
   for (const auto& c : control) {  // a control point is an object point held to its given position
     const auto it = std::find_if(p.field.begin(), p.field.end(), [&](const FieldPoint& q) { return q.id == c.id; });
     if (it == p.field.end()) {
@@ -221,7 +220,7 @@ PhotoModelerProject ParsePhotoModelerExport(const std::string& text, const std::
     if (d.ids.size() >= kMaxPointsPerImage) lines.Fail(fmt::format("photo {} holds more than {} points", photo, kMaxPointsPerImage));
     d.ids.push_back(id);
     d.points_px.emplace_back(v[2] - 0.5, v[3] - 0.5);  // corner origin → centre of the top-left pixel at 0
-    ++p.n_marks;
+    if (++p.n_marks > static_cast<int>(kMaxPointsPerSet)) lines.Fail(fmt::format("more than {} image points", kMaxPointsPerSet));
   }
   if (p.n_marks == 0) lines.Fail("the export holds no image point (the marks after the object points)");
   return p;
@@ -461,7 +460,8 @@ PhotoModelerProject ParsePhotoModelerTables(const std::string& text_2d, const st
     }
     if (marks[photo].size() >= kMaxPointsPerImage) fail(fmt::format("photo {} holds more than {} points", photo, kMaxPointsPerImage));
     marks[photo].emplace_back(id, Eigen::Vector2d(v[2] - 0.5, v[3] - 0.5));  // corner origin, as the export
-    ++p.n_marks;
+    if (++p.n_marks > static_cast<int>(kMaxPointsPerSet)) fail(fmt::format("more than {} image points", kMaxPointsPerSet));
+    if (marks.size() > kMaxImagesPerSet) fail(fmt::format("more than {} photos", kMaxImagesPerSet));
   }
   if (p.n_marks == 0) l2.Fail("the table holds no image point");
   for (const auto& [photo, list] : marks) {  // photos in number order, named by their number
