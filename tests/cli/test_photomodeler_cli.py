@@ -9,9 +9,11 @@ The user's path, end to end:
     porthole calibrate --detections det.json --field field.txt --free-target \\
         --pixel-pitch-mm 0.0031910798 --centre-correction off
 Bad input: one line, exit 2."""
+import csv
 import json
 import math
 import os
+import re
 
 import pytest
 
@@ -105,6 +107,97 @@ def test_point_tables_give_the_same_detections(converted, tmp_path):
         for pid, (u, v) in zip(ib["ids"], ib["points_px"]):
             worst = max(worst, abs(u - pa[pid][0]), abs(v - pa[pid][1]))
     assert 0 < worst <= 5e-5 + 1e-9
+
+
+def pm_orientations(report):
+    """Each photo's exterior orientation from PhotoModeler's status report: (omega, phi, kappa) in
+    degrees, (Xc, Yc, Zc) in metres, by photo number (from 1)."""
+    found = re.findall(r"Photo (\d+): \S+\s+Omega\s+Value: (\S+) deg.*?Phi\s+Value: (\S+) deg.*?Kappa\s+Value: (\S+) deg"
+                       r".*?Xc\s+Value: (\S+)\s.*?Yc\s+Value: (\S+)\s.*?Zc\s+Value: (\S+)\s", report, re.S)
+    return {int(f[0]): [float(x) for x in f[1:]] for f in found}
+
+
+def rotation(omega, phi, kappa):
+    """PhotoModeler's camera rotation (the one that reproduces its solution: any other order or sign
+    misses by hundreds of pixels): R = Rz(-kappa) Ry(-phi) Rx(-omega), world -> camera with x right, y
+    up and the camera looking along -z."""
+    def rx(a):
+        return [[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]]
+
+    def ry(a):
+        return [[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]]
+
+    def rz(a):
+        return [[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]]
+
+    def mul(a, b):
+        return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+    o, p, k = (math.radians(x) for x in (omega, phi, kappa))
+    return mul(rz(-k), mul(ry(-p), rx(-o)))
+
+
+def test_photomodelers_own_solution_reproduces_its_residuals_through_the_import(tmp_path):
+    """PhotoModeler's solution of the prague2016 calibration (its camera on line 4 of the export, each
+    photo's orientation from its report, the 3-D points of the export) projected in porthole's
+    conventions -- the imported detections, the camera as convert converts it (x0, y0 from the centre,
+    y up, K and P unchanged) -- gives PhotoModeler's own residuals (its 2-D table: projected less
+    measured, x right and y up) to 0.018 px RMS, the mean within 0.01 px (the export's points have 5
+    decimals in metres). The export's pixels taken as porthole's (no half-pixel shift) leave a 0.51 px
+    mean in x and y."""
+    export = os.path.join(DATA, "dbat_prague2016_cam_pmexport.txt")
+    det, field = tmp_path / "w.json", tmp_path / "w.txt"
+    j = run("convert", export, det, "--to", "detections", "--field-out", field, "--json").json()
+    cam = j["camera"]
+    eo = pm_orientations(open(os.path.join(DATA, "dbat_prague2016_cam_pmreport.txt")).read())
+    assert len(eo) == 21
+    points = {}
+    for line in field.read_text().splitlines():
+        words = line.split("#")[0].split()
+        if words:
+            points[int(words[0])] = [float(w) / 1000 for w in words[1:4]]  # mm -> the report's metres
+    pm_res = {}
+    with open(os.path.join(DATA, "dbat_prague2016_cam_2dpts.txt")) as f:
+        for row in csv.reader(line for line in f if line[:1].isdigit()):
+            pm_res[(int(row[1]), int(row[0]))] = (float(row[4]), float(row[5]))
+    pitch, c, x0, y0 = cam["pixel_pitch_mm"], cam["c_mm"], cam["x0_mm"], cam["y0_mm"]
+    K1, K2, K3, P1, P2 = (cam[k] for k in ("K1", "K2", "K3", "P1", "P2"))
+
+    def residual(u, v, X, Y, Z):
+        """projected less measured, in pixels, x right and y up (PhotoModeler's residuals are in the
+        image mm frame's axes, not the pixels')"""
+        # docs/conventions.md: image mm from porthole pixels, the correction, the collinearity.
+        xb = (u - (W - 1) / 2) * pitch - x0
+        yb = -(v - (H - 1) / 2) * pitch - y0
+        r2 = xb * xb + yb * yb
+        radial = K1 * r2 + K2 * r2 * r2 + K3 * r2 ** 3
+        dx = xb * radial + P1 * (r2 + 2 * xb * xb) + 2 * P2 * xb * yb
+        dy = yb * radial + P2 * (r2 + 2 * yb * yb) + 2 * P1 * xb * yb
+        return (c * X / Z - (xb + dx)) / pitch, (-c * Y / Z - (yb + dy)) / pitch
+
+    diffs, unshifted = [], []
+    for k, im in enumerate(json.loads(det.read_text())["images"]):
+        omega, phi, kappa, xc, yc, zc = eo[k + 1]
+        R = rotation(omega, phi, kappa)
+        for pid, (u, v) in zip(im["ids"], im["points_px"]):
+            d = [points[pid][i] - (xc, yc, zc)[i] for i in range(3)]
+            q = [sum(R[i][m] * d[m] for m in range(3)) for i in range(3)]
+            # porthole's camera frame (x right, y down, z forward) from PhotoModeler's (y up, -z forward).
+            X, Y, Z = q[0], -q[1], -q[2]
+            ru, rv = pm_res[(k + 1, pid)]
+            res = residual(u, v, X, Y, Z)
+            diffs.append((res[0] - ru, res[1] - rv))
+            res = residual(u + 0.5, v + 0.5, X, Y, Z)  # the export's pixels taken as porthole's
+            unshifted.append((res[0] - ru, res[1] - rv))
+    assert len(diffs) == 2074
+
+    def stats(ds):
+        rms = math.sqrt(sum(a * a + b * b for a, b in ds) / len(ds))
+        return rms, sum(a for a, _ in ds) / len(ds), sum(b for _, b in ds) / len(ds)
+    rms, mean_u, mean_v = stats(diffs)
+    assert round(rms, 3) == 0.018, rms
+    assert abs(mean_u) < 0.01 and abs(mean_v) < 0.01, (mean_u, mean_v)
+    rms, mean_u, mean_v = stats(unshifted)
+    assert round(mean_u, 2) == -0.51 and round(mean_v, 2) == 0.51, (mean_u, mean_v)
 
 
 def reference():
