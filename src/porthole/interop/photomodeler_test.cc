@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <functional>
+#include <random>
 #include <map>
 #include <sstream>
 
@@ -263,6 +265,69 @@ TEST(PhotoModeler, PointTablesRefuseHostileRowsInOneLine) {
   refused(t2, WithLine(t3, 1, "Project Units: furlongs"), opt, "'3d.txt' line 1: project units 'furlongs'");
   refused(t2, t3, {}, "'2d.txt': the point table holds no image size");
   refused(t2, "x\n", opt, "'3d.txt' line 1: no header line 'Id,…'");
+}
+
+// Fuzz-like: 600 mutants of the export, the tables and a control file (a line cut, dropped or
+// repeated; a number replaced by NaN, 1e999, -1, 1e12, a word or nothing; the file cut at a byte):
+// each is read or refused with InvalidInput in one line, never another exception.
+TEST(PhotoModeler, MutantsAreReadOrRefusedInOneLine) {
+  const std::string exp = FileText(kExport);
+  const std::string t2 = FileText(kData + "/dbat_prague2016_cam_2dpts.txt");
+  const std::string t3 = FileText(kData + "/dbat_prague2016_cam_3dpts.txt");
+  const std::string cp = FileText(kControl);
+  std::mt19937 rng(26);
+  const char* words[] = {"nan", "1e999", "-1", "1e12", "x", "", "0", "2.5"};
+  const auto mutate = [&](const std::string& text) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    const std::size_t n = std::uniform_int_distribution<std::size_t>(0, lines.size() - 1)(rng);
+    switch (rng() % 5) {
+      case 0: lines[n] = lines[n].substr(0, lines[n].size() / 2); break;
+      case 1: lines.erase(lines.begin() + static_cast<std::ptrdiff_t>(n)); break;
+      case 2: lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(n), lines[n]); break;
+      case 3: {  // one number (or word) of the line replaced
+        std::istringstream ls(lines[n]);
+        std::vector<std::string> w;
+        for (std::string x; ls >> x;) w.push_back(x);
+        if (!w.empty()) w[rng() % w.size()] = words[rng() % 8];
+        std::string joined;
+        for (const auto& x : w) joined += x + " ";
+        lines[n] = joined;
+        break;
+      }
+      default: {
+        std::string out;
+        for (const auto& l : lines) out += l + "\n";
+        return out.substr(0, rng() % (out.size() + 1));
+      }
+    }
+    std::string out;
+    for (const auto& l : lines) out += l + "\n";
+    return out;
+  };
+  int read = 0, refused = 0;
+  const auto check = [&](const std::function<void()>& f) {
+    try {
+      f();
+      ++read;
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+      ++refused;
+    }
+  };
+  PhotoModelerOptions opt;
+  opt.image_size_px = std::pair(2272, 1704);
+  for (int i = 0; i < 200; ++i) {
+    check([&] { ParsePhotoModelerExport(mutate(exp), "pm.txt"); });
+    check([&] { ParsePhotoModelerTables(mutate(t2), "2d.txt", i % 2 ? t3 : mutate(t3), "3d.txt", opt); });
+    check([&] {
+      PhotoModelerProject p = ParsePhotoModelerExport(exp, "pm.txt");
+      ApplyControlPoints(ParseDbatControlPoints(mutate(cp), "c.txt"), &p);
+    });
+  }
+  EXPECT_EQ(read + refused, 600);
+  EXPECT_GT(refused, 100);  // the mutants do reach the checks
 }
 
 }  // namespace
