@@ -6,7 +6,8 @@
 // that end at a blank line:
 //   line 1  title
 //   line 2  tolerance, max iterations [, image width_px, height_px (appended by hand, as DBAT's
-//           manual says; without them `image_size_px` must be given)]
+//           manual says; without them `image_size_px` must be given)] (DBAT's manual, "Export from
+//           PhotoModeler")
 //   line 3  default standard deviations (9 numbers)
 //   line 4  the camera: c, xp, yp, format width, format height (mm), K1, K2, K3, P1, P2
 //   line 5  its standard deviations (10 numbers)
@@ -22,7 +23,9 @@
 //   - Pixels: PhotoModeler's origin is the top-left corner of the image, so the centre of the
 //     top-left pixel is (0.5, 0.5) (DBAT's reading: mm = pixel · pitch from that corner,
 //     code/bundle/cameramodel/brown_euler_cam4.m); porthole's is (0, 0) (docs/conventions.md):
-//     u = x_px − 0.5, v = y_px − 0.5.
+//     u = x_px − 0.5, v = y_px − 0.5. PhotoModeler's own solution confirms it (with the principal
+//     point and K, P below, its listed residuals come back to 0.018 px RMS; without the shift a
+//     0.51 px mean remains: tests/cli/test_photomodeler_cli.py).
 //   - The principal point xp, yp is in mm from that corner, y down; porthole's x0, y0 are from the
 //     image centre, y up: x0 = xp − format_w/2, y0 = format_h/2 − yp.
 //   - K1..K3, P1, P2 are PhotoModeler's correction added to measured coordinates with y up, which is
@@ -36,7 +39,13 @@
 // three (σx, σy, σz), in the project's units (metres here).
 //
 // Errors: InvalidInput(field, "'<file>' line N: …"), one line, never a crash: a truncated line, a
-// number that is not finite, a duplicate photo or point, a mark on an unknown photo.
+// number that is not finite, a duplicate photo or point, a mark on an unknown photo or of an unknown
+// point, a mark outside the image; more photos or image points than a detection set holds
+// (core/input.h).
+//
+// Control points in the field: FieldPoint::control and sigma_mm (0: fixed, NaN: none given); in the
+// target-field file a comment after the point, "# sigma_mm sx sy sz control", which porthole's field
+// reader skips: calibrate uses the positions only.
 #pragma once
 
 #include <Eigen/Core>
