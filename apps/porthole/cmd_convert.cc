@@ -231,6 +231,11 @@ void RegisterConvert(CLI::App& app) {
     const std::vector<std::string> ins(o->files.begin(), o->files.end() - 1);
     const std::string out_arg = o->files.back();
     if (o->to == "detections") {  // a PhotoModeler export (+ DBAT control points): convert_photomodeler.h
+      for (const auto& [flag, given] : {std::pair{"--port", !o->port.empty()}, {"--port-out", !o->port_out.empty()},
+                                        {"--water-index", o->water_index.has_value()}, {"--camera-id", o->camera_id != 0},
+                                        {"--pixel-pitch-mm", o->pitch_mm.has_value()}, {"--length-unit", !o->rig.length_unit.empty()}}) {
+        if (given) throw InvalidInput(flag, "is not for --to detections (give the pitch to calibrate)");
+      }
       return RunPhotoModelerConvert(ins, out_arg, o->field_out, o->rig.image_size.empty() ? std::nullopt
                                     : std::optional(ParseImageSize(o->rig.image_size)), o->json, o->force);
     }

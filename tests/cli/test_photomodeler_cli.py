@@ -319,3 +319,9 @@ def test_bad_exports_are_refused_in_one_line(tmp_path):
     assert "control point 7777" in line, line
     line = run_bad("convert", EXPORT, tmp_path / "d.json", "--to", "detections")
     assert "--field-out" in line, line
+    line = run_bad("convert", EXPORT, tmp_path / "d.json", "--to", "detections", "--field-out", tmp_path / "f.txt",
+                   "--pixel-pitch-mm", "0.0032")
+    assert line.startswith("porthole: error: --pixel-pitch-mm: is not for --to detections"), line
+    line = run_bad("convert", EXPORT, tmp_path / "d.json", "--field-out", tmp_path / "f.txt")
+    assert "--field-out: goes with --to detections" in line, line
+    assert not (tmp_path / "d.json").exists() and not (tmp_path / "f.txt").exists()
