@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "common.h"
+#include "convert_photomodeler.h"
 #include "porthole/core/error.h"
 #include "porthole/core/field_names.h"
 #include "porthole/interop/convert.h"
@@ -102,7 +103,7 @@ void PrintCalibration(const interop::ConvertResult& r) {
 void RegisterConvert(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;  // IN [IN …] OUT
-    std::string to, port_out, port, length_unit, image_size;
+    std::string to, port_out, port, length_unit, image_size, field_out;
     std::optional<double> pitch_mm, water_index;
     int camera_id = 0;
     bool json = false, force = false;
@@ -147,6 +148,9 @@ void RegisterConvert(CLI::App& app) {
       "  A .yaml OUT needs --to (opencv-stereo or kalibr). OpenCV's and VIAME's T have no stated unit:\n"
       "  porthole writes mm with T_unit: mm; reading another file needs --length-unit. Cameras of\n"
       "  other models are refit (RMS printed); cameras behind ports are refused (no refraction).\n"
+      "Photogrammetric projects (--to detections): a PhotoModeler text export, or its 2-D and 3-D point\n"
+      "  tables, [and DBAT's control-point file] -> a detection set OUT and a target field --field-out,\n"
+      "  for calibrate --detections OUT --field FIELD (docs/interop.md)\n"
       "Examples: porthole convert calib.json sparse/0/cameras.txt\n"
       "          porthole convert left.json right.yml sparse/0/cameras.txt   # two cameras\n"
       "An existing OUT (or --port-out) is replaced only with --force, never an IN, and never a file porthole\n"
@@ -157,7 +161,7 @@ void RegisterConvert(CLI::App& app) {
       ->required()
       ->expected(2, -1);
   cmd->add_option("--to", o->to, "Output format: " + interop::FormatNames() + "; rigs: " + interop::RigFormatNames() +
-                                     " (default: from OUT's extension)");
+                                     "; detections (a PhotoModeler export, see --field-out) (default: from OUT's extension)");
   cmd->add_option("--pixel-pitch-mm", o->pitch_mm,
                   "Pixel pitch for inputs that have none (all but porthole JSON), mm; without it "
                   "pitch 1 (pixels are mm)");
@@ -174,10 +178,24 @@ void RegisterConvert(CLI::App& app) {
                   "Rig files whose T has no stated unit (OpenCV stereo, VIAME npz not written by porthole): mm, cm or m")
       ->check(CLI::IsMember({"mm", "cm", "m"}));
   cmd->add_option("--image-size", o->image_size,
-                  "VIAME npz not written by porthole (it holds no image size): WIDTHxHEIGHT, px");
+                  "VIAME npz not written by porthole, PhotoModeler point tables or an export whose line 2 has none "
+                  "(they hold no image size): WIDTHxHEIGHT, px");
+  cmd->add_option("--field-out", o->field_out,
+                  "--to detections: write the PhotoModeler export's 3-D points as a target-field file (for "
+                  "calibrate --field)");
   cmd->add_flag("--json", o->json, "JSON summary for scripts");
   AddForceFlag(cmd, &o->force);
   cmd->callback([o] {
+    if (o->to == "detections") {  // a PhotoModeler export (+ DBAT control points): convert_photomodeler.h
+      for (const auto& [flag, given] : {std::pair{"--port", !o->port.empty()}, {"--port-out", !o->port_out.empty()},
+                                        {"--water-index", o->water_index.has_value()}, {"--camera-id", o->camera_id != 0},
+                                        {"--pixel-pitch-mm", o->pitch_mm.has_value()}, {"--length-unit", !o->length_unit.empty()}}) {
+        if (given) throw InvalidInput(flag, "is not for --to detections (give the pitch to calibrate)");
+      }
+      const std::vector<std::string> ins(o->files.begin(), o->files.end() - 1);
+      return RunPhotoModelerConvert(ins, o->files.back(), o->field_out, o->image_size.empty() ? std::nullopt
+                                    : std::optional(ParseImageSize(o->image_size)), o->json, o->force);
+    }
     interop::ConvertOptions c;
     c.inputs.assign(o->files.begin(), o->files.end() - 1);
     c.out = o->files.back();
@@ -194,6 +212,7 @@ void RegisterConvert(CLI::App& app) {
       const std::string field = w.substr(0, w.find(':'));
       fmt::print(stderr, "porthole: warning: {}{}\n", ConvertWord(field).value_or(field), w.substr(field.size()));
     }
+    if (!o->field_out.empty()) throw InvalidInput("--field-out", "goes with --to detections");
     interop::ConvertResult r;
     try {
       if (!o->image_size.empty()) c.image_size_px = ImageSizeWhenUsed(c, o->image_size);
