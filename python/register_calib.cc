@@ -223,12 +223,13 @@ void RegisterCalib(py::module_& m) {
       [](const py::list& detections, const std::string& target, const std::string& model,
          double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
          bool target_free, bool drop_insignificant, double significance_t, bool progress, const py::object& field,
-         const std::string& centre_correction) {
+         const std::string& centre_correction, const std::string& datum) {
         const auto t = TargetArg(target, field);
         const std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
         calib::CalibrationOptions o =
             LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress, centre_correction);
         o.target_free = target_free;
+        o.datum = calib::ParseDatumKind(datum, "datum");
         o.drop_insignificant = drop_insignificant;
         o.significance_t = significance_t;
         calib::CalibrationResult r;
@@ -243,10 +244,12 @@ void RegisterCalib(py::module_& m) {
       py::arg("loss") = "none", py::arg("loss_scale_px") = 1.0, py::arg("target_free") = false,
       py::arg("drop_insignificant") = false, py::arg("significance_t") = 2.0,
       py::arg("progress") = false, py::arg("field") = py::none(), py::arg("centre_correction") = "auto",
+      py::arg("datum") = "auto",
       "Self-calibration from detections (list of dicts: image, width_px, height_px, ids, "
       "points_px), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
       "stereographic, orthographic). field: a coded target's field file (`--field`, 3-D fields "
-      "too); centre_correction: auto | on | off (`--centre-correction`). Returns the calibration "
+      "too); centre_correction: auto | on | off (`--centre-correction`); datum: auto | minimal | control "
+      "(`--datum`: with target_free, the field's control points or 7 coordinates). Returns the calibration "
       "dict of `porthole calibrate --json`.");
 
   m.def(

@@ -43,7 +43,7 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
       r.n_images, r.n_points, r.n_rejected, r.n_unknowns, r.redundancy,
       calib::FreeParametersToString(r.camera.model, r.free));
   if (!target.field.empty()) t += fmt::format("target field {}: {} targets\n", target.field_file, target.field.size());
-  if (r.datum.a >= 0) {  // --free-target: the datum and the largest change from the nominal points
+  if (r.datum.Set()) {  // --free-target: the datum and the largest change from the nominal points
     const auto nominal = calib::TargetPoints(target);
     int moved = -1, n_adjusted = 0;
     double most = -1;
@@ -53,8 +53,11 @@ std::string CalibrationTable(const calib::CalibrationResult& r, const calib::Cal
       const double d = (r.target_points_mm[id] - nominal[id]).norm();
       if (d > most) most = d, moved = static_cast<int>(id);
     }
-    t += fmt::format("free target: {} points adjusted (JSON target_adjusted); datum: ids {} and {} fixed, the {} of {}",
-                     n_adjusted, r.datum.a, r.datum.b, "xyz"[r.datum.axis], r.datum.c);
+    t += r.datum.control.empty()
+             ? fmt::format("free target: {} points adjusted (JSON target_adjusted); datum: ids {} and {} fixed, the {} of {}",
+                           n_adjusted, r.datum.a, r.datum.b, "xyz"[r.datum.axis], r.datum.c)
+             : fmt::format("free target: {} points adjusted (JSON target_adjusted); datum: {} control points", n_adjusted,
+                           r.datum.control.size());
     if (moved >= 0) {
       const Eigen::Vector3d& s = r.target_sigma_mm[moved];
       t += fmt::format("; largest change from the nominal {:.3f} mm (id {}, sigma {:.3f} {:.3f} {:.3f} mm)", most, moved,
@@ -249,6 +252,7 @@ void RequirePossibleCalibration(const calib::CalibrationResult& r, const std::st
 // The options of `porthole calibrate` as parsed.
 struct CalibrateCliOptions {
   std::vector<std::string> image_dirs, detection_paths;  // one per camera (a rig: several)
+  std::string datum = "auto";
   std::string images, detections, target, field, model = "brown", free = "default", loss = "none", out,
                                                           yaml, field_out;
   double pitch_mm = 1.0;
@@ -564,6 +568,12 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_flag("--free-target", o->calib.target_free,
                 "Adjust the target points too (self-calibration; datum: 7 coordinates of 3 points; the points and their "
                 "std in the JSON's target_adjusted)");
+  cmd->add_option("--datum", o->datum,
+                  "--free-target: the datum. auto (the field's control points when 3 or more are observed, else "
+                  "minimal) | minimal (7 coordinates of 3 points) | control (the field's control points: '# control' "
+                  "or '# sigma_mm SX SY SZ control' after a point)")
+      ->check(CLI::IsMember({"auto", "minimal", "control"}))
+      ->capture_default_str();
   cmd->add_option("--centre-correction", o->centre_correction,
                   "Circular targets: compare each centre with the centre of the dot's image through the camera, not the "
                   "image of the dot's centre: auto (on for coded targets) | on | off")
@@ -663,6 +673,7 @@ void RegisterCalibrate(CLI::App& app) {
     }
     using CC = calib::CalibrationOptions::CentreCorrection;
     o->calib.centre_correction = o->centre_correction == "on" ? CC::kOn : o->centre_correction == "off" ? CC::kOff : CC::kAuto;
+    o->calib.datum = calib::ParseDatumKind(o->datum, "--datum");
     o->calib.model = camera::ModelFromName(o->model, "--model");
     o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
     // --port with an air calibration that states its pitch (porthole JSON): that pitch, unless

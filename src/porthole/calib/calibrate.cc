@@ -384,17 +384,64 @@ class PoseBlockCost final : public ceres::CostFunction {
   std::unique_ptr<ceres::CostFunction> inner_;
 };
 
+// A control point's prior (CalibrationOptions::datum kControl): (p − given) / σ · weight per
+// coordinate of σ > 0 (0 for the others, which are held), weight σ0 px: the prior as an image
+// observation of that σ.
+class ControlPrior final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  ControlPrior(const Eigen::Vector3d& given_mm, const Eigen::Vector3d& sigma_mm, double weight)
+      : given_(given_mm), sigma_(sigma_mm), weight_(weight) {}
+  bool Evaluate(double const* const* p, double* r, double** jac) const override {
+    for (int k = 0; k < 3; ++k) {
+      const double w = sigma_(k) > 0 ? weight_ / sigma_(k) : 0.0;
+      r[k] = w * (p[0][k] - given_(k));
+      if (jac != nullptr && jac[0] != nullptr) {
+        for (int m = 0; m < 3; ++m) jac[0][3 * k + m] = m == k ? w : 0.0;
+      }
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector3d given_, sigma_;
+  double weight_;
+};
+
 template <typename M>
 class Adjustment {
  public:
   static constexpr int N = M::kNumParams;
   using CameraMatrix = Eigen::Matrix<double, N, N>;
 
+  // `control`: the observed control points (id → σ per coordinate, mm) when the datum is theirs;
+  // empty: the minimal datum.
   Adjustment(const CalibrationOptions& options, std::vector<Observation>* obs, State<N>* state,
-             const camera::Sensor& sensor, const std::set<int>& used_points)
+             const camera::Sensor& sensor, const std::set<int>& used_points,
+             std::map<int, Eigen::Vector3d> control = {})
       : o_(options), obs_(obs), s_(state), sensor_(sensor), scale_(ModelScales<M>(sensor)),
-        used_(used_points) {
-    if (o_.target_free) datum_ = ChooseDatum(s_->points, used_);
+        used_(used_points), control_(std::move(control)) {
+    if (!o_.target_free) return;
+    if (control_.empty()) {
+      datum_ = ChooseDatum(s_->points, used_);
+    } else {
+      for (const auto& [id, sigma] : control_) {
+        datum_.control.push_back(id);
+        given_[id] = s_->points[id];
+      }
+    }
+  }
+
+  // The weight of the control points' priors: σ0 (px) of the images (1 until known).
+  void SetPriorWeight(double sigma0_px) { prior_weight_ = sigma0_px > 0 && std::isfinite(sigma0_px) ? sigma0_px : 1.0; }
+  // The priors' squared residuals at the current points (counted in σ0 with the images').
+  double PriorSumSquares() const {
+    double ss = 0;
+    for (const auto& [id, sigma] : control_) {
+      for (int k = 0; k < 3; ++k) {
+        if (sigma(k) > 0) ss += std::pow(prior_weight_ * (s_->points[id](k) - given_.at(id)(k)) / sigma(k), 2);
+      }
+    }
+    return ss;
   }
 
   // Least squares over the active observations with the free parameters `free` in the residual
@@ -497,7 +544,7 @@ class Adjustment {
       if (o_.loss == LossKind::kCauchy) loss = new ceres::CauchyLoss(o_.loss_scale_px);
       Eigen::Vector3d* point = &s_->points[ob.point];
       double* pose = pose_[ob.image].data();
-      const bool point_free = o_.target_free && ob.point != datum_.a && ob.point != datum_.b;
+      const bool point_free = PointFree(ob.point);
       ceres::CostFunction* cost = new PoseBlockCost(NewModelCost(form, ob, point_free));
       if (point_free) {
         problem->AddResidualBlock(cost, loss, scaled->data(), pose, point->data());
@@ -514,9 +561,28 @@ class Adjustment {
     } else if (!fixed.empty()) {
       problem->SetManifold(scaled->data(), new ceres::SubsetManifold(N, fixed));
     }
-    if (o_.target_free && problem->HasParameterBlock(s_->points[datum_.c].data())) {
+    if (o_.target_free && control_.empty() && problem->HasParameterBlock(s_->points[datum_.c].data())) {
       problem->SetManifold(s_->points[datum_.c].data(), new ceres::SubsetManifold(3, {datum_.axis}));
     }
+    // The control points: coordinates of σ 0 held, the others a prior.
+    for (const auto& [id, sigma] : control_) {
+      double* point = s_->points[id].data();
+      if (!problem->HasParameterBlock(point)) continue;  // every coordinate held
+      std::vector<int> held;
+      for (int k = 0; k < 3; ++k) {
+        if (!(sigma(k) > 0)) held.push_back(k);
+      }
+      if (!held.empty()) problem->SetManifold(point, new ceres::SubsetManifold(3, held));
+      problem->AddResidualBlock(new ControlPrior(given_.at(id), sigma, prior_weight_), nullptr, point);
+    }
+  }
+
+  // Whether point `id` is a parameter block: a free target's point, unless the datum holds it whole.
+  bool PointFree(int id) const {
+    if (!o_.target_free) return false;
+    if (control_.empty()) return id != datum_.a && id != datum_.b;
+    const auto c = control_.find(id);
+    return c == control_.end() || (c->second.array() > 0).any();
   }
 
   // Ceres's marginal covariance over all unknowns (sparse QR): the general path (free target,
@@ -545,8 +611,11 @@ class Adjustment {
     if (!cov.Compute(blocks, &problem) || !cov.GetCovarianceBlock(cam, cam, covariance->data())) return false;
     if (point_variance != nullptr) {
       point_variance->assign(s_->points.size(), Eigen::Vector3d::Constant(NAN));
-      if (o_.target_free) {
+      if (o_.target_free && control_.empty()) {
         (*point_variance)[datum_.a] = (*point_variance)[datum_.b] = Eigen::Vector3d::Zero();
+      }
+      for (const auto& [id, sigma] : control_) {
+        if (!PointFree(id)) (*point_variance)[id] = Eigen::Vector3d::Zero();
       }
       for (int id : free_points) {
         Eigen::Matrix3d c;  // ambient: the datum's fixed coordinate has variance 0
@@ -620,6 +689,9 @@ class Adjustment {
   camera::Sensor sensor_;
   std::array<double, N> scale_;
   std::set<int> used_;
+  std::map<int, Eigen::Vector3d> control_;  // the control datum's points: id → σ, mm
+  std::map<int, Eigen::Vector3d> given_;    // their given positions
+  double prior_weight_ = 1.0;
   Datum datum_;
   std::vector<std::array<double, 6>> pose_;  // the problem's pose blocks (Build)
 };
@@ -777,6 +849,7 @@ template <typename M>
 CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images,
                                  const std::vector<Eigen::Vector3d>& nominal,
                                  const std::vector<Eigen::Vector3d>& normals,
+                                 const std::map<int, Eigen::Vector3d>& field_control,
                                  const CalibrationOptions& options, const FreeMask& free_start,
                                  CalibrationResult res) {
   constexpr int N = M::kNumParams;
@@ -944,7 +1017,37 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     }
   }
   const int n_images = static_cast<int>(used_images.size());
-  const int n_point_unknowns = options.target_free ? 3 * static_cast<int>(used_points.size()) - 7 : 0;
+  // The datum of a free target: the observed control points, or the minimal 7 coordinates.
+  std::map<int, Eigen::Vector3d> control;
+  for (const auto& [pid, sigma] : field_control) {
+    if (used_points.count(pid)) control[pid] = sigma;
+  }
+  using DatumKind = CalibrationOptions::DatumKind;
+  const bool control_datum = [&] {
+    if (!options.target_free || options.datum == DatumKind::kMinimal) return false;
+    std::vector<Eigen::Vector3d> at;
+    for (const auto& [pid, sigma] : control) at.push_back(nominal[pid]);
+    const bool enough = at.size() >= 3 && !FitPlane(at).OnALine();
+    if (options.datum == DatumKind::kControl && !enough) {
+      throw InvalidInput("datum", fmt::format("the control points' datum needs 3 or more observed control points "
+                                              "off one line: {} observed", at.size()));
+    }
+    return enough;
+  }();
+  if (!control_datum) control.clear();
+  int n_point_unknowns = 0, n_prior = 0;
+  if (options.target_free) {
+    n_point_unknowns = 3 * static_cast<int>(used_points.size()) - (control_datum ? 0 : 7);
+    for (const auto& [pid, sigma] : control) {
+      for (int k = 0; k < 3; ++k) {
+        if (sigma(k) > 0) {
+          ++n_prior;  // a prior: one more observation
+        } else {
+          --n_point_unknowns;  // held
+        }
+      }
+    }
+  }
 
 
   // The centre offsets of circular targets from the current estimate (see centre_correction);
@@ -974,7 +1077,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     res.max_centre_offset_px = largest;
     return change;
   };
-  Adjustment<M> adj(options, &obs, &s, sensor, used_points);
+  Adjustment<M> adj(options, &obs, &s, sensor, used_points, control);
   if constexpr (M::kCaps.analytic_jacobian) res.iterations += adj.Solve(free_start, Form::kCorrect);
   update_offsets();
   // One adjustment in the image residual, repeated while the centre offsets move (at most 10).
@@ -989,6 +1092,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
 
   // Adjust, reject outliers, evaluate statistics; stepwise drop non-significant parameters.
   FreeMask free = free_start;
+  double prior_weight = 1.0;  // the weight the control points' priors were given (σ0, px)
   typename Adjustment<M>::CameraMatrix cov;
   res.sigma.assign(N, NAN);
   res.covariance = Eigen::MatrixXd::Zero(N, N);
@@ -996,7 +1100,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     int n_free_now = 0;
     for (bool f : free) n_free_now += f ? 1 : 0;
     res.n_unknowns = n_free_now + 6 * n_images + n_point_unknowns;
-    double ss = 0;
+    double ss = 0, ss_priors = 0;
     int n_active = 0;
     for (int round = 0;; ++round) {
       solve(free);
@@ -1008,14 +1112,21 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
         if (r) ss += r->squaredNorm();
         ++n_active;
       }
-      res.redundancy = 2 * n_active - res.n_unknowns;
+      // A control coordinate with a σ is one more observation, its prior residual one more square.
+      ss_priors = adj.PriorSumSquares();
+      res.redundancy = 2 * n_active + n_prior - res.n_unknowns;
       if (res.redundancy <= 0) {
         throw InvalidInput("images", fmt::format("{} points in {} images give {} observations "
                                                    "for {} unknowns: add images or fix "
                                                    "parameters (`free`)", n_active, n_images,
                                                    2 * n_active, res.n_unknowns));
       }
-      const double sigma0 = std::sqrt(ss / res.redundancy);
+      const double sigma0 = std::sqrt((ss + ss_priors) / res.redundancy);
+      if (n_prior > 0 && std::abs(sigma0 - prior_weight) > 1e-3 * sigma0 && round < 10) {
+        // The priors were weighted with another σ0: again with this one.
+        adj.SetPriorWeight(prior_weight = sigma0);
+        continue;
+      }
       if (options.reject_k <= 0 || round >= options.max_reject_rounds) break;
       int rejected = 0;
       for (auto& ob : obs) {
@@ -1027,7 +1138,7 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
       say(fmt::format("rejected {} points beyond {:g} sigma0 ({:.3f} px); readjusting", rejected,
                       options.reject_k, sigma0));
     }
-    res.sigma0_px = std::sqrt(ss / res.redundancy);
+    res.sigma0_px = std::sqrt((ss + ss_priors) / res.redundancy);
     res.rms_px = std::sqrt(ss / n_active);
     res.n_points = n_active;
     if (!options.statistics) break;
@@ -1193,6 +1304,14 @@ void QuietCeresLogs() {
   (void)once;
 }
 
+CalibrationOptions::DatumKind ParseDatumKind(const std::string& text, const std::string& field) {
+  using K = CalibrationOptions::DatumKind;
+  if (text == "auto") return K::kAuto;
+  if (text == "minimal") return K::kMinimal;
+  if (text == "control") return K::kControl;
+  throw InvalidInput(field, "'" + text.substr(0, 40) + "' is not one of auto, minimal, control");
+}
+
 CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
                             const TargetSpec& target, const CalibrationOptions& options) {
   QuietCeresLogs();
@@ -1226,6 +1345,14 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     }
   }
   const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
+  // The field's control points (id → σ, mm): the datum of a free target (CalibrationOptions::datum).
+  std::map<int, Eigen::Vector3d> control;
+  for (const auto& t : target.field) {
+    if (t.control_sigma_mm) control[t.id] = *t.control_sigma_mm;
+  }
+  if (options.datum == CalibrationOptions::DatumKind::kControl && !options.target_free) {
+    throw InvalidInput("datum", "the control points are a datum of a free target (`target_free`)");
+  }
   // Coded targets: IDs the sheet or field does not carry are no points (ignored, counted).
   std::vector<ImageDetections> kept_detections;
   const std::vector<ImageDetections>* dets = &detections;
@@ -1289,7 +1416,8 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
     camera::ValidateCamera(initial, "initial");
   }
   return camera::VisitModel(options.model, [&](auto m) {
-    return CalibrateModel<decltype(m)>(used_images, nominal, TargetNormals(target), options, free, std::move(res));
+    return CalibrateModel<decltype(m)>(used_images, nominal, TargetNormals(target), control, options, free,
+                                       std::move(res));
   });
 }
 

@@ -101,6 +101,14 @@ struct CalibrationOptions {
   double loss_scale_px = 1.0;
   // Self-calibration: adjust the target points too (with the datum above).
   bool target_free = false;
+  // The datum of a free target. kMinimal: 7 coordinates of 3 points (above), the field's frame
+  // as the nominal points give it. kControl: the field's control points (coded::PlacedTarget::
+  // control_sigma_mm): a coordinate of σ 0 is held, one of σ > 0 is a prior of that σ, weighted
+  // as an image observation of σ0 px (σ0 of the previous adjustment): the points and their σ are
+  // then in the control points' frame, as a photogrammetric network's. kAuto: kControl when at
+  // least 3 control points off one line are observed, else kMinimal.
+  enum class DatumKind { kAuto, kMinimal, kControl };
+  DatumKind datum = DatumKind::kAuto;
   // Start a 3-D target field as a planar one (the homographies of X, Y with Z ignored, as before
   // porthole knew 3-D fields), not by DLT: only to compare the two starts. A planar field starts
   // so anyway.
@@ -186,9 +194,12 @@ struct CalibrationResult {
   // target_free: each point's σ (mm, per coordinate, from the same covariance as the camera's),
   // 0 for the datum's fixed coordinates, NaN for ids not observed; empty otherwise.
   std::vector<Eigen::Vector3d> target_sigma_mm;
-  // target_free: the datum (ids; coordinate `axis` of c: 0 X, 1 Y, 2 Z); all −1 otherwise.
+  // target_free: the datum — a minimal one (ids; coordinate `axis` of c: 0 X, 1 Y, 2 Z; all −1
+  // otherwise) or the control points (their ids, observed, in `control`).
   struct Datum {
     int a = -1, b = -1, c = -1, axis = -1;
+    std::vector<int> control;
+    bool Set() const { return a >= 0 || !control.empty(); }
   } datum;
   double dot_radius_mm = 0;      // the dots' radius the centres were corrected for; 0: no correction
   double max_centre_offset_px = 0;  // largest |dot-image centre − projected centre| applied
@@ -204,6 +215,9 @@ struct CalibrationResult {
 // calibration's callers do it first.
 int KeepTargetPoints(const TargetSpec& target, std::vector<ImageDetections>* detections,
                      const std::function<void(const std::string&)>& progress = {});
+
+// "auto", "minimal" or "control" (CalibrationOptions::datum); throws InvalidInput(field) otherwise.
+CalibrationOptions::DatumKind ParseDatumKind(const std::string& text, const std::string& field = "datum");
 
 // Calibrates from the detections of `target` in images of one camera. Images with fewer than 4
 // points are skipped (listed in the progress messages). Throws InvalidInput (field "images")

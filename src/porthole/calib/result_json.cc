@@ -78,6 +78,12 @@ Json AdjustedTargetJson(const CalibrationResult& r, const TargetSpec& target) {
     points.push_back({{"id", id}, {"xyz_mm", xyz(r.target_points_mm[id])}, {"sigma_mm", xyz(r.target_sigma_mm[id])},
                       {"nominal_mm", xyz(nominal[id])}});
   }
+  if (!r.datum.control.empty()) {
+    return {{"datum", {{"control", r.datum.control},
+                       {"note", "the control points: coordinates of sigma 0 held at their given values, the others "
+                                "a prior of their sigma; the points are in the control points' frame"}}},
+            {"points", points}};
+  }
   const char* axis[] = {"x", "y", "z"};
   return {{"datum", {{"fixed", {r.datum.a, r.datum.b}}, {"one_coordinate", r.datum.c}, {"axis", axis[r.datum.axis]},
                      {"note", "7 coordinates held at their nominal values: all of the two 'fixed' points, one of the third"}}},
@@ -88,7 +94,7 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
   if (target.kind != TargetKind::kCoded) {
     throw InvalidInput("field_out", "a target-field file is for coded targets (`target` coded:...)");
   }
-  if (r.datum.a < 0) throw InvalidInput("field_out", "needs `free_target` (without it no point is adjusted)");
+  if (!r.datum.Set()) throw InvalidInput("field_out", "needs `free_target` (without it no point is adjusted)");
   const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
   const std::vector<Eigen::Vector3d> normal = TargetNormals(target);
   int n_adjusted = 0, n_given = 0;
@@ -104,7 +110,10 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
     }
     if (adjusted) {
       const Eigen::Vector3d& s = r.target_sigma_mm[id];
-      const char* datum = static_cast<int>(id) == r.datum.a || static_cast<int>(id) == r.datum.b ? " (datum)"
+      const bool control = std::find(r.datum.control.begin(), r.datum.control.end(), static_cast<int>(id)) !=
+                           r.datum.control.end();
+      const char* datum = control ? " (datum: control point)"
+                          : static_cast<int>(id) == r.datum.a || static_cast<int>(id) == r.datum.b ? " (datum)"
                           : static_cast<int>(id) == r.datum.c ? " (datum: one coordinate)" : "";
       body += fmt::format("  # sigma {:.6f} {:.6f} {:.6f}{}\n", s.x(), s.y(), s.z(), datum);
       ++n_adjusted;
@@ -120,11 +129,16 @@ std::string AdjustedFieldText(const CalibrationResult& r, const TargetSpec& targ
   return fmt::format(
              "# porthole target field, self-calibrated (porthole calibrate, the target points free): {}\n"
              "# from {}; {} images, sigma0 {:.4f} px\n"
-             "# datum (held at the given values): ids {} and {} whole, the {} of id {}\n"
+             "# datum: {}\n"
              "# {} points adjusted (sigma in mm after each), {} not observed (as given)\n"
              "# id x_mm y_mm z_mm [nx ny nz: the dot's normal, where not -Z]\n",
              target.ToString(), source,
-             r.n_images, r.sigma0_px, r.datum.a, r.datum.b, axis[r.datum.axis], r.datum.c, n_adjusted, n_given) +
+             r.n_images, r.sigma0_px,
+             r.datum.control.empty()
+                 ? fmt::format("(held at the given values) ids {} and {} whole, the {} of id {}", r.datum.a, r.datum.b,
+                               axis[r.datum.axis], r.datum.c)
+                 : fmt::format("the {} control points (held, or a prior of their sigma)", r.datum.control.size()),
+             n_adjusted, n_given) +
          body;
 }
 
@@ -205,7 +219,7 @@ Json CalibrationToJson(const CalibrationResult& r, const TargetSpec& target,
       {"status", r.message},
   };
   if (!target.field.empty()) j["field"] = FieldJson(target);
-  if (options.target_free && r.datum.a >= 0) j["target_adjusted"] = AdjustedTargetJson(r, target);
+  if (options.target_free && r.datum.Set()) j["target_adjusted"] = AdjustedTargetJson(r, target);
   // Plausibility of the inputs (core/plausible.h): a pitch of 1 means pixels, not a typo.
   Json warnings = Json::array();
   if (options.pixel_pitch_mm != 1.0) {

@@ -261,6 +261,13 @@ TEST(Sheet, FieldRoundTripsAndBadFieldsAreRejected) {
   EXPECT_THROW(ParseField("1 2 x 4\n"), InvalidInput);
   EXPECT_THROW(ParseField("# nothing\n"), InvalidInput);
   EXPECT_EQ(ParseField("7, 1.5, 2, -3  # a raised target\n")[0].xyz_mm.z(), -3);
+  // Control points: "# control" held exactly, "# sigma_mm SX SY SZ control" with its σ; a σ on an
+  // ordinary point is no control point; a bad σ is refused.
+  EXPECT_FALSE(ParseField("7 1 2 3  # sigma_mm 1 1 1\n")[0].control_sigma_mm.has_value());
+  EXPECT_EQ(*ParseField("7 1 2 3  # control\n")[0].control_sigma_mm, Eigen::Vector3d::Zero());
+  EXPECT_EQ(*ParseField("7 1 2 3  # sigma_mm 0.5 0.5 2 control\n")[0].control_sigma_mm, Eigen::Vector3d(0.5, 0.5, 2));
+  EXPECT_THROW(ParseField("7 1 2 3  # sigma_mm 0.5 -1 2 control\n"), InvalidInput);
+  EXPECT_THROW(ParseField("7 1 2 3  # sigma_mm 0.5 control\n"), InvalidInput);
   // Four numbers: the dot faces −Z; seven: the normal given, normalised.
   EXPECT_TRUE(FacesMinusZ(ParseField("1 0 0 0\n")[0]));
   const PlacedTarget wall = ParseField("2 0 10 -50 2 0 0  # a wall facing +X\n")[0];

@@ -300,7 +300,8 @@ std::vector<PlacedTarget> ParseField(const std::string& text, const std::string&
   std::istringstream in(text);
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
-    if (const auto h = line.find('#'); h != std::string::npos) line.erase(h);
+    std::string comment;
+    if (const auto h = line.find('#'); h != std::string::npos) comment = line.substr(h + 1), line.erase(h);
     std::replace(line.begin(), line.end(), ',', ' ');
     std::istringstream ls(line);
     std::vector<std::string> words;
@@ -328,6 +329,29 @@ std::vector<PlacedTarget> ParseField(const std::string& text, const std::string&
       const Eigen::Vector3d n(v[4], v[5], v[6]);
       if (!(n.norm() > 1e-9)) throw InvalidInput(field, where + ": the normal (nx ny nz) must not be zero");
       t.normal = n.normalized();
+    }
+    // "# [sigma_mm sx sy sz] control": a control point, its σ (none given: exact).
+    std::istringstream cs(comment);
+    std::vector<std::string> notes;
+    for (std::string w; cs >> w;) notes.push_back(w);
+    if (std::find(notes.begin(), notes.end(), "control") != notes.end()) {
+      Eigen::Vector3d sigma = Eigen::Vector3d::Zero();
+      const auto at = std::find(notes.begin(), notes.end(), "sigma_mm");
+      if (at != notes.end()) {
+        if (notes.end() - at < 4) throw InvalidInput(field, where + ": 'sigma_mm' takes three numbers (sx sy sz)");
+        for (int k = 0; k < 3; ++k) {
+          std::size_t used = 0;
+          try {
+            sigma(k) = std::stod(at[1 + k], &used);
+          } catch (const std::exception&) {
+            used = 0;
+          }
+          if (used != at[1 + k].size() || !std::isfinite(sigma(k)) || sigma(k) < 0) {
+            throw InvalidInput(field, where + ": a control point's sigma_mm must be three numbers >= 0");
+          }
+        }
+      }
+      t.control_sigma_mm = sigma;
     }
     out.push_back(t);
   }

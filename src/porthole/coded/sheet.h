@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "porthole/coded/codes.h"
@@ -33,6 +34,10 @@ struct PlacedTarget {
   // The unit normal of the dot's plane, pointing to the side it is printed on (where a camera must
   // be to see it): −Z for the sheet and for a board's targets; a cage's wall targets face inward.
   Eigen::Vector3d normal = -Eigen::Vector3d::UnitZ();
+  // A control point (a field file's "# ... control" comment, e.g. from a PhotoModeler or DBAT
+  // project): its position is known in the field's frame with this σ per coordinate, mm (0: exact,
+  // held). Unset: an ordinary point. calib::CalibrationOptions::datum uses them.
+  std::optional<Eigen::Vector3d> control_sigma_mm;
 };
 
 // Whether a target faces the sheet's viewer side (normal −Z within 1e-12): every target of a sheet.
