@@ -131,6 +131,19 @@ PORTHOLE_INLINE P3<T> Select(bool c, const P3<T>& a, const P3<T>& b) {
   return {c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z};
 }
 
+// The nearer of the two roots −b ∓ √disc of a ray's quadratic that lies ahead of it (beyond
+// `eps`); *hit is false when there is none (disc < 0, or both behind).
+template <typename T>
+PORTHOLE_INLINE T NearestRootAhead(const T& b, const T& disc, bool* hit, double eps) {
+  const bool real = disc >= T(0);
+  using std::sqrt;
+  const T sq = sqrt(real ? disc : T(0));
+  const T t1 = -b - sq;
+  const T t = t1 > T(eps) ? t1 : -b + sq;
+  *hit = real & (t > T(eps));
+  return t;
+}
+
 // Distance along a unit ray to a sphere: the smallest root greater than `eps`. *hit is false when
 // there is none (the return value is then meaningless). Works from inside (the exit point) and
 // from outside (the entry point).
@@ -142,14 +155,7 @@ PORTHOLE_INLINE T IntersectSphere(const P3<T>& o, const P3<T>& d, const P3<T>& c
   // R² − (distance from the centre to the ray's line)², computed from the perpendicular vector
   // rather than as b² − (|oc|² − R²), which cancels catastrophically for far-away origins.
   const P3<T> perp = oc - b * d;
-  const T disc = radius * radius - perp.squaredNorm();
-  const bool real = disc >= T(0);
-  using std::sqrt;
-  const T sq = sqrt(real ? disc : T(0));
-  const T t1 = -b - sq;
-  const T t = t1 > T(eps) ? t1 : -b + sq;
-  *hit = real & (t > T(eps));
-  return t;
+  return NearestRootAhead<T>(b, radius * radius - perp.squaredNorm(), hit, eps);
 }
 
 // Distance along a unit ray to a plane (point p, unit normal n); *hit is false when the plane is
@@ -178,13 +184,9 @@ PORTHOLE_INLINE T IntersectCylinder(const P3<T>& o, const P3<T>& d, const P3<T>&
   const T inv_aa = T(1) / (slanted ? aa : T(1));
   const T b = oc_across.dot(d_across) * inv_aa;  // the closest approach, in units of the ray
   const P3<T> perp = oc_across - b * d_across;
-  const T disc = (radius * radius - perp.squaredNorm()) * inv_aa;
-  const bool real = disc >= T(0);
-  using std::sqrt;
-  const T sq = sqrt(real ? disc : T(0));
-  const T t1 = -b - sq;
-  const T t = t1 > T(eps) ? t1 : -b + sq;
-  *hit = slanted & real & (t > T(eps));
+  bool ahead = false;
+  const T t = NearestRootAhead<T>(b, (radius * radius - perp.squaredNorm()) * inv_aa, &ahead, eps);
+  *hit = slanted & ahead;
   return t;
 }
 
