@@ -26,25 +26,158 @@ double FromAxis(const Vec3& p, const Vec3& c, const Vec3& a) {
   return (q - q.dot(a) * a).norm();
 }
 
-// Where the line {p0 + s ẑ} meets a cylinder (axis across Z) on its +Z side.
-std::optional<double> FrontZ(const CylinderPort& c, double radius, const Vec3& p0) {
-  const Vec3 a = c.axis.normalized();
-  const Vec3 across = a.cross(Vec3::UnitZ());  // unit, since a.z = 0
-  const double off = (p0 - c.axis_point_mm).dot(across);
-  const double h2 = radius * radius - off * off;
-  if (h2 < 0) return std::nullopt;
-  return c.axis_point_mm.z() + std::sqrt(h2);
+// Two surfaces, air → glass → water, with glass only where z >= rim (a dome's, a cylinder's).
+std::vector<optics::Interface> WithRim(optics::Surface inner, optics::Surface outer, double rim_z,
+                                       double n_glass, double n_water) {
+  for (optics::Surface* s : {&inner, &outer}) {
+    s->aperture_point = Vec3(0, 0, rim_z);
+    s->aperture_normal = Vec3(0, 0, 1);
+  }
+  return {optics::Interface{inner, 1.0, n_glass}, optics::Interface{outer, n_glass, n_water}};
 }
 
 }  // namespace
+
+// ---- Dome ----
+
+void DomePort::Validate(const std::string& where) const {
+  RequireFiniteVec(where + ".outer.center_mm", outer.center_mm);
+  RequireFiniteVec(where + ".inner.center_mm", inner.center_mm);
+  RequirePositive(where + ".outer.radius_mm", outer.radius_mm);
+  RequirePositive(where + ".inner.radius_mm", inner.radius_mm);
+  if (inner.radius_mm >= outer.radius_mm) {
+    throw InvalidInput(where + ".inner.radius_mm", "must be smaller than outer.radius_mm (" +
+                                                       std::to_string(outer.radius_mm) + ")");
+  }
+  const double gap = outer.radius_mm - inner.radius_mm;
+  if ((outer.center_mm - inner.center_mm).norm() >= gap) {
+    throw InvalidInput(where + ".inner.center_mm",
+                       "the inner sphere must lie inside the outer one (centre distance below "
+                       "the radius difference)");
+  }
+  if (rim_z_mm) RequireFinite(where + ".rim_z_mm", *rim_z_mm);
+}
+
+void DomePort::Translate(const Vec3& by) {
+  outer.center_mm += by;
+  inner.center_mm += by;
+  if (rim_z_mm) *rim_z_mm += by.z();
+}
+
+void DomePort::RequirePupilInside(const Vec3& ep) const {
+  if ((ep - inner.center_mm).norm() >= inner.radius_mm) {
+    throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie inside the dome's inner sphere");
+  }
+}
+
+std::vector<optics::Interface> DomePort::Outward(double n_glass, double n_water) const {
+  return WithRim(optics::Surface::MakeSphere(inner.center_mm, inner.radius_mm),
+                 optics::Surface::MakeSphere(outer.center_mm, outer.radius_mm),
+                 rim_z_mm.value_or(outer.center_mm.z()), n_glass, n_water);
+}
+
+bool DomePort::InsideOuterSurface(const Vec3& p) const { return (p - outer.center_mm).norm() < outer.radius_mm; }
+
+double DomePort::VertexZ(const Vec3& ep, bool of_outer) const {
+  const auto z = FrontZ(of_outer ? outer : inner, ep);
+  PORTHOLE_CHECK(z.has_value());  // Place() put the pupil inside the inner sphere
+  return *z;
+}
+
+bool DomePort::CentralAt(const Vec3& ep, double tol_mm) const {
+  return (outer.center_mm - ep).norm() <= tol_mm && (inner.center_mm - ep).norm() <= tol_mm;
+}
+
+// ---- Flat ----
+
+void FlatPort::Validate(const std::string& where) const {
+  RequireFiniteVec(where + ".inner_point_mm", inner_point_mm);
+  RequireFiniteVec(where + ".normal", normal);
+  if (std::abs(normal.norm() - 1) > 1e-6) throw InvalidInput(where + ".normal", "must be a unit vector");
+  if (normal.z() <= 0) throw InvalidInput(where + ".normal", "must point toward the scene (+Z)");
+  RequirePositive(where + ".thickness_mm", thickness_mm);
+}
+
+void FlatPort::Translate(const Vec3& by) { inner_point_mm += by; }
+
+void FlatPort::RequirePupilInside(const Vec3& ep) const {
+  if ((ep - inner_point_mm).dot(normal) >= 0) {
+    throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie behind the flat port's inner plane");
+  }
+}
+
+std::vector<optics::Interface> FlatPort::Outward(double n_glass, double n_water) const {
+  using optics::Interface;
+  using optics::Surface;
+  return {Interface{Surface::MakePlane(inner_point_mm, normal), 1.0, n_glass},
+          Interface{Surface::MakePlane(inner_point_mm + thickness_mm * normal, normal), n_glass, n_water}};
+}
+
+bool FlatPort::InsideOuterSurface(const Vec3& p) const { return (p - inner_point_mm).dot(normal) < thickness_mm; }
+
+double FlatPort::VertexZ(const Vec3& ep, bool of_outer) const {
+  const Vec3 p = of_outer ? Vec3(inner_point_mm + thickness_mm * normal) : inner_point_mm;
+  return ep.z() + (p - ep).dot(normal) / normal.z();
+}
+
+// ---- Cylinder ----
 
 Vec3 CanonicalAxis(const Vec3& axis) {
   const Vec3 a = axis.normalized();
   return a.y() < 0 || (a.y() == 0 && a.x() < 0) ? Vec3(-a) : a;
 }
 
+void CylinderPort::Validate(const std::string& where) const {
+  RequireFiniteVec(where + ".axis_point_mm", axis_point_mm);
+  RequireFiniteVec(where + ".axis", axis);
+  if (std::abs(axis.norm() - 1) > 1e-6) throw InvalidInput(where + ".axis", "must be a unit vector");
+  if (std::abs(axis.z()) > 1e-9) {
+    throw InvalidInput(where + ".axis", "must lie across the optical axis (its z component 0)");
+  }
+  RequirePositive(where + ".inner_radius_mm", inner_radius_mm);
+  RequirePositive(where + ".outer_radius_mm", outer_radius_mm);
+  if (inner_radius_mm >= outer_radius_mm) {
+    throw InvalidInput(where + ".inner_radius_mm", "must be smaller than outer_radius_mm (" +
+                                                       std::to_string(outer_radius_mm) + ")");
+  }
+  if (rim_z_mm) RequireFinite(where + ".rim_z_mm", *rim_z_mm);
+}
+
+void CylinderPort::Translate(const Vec3& by) {
+  axis_point_mm += by;
+  if (rim_z_mm) *rim_z_mm += by.z();
+}
+
+void CylinderPort::RequirePupilInside(const Vec3& ep) const {
+  if (FromAxis(ep, axis_point_mm, axis.normalized()) >= inner_radius_mm) {
+    throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie inside the cylinder's inner surface");
+  }
+}
+
+std::vector<optics::Interface> CylinderPort::Outward(double n_glass, double n_water) const {
+  const Vec3 a = CanonicalAxis(axis);
+  return WithRim(optics::Surface::MakeCylinder(axis_point_mm, a, inner_radius_mm),
+                 optics::Surface::MakeCylinder(axis_point_mm, a, outer_radius_mm),
+                 rim_z_mm.value_or(axis_point_mm.z()), n_glass, n_water);
+}
+
+bool CylinderPort::InsideOuterSurface(const Vec3& p) const {
+  return FromAxis(p, axis_point_mm, axis.normalized()) < outer_radius_mm;
+}
+
+double CylinderPort::VertexZ(const Vec3& ep, bool of_outer) const {
+  // Where {ep + s ẑ} meets the cylinder on its +Z side, in the plane across the axis.
+  const double radius = of_outer ? outer_radius_mm : inner_radius_mm;
+  const double off = (ep - axis_point_mm).dot(axis.normalized().cross(Vec3::UnitZ()));  // a.z = 0: unit
+  const double h2 = radius * radius - off * off;
+  PORTHOLE_CHECK(h2 >= 0);  // Place() put the pupil inside the inner cylinder
+  return axis_point_mm.z() + std::sqrt(h2);
+}
+
+// ---- The list ----
+
 std::string_view PortSpec::KindName() const {
-  return IsDome() ? "dome" : IsCylinder() ? "cylinder" : "flat";
+  return std::visit([](const auto& p) { return std::decay_t<decltype(p)>::kName; }, shape);
 }
 
 const std::string& PortSpec::material() const {
@@ -52,44 +185,7 @@ const std::string& PortSpec::material() const {
 }
 
 void Validate(const PortSpec& spec, const std::string& where) {
-  if (const auto* d = std::get_if<DomePort>(&spec.shape)) {
-    RequireFiniteVec(where + ".outer.center_mm", d->outer.center_mm);
-    RequireFiniteVec(where + ".inner.center_mm", d->inner.center_mm);
-    RequirePositive(where + ".outer.radius_mm", d->outer.radius_mm);
-    RequirePositive(where + ".inner.radius_mm", d->inner.radius_mm);
-    if (d->inner.radius_mm >= d->outer.radius_mm) {
-      throw InvalidInput(where + ".inner.radius_mm", "must be smaller than outer.radius_mm (" +
-                                                         std::to_string(d->outer.radius_mm) + ")");
-    }
-    const double gap = d->outer.radius_mm - d->inner.radius_mm;
-    if ((d->outer.center_mm - d->inner.center_mm).norm() >= gap) {
-      throw InvalidInput(where + ".inner.center_mm",
-                         "the inner sphere must lie inside the outer one (centre distance below "
-                         "the radius difference)");
-    }
-    if (d->rim_z_mm) RequireFinite(where + ".rim_z_mm", *d->rim_z_mm);
-  } else if (const auto* c = std::get_if<CylinderPort>(&spec.shape)) {
-    RequireFiniteVec(where + ".axis_point_mm", c->axis_point_mm);
-    RequireFiniteVec(where + ".axis", c->axis);
-    if (std::abs(c->axis.norm() - 1) > 1e-6) throw InvalidInput(where + ".axis", "must be a unit vector");
-    if (std::abs(c->axis.z()) > 1e-9) {
-      throw InvalidInput(where + ".axis", "must lie across the optical axis (its z component 0)");
-    }
-    RequirePositive(where + ".inner_radius_mm", c->inner_radius_mm);
-    RequirePositive(where + ".outer_radius_mm", c->outer_radius_mm);
-    if (c->inner_radius_mm >= c->outer_radius_mm) {
-      throw InvalidInput(where + ".inner_radius_mm", "must be smaller than outer_radius_mm (" +
-                                                         std::to_string(c->outer_radius_mm) + ")");
-    }
-    if (c->rim_z_mm) RequireFinite(where + ".rim_z_mm", *c->rim_z_mm);
-  } else {
-    const auto& f = std::get<FlatPort>(spec.shape);
-    RequireFiniteVec(where + ".inner_point_mm", f.inner_point_mm);
-    RequireFiniteVec(where + ".normal", f.normal);
-    if (std::abs(f.normal.norm() - 1) > 1e-6) throw InvalidInput(where + ".normal", "must be a unit vector");
-    if (f.normal.z() <= 0) throw InvalidInput(where + ".normal", "must point toward the scene (+Z)");
-    RequirePositive(where + ".thickness_mm", f.thickness_mm);
-  }
+  std::visit([&](const auto& p) { p.Validate(where); }, spec.shape);
   RequireFiniteVec(where + ".entrance_pupil_mm", spec.default_ep_in_housing_mm);
   const ShellSigma& sg = spec.sigma;
   for (const auto& [key, v] : {std::pair{".sigma.outer_radius_mm", sg.outer_radius_mm},
@@ -115,109 +211,32 @@ PortSystem Place(const PortSpec& spec_in, const Vec3& ep, double n_glass, double
   // Move a cam-frame description to the housing frame: cam = housing - ep.
   if (spec_in.frame == PortFrame::kCam) {
     sys.spec.frame = PortFrame::kHousing;
-    if (auto* d = std::get_if<DomePort>(&sys.spec.shape)) {
-      d->outer.center_mm += ep;
-      d->inner.center_mm += ep;
-      if (d->rim_z_mm) *d->rim_z_mm += ep.z();
-    } else if (auto* c = std::get_if<CylinderPort>(&sys.spec.shape)) {
-      c->axis_point_mm += ep;
-      if (c->rim_z_mm) *c->rim_z_mm += ep.z();
-    } else {
-      std::get<FlatPort>(sys.spec.shape).inner_point_mm += ep;
-    }
+    std::visit([&](auto& p) { p.Translate(ep); }, sys.spec.shape);
   }
-  if (const auto* d = std::get_if<DomePort>(&sys.spec.shape)) {
-    if ((ep - d->inner.center_mm).norm() >= d->inner.radius_mm) {
-      throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie inside the dome's inner sphere");
-    }
-  } else if (const auto* c = std::get_if<CylinderPort>(&sys.spec.shape)) {
-    if (FromAxis(ep, c->axis_point_mm, c->axis.normalized()) >= c->inner_radius_mm) {
-      throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie inside the cylinder's inner surface");
-    }
-  } else {
-    const auto& f = std::get<FlatPort>(sys.spec.shape);
-    if ((ep - f.inner_point_mm).dot(f.normal) >= 0) {
-      throw InvalidInput("entrance_pupil_mm", "the entrance pupil must lie behind the flat port's inner plane");
-    }
-  }
+  std::visit([&](const auto& p) { p.RequirePupilInside(ep); }, sys.spec.shape);
   return sys;
 }
 
 std::vector<optics::Interface> PortSystem::Outward() const {
-  using optics::Interface;
-  using optics::Surface;
-  if (IsDome()) {
-    const DomePort& d = dome();
-    Surface inner = Surface::MakeSphere(d.inner.center_mm, d.inner.radius_mm);
-    Surface outer = Surface::MakeSphere(d.outer.center_mm, d.outer.radius_mm);
-    const double rim = d.rim_z_mm.value_or(d.outer.center_mm.z());
-    for (Surface* s : {&inner, &outer}) {
-      s->aperture_point = Vec3(0, 0, rim);
-      s->aperture_normal = Vec3(0, 0, 1);
-    }
-    return {Interface{inner, 1.0, n_glass}, Interface{outer, n_glass, n_water}};
-  }
-  if (IsCylinder()) {
-    const CylinderPort& c = cylinder();
-    const Vec3 a = CanonicalAxis(c.axis);
-    Surface inner = Surface::MakeCylinder(c.axis_point_mm, a, c.inner_radius_mm);
-    Surface outer = Surface::MakeCylinder(c.axis_point_mm, a, c.outer_radius_mm);
-    const double rim = c.rim_z_mm.value_or(c.axis_point_mm.z());
-    for (Surface* s : {&inner, &outer}) {
-      s->aperture_point = Vec3(0, 0, rim);
-      s->aperture_normal = Vec3(0, 0, 1);
-    }
-    return {Interface{inner, 1.0, n_glass}, Interface{outer, n_glass, n_water}};
-  }
-  const FlatPort& f = flat();
-  return {Interface{Surface::MakePlane(f.inner_point_mm, f.normal), 1.0, n_glass},
-          Interface{Surface::MakePlane(f.inner_point_mm + f.thickness_mm * f.normal, f.normal), n_glass,
-                    n_water}};
+  return std::visit([&](const auto& p) { return p.Outward(n_glass, n_water); }, spec.shape);
 }
 
 std::vector<optics::Interface> PortSystem::Inward() const { return optics::Reversed(Outward()); }
 
 bool PortSystem::InsideOuterSurface(const Vec3& p) const {
-  if (IsDome()) return (p - dome().outer.center_mm).norm() < dome().outer.radius_mm;
-  if (IsCylinder()) return FromAxis(p, cylinder().axis_point_mm, cylinder().axis.normalized()) < cylinder().outer_radius_mm;
-  return (p - flat().inner_point_mm).dot(flat().normal) < flat().thickness_mm;
+  return std::visit([&](const auto& s) { return s.InsideOuterSurface(p); }, spec.shape);
 }
 
 bool PortSystem::IsCentral(double tol_mm) const {
-  if (!IsDome()) return false;
-  return (dome().outer.center_mm - ep_in_housing_mm).norm() <= tol_mm &&
-         (dome().inner.center_mm - ep_in_housing_mm).norm() <= tol_mm;
+  return IsDome() && dome().CentralAt(ep_in_housing_mm, tol_mm);
 }
 
 double PortSystem::OuterVertexZ() const {
-  if (IsDome()) {
-    const auto z = FrontZ(dome().outer, ep_in_housing_mm);
-    PORTHOLE_CHECK(z.has_value());  // Place() put the pupil inside the inner sphere
-    return *z;
-  }
-  if (IsCylinder()) {
-    const auto z = FrontZ(cylinder(), cylinder().outer_radius_mm, ep_in_housing_mm);
-    PORTHOLE_CHECK(z.has_value());  // Place() put the pupil inside the inner cylinder
-    return *z;
-  }
-  const FlatPort& f = flat();
-  const Vec3 p = f.inner_point_mm + f.thickness_mm * f.normal;
-  return ep_in_housing_mm.z() + (p - ep_in_housing_mm).dot(f.normal) / f.normal.z();
+  return std::visit([&](const auto& p) { return p.VertexZ(ep_in_housing_mm, true); }, spec.shape);
 }
 
 double PortSystem::InnerVertexZ() const {
-  if (IsDome()) {
-    const auto z = FrontZ(dome().inner, ep_in_housing_mm);
-    PORTHOLE_CHECK(z.has_value());
-    return *z;
-  }
-  if (IsCylinder()) {
-    const auto z = FrontZ(cylinder(), cylinder().inner_radius_mm, ep_in_housing_mm);
-    PORTHOLE_CHECK(z.has_value());
-    return *z;
-  }
-  const FlatPort& f = flat();
-  return ep_in_housing_mm.z() + (f.inner_point_mm - ep_in_housing_mm).dot(f.normal) / f.normal.z();
+  return std::visit([&](const auto& p) { return p.VertexZ(ep_in_housing_mm, false); }, spec.shape);
 }
 
 }  // namespace porthole::ports

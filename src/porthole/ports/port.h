@@ -30,6 +30,21 @@ struct DomePort {
   // Glass exists only where z >= rim_z_mm (in the port's frame): a hemisphere's rim plane. Unset:
   // the outer sphere's centre plane (a hemisphere).
   std::optional<double> rim_z_mm;
+
+  static constexpr std::string_view kName = "dome";
+  // The shape's part of the port list (port.cc; PortSpec and PortSystem visit them): its checks
+  // (InvalidInput naming `where`.<key>), a move by `by` (a cam-frame description to the housing
+  // frame), the pupil's place (InvalidInput "entrance_pupil_mm" unless it is inside), its two
+  // surfaces for a ray leaving the camera, whether a point is inside its outer surface, and where
+  // the axis {ep + s ẑ} meets its outer (or inner) surface.
+  void Validate(const std::string& where) const;
+  void Translate(const Vec3& by);
+  void RequirePupilInside(const Vec3& ep) const;
+  std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
+  bool InsideOuterSurface(const Vec3& p) const;
+  double VertexZ(const Vec3& ep, bool of_outer) const;
+  // Both centres at `ep` within tol_mm: rays from it go straight through.
+  bool CentralAt(const Vec3& ep, double tol_mm) const;
 };
 
 // A flat port: a plate whose inner (air-side) plane passes through inner_point_mm with unit normal
@@ -39,6 +54,19 @@ struct FlatPort {
   Vec3 normal = Vec3(0, 0, 1);
   double thickness_mm = 0;
   std::string material = "pmma";
+
+  static constexpr std::string_view kName = "flat";
+  // The shape's part of the port list (port.cc; PortSpec and PortSystem visit them): its checks
+  // (InvalidInput naming `where`.<key>), a move by `by` (a cam-frame description to the housing
+  // frame), the pupil's place (InvalidInput "entrance_pupil_mm" unless it is inside), its two
+  // surfaces for a ray leaving the camera, whether a point is inside its outer surface, and where
+  // the axis {ep + s ẑ} meets its outer (or inner) surface.
+  void Validate(const std::string& where) const;
+  void Translate(const Vec3& by);
+  void RequirePupilInside(const Vec3& ep) const;
+  std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
+  bool InsideOuterSurface(const Vec3& p) const;
+  double VertexZ(const Vec3& ep, bool of_outer) const;
 };
 
 // A cylindrical port: glass between two coaxial circular cylinders whose axis crosses the optical
@@ -52,6 +80,19 @@ struct CylinderPort {
   // Glass exists only where z >= rim_z_mm (in the port's frame). Unset: the axis's plane (the
   // front half of the tube).
   std::optional<double> rim_z_mm;
+
+  static constexpr std::string_view kName = "cylinder";
+  // The shape's part of the port list (port.cc; PortSpec and PortSystem visit them): its checks
+  // (InvalidInput naming `where`.<key>), a move by `by` (a cam-frame description to the housing
+  // frame), the pupil's place (InvalidInput "entrance_pupil_mm" unless it is inside), its two
+  // surfaces for a ray leaving the camera, whether a point is inside its outer surface, and where
+  // the axis {ep + s ẑ} meets its outer (or inner) surface.
+  void Validate(const std::string& where) const;
+  void Translate(const Vec3& by);
+  void RequirePupilInside(const Vec3& ep) const;
+  std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
+  bool InsideOuterSurface(const Vec3& p) const;
+  double VertexZ(const Vec3& ep, bool of_outer) const;
 };
 
 // The axis of a cylinder in the sense the port parameters use: unit, +Y half (+X where y = 0).
