@@ -18,6 +18,13 @@ namespace porthole::ports {
 
 using optics::Vec3;
 
+// The port shapes: one closed list, the alternatives of PortSpec::shape (dome, flat, cylinder).
+// Each shape is one struct with its fields and the same members, which Validate, Place and
+// PortSystem visit (port.cc): kName (its `type` in port files); Validate(where) (InvalidInput
+// naming `where`.<key>); Translate(by) (a cam-frame description moved to the housing frame);
+// RequirePupilInside(ep) (InvalidInput "entrance_pupil_mm" unless the pupil is inside);
+// Outward(n_glass, n_water) (its two surfaces for a ray leaving the camera); InsideOuterSurface(p);
+// VertexZ(ep, of_outer) (where the axis {ep + s ẑ} meets its outer or inner surface).
 struct SphereSpec {
   Vec3 center_mm = Vec3::Zero();
   double radius_mm = 0;
@@ -32,11 +39,7 @@ struct DomePort {
   std::optional<double> rim_z_mm;
 
   static constexpr std::string_view kName = "dome";
-  // The shape's part of the port list (port.cc; PortSpec and PortSystem visit them): its checks
-  // (InvalidInput naming `where`.<key>), a move by `by` (a cam-frame description to the housing
-  // frame), the pupil's place (InvalidInput "entrance_pupil_mm" unless it is inside), its two
-  // surfaces for a ray leaving the camera, whether a point is inside its outer surface, and where
-  // the axis {ep + s ẑ} meets its outer (or inner) surface.
+  // Its members in the port list (see "The port shapes" above).
   void Validate(const std::string& where) const;
   void Translate(const Vec3& by);
   void RequirePupilInside(const Vec3& ep) const;
@@ -56,11 +59,7 @@ struct FlatPort {
   std::string material = "pmma";
 
   static constexpr std::string_view kName = "flat";
-  // The shape's part of the port list (port.cc; PortSpec and PortSystem visit them): its checks
-  // (InvalidInput naming `where`.<key>), a move by `by` (a cam-frame description to the housing
-  // frame), the pupil's place (InvalidInput "entrance_pupil_mm" unless it is inside), its two
-  // surfaces for a ray leaving the camera, whether a point is inside its outer surface, and where
-  // the axis {ep + s ẑ} meets its outer (or inner) surface.
+  // Its members in the port list (see "The port shapes" above).
   void Validate(const std::string& where) const;
   void Translate(const Vec3& by);
   void RequirePupilInside(const Vec3& ep) const;
@@ -82,11 +81,7 @@ struct CylinderPort {
   std::optional<double> rim_z_mm;
 
   static constexpr std::string_view kName = "cylinder";
-  // The shape's part of the port list (port.cc; PortSpec and PortSystem visit them): its checks
-  // (InvalidInput naming `where`.<key>), a move by `by` (a cam-frame description to the housing
-  // frame), the pupil's place (InvalidInput "entrance_pupil_mm" unless it is inside), its two
-  // surfaces for a ray leaving the camera, whether a point is inside its outer surface, and where
-  // the axis {ep + s ẑ} meets its outer (or inner) surface.
+  // Its members in the port list (see "The port shapes" above).
   void Validate(const std::string& where) const;
   void Translate(const Vec3& by);
   void RequirePupilInside(const Vec3& ep) const;
