@@ -674,6 +674,9 @@ void RegisterCalibrate(CLI::App& app) {
     using CC = calib::CalibrationOptions::CentreCorrection;
     o->calib.centre_correction = o->centre_correction == "on" ? CC::kOn : o->centre_correction == "off" ? CC::kOff : CC::kAuto;
     o->calib.datum = calib::ParseDatumKind(o->datum, "--datum");
+    if (o->datum != "auto" && !o->calib.target_free) {
+      throw InvalidInput("--datum", "is the datum of a free target: give it with --free-target");
+    }
     o->calib.model = camera::ModelFromName(o->model, "--model");
     o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
     // --port with an air calibration that states its pitch (porthole JSON): that pitch, unless

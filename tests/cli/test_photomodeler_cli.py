@@ -317,6 +317,9 @@ def test_with_the_control_points_held_the_adjustment_is_dbats(converted, tmp_pat
     line = run_bad("calibrate", "--detections", det, "--field", plain, "--free-target", "--datum", "control",
                    "--pixel-pitch-mm", pitch, "--centre-correction", "off", "--quiet")
     assert "--datum" in line and "control points" in line, line
+    line = run_bad("calibrate", "--detections", det, "--field", field, "--datum", "minimal",
+                   "--pixel-pitch-mm", pitch, "--centre-correction", "off", "--quiet")
+    assert line == "porthole: error: --datum: is the datum of a free target: give it with --free-target", line
 
 
 def compare(p, pitch):
