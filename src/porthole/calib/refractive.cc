@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "porthole/calib/compare.h"
+#include "porthole/calib/housed_prior.h"
 #include "porthole/calib/prior_cost.h"
 #include "porthole/calib/scales.h"
 #include "porthole/coded/ellipse.h"
@@ -158,6 +159,21 @@ class RefractiveAdjustment {
   double weight = 1;  // 1/σ of the image residuals (px⁻¹)
   std::optional<Prior> prior;
   std::optional<ShellPrior> shell_prior;
+  // A calibration made in air through the port (housed_prior.h): a prior on the lens and the port.
+  std::optional<HousedPrior> housed;
+
+  // The shell's values as the air images see them (the water factor 1).
+  ShellArray AirShellValues() const {
+    ShellArray v = shell_values;
+    v[0] = 1;
+    return v;
+  }
+  // (Re-)linearises the housed prior at the current lens and port (housed_prior.h); the largest
+  // move of its pixels since the last time.
+  double LineariseHoused() {
+    const ShellArray v = AirShellValues();
+    return LineariseHousedPrior<M>(&*housed, sensor_, air_shell_, lens.data(), port.data(), v.data());
+  }
 
   // cam_from_target of each image: angle-axis (rad) then translation (mm), one Ceres block (so
   // that the Schur solver eliminates every pose: calibrate.cc's PoseBlockCost).
@@ -167,6 +183,17 @@ class RefractiveAdjustment {
   }
   Eigen::Vector3d Rotation(int image) const { return Eigen::Vector3d(pose_[image].data()); }
   Eigen::Vector3d Translation(int image) const { return Eigen::Vector3d(pose_[image].data() + 3); }
+  // The target's points in the camera frame at the poses of images [0, n): a network of views
+  // like the images' (the housed prior's, housed_prior.h).
+  std::vector<std::vector<Eigen::Vector3d>> Views(int n) const {
+    std::vector<std::vector<Eigen::Vector3d>> views(n);
+    for (int i = 0; i < n; ++i) {
+      Eigen::Matrix3d r;
+      ceres::AngleAxisToRotationMatrix(pose_[i].data(), r.data());
+      for (const auto& x : points_) views[i].push_back(r * x + Translation(i));
+    }
+    return views;
+  }
   std::vector<Obs>& obs() { return obs_; }
 
   // Adjusts; returns the iterations and the final cost (½Σr², weighted; infinite when some
@@ -255,8 +282,7 @@ class RefractiveAdjustment {
     ceres::AngleAxisToRotationMatrix(pose_[image].data(), r.data());
     const Eigen::Vector3d p = r * point_in_target_mm + Translation(image);
     if (InAir(image)) {
-      ShellArray v = shell_values;
-      v[0] = 1;
+      const ShellArray v = AirShellValues();
       return refraction::Project<M, double>(sensor_, lens.data(), air_shell_, port.data(), p, v.data());
     }
     return refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p, shell_values.data());
@@ -317,6 +343,16 @@ class RefractiveAdjustment {
       for (std::size_t a = 0; a < prior->idx.size(); ++a) d(a) = lens[prior->idx[a]] - prior->mean(a);
       ss += (prior->whiten * d).squaredNorm();
     }
+    if (housed) {
+      std::array<double, N> scaled, r;
+      for (int i = 0; i < N; ++i) scaled[i] = lens[i] / scale_[i];
+      const HousedPriorCost<M> f{&*housed, sensor_, scale_, air_shell_};
+      if (f.template Residual<double>(scaled.data(), port.data(), shell_values.data(), r.data())) {
+        for (double x : r) ss += x * x;
+      } else {
+        ss = INFINITY;
+      }
+    }
     if (shell_prior) {
       ss += (shell_prior->a * Eigen::Map<const Eigen::VectorXd>(shell_values.data(), kShellNumParams) -
              shell_prior->b).squaredNorm();
@@ -370,6 +406,16 @@ class RefractiveAdjustment {
       for (int a = 0; a < m; ++a) e(a, prior->idx[a]) = scale_[prior->idx[a]];
       problem->AddResidualBlock(new LinearPriorCost(prior->whiten * e, prior->whiten * prior->mean),
                                 nullptr, scaled->data());
+    }
+    if (housed && with_shell) {
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<HousedPriorShellCost<M>, N, N, kPortNumParams, kShellNumParams>(
+              new HousedPriorShellCost<M>{{&*housed, sensor_, scale_, air_shell_}}),
+          nullptr, scaled->data(), port.data(), shell_values.data());
+    } else if (housed) {
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<HousedPriorCost<M>, N, N, kPortNumParams>(
+                                    new HousedPriorCost<M>{&*housed, sensor_, scale_, air_shell_}),
+                                nullptr, scaled->data(), port.data());
     }
     if (shell_prior && with_shell) {
       problem->AddResidualBlock(new LinearPriorCost(shell_prior->a, shell_prior->b), nullptr,
@@ -650,10 +696,19 @@ FreeMask LensFree(const RefractiveOptions& o) {
   return free;
 }
 
-// The in-air calibration as a prior (kPrior: every parameter it adjusted but the focal
-// length(s)); nullopt in the other modes or when it adjusted nothing else.
+// An in-air calibration made through the port (the housing on) used as a prior: on the lens and
+// the port together (housed_prior.h), every parameter it adjusted, the focal length(s) too (one
+// focus for both sets, as with air images).
+bool Housed(const RefractiveOptions& o) {
+  return o.air && o.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort &&
+         o.intrinsics == IntrinsicsMode::kPrior;
+}
+
+// The in-air calibration of the lens alone as a prior (kPrior: every parameter it adjusted but the
+// focal length(s)); nullopt in the other modes, for a housed calibration, or when it adjusted
+// nothing else.
 std::optional<Prior> MakePrior(const RefractiveOptions& o) {
-  if (o.intrinsics != IntrinsicsMode::kPrior) return std::nullopt;
+  if (o.intrinsics != IntrinsicsMode::kPrior || Housed(o)) return std::nullopt;
   const camera::ModelInfo& info = camera::Info(o.lens.model);
   Prior prior;
   for (int i = info.num_focal; i < info.num_params; ++i) {
@@ -850,14 +905,32 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   }
   int n_prior = 0;
   const std::optional<Prior> used_prior = MakePrior(o);
-  if (used_prior || shell_prior) {
+  if (Housed(o)) {
+    adj.housed = MakeHousedPrior<M>(*o.air, adj.Views(n_images));
+  }
+  if (used_prior || shell_prior || adj.housed) {
     adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns_first));
     if (used_prior) n_prior += static_cast<int>(used_prior->idx.size());
     if (shell_prior) n_prior += static_cast<int>(shell_prior->a.rows());
+    if (adj.housed) n_prior += static_cast<int>(adj.housed->idx.size());
     adj.prior = used_prior;
     adj.shell_prior = shell_prior;
     adj.shell_free = res.shell_free;
-    solve();
+    if (!adj.housed) {
+      solve();
+    } else {
+      // The housed prior is linearised at the estimate: adjust, re-linearise at the new estimate,
+      // until its pixels move by less than 1e-4 px (at most 8 rounds).
+      adj.LineariseHoused();
+      for (int round = 0; round < 8; ++round) {
+        solve();
+        const double moved = adj.LineariseHoused();
+        say(fmt::format("in-air calibration through the port: central fit RMS {:.4f} px, its pixels moved "
+                        "{:.2g} px", adj.housed->fit_rms_px, moved));
+        if (moved < 1e-4) break;
+      }
+      res.housed_fit_rms_px = adj.housed->fit_rms_px;
+    }
     ss = adj.SumSquares(&n_active);
   }
 
@@ -1015,6 +1088,9 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
 
   if (o.compare_central && n_air > 0) {
     res.central_prediction.why_not = "the lens was adjusted with the air images, not taken from an in-air calibration";
+  } else if (o.compare_central && o.air && o.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort) {
+    res.central_prediction.why_not =
+        "the in-air calibration was made through the port: the prediction needs the lens alone";
   } else if (o.compare_central) {
     say("comparing the simulate prediction of c, x0, y0");
     res.central_prediction = CompareCentral(o, central, lr.camera, res.port, res.shell,
@@ -1090,6 +1166,10 @@ RefractivePlan PlanModel(const std::vector<ImageResult>& poses, const TargetSpec
   adj.prior = MakePrior(o);
   adj.shell_prior = shell_prior;
   adj.shell_free = plan.shell_free;
+  if (Housed(o)) {  // linearised at the design (the housed calibration's lens behind the port)
+    adj.housed = MakeHousedPrior<M>(*o.air, adj.Views(plan.n_images));
+    adj.LineariseHoused();
+  }
   const auto [lo, hi] = std::minmax_element(ranges.begin(), ranges.end());
   plan.min_range_mm = *lo;
   plan.max_range_mm = *hi;
@@ -1135,13 +1215,12 @@ void CheckOptions(const RefractiveOptions& o) {
                        "not with `air_detections`: the lens comes from the air images adjusted with the water "
                        "ones; give one of them");
   }
-  if (o.air && o.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort) {
-    throw InvalidInput(
-        "air_calibration",
-        "was it made with the housing on (through this port in air) or of the lens alone? Through the port "
-        "a dome still refracts, and taken as the bare lens it biases the port by millimetres: give the air "
-        "images instead (`air_detections` or `air_images`, modelled through the port), or `air_lens_bare` "
-        "if it was made without the housing");
+  if (o.air && o.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort &&
+      o.intrinsics == IntrinsicsMode::kFixed) {
+    throw InvalidInput("intrinsics",
+                       "fixed holds the lens at the in-air calibration, and one made through the port (the "
+                       "housing on) is not the lens: take it as a prior (`intrinsics` prior), or say it is the "
+                       "lens alone (`air_lens_bare`)");
   }
   if (o.air) {
     if (o.air->camera.model != o.lens.model) {
@@ -1463,9 +1542,16 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
                  {"preferred", r.preferred}}}};
   // What the lens was measured with (issue 26): the water images alone, with air images through
   // the same port, or with an in-air calibration of the lens alone.
-  Json air = {{"lens_from", !r.air_images.empty()   ? "air and water images through the port, adjusted together"
-                            : !options.air          ? "the water images alone"
-                                                    : "an in-air calibration of the lens without the housing (the bare lens)"}};
+  const bool housed = options.air && options.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort;
+  Json air = {{"lens_from", !r.air_images.empty() ? "air and water images through the port, adjusted together"
+                            : !options.air        ? "the water images alone"
+                            : !housed ? "an in-air calibration of the lens without the housing (the bare lens)"
+                            : r.intrinsics == IntrinsicsMode::kPrior
+                                ? "an in-air calibration made through the port (the housing on), modelled as the "
+                                  "lens behind the port in air, adjusted with the water images"
+                                : "the water images alone, started from an in-air calibration made through the port"}};
+  if (options.air) air["air_calibration_taken_as"] = housed ? "through_port" : "lens_bare";
+  if (std::isfinite(r.housed_fit_rms_px)) air["housed_central_fit_rms_px"] = r.housed_fit_rms_px;
   if (!r.air_images.empty()) {
     air["n_images"] = r.air_images.size();
     air["rms_px"] = num(r.air_rms_px);

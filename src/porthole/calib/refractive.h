@@ -22,10 +22,13 @@
 //    flat n_x, n_y, distance_mm) unless fixed, every image's cam_from_target pose, and the lens:
 //      kFree   the free set of options.lens (DefaultFree of the model unless given);
 //      kFixed  the in-air calibration `air`, held fixed;
-//      kPrior  `air` as a Gaussian prior with its full covariance on every parameter it adjusted
-//              except the focal length(s), which are free (a refocus on the virtual image changes
-//              them); the image residuals are then weighted by 1/σ0 of a first pass so the prior
-//              and the images have their stated weights (so too with shell priors).
+//      kPrior  `air` as a Gaussian prior with its full covariance: of the lens alone
+//              (kLensBare) on every parameter it adjusted except the focal length(s), which are
+//              free (a refocus on the virtual image changes them); made through the port in air
+//              (kThroughPort, the default) on the central camera that the lens behind the port in
+//              air gives, so on the lens and the port together (housed_prior.h); the image
+//              residuals are then weighted by 1/σ0 of a first pass so the prior and the images
+//              have their stated weights (so too with shell priors).
 //    The shell (radii, inner-centre offset, thickness) and the indices come from the port system;
 //    optionally adjusted too (refraction::ShellParams): a factor on the water index
 //    (free_water_index, no prior) and the shell values the port file states a σ for (free_shell,
@@ -80,9 +83,11 @@ struct RefractiveOptions {
   // An in-air calibration (same model; its sensor is checked against the images'), and what it is
   // of. A calibration made in air with the housing on sees the lens through the port in air, and
   // a thick or decentred dome still refracts there (it is a weak meniscus lens): taken as the bare
-  // lens it biases the port (issue 26). kThroughPort (the paper's protocol, the default) is
-  // refused here: give the air images themselves (air_detections) so that they are modelled
-  // through the port; kLensBare: made without the housing, the lens alone (kFixed, kPrior).
+  // lens it biases the port (issue 26). kThroughPort (the paper's protocol, the default): with
+  // kPrior, a prior on the lens AND the port (housed_prior.h: the calibration is the central camera
+  // that fits the lens behind the port in air; every parameter it adjusted, the focal length(s)
+  // too: one focus), with kFree a start; kFixed is refused (it is not the lens). kLensBare: made
+  // without the housing, the lens alone (kFixed, kPrior as above).
   enum class AirCalibrationOf { kThroughPort, kLensBare };
   std::optional<CalibrationRecord> air;
   AirCalibrationOf air_of = AirCalibrationOf::kThroughPort;
@@ -181,6 +186,10 @@ struct RefractiveResult {
   // free set; with air images, two central calibrations: one per set, as usual practice): its RMS,
   // both BICs, and the preferred model ("refractive" or "central").
   double central_rms_px = NAN, central_bic = NAN, bic = NAN;
+  // With an in-air calibration made through the port: the RMS (px, 2-D) of the central fit of the
+  // lens behind the estimated port in air (housed_prior.h): the part of the housed bundle no
+  // central camera holds. NaN otherwise.
+  double housed_fit_rms_px = NAN;
   int central_k = 0, k = 0;
   std::string preferred;
   // The simulate prediction of the water calibration's c, x0, y0 against the estimate's.
