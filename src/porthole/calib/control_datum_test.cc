@@ -4,7 +4,8 @@
 // board's corners and one raised target). Over fresh noise — and, for control points with a prior,
 // fresh control coordinates drawn with their σ — the reported σ of the camera (every free
 // parameter) and of adjusted non-control points (in the control frame, whose truth is the field's)
-// must match the spread of the estimates within [0.67, 1.5], with no bias beyond 3·spread/√runs.
+// must match the spread of the estimates within [0.67, 1.5], with no bias beyond 3·spread/√runs. And outlier
+// rejection keeps its own rounds when the priors are re-weighted.
 // PORTHOLE_MC_RUNS sets the number of runs (default 50).
 #include <gtest/gtest.h>
 
@@ -165,6 +166,53 @@ TEST(ControlDatum, ControlPriorsSigmaMatchesMonteCarlo) { CheckSigmaAgainstSprea
 // Priors about as precise as the network's own points (≈ 0.02 mm): images and priors share the shape.
 TEST(ControlDatum, TightControlPriorsSigmaMatchesMonteCarlo) {
   CheckSigmaAgainstSpread(0.02, "prior 0.02 mm", 8000);
+}
+
+// Outliers that take 4 rounds of 5σ0 rejection to find, each level hidden by the one above it in
+// σ0: 3 observations off by 800 px (σ0 ≈ 30 px), 3 by 120 px (then σ0 ≈ 4.4 px), 3 by 18 px
+// (σ0 ≈ 0.7 px), 3 by 3 px (σ0 0.3 px), each in its own image and on its own point (no control
+// point). With the control points held, or with priors (whose weight, σ0, is re-adjusted after
+// each rejection), all 12 and no other observation are rejected within the 5 rounds of
+// `max_reject_rounds`, and σ0 is the noise's: re-weighting the priors does not use up rejection's
+// rounds (it did: with priors, 2 rounds of rejection were left and 6 outliers kept).
+TEST(ControlDatum, OutlierRejectionKeepsItsRoundsWithControlPriors) {
+  SyntheticOptions o = Network();
+  auto set = MakeSyntheticSet(o);
+  const std::vector<double> levels_px = {800, 120, 18, 3};
+  const Eigen::Vector2d centre(0.5 * (o.camera.sensor.width_px - 1), 0.5 * (o.camera.sensor.height_px - 1));
+  int image = 0;
+  for (double offset_px : levels_px) {
+    for (int k = 0; k < 3; ++k, ++image) {
+      auto& d = set.detections[image];
+      // Point 10 + image (no control point; one outlier per point), moved toward the image centre.
+      const auto at = std::find(d.ids.begin(), d.ids.end(), 10 + image) - d.ids.begin();
+      ASSERT_LT(at, static_cast<long>(d.ids.size())) << "point " << 10 + image << " unseen in image " << image;
+      d.points_px[at] += offset_px * (centre - d.points_px[at]).normalized();
+    }
+  }
+  for (double sigma_mm : {0.0, 0.5}) {
+    TargetSpec given = o.target;
+    for (auto& t : given.field) {
+      if (std::find(kControl.begin(), kControl.end(), t.id) == kControl.end()) continue;
+      t.control_sigma_mm = Eigen::Vector3d::Constant(sigma_mm);
+    }
+    CalibrationOptions c = Options();
+    c.reject_k = 5;
+    c.max_reject_rounds = 5;
+    std::vector<std::string> said;
+    c.progress = [&](const std::string& m) {
+      if (m.find("rejected") != std::string::npos) said.push_back(m);
+    };
+    const CalibrationResult r = Calibrate(set.detections, given, c);
+    std::printf("[control] outliers, control sigma %g mm: %d rejected in %zu rounds, sigma0 %.4f px\n",
+                sigma_mm, r.n_rejected, said.size(), r.sigma0_px);
+    for (const auto& m : said) std::printf("[control]   %s\n", m.c_str());
+    EXPECT_EQ(r.n_rejected, 12) << "control sigma " << sigma_mm;
+    for (int i = 0; i < static_cast<int>(r.images.size()); ++i) {
+      EXPECT_EQ(r.images[i].n_rejected, i < 12 ? 1 : 0) << "image " << i << ", control sigma " << sigma_mm;
+    }
+    EXPECT_NEAR(r.sigma0_px, o.noise_px, 0.05 * o.noise_px) << "control sigma " << sigma_mm;
+  }
 }
 
 }  // namespace
