@@ -208,6 +208,7 @@ TEST(ControlDatum, OutlierRejectionKeepsItsRoundsWithControlPriors) {
                 sigma_mm, r.n_rejected, said.size(), r.sigma0_px);
     for (const auto& m : said) std::printf("[control]   %s\n", m.c_str());
     EXPECT_EQ(r.n_rejected, 12) << "control sigma " << sigma_mm;
+    ASSERT_EQ(r.images.size(), set.detections.size());  // no image skipped: image i is detections[i]
     for (int i = 0; i < static_cast<int>(r.images.size()); ++i) {
       EXPECT_EQ(r.images[i].n_rejected, i < 12 ? 1 : 0) << "image " << i << ", control sigma " << sigma_mm;
     }
