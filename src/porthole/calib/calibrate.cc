@@ -845,6 +845,10 @@ std::optional<double> StartPoses(const camera::Camera& cam,
   return std::sqrt(ss / count);
 }
 
+// Adjustments that re-weight the control points' priors with σ0 until the weight settles, at most
+// (per round of outlier rejection): a few suffice, the weight's fixed point moves little.
+constexpr int kMaxPriorWeightRounds = 10;
+
 template <typename M>
 CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images,
                                  const std::vector<Eigen::Vector3d>& nominal,
@@ -1102,32 +1106,47 @@ CalibrationResult CalibrateModel(std::vector<const ImageDetections*> used_images
     res.n_unknowns = n_free_now + 6 * n_images + n_point_unknowns;
     double ss = 0, ss_priors = 0;
     int n_active = 0;
-    for (int round = 0;; ++round) {
-      solve(free);
-      ss = 0;
-      n_active = 0;
-      for (const auto& ob : obs) {
-        if (!ob.active) continue;
-        const auto r = Residual<M>(s, ob, sensor);
-        if (r) ss += r->squaredNorm();
-        ++n_active;
+    // One adjustment of the active observations; returns σ0 (px). A control point's prior is
+    // weighted as an image observation of σ0, which the adjustment changes: it is re-weighted with
+    // the new σ0 and readjusted until the weight settles (within 0.1 %, at most
+    // kMaxPriorWeightRounds adjustments). These rounds are apart from the outlier rejection's.
+    const auto adjust = [&]() {
+      double sigma0 = 0;
+      for (int weighting = 1;; ++weighting) {
+        solve(free);
+        ss = 0;
+        n_active = 0;
+        for (const auto& ob : obs) {
+          if (!ob.active) continue;
+          const auto r = Residual<M>(s, ob, sensor);
+          if (r) ss += r->squaredNorm();
+          ++n_active;
+        }
+        // A control coordinate with a σ is one more observation, its prior residual one more square.
+        ss_priors = adj.PriorSumSquares();
+        res.redundancy = 2 * n_active + n_prior - res.n_unknowns;
+        if (res.redundancy <= 0) {
+          throw InvalidInput("images", fmt::format("{} points in {} images give {} observations "
+                                                     "for {} unknowns: add images or fix "
+                                                     "parameters (`free`)", n_active, n_images,
+                                                     2 * n_active, res.n_unknowns));
+        }
+        sigma0 = std::sqrt((ss + ss_priors) / res.redundancy);
+        if (n_prior == 0 || std::abs(sigma0 - prior_weight) <= 1e-3 * sigma0) break;
+        if (weighting >= kMaxPriorWeightRounds) {
+          say(fmt::format("the control points' prior weight did not settle in {} adjustments "
+                          "(sigma0 {:.4f} px, weighted with {:.4f} px)", kMaxPriorWeightRounds,
+                          sigma0, prior_weight));
+          break;
+        }
+        adj.SetPriorWeight(prior_weight = sigma0);  // weighted with another σ0: again with this one
       }
-      // A control coordinate with a σ is one more observation, its prior residual one more square.
-      ss_priors = adj.PriorSumSquares();
-      res.redundancy = 2 * n_active + n_prior - res.n_unknowns;
-      if (res.redundancy <= 0) {
-        throw InvalidInput("images", fmt::format("{} points in {} images give {} observations "
-                                                   "for {} unknowns: add images or fix "
-                                                   "parameters (`free`)", n_active, n_images,
-                                                   2 * n_active, res.n_unknowns));
-      }
-      const double sigma0 = std::sqrt((ss + ss_priors) / res.redundancy);
-      if (n_prior > 0 && std::abs(sigma0 - prior_weight) > 1e-3 * sigma0 && round < 10) {
-        // The priors were weighted with another σ0: again with this one.
-        adj.SetPriorWeight(prior_weight = sigma0);
-        continue;
-      }
-      if (options.reject_k <= 0 || round >= options.max_reject_rounds) break;
+      return sigma0;
+    };
+    // Outlier rejection: its own max_reject_rounds, each after a (re-weighted) adjustment.
+    for (int reject_round = 0;; ++reject_round) {
+      const double sigma0 = adjust();
+      if (options.reject_k <= 0 || reject_round >= options.max_reject_rounds) break;
       int rejected = 0;
       for (auto& ob : obs) {
         if (!ob.active) continue;
