@@ -318,8 +318,9 @@ void RegisterCalib(py::module_& m) {
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
       "images. air_detections: detections of the same target in air through the same port (the "
       "housing on, the paper's protocol), adjusted with the water ones. air_calibration: a file of "
-      "any format or a calibration dict of the lens alone, with air_lens_bare=True (one made with the "
-      "housing on is refused: give its detections); intrinsics prior (the default with one), fixed or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
+      "any format or a calibration dict, made in air with the housing on (the default: modelled as the "
+      "lens behind the port in air, a prior on both) or of the lens alone (air_lens_bare=True); "
+      "intrinsics prior (the default with one), fixed (the lens alone only) or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
       "of the predicted port for the chi2 test; free_water_index, free_shell as the CLI's flags. "
       "Returns (the JSON of `porthole calibrate --port --json`, the estimated port).");
 

@@ -610,19 +610,20 @@ void RegisterCalibrate(CLI::App& app) {
                       ->group(group);
   air_det->excludes(air_img);
   auto* air_cal = cmd->add_option("--air-calibration", o->air,
-                                  "In-air calibration of the lens ALONE, any format of 'porthole convert' "
-                                  "(porthole JSON, OpenCV YAML, COLMAP, mrcal, Metashape, calibmar); needs "
-                                  "--air-lens-bare (one made with the housing on sees the port too: give its "
-                                  "images, --air-detections); a prior needs its sigma")
+                                  "In-air calibration, any format of 'porthole convert' (porthole JSON, OpenCV "
+                                  "YAML, COLMAP, mrcal, Metashape, calibmar): made with the housing on (the "
+                                  "default, the paper's protocol: modelled as the lens behind the port in air, "
+                                  "a prior on both), or of the lens alone with --air-lens-bare. A prior needs "
+                                  "its sigma. A rig takes each lens alone (--air-lens-bare)")
                       ->group(group);
   air_cal->excludes(air_det)->excludes(air_img);
   cmd->add_flag("--air-lens-bare", o->air_lens_bare,
                 "--air-calibration was made without the housing: the bare lens")
       ->group(group);
   cmd->add_option("--intrinsics", o->intrinsics,
-                  "Lens under the port: free | fixed (the air calibration) | prior (the air "
-                  "calibration's covariance as a prior, focal length free; the default with "
-                  "--air-calibration)")
+                  "Lens under the port: free | fixed (the air calibration of the lens alone) | "
+                  "prior (the default with --air-calibration: its covariance as a prior; of the "
+                  "lens alone with its focal length free, through the port on the lens and port)")
       ->check(CLI::IsMember({"free", "fixed", "prior"}))->group(group);
   cmd->add_option("--free-port", o->free_port,
                   "Adjusted port parameters: dome ep_x,ep_y,ep_z; flat n_x,n_y,distance; all; or none")
@@ -724,7 +725,9 @@ void RegisterCalibrate(CLI::App& app) {
         ro.air = read.calibration;
         ro.air_of = o->air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
                                      : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
-        air_note = interop::DescribeRead(read, o->air) + ", the bare lens (--air-lens-bare)";
+        air_note = interop::DescribeRead(read, o->air) +
+                   (o->air_lens_bare ? ", the bare lens (--air-lens-bare)"
+                                     : ", made through the port in air (the housing on): the lens behind the port in air");
       }
       const std::string mode = !o->intrinsics.empty() ? o->intrinsics : o->air.empty() ? "free" : "prior";
       ro.intrinsics = calib::ParseIntrinsicsMode(mode, "--intrinsics");

@@ -87,7 +87,7 @@ def test_air_calibration_as_a_file_and_errors_name_the_keyword(inputs):
 
 def test_air_detections_through_the_port_match_the_cli(sample, inputs, tmp_path):
     """Issue 26: air detections (the housing on) adjusted with the water ones, as `--air-detections`;
-    a housed-or-bare question left open is refused naming the keyword."""
+    an air calibration made with the housing on, as `--air-calibration`; bad keywords named."""
     d, water, air = inputs
     air_dets = porthole.detect(sample / "air", TARGET)
     (tmp_path / "air_dets.json").write_text(json.dumps(air_dets.to_dict()))
@@ -97,7 +97,14 @@ def test_air_detections_through_the_port_match_the_cli(sample, inputs, tmp_path)
     for key, value in theirs["port"]["parameters"].items():
         assert ours.port.params[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
     assert ours.to_dict()["port"]["air"]["n_images"] == theirs["port"]["air"]["n_images"] == len(air_dets.images)
-    with pytest.raises(ValueError, match="^air_calibration"):
-        porthole.calibrate(water, TARGET, port="generic-dome-4in", air_calibration=air)
+    # An air calibration made with the housing on (the default reading), as the CLI takes it.
+    ours = porthole.calibrate(water, TARGET, port="generic-dome-4in", air_calibration=air)
+    theirs = cli_json("calibrate", "--detections", d / "water.json", "--air-calibration", d / "air.json",
+                      "--port", "generic-dome-4in", "--quiet")
+    for key, value in theirs["port"]["parameters"].items():
+        assert ours.port.params[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    assert ours.to_dict()["port"]["air"]["air_calibration_taken_as"] == "through_port"
+    with pytest.raises(ValueError, match="^intrinsics"):  # held fixed it would be taken as the lens
+        porthole.calibrate(water, TARGET, port="generic-dome-4in", air_calibration=air, intrinsics="fixed")
     with pytest.raises(ValueError, match="^air_lens_bare"):
         porthole.calibrate(water, TARGET, port="generic-dome-4in", air_lens_bare=True)
