@@ -13,6 +13,7 @@
 #include "porthole/calib/compare.h"
 #include "porthole/calib/detect.h"
 #include "porthole/calib/frames.h"
+#include "porthole/calib/job.h"
 #include "porthole/calib/detections_json.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/rig.h"
@@ -99,6 +100,50 @@ calib::CalibrationOptions LensOptions(const std::string& model, double pixel_pit
     o.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
   }
   return o;
+}
+
+// The options calibrate() and calibrate_refractive() share, for calib::CalibrateJob: the
+// detections given, the target and its field, the lens by name.
+calib::CalibrateJobOptions JobOptions(const py::list& detections, const std::string& target, const py::object& field,
+                                      const std::string& model, double pixel_pitch_mm, const std::string& free,
+                                      double reject_k, const std::string& loss, double loss_scale_px, bool progress,
+                                      const std::string& centre_correction) {
+  calib::CalibrateJobOptions o;
+  o.given = DetectionsArg(detections);
+  o.target = target;
+  if (!field.is_none()) o.field = py::str(py::module_::import("os").attr("fspath")(field));
+  o.model = model;
+  o.pixel_pitch_mm = pixel_pitch_mm;
+  o.free = free;
+  o.lens.reject_k = reject_k;
+  o.loss = loss;
+  o.lens.loss_scale_px = loss_scale_px;
+  o.centre_correction = centre_correction;
+  if (progress) {
+    o.lens.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
+  }
+  return o;
+}
+
+// The job run without the GIL; its JSON (the CLI's) with the fields its notes name as keywords.
+calib::CalibrateJobResult RunJob(const calib::CalibrateJobOptions& o) {
+  py::gil_scoped_release release;
+  return calib::CalibrateJob(o);
+}
+void PythonWordsInJson(nlohmann::ordered_json* j) {  // `air_lens_bare` → air_lens_bare=
+  if (j->is_string()) {
+    const auto& s = j->get_ref<const std::string&>();
+    if (s.find('`') != std::string::npos) {
+      *j = RenameQuotedFieldsBy([](std::string_view) { return std::optional<std::string>(); }, s, "=");
+    }
+  } else if (j->is_structured()) {
+    for (auto& v : *j) PythonWordsInJson(&v);
+  }
+}
+py::object JobJson(const calib::CalibrateJobResult& r) {
+  nlohmann::ordered_json j = calib::CalibrateJobJson(r);
+  PythonWordsInJson(&j);
+  return JsonToPython(j);
 }
 
 }  // namespace
@@ -224,20 +269,18 @@ void RegisterCalib(py::module_& m) {
          double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
          bool target_free, bool drop_insignificant, double significance_t, bool progress, const py::object& field,
          const std::string& centre_correction, const std::string& datum) {
-        const auto t = TargetArg(target, field);
-        const std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
-        calib::CalibrationOptions o =
-            LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress, centre_correction);
-        o.target_free = target_free;
-        o.datum = calib::ParseDatumKind(datum, "datum");
-        o.drop_insignificant = drop_insignificant;
-        o.significance_t = significance_t;
-        calib::CalibrationResult r;
-        WithFieldNames({{"images", "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"}}, [&] {
-          py::gil_scoped_release release;
-          r = calib::Calibrate(dets, t, o);
-        });
-        return JsonToPython(calib::CalibrationToJson(r, t, o));
+        return WithFieldNames({{"images", "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
+                               {"free_target", "target_free"}},
+                              [&] {
+                                calib::CalibrateJobOptions o =
+                                    JobOptions(detections, target, field, model, pixel_pitch_mm, free, reject_k,
+                                               loss, loss_scale_px, progress, centre_correction);
+                                o.lens.target_free = target_free;
+                                o.datum = datum;
+                                o.lens.drop_insignificant = drop_insignificant;
+                                o.lens.significance_t = significance_t;
+                                return JobJson(RunJob(o));
+                              });
       },
       py::arg("detections"), py::arg("target"), py::kw_only(), py::arg("model") = "brown",
       py::arg("pixel_pitch_mm") = 1.0, py::arg("free") = "default", py::arg("reject_k") = 5.0,
@@ -271,37 +314,29 @@ void RegisterCalib(py::module_& m) {
              {"free_port", "free_port"}, {"port_sigma", "port_sigma"},
              {"free_shell", "free_shell"}},
             [&] {
-              const auto t = TargetArg(target, field);
-              std::vector<calib::ImageDetections> dets = DetectionsArg(detections);
-              calib::RefractiveOptions o;
-              o.lens = LensOptions(model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress, centre_correction);
-              calib::KeepTargetPoints(t, &dets, o.lens.progress);
-              const ports::Environment env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm,
-                                                             temperature_c, salinity_psu, pressure_dbar);
-              o.port = ports::MakeSystem(io::LoadPort(port), env, ep_mm);
-              o.air = CalibrationArg(air_calibration, pixel_pitch_mm, o.lens.model, "air_calibration");
-              if (air_lens_bare && !o.air) {
-                throw InvalidInput("air_lens_bare", "says what air_calibration holds: give air_calibration");
+              calib::CalibrateJobOptions o = JobOptions(detections, target, field, model, pixel_pitch_mm, free,
+                                                        reject_k, loss, loss_scale_px, progress, centre_correction);
+              o.port = port;
+              o.ep_mm = ep_mm;
+              o.water = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
+                                        pressure_dbar);
+              if (py::isinstance<py::str>(air_calibration) || py::hasattr(air_calibration, "__fspath__")) {
+                o.air_calibration = py::str(py::module_::import("os").attr("fspath")(air_calibration));
+              } else if (py::isinstance<py::dict>(air_calibration)) {
+                o.air_given = calib::CalibrationFromJson(PythonToJson(air_calibration), "air_calibration");
+              } else if (!air_calibration.is_none()) {
+                throw InvalidInput("air_calibration", "a file path or a calibration dict");
               }
-              o.air_of = air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
-                                       : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
-              if (!air_detections.is_none()) {
-                o.air_detections = DetectionsArg(air_detections.cast<py::list>());
-                calib::KeepTargetPoints(t, &o.air_detections, o.lens.progress);
-              }
-              const std::string mode = !intrinsics.empty() ? intrinsics : o.air ? "prior" : "free";
-              o.intrinsics = calib::ParseIntrinsicsMode(mode, "intrinsics");
-              o.port_free = calib::ParsePortFree(refraction::KindOf(o.port.spec), free_port, "free_port");
-              o.predicted_sigma = port_sigma;
+              o.air_lens_bare = air_lens_bare;
+              if (!air_detections.is_none()) o.air_given_detections = DetectionsArg(air_detections.cast<py::list>());
+              o.intrinsics = intrinsics;
+              o.free_port = free_port;
+              o.port_sigma = port_sigma;
               o.free_water_index = free_water_index;
               o.free_shell = free_shell;
               o.compare_central = compare_central;
-              calib::RefractiveResult r;
-              {
-                py::gil_scoped_release release;
-                r = calib::CalibrateRefractive(dets, t, o);
-              }
-              return py::make_tuple(JsonToPython(calib::RefractiveToJson(r, t, o)), r.estimated_port);
+              const calib::CalibrateJobResult r = RunJob(o);
+              return py::make_tuple(JobJson(r), r.refractive->estimated_port);
             });
       },
       py::arg("detections"), py::arg("target"), py::arg("port"), py::kw_only(), py::arg("model") = "brown",

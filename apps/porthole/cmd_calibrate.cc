@@ -20,6 +20,7 @@
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
 #include "porthole/calib/frames.h"
+#include "porthole/calib/job.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/rig.h"
 #include "porthole/calib/result_json.h"
@@ -234,19 +235,6 @@ std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOpt
   if (!high.empty()) t += "port correlations beyond 0.9:" + high + "\n";
   t += "status: " + (p.warning.empty() ? std::string("ok") : "warning: " + p.warning) + "\n";
   return t;
-}
-
-// An adjustment that ended impossible (a focal length <= 0, a parameter, the RMS or a sigma not
-// finite) is an error naming the images, never printed as a calibration (camera/validate.h).
-void RequirePossibleCalibration(const calib::CalibrationResult& r, const std::string& field) {
-  camera::RequirePossibleResult(r.camera, r.rms_px, field, "the calibration of these images");
-  const camera::ModelInfo& m = r.camera.info();
-  for (int i = 0; r.covariance_ok && i < m.num_params && i < static_cast<int>(r.sigma.size()); ++i) {
-    if (i < static_cast<int>(r.free.size()) && r.free[i] && !std::isfinite(r.sigma[i])) {
-      throw InvalidInput(field, fmt::format("the calibration of these images is impossible: the sigma of {} is {}",
-                                            m.params[i].json_key, r.sigma[i]));
-    }
-  }
 }
 
 // The options of `porthole calibrate` as parsed.
@@ -517,6 +505,99 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   fmt::print("{}", t);
 }
 
+// One camera: the options as calib::CalibrateJob takes them, then its result printed and written.
+void CalibrateSingle(const CalibrateCliOptions& o, bool pitch_given, const OutputRules& rules) {
+  calib::CalibrateJobOptions job;
+  job.images = o.image_dirs.empty() ? o.images : o.image_dirs.front();
+  job.detections = o.detection_paths.empty() ? o.detections : o.detection_paths.front();
+  job.target = o.target;
+  job.field = o.field;
+  job.frames = o.frames;
+  job.model = o.model;
+  job.free = o.free;
+  job.loss = o.loss;
+  job.centre_correction = o.centre_correction;
+  job.datum = o.datum;
+  job.lens = o.calib;
+  // Captures the flag, not `o`: a callback holding `o` was a reference cycle (a leak).
+  job.lens.progress = [quiet = o.quiet](const std::string& m) {
+    if (!quiet) fmt::print(stderr, "calibrate: {}\n", m);
+  };
+  if (pitch_given) job.pixel_pitch_mm = o.pitch_mm;
+  job.warn = [](const std::string& w) { fmt::print(stderr, "porthole: warning: {}\n", CliWords(w)); };
+  job.port = o.port.port;
+  job.ep_mm = o.port.Ep();
+  if (!job.port.empty()) job.water = o.water.ToEnvironment();
+  job.air_calibration = o.air;
+  job.air_lens_bare = o.air_lens_bare;
+  job.air_images = o.air_images;
+  job.air_detections = o.air_detections;
+  job.intrinsics = o.intrinsics;
+  job.free_port = o.free_port;
+  if (!o.port_sigma.empty()) job.port_sigma = std::array<double, 3>{o.port_sigma[0], o.port_sigma[1], o.port_sigma[2]};
+  job.free_water_index = o.free_water_index;
+  job.free_shell = o.free_shell;
+  job.plan_only = o.plan_only;
+  job.plan_sigma_px = o.plan_sigma_px;
+  job.opencv_yaml = !o.yaml.empty();
+  job.field_out = !o.field_out.empty();
+  job.port_out = !o.port_out.empty();
+  job.check_outputs = [&] {
+    if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
+    if (!o.yaml.empty()) CheckOutput(o.yaml, "--opencv-yaml", rules);
+    if (!o.field_out.empty()) CheckOutput(o.field_out, "--field-out", rules);
+    if (!o.port_out.empty()) CheckOutput(o.port_out, "--port-out", rules);
+  };
+  const calib::CalibrateJobResult r = calib::CalibrateJob(job);
+  auto j = calib::CalibrateJobJson(r);
+  CliWordsInJson(&j);  // the library's `field` in the CLI's words
+  const auto print_json = [&] {
+    if (!o.out.empty()) WriteOutput(o.out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
+    if (o.json) fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
+  };
+  std::string skipped;
+  for (const auto& s : r.skipped) skipped += fmt::format("skipped {}: {}\n", s.image, s.reason);
+  if (r.plan) {
+    print_json();
+    if (!o.json) fmt::print("{}", PlanTable(*r.plan, *r.refractive_options));
+    return;
+  }
+  if (r.refractive) {
+    std::string port_note;
+    if (!o.port_out.empty()) {
+      WriteOutput(o.port_out, r.port_toml, "--port-out", rules);
+      j["port"]["port_out"] = o.port_out;
+      port_note = fmt::format("estimated port written to {}\n", o.port_out);
+    }
+    print_json();
+    if (o.json) return;
+    const calib::RefractiveResult& rr = *r.refractive;
+    std::string text = CalibrationTable(rr.lens, r.lens, r.target) + PortTable(rr, *r.refractive_options) + port_note;
+    if (!r.air_note.empty()) text += "air calibration " + CliWords(r.air_note) + "\n";
+    if (!rr.air_images.empty()) {
+      text += fmt::format("air images: {} through the port in air, adjusted with the water images (one lens): "
+                          "RMS {:.4f} px in air, {:.4f} px in water\n",
+                          rr.air_images.size(), rr.air_rms_px, rr.water_rms_px);
+    }
+    return fmt::print("{}", text + skipped);
+  }
+  std::string yaml_note, field_note;
+  if (!o.yaml.empty()) {
+    WriteOutput(o.yaml, r.opencv_yaml, "--opencv-yaml", rules);
+    j["opencv_yaml"] = {{"file", o.yaml}, {"refit_rms_px", r.opencv_yaml_fit.rms_px},
+                        {"refit_max_px", r.opencv_yaml_fit.max_px}};
+    yaml_note = fmt::format("OpenCV YAML {}: refit RMS {:.4f} px, max {:.4f} px\n", o.yaml, r.opencv_yaml_fit.rms_px,
+                            r.opencv_yaml_fit.max_px);
+  }
+  if (!o.field_out.empty()) {
+    WriteOutput(o.field_out, r.field_text, "--field-out", rules);
+    j["field_out"] = o.field_out;
+    field_note = fmt::format("adjusted target field written to {}\n", o.field_out);
+  }
+  print_json();
+  if (!o.json) fmt::print("{}", CalibrationTable(*r.central, r.lens, r.target) + yaml_note + field_note + skipped);
+}
+
 }  // namespace
 
 void RegisterCalibrate(CLI::App& app) {
@@ -659,195 +740,7 @@ void RegisterCalibrate(CLI::App& app) {
                                                          "camera)", o->pitches_mm.size()));
     }
     if (!o->stereo_out.empty()) throw InvalidInput("--stereo-out", "only for a rig (--detections or --images repeated)");
-    if (!o->image_dirs.empty()) o->images = o->image_dirs.front();
-    if (!o->detection_paths.empty()) o->detections = o->detection_paths.front();
-    if (o->images.empty() && o->detections.empty()) {
-      throw InvalidInput("--images", "give --images DIR or --detections PATH");
-    }
-    calib::TargetSpec target;
-    if (!o->target.empty()) {
-      target = calib::ParseTarget(o->target);
-      if (!o->field.empty()) calib::LoadTargetField(o->field, &target);  // before any detection
-    }
-    if (!o->images.empty() && o->target.empty()) {
-      throw InvalidInput("--target", "required with --images");
-    }
-    using CC = calib::CalibrationOptions::CentreCorrection;
-    o->calib.centre_correction = o->centre_correction == "on" ? CC::kOn : o->centre_correction == "off" ? CC::kOff : CC::kAuto;
-    o->calib.datum = calib::ParseDatumKind(o->datum, "--datum");
-    if (o->datum != "auto" && !o->calib.target_free) {
-      throw InvalidInput("--datum", "is the datum of a free target: give it with --free-target");
-    }
-    o->calib.model = camera::ModelFromName(o->model, "--model");
-    o->calib.free = calib::ParseFreeParameters(o->calib.model, o->free);
-    // --port with an air calibration that states its pitch (porthole JSON): that pitch, unless
-    // --pixel-pitch-mm gives one (issue 23: not asked for twice).
-    if (!o->port.port.empty() && !o->air.empty() && cmd->get_option("--pixel-pitch-mm")->count() == 0) {
-      if (const auto pitch = interop::StatedPixelPitchMm(o->air, "--air-calibration")) o->pitch_mm = *pitch;
-    }
-    o->calib.pixel_pitch_mm = RequirePositive("--pixel-pitch-mm", o->pitch_mm);
-    if (o->pitch_mm != 1.0) WarnIfImplausible("--pixel-pitch-mm", o->pitch_mm, kPixelPitchRange);
-    if (!o->out.empty()) CheckOutput(o->out, "--out", rules, FileKind::kCalibration);
-    if (!o->yaml.empty()) CheckOutput(o->yaml, "--opencv-yaml", rules);
-    if (!o->field_out.empty()) {
-      CheckOutput(o->field_out, "--field-out", rules);
-      if (!o->calib.target_free) throw InvalidInput("--field-out", "needs --free-target (without it no point is adjusted)");
-    }
-    const bool refractive = !o->port.port.empty();
-    if (!refractive) {
-      const std::pair<const char*, bool> given[] = {
-          {"--air-calibration", !o->air.empty()}, {"--intrinsics", !o->intrinsics.empty()},
-          {"--port-sigma", !o->port_sigma.empty()}, {"--port-out", !o->port_out.empty()},
-          {"--ep", !o->port.ep.empty()}, {"--plan-only", o->plan_only},
-          {"--free-water-index", o->free_water_index}, {"--free-shell", o->free_shell},
-          {"--air-detections", !o->air_detections.empty()}, {"--air-images", !o->air_images.empty()},
-          {"--air-lens-bare", o->air_lens_bare}};
-      for (const auto& [flag, is_given] : given) {
-        if (is_given) throw InvalidInput(flag, "only with --port (the refractive calibration)");
-      }
-    }
-    if (o->plan_only && (!o->air_images.empty() || !o->air_detections.empty())) {
-      throw InvalidInput("--plan-only", "plans the water images alone: not with air images (--air-images, --air-detections)");
-    }
-    calib::RefractiveOptions ro;
-    std::string air_note;  // how --air-calibration was read (exact, or refit to --model)
-    if (refractive) {
-      if (!o->port_out.empty()) CheckOutput(o->port_out, "--port-out", rules);
-      if (!o->yaml.empty()) throw InvalidInput("--opencv-yaml", "not with --port (a refractive camera is not an OpenCV one)");
-      if (o->calib.target_free) throw InvalidInput("--free-target", "not with --port");
-      const ports::Environment env = o->water.ToEnvironment();
-      ro.port = ports::MakeSystem(o->port.Spec(), env, o->port.Ep());
-      if (o->air_lens_bare && o->air.empty()) {
-        throw InvalidInput("--air-lens-bare", "says what --air-calibration holds: give --air-calibration");
-      }
-      if (!o->air.empty()) {  // any format (docs/interop.md), as the lens model of this calibration
-        const auto read = interop::ReadCalibrationFileAs(o->air, o->pitch_mm, o->calib.model, "--air-calibration");
-        ro.air = read.calibration;
-        ro.air_of = o->air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
-                                     : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
-        air_note = interop::DescribeRead(read, o->air) +
-                   (o->air_lens_bare ? ", the bare lens (--air-lens-bare)"
-                                     : ", made through the port in air (the housing on): the lens behind the port in air");
-      }
-      const std::string mode = !o->intrinsics.empty() ? o->intrinsics : o->air.empty() ? "free" : "prior";
-      ro.intrinsics = calib::ParseIntrinsicsMode(mode, "--intrinsics");
-      ro.port_free = calib::ParsePortFree(refraction::KindOf(ro.port.spec), o->free_port, "--free-port");
-      ro.free_water_index = o->free_water_index;
-      ro.free_shell = o->free_shell;
-      if (!o->port_sigma.empty()) {
-        ro.predicted_sigma = std::array<double, 3>{o->port_sigma[0], o->port_sigma[1], o->port_sigma[2]};
-      }
-    }
-    o->calib.loss = o->loss == "huber"    ? calib::LossKind::kHuber
-                    : o->loss == "cauchy" ? calib::LossKind::kCauchy
-                                          : calib::LossKind::kNone;
-    // Captures the flag, not `o`: o->calib.progress holding `o` was a reference cycle (a leak).
-    const auto say = [quiet = o->quiet](const std::string& m) {
-      if (!quiet) fmt::print(stderr, "calibrate: {}\n", m);
-    };
-    o->calib.progress = say;
-    std::vector<calib::ImageDetections> dets;
-    std::vector<calib::SkippedImage> skipped;
-    std::optional<nlohmann::ordered_json> images_source, air_images_source;
-    if (!o->images.empty()) {
-      auto source = calib::DetectSource(o->images, target, o->frames, say, {}, "--images");
-      images_source = calib::FrameChoiceToJson(source.choice, source.run.detections);
-      dets = std::move(source.run.detections);
-      skipped = std::move(source.run.skipped);
-    } else {
-      dets = calib::LoadDetections(o->detections, "--detections", &target);
-      if (target.cols == 0) throw InvalidInput("--target", "the detections name no target");
-      if (!o->field.empty() && target.field.empty()) calib::LoadTargetField(o->field, &target);
-    }
-    // Detections of IDs the field does not hold are no points (the refractive calibration needs
-    // them gone; Calibrate would drop them too).
-    calib::KeepTargetPoints(target, &dets, say);
-    // The air set through the same port (issue 26): the same target, detected here or read.
-    if (!o->air_images.empty()) {
-      if (o->target.empty()) throw InvalidInput("--target", "required with --air-images");
-      const auto say_air = [say](const std::string& m) { say("air images: " + m); };
-      auto source = calib::DetectSource(o->air_images, target, o->frames, say_air, {}, "--air-images");
-      air_images_source = calib::FrameChoiceToJson(source.choice, source.run.detections);
-      auto& run = source.run;
-      ro.air_detections = std::move(run.detections);
-      for (auto& s : run.skipped) skipped.push_back({"air: " + s.image, s.reason});
-      if (ro.air_detections.empty()) throw InvalidInput("--air-images", "the target was found in no air image");
-    } else if (!o->air_detections.empty()) {
-      calib::TargetSpec air_target = target;  // detections of another target are refused
-      ro.air_detections = calib::LoadDetections(o->air_detections, "--air-detections", &air_target);
-    }
-    calib::KeepTargetPoints(target, &ro.air_detections, say);
-    if (refractive && o->plan_only) {
-      ro.lens = o->calib;
-      if (!o->port_out.empty()) throw InvalidInput("--port-out", "not with --plan-only (nothing is estimated)");
-      const auto plan = calib::PlanRefractiveFromImages(dets, target, ro, o->plan_sigma_px);
-      auto j = calib::PlanToJson(plan);
-      CliWordsInJson(&j);  // the library's `field` in the CLI's words
-      if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
-      if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
-      return fmt::print("{}", PlanTable(plan, ro));
-    }
-    if (refractive) {
-      ro.lens = o->calib;
-      const auto rr = calib::CalibrateRefractive(dets, target, ro);
-      RequirePossibleCalibration(rr.lens, o->images.empty() ? "--detections" : "--images");
-      auto j = calib::RefractiveToJson(rr, target, ro);
-      CliWordsInJson(&j);  // the library's `field` in the CLI's words
-      Json skip = Json::array();
-      for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
-      j["skipped"] = skip;
-      if (images_source) j["images_source"] = *images_source;
-      if (air_images_source) j["air_images_source"] = *air_images_source;
-      std::string port_note;
-      if (!air_note.empty()) j["port"]["air_calibration"] = air_note;
-      if (!o->port_out.empty()) {
-        WriteOutput(o->port_out, io::PortToToml(rr.estimated_port), "--port-out", rules);
-        j["port"]["port_out"] = o->port_out;
-        port_note = fmt::format("estimated port written to {}\n", o->port_out);
-      }
-      if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
-      if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
-      std::string text = CalibrationTable(rr.lens, o->calib, target) + PortTable(rr, ro) + port_note;
-      if (!air_note.empty()) text += "air calibration " + air_note + "\n";
-      if (!rr.air_images.empty()) {
-        text += fmt::format("air images: {} through the port in air, adjusted with the water images (one lens): "
-                            "RMS {:.4f} px in air, {:.4f} px in water\n",
-                            rr.air_images.size(), rr.air_rms_px, rr.water_rms_px);
-      }
-      for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
-      return fmt::print("{}", text);
-    }
-    const auto r = calib::Calibrate(dets, target, o->calib);
-    RequirePossibleCalibration(r, o->images.empty() ? "--detections" : "--images");
-    auto j = calib::CalibrationToJson(r, target, o->calib);
-    CliWordsInJson(&j);  // the library's `field` in the CLI's words
-    Json skip = Json::array();
-    for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
-    j["skipped"] = skip;
-    if (images_source) j["images_source"] = *images_source;
-    std::string yaml_note;
-    if (!o->yaml.empty()) {
-      camera::ConversionFit fit;
-      const auto yaml = calib::ExportOpenCVYaml(
-          calib::CalibrationFromJson(nlohmann::json::parse(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)), "--opencv-yaml"), &fit);
-      WriteOutput(o->yaml, yaml, "--opencv-yaml", rules);
-      j["opencv_yaml"] = {{"file", o->yaml}, {"refit_rms_px", fit.rms_px},
-                          {"refit_max_px", fit.max_px}};
-      yaml_note = fmt::format("OpenCV YAML {}: refit RMS {:.4f} px, max {:.4f} px\n", o->yaml,
-                              fit.rms_px, fit.max_px);
-    }
-    std::string field_note;
-    if (!o->field_out.empty()) {
-      const std::string field_text = calib::AdjustedFieldText(r, target);  // throws before anything is written
-      WriteOutput(o->field_out, field_text, "--field-out", rules);
-      j["field_out"] = o->field_out;
-      field_note = fmt::format("adjusted target field written to {}\n", o->field_out);
-    }
-    if (!o->out.empty()) WriteOutput(o->out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
-    if (o->json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
-    std::string text = CalibrationTable(r, o->calib, target) + yaml_note + field_note;
-    for (const auto& s : skipped) text += fmt::format("skipped {}: {}\n", s.image, s.reason);
-    fmt::print("{}", text);
+    CalibrateSingle(*o, cmd->get_option("--pixel-pitch-mm")->count() > 0, rules);
   });
 }
 
