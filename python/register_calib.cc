@@ -51,13 +51,6 @@ camera::Camera CameraFromDict(const py::dict& camera, int width_px, int height_p
   return calib::CalibrationFromJson(wrapped, "camera").camera;
 }
 
-calib::LossKind Loss(const std::string& name) {
-  if (name == "none") return calib::LossKind::kNone;
-  if (name == "huber") return calib::LossKind::kHuber;
-  if (name == "cauchy") return calib::LossKind::kCauchy;
-  throw InvalidInput("loss", "none | huber | cauchy");
-}
-
 // Detections as `porthole detect --json` writes them (a list of dicts).
 std::vector<calib::ImageDetections> DetectionsArg(const py::list& detections) {
   std::vector<calib::ImageDetections> dets;
@@ -77,29 +70,22 @@ calib::TargetSpec TargetArg(const std::string& target, const py::object& field) 
   return t;
 }
 
-using CentreCorrection = calib::CalibrationOptions::CentreCorrection;
+// The progress lines on stderr, or none.
+std::function<void(const std::string&)> Progress(bool progress) {
+  if (!progress) return {};
+  return [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
+}
 
-// The lens options calibrate() and calibrate_refractive() share.
+// The lens options of calibrate_rig() (calib::LensOptionsFromNames).
 calib::CalibrationOptions LensOptions(const std::string& model, double pixel_pitch_mm, const std::string& free,
                                       double reject_k, const std::string& loss, double loss_scale_px,
                                       bool progress, const std::string& centre_correction = "auto") {
   calib::CalibrationOptions o;
-  if (centre_correction != "auto" && centre_correction != "on" && centre_correction != "off") {
-    throw InvalidInput("centre_correction", "auto | on | off");
-  }
-  o.centre_correction = centre_correction == "on"    ? CentreCorrection::kOn
-                        : centre_correction == "off" ? CentreCorrection::kOff
-                                                     : CentreCorrection::kAuto;
   o.pixel_pitch_mm = pixel_pitch_mm;
-  o.model = camera::ModelFromName(model, "model");
-  o.free = calib::ParseFreeParameters(o.model, free, "free");
   o.reject_k = reject_k;
-  o.loss = Loss(loss);
   o.loss_scale_px = loss_scale_px;
-  if (progress) {
-    o.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
-  }
-  return o;
+  o.progress = Progress(progress);
+  return calib::LensOptionsFromNames(o, model, free, loss, centre_correction);
 }
 
 // The options calibrate() and calibrate_refractive() share, for calib::CalibrateJob: the
@@ -119,9 +105,7 @@ calib::CalibrateJobOptions JobOptions(const py::list& detections, const std::str
   o.loss = loss;
   o.lens.loss_scale_px = loss_scale_px;
   o.centre_correction = centre_correction;
-  if (progress) {
-    o.lens.progress = [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
-  }
+  o.lens.progress = Progress(progress);
   return o;
 }
 

@@ -50,14 +50,7 @@ CalibrationOptions::CentreCorrection CentreCorrectionOf(const std::string& name)
 
 // The lens options from their names, the pitch as the job's policy gives it (job.h).
 CalibrationOptions LensOptions(const CalibrateJobOptions& o, CalibrateJobResult* out) {
-  CalibrationOptions c = o.lens;
-  c.centre_correction = CentreCorrectionOf(o.centre_correction);
-  c.datum = ParseDatumKind(o.datum, "datum");
-  if (o.datum != "auto" && !c.target_free) {
-    throw InvalidInput("datum", "is the datum of a free target: give it with `free_target`");
-  }
-  c.model = camera::ModelFromName(o.model, "model");
-  c.free = ParseFreeParameters(c.model, o.free, "free");
+  CalibrationOptions c = LensOptionsFromNames(o.lens, o.model, o.free, o.loss, o.centre_correction, o.datum);
   // A port with an in-air calibration that states its pitch (porthole JSON): that pitch, unless
   // one is given (issue 23: not asked for twice).
   double pitch = o.pixel_pitch_mm.value_or(1.0);
@@ -71,7 +64,6 @@ CalibrationOptions LensOptions(const CalibrateJobOptions& o, CalibrateJobResult*
       if (o.warn) o.warn(*w);
     }
   }
-  c.loss = LossOf(o.loss);
   return c;
 }
 
@@ -183,6 +175,20 @@ void ReadAirImages(const CalibrateJobOptions& o, const Say& say, CalibrateJobRes
 }
 
 }  // namespace
+
+CalibrationOptions LensOptionsFromNames(CalibrationOptions c, const std::string& model, const std::string& free,
+                                        const std::string& loss, const std::string& centre_correction,
+                                        const std::string& datum) {
+  c.centre_correction = CentreCorrectionOf(centre_correction);
+  c.datum = ParseDatumKind(datum, "datum");
+  if (datum != "auto" && !c.target_free) {
+    throw InvalidInput("datum", "is the datum of a free target: give it with `free_target`");
+  }
+  c.model = camera::ModelFromName(model, "model");
+  c.free = ParseFreeParameters(c.model, free, "free");
+  c.loss = LossOf(loss);
+  return c;
+}
 
 CalibrateJobResult CalibrateJob(const CalibrateJobOptions& o) {
   CalibrateJobResult out;

@@ -102,6 +102,14 @@ struct CalibrateJobResult {
   camera::ConversionFit opencv_yaml_fit;
 };
 
+// `numbers` (reject_k, loss_scale_px, target_free, drop_insignificant, significance_t, progress,
+// pixel_pitch_mm) with the model, free set, robust loss (none | huber | cauchy), centre correction
+// (auto | on | off) and datum (auto | minimal | control; not auto only with target_free) read from
+// their names. Throws InvalidInput(model, free, loss, centre_correction, datum).
+CalibrationOptions LensOptionsFromNames(CalibrationOptions numbers, const std::string& model, const std::string& free,
+                                        const std::string& loss, const std::string& centre_correction,
+                                        const std::string& datum = "auto");
+
 // Runs the calibration the options describe. Throws InvalidInput(field, …) for bad options or
 // input, and for an adjustment that ended impossible (a focal length <= 0, a value, the RMS or a
 // free parameter's σ not finite), naming `images` or `detections`.
