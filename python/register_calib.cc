@@ -91,7 +91,7 @@ calib::CalibrationOptions LensOptions(const std::string& model, double pixel_pit
 // The options calibrate() and calibrate_refractive() share, for calib::CalibrateJob: the
 // detections given, the target and its field, the lens by name.
 calib::CalibrateJobOptions JobOptions(const py::list& detections, const std::string& target, const py::object& field,
-                                      const std::string& model, double pixel_pitch_mm, const std::string& free,
+                                      const std::string& model, std::optional<double> pixel_pitch_mm, const std::string& free,
                                       double reject_k, const std::string& loss, double loss_scale_px, bool progress,
                                       const std::string& centre_correction) {
   calib::CalibrateJobOptions o;
@@ -282,7 +282,7 @@ void RegisterCalib(py::module_& m) {
   m.def(
       "calibrate_refractive",
       [](const py::list& detections, const std::string& target, const std::string& port,
-         const std::string& model, double pixel_pitch_mm, const std::string& free, double reject_k,
+         const std::string& model, std::optional<double> pixel_pitch_mm, const std::string& free, double reject_k,
          const std::string& loss, double loss_scale_px, const py::object& air_calibration,
          const std::string& intrinsics, const std::string& free_port,
          std::optional<std::array<double, 3>> port_sigma, bool free_water_index, bool free_shell,
@@ -324,7 +324,7 @@ void RegisterCalib(py::module_& m) {
             });
       },
       py::arg("detections"), py::arg("target"), py::arg("port"), py::kw_only(), py::arg("model") = "brown",
-      py::arg("pixel_pitch_mm") = 1.0, py::arg("free") = "default", py::arg("reject_k") = 5.0,
+      py::arg("pixel_pitch_mm") = py::none(), py::arg("free") = "default", py::arg("reject_k") = 5.0,
       py::arg("loss") = "none", py::arg("loss_scale_px") = 1.0, py::arg("air_calibration") = py::none(),
       py::arg("intrinsics") = "", py::arg("free_port") = "all", py::arg("port_sigma") = py::none(),
       py::arg("free_water_index") = false, py::arg("free_shell") = false, py::arg("ep_mm") = py::none(),
@@ -335,7 +335,8 @@ void RegisterCalib(py::module_& m) {
       py::arg("air_lens_bare") = false,
       "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
-      "images. air_detections: detections of the same target in air through the same port (the "
+      "images; pixel_pitch_mm None: an air_calibration file's own (porthole JSON), else 1. "
+      "air_detections: detections of the same target in air through the same port (the "
       "housing on, the paper's protocol), adjusted with the water ones. air_calibration: a file of "
       "any format or a calibration dict, made in air with the housing on (the default: modelled as the "
       "lens behind the port in air, a prior on both) or of the lens alone (air_lens_bare=True); "

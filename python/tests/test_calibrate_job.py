@@ -1,0 +1,54 @@
+"""Proves Python's calibrate and calibrate_refractive run the CLI's one-camera steps (calib/job.h,
+issue 25): without pixel_pitch_mm the refractive calibration takes the pitch its in-air porthole JSON
+states, as `porthole calibrate --port --air-calibration` does (issue 23), giving the CLI's port and
+lens; the datum needs target_free, as the CLI's --datum needs --free-target; the notes of the JSON
+name keywords, never flags."""
+import json
+
+import pytest
+
+import porthole
+from test_notebook import cli_json, sample  # noqa: F401 (fixture)
+
+TARGET = "chessboard:9x6:25"
+PITCH = 0.0055  # the sample's camera (scripts/sample-data)
+
+
+def strings(value):
+    if isinstance(value, str):
+        yield value
+    elif isinstance(value, dict):
+        for v in value.values():
+            yield from strings(v)
+    elif isinstance(value, list):
+        for v in value:
+            yield from strings(v)
+
+
+def test_the_air_calibrations_pitch_is_taken_as_the_cli_takes_it(sample, tmp_path):
+    water = porthole.detect(sample / "water", TARGET)
+    (tmp_path / "water.json").write_text(json.dumps(water.to_dict()))
+    air = porthole.calibrate_images(sample / "air", TARGET, pixel_pitch_mm=PITCH)
+    air.save(tmp_path / "air.json")
+    ours = porthole.calibrate(water, TARGET, port="generic-dome-4in", air_calibration=tmp_path / "air.json",
+                              air_lens_bare=True)
+    assert ours.pixel_pitch_mm == pytest.approx(PITCH, rel=1e-12)
+    theirs = cli_json("calibrate", "--detections", tmp_path / "water.json", "--port", "generic-dome-4in",
+                      "--air-calibration", tmp_path / "air.json", "--air-lens-bare", "--quiet")
+    assert theirs["sensor"]["pixel_pitch_mm"] == pytest.approx(PITCH, rel=1e-12)
+    for key, value in theirs["port"]["parameters"].items():
+        assert ours.port.params[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    for key, value in theirs["camera"].items():
+        if value is not None:
+            assert ours.params[key] == pytest.approx(value, rel=1e-9), key
+    raw = porthole._porthole.calibrate_refractive(water.to_dict()["images"], TARGET, "generic-dome-4in",
+                                                  air_calibration=str(tmp_path / "air.json"), air_lens_bare=True)[0]
+    note = raw["port"]["air_calibration"]
+    assert "the bare lens (air_lens_bare=)" in note and "exact" in note
+    assert not any("--" in s or "`" in s for s in strings(raw)), [s for s in strings(raw) if "--" in s or "`" in s]
+
+
+def test_a_datum_needs_target_free(sample):
+    water = porthole.detect(sample / "water", TARGET)
+    with pytest.raises(ValueError, match="datum: is the datum of a free target: give it with target_free"):
+        porthole.calibrate(water, TARGET, datum="minimal")
