@@ -241,8 +241,7 @@ std::string PlanTable(const calib::RefractivePlan& p, const calib::RefractiveOpt
 struct CalibrateCliOptions {
   std::vector<std::string> image_dirs, detection_paths;  // one per camera (a rig: several)
   std::string datum = "auto";
-  std::string images, detections, target, field, model = "brown", free = "default", loss = "none", out,
-                                                          yaml, field_out;
+  std::string target, field, model = "brown", free = "default", loss = "none", out, yaml, field_out;
   double pitch_mm = 1.0;
   std::vector<double> pitches_mm;  // --pixel-pitch-mm as given: one, or a rig's one per camera
   calib::CalibrationOptions calib;
@@ -508,8 +507,8 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
 // One camera: the options as calib::CalibrateJob takes them, then its result printed and written.
 void CalibrateSingle(const CalibrateCliOptions& o, bool pitch_given, const OutputRules& rules) {
   calib::CalibrateJobOptions job;
-  job.images = o.image_dirs.empty() ? o.images : o.image_dirs.front();
-  job.detections = o.detection_paths.empty() ? o.detections : o.detection_paths.front();
+  if (!o.image_dirs.empty()) job.images = o.image_dirs.front();
+  if (!o.detection_paths.empty()) job.detections = o.detection_paths.front();
   job.target = o.target;
   job.field = o.field;
   job.frames = o.frames;
