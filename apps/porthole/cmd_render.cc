@@ -1,12 +1,15 @@
 // `porthole render`: what the camera sees through the port — a calibration target at a pose,
 // rendered through the camera model, the thin lens and the port in water or air, with a
 // ground-truth JSON beside each image (docs/render.md). `--set N` renders N seeded poses in water
-// and in air, ready for `porthole detect` and `porthole calibrate`.
+// and in air, ready for `porthole detect` and `porthole calibrate`; `--rig`, `--baseline` every
+// camera of a rig. The steps are the library's (render::RenderJob, render/job.h), as Python's.
 #include <fmt/format.h>
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include "camera_options.h"
 #include "commands.h"

@@ -75,7 +75,7 @@ camera::Camera LoadCameraModel(const std::string& path, const housing::HousedCam
 }
 
 // The scene and the render options the job's options describe, checked in the order the CLI always
-// has: target, medium, focus, outputs (before anything is read), camera model, image options.
+// had: target, medium, focus, outputs (before anything is read), camera model, image options.
 struct Prepared {
   Scene scene;
   RenderOptions render;
@@ -91,6 +91,7 @@ Prepared Prepare(const RenderJobOptions& o) {
   if (int(!o.rig.empty()) + int(o.rig_json.has_value()) + int(o.baseline_mm.has_value()) > 1) {
     throw InvalidInput("rig", "give a rig file or `baseline_mm`, not both");
   }
+  if (o.set_count < 0 || o.set_count > 10000) throw InvalidInput("count", "must be 1 to 10000 (0: one image)");
   scene.target = calib::ParseTarget(o.target);
   if (!o.field.empty()) calib::LoadTargetField(o.field, &scene.target);
   if (o.medium != "water" && o.medium != "air") throw InvalidInput("medium", "must be water or air");
@@ -105,7 +106,6 @@ Prepared Prepare(const RenderJobOptions& o) {
   scene.vignetting_pa = o.vignetting_pa;
   // Outputs are checked before anything is read or rendered: an input named as an output is refused
   // as that, whatever else is wrong with it.
-  if (o.set_count < 0 || o.set_count > 10000) throw InvalidInput("count", "must be 1 to 10000 (0: one image)");
   if (o.out.empty()) throw InvalidInput("out", "is required: the PNG file (single image) or a directory (`set`)");
   if (o.set_count == 0 && !p.rig) {
     if (o.out.extension() != ".png") throw InvalidInput("out", "must name a .png file");
