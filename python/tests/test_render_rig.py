@@ -135,7 +135,7 @@ def test_bad_rig_options_raise_one_line_naming_the_keyword(tmp_path):
              (dict(baseline_mm=-1), "baseline_mm: must be > 0"),
              (dict(rig=single), "rig"),
              (dict(rig=rig, shift_mm=(-700, 0)), "outside"),
-             (dict(rig=rig, set=-2), "set: "),
+             (dict(rig=rig, set=-2), "set: must be 1 to 10000 (0: one image)"),
              (dict(rig=rig, set=2, distances_mm=(900, 500)), "distances_mm")]
     for kwargs, start in cases:
         with pytest.raises(ValueError) as e:
