@@ -108,7 +108,7 @@ def test_a_set_and_a_baseline_rig_behind_a_port_are_the_clis(tmp_path):
     small = dict(pixel_pitch_mm=0.029, samples_per_pixel=1, f_number=math.inf)
     small_cli = ["--pixel-pitch-mm", "0.029", "--spp", "1", "--f-number", "inf", "--quiet", "--json"]
     # One camera, two poses in water and in air, one focus for the set.
-    # The D300's 24 mm focuses no closer than 300 mm: the CLI's note, as a PortholeWarning.
+    # The set's middle distance is closer than the lens focuses under water: the CLI's note, a PortholeWarning.
     with pytest.warns(porthole.PortholeWarning, match="^the lens cannot focus on the set's middle distance"):
         r = porthole.render(tmp_path / "set", set=2, **small)
     summary = cli("--set", 2, "--out", tmp_path / "cli_set", *small_cli)
