@@ -402,10 +402,8 @@ void RegisterCalib(py::module_& m) {
                 o.ports.push_back(ports::MakeSystem(io::LoadPort(p.cast<std::string>()), env, std::nullopt));
               }
               const auto airs = list_of(air_calibration);
-              if (!airs.empty() && !air_lens_bare) {
-                throw InvalidInput("air_calibration", "were they made with the housings on or of the lenses alone? A "
-                                                      "rig takes each lens alone (air_lens_bare=True)");
-              }
+              o.air_of = air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
+                                       : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
               if (air_lens_bare && airs.empty()) {
                 throw InvalidInput("air_lens_bare", "says what air_calibration holds: give air_calibration");
               }
@@ -431,7 +429,8 @@ void RegisterCalib(py::module_& m) {
       "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
       "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
       "all or a list; pixel_pitch_mm one for all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
-      "water; air_calibration a list, one per camera, of each lens alone (with air_lens_bare=True) as a prior. "
+      "water; air_calibration a list, one per camera, made with the housings on (the default) or of each lens alone "
+      "(air_lens_bare=True), as a prior. "
       "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}}.");
 
   m.def(

@@ -1,8 +1,10 @@
-// Python binding of render/ (docs/render.md, docs/python.md): render() is `porthole render --out
-// NAME.png` for one camera — a target at a pose seen through the camera model, the thin lens and the
-// port, in water or air — with the CLI's defaults: it writes NAME.png and its ground truth NAME.json
-// under core/output.h's rule and returns what `render --json` prints, the ground truth itself
-// (ground_truth) and the plausibility warnings of the housed camera (warnings).
+// Python binding of render/ (docs/render.md, docs/python.md): render() is `porthole render` — one
+// library call, render::RenderJob (render/job.h), as the CLI's — with the CLI's defaults: one image
+// (out NAME.png and its ground truth NAME.json), a calibration set (set=N: out/water, out/air) or
+// every camera of a rig (rig= a rig file or dict, or baseline_mm=; with set=N synchronised frames).
+// It returns what `render --json` prints with the plausibility warnings of the housed camera
+// (warnings): for one image also its ground truth (ground_truth), for a set or a rig `renders`, one
+// entry per image written (camera, medium, frame, files, counts, its ground_truth).
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -13,13 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "porthole/calib/result_json.h"
-#include "porthole/calib/target.h"
-#include "porthole/core/input.h"
 #include "porthole/core/output.h"
-#include "porthole/housing/plausible.h"
-#include "porthole/render/render.h"
-#include "porthole/simulate/simulate.h"
+#include "porthole/render/job.h"
 #include "register.h"
 
 namespace py = pybind11;
@@ -30,28 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string Path(const py::handle& o) { return py::str(py::module_::import("os").attr("fspath")(o)).cast<std::string>(); }
-
-// A calibration of any format porthole reads, or a render's ground truth (its "camera"), checked
-// against the body and lens it renders through (simulate::CheckAirCalibration), as the CLI's
-// --camera-model.
-camera::Camera LoadCameraModel(const std::string& path, const housing::HousedCamera& h) {
-  if (fs::path(path).extension() == ".json") {
-    const std::string text = ReadInputFile(path, "camera_model", kMaxCalibrationFileBytes);
-    nlohmann::json j;
-    try {
-      j = ParseJsonText(text, "camera_model", path);
-    } catch (const InvalidInput&) {  // not JSON: the calibration readers below say why
-    }
-    if (j.is_object() && j.contains("points") && j.contains("camera") && j["camera"].is_object()) {
-      const camera::Camera cam = calib::CalibrationFromJson(j["camera"], "camera_model").camera;
-      simulate::CheckAirCalibration(cam, true, h, "camera_model '" + path + "'");
-      return cam;
-    }
-  }
-  const interop::ReadResult r = interop::ReadCalibrationFile(path, h.camera.sensor.pixel_pitch_mm, "camera_model");
-  simulate::CheckAirCalibration(r.camera(), r.pitch_known, h, "camera_model '" + path + "'");
-  return r.camera();
-}
 
 // The files among the options (a port, camera or lens TOML, a target field, a calibration): no output
 // replaces them.
@@ -79,84 +54,90 @@ void RegisterRender(py::module_& m) {
          std::vector<double> bands_nm, const std::string& color, int bit_depth, int samples_per_pixel,
          int edge_samples_per_pixel, std::uint64_t seed, double exposure, bool white_on_black, int threads,
          bool force, std::optional<std::array<double, 3>> ep_mm, bool natural_vignetting,
-         std::array<double, 3> vignetting_pa, std::optional<std::array<double, 2>> noise_e) {
-        render::Scene scene;
+         std::array<double, 3> vignetting_pa, std::optional<std::array<double, 2>> noise_e, const py::object& rig,
+         std::optional<double> baseline_mm, double convergence_deg, int set,
+         std::optional<std::array<double, 2>> distances_mm, double max_tilt_deg, double min_whole_fraction) {
+        render::RenderJobOptions o;
         const bool bare = port == "none";  // the lens alone: the port only places the pupil
-        scene.housed = MakeSetup(camera, lens, bare ? "nimar-ni320" : port, water, water_index, lambda_nm,
-                                 temperature_c, salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
-        scene.bare = bare;
+        o.housed = MakeSetup(camera, lens, bare ? "nimar-ni320" : port, water, water_index, lambda_nm, temperature_c,
+                             salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
+        o.bare = bare;
         if (ep_mm) {
           for (const double v : *ep_mm) RequireFinite("ep_mm", v);
-          scene.housed.ep_in_housing_mm = ports::Vec3((*ep_mm)[0], (*ep_mm)[1], (*ep_mm)[2]);
+          o.housed.ep_in_housing_mm = ports::Vec3((*ep_mm)[0], (*ep_mm)[1], (*ep_mm)[2]);
         }
-        scene.natural_vignetting = natural_vignetting;
-        scene.vignetting_pa = vignetting_pa;
-        std::vector<std::string> warnings = housing::PlausibilityWarnings(scene.housed);
-        scene.target = calib::ParseTarget(target);
-        const std::string field_path = field.is_none() ? std::string() : Path(field);
-        if (!field_path.empty()) calib::LoadTargetField(field_path, &scene.target);
-        if (medium != "water" && medium != "air") throw InvalidInput("medium", "must be water or air");
-        scene.medium = medium == "air" ? render::Medium::kAir : render::Medium::kWater;
-        if (focus_distance_mm && !(*focus_distance_mm > 0)) {
-          throw InvalidInput("focus_distance_mm", "must be > 0 mm (math.inf: focused at infinity; None: on the target)");
+        o.target = target;
+        o.field = field.is_none() ? std::string() : Path(field);
+        o.medium = medium;
+        o.focus_distance_mm = focus_distance_mm;
+        o.f_number = f_number;
+        o.natural_vignetting = natural_vignetting;
+        o.vignetting_pa = vignetting_pa;
+        o.camera_model = camera_model.is_none() ? std::string() : Path(camera_model);
+        o.c_mm = c_mm;
+        o.bands_nm = bands_nm;
+        o.white_on_black = white_on_black;
+        o.distance_mm = distance_mm;
+        o.shift_mm = {shift_mm[0], shift_mm[1]};
+        o.tilt_deg = {tilt_deg[0], tilt_deg[1]};
+        o.roll_deg = roll_deg;
+        o.render.samples_per_pixel = samples_per_pixel;
+        o.render.edge_samples_per_pixel = edge_samples_per_pixel;
+        o.render.seed = seed;
+        o.render.exposure = exposure;
+        o.render.threads = threads;
+        o.color = color;
+        o.noise_e = noise_e;
+        o.bit_depth = bit_depth;
+        o.set_count = set;
+        o.distances_mm = distances_mm;
+        o.max_tilt_deg = max_tilt_deg;
+        o.min_whole_fraction = min_whole_fraction;
+        std::string rig_path;
+        if (!rig.is_none()) {
+          if (py::isinstance<py::dict>(rig)) {
+            o.rig_json = PythonToJson(rig);
+          } else if (py::isinstance<py::str>(rig) || py::hasattr(rig, "__fspath__")) {
+            rig_path = o.rig = Path(rig);
+          } else {
+            throw InvalidInput("rig", "a rig JSON file (any rig format) or calibrate_rig()'s dict");
+          }
         }
-        scene.focus_distance_mm = focus_distance_mm;
-        if (f_number && !(*f_number > 0)) throw InvalidInput("f_number", "must be > 0 (math.inf: a pinhole)");
-        scene.f_number = f_number ? *f_number : lens::DefaultFNumber(scene.housed.lens);
-        // The outputs are checked before anything is read or rendered.
-        const fs::path png = Path(out);
-        if (png.extension() != ".png") throw InvalidInput("out", "must name a .png file");
-        const std::string model_path = camera_model.is_none() ? std::string() : Path(camera_model);
-        const OutputRules rules{.force = force, .inputs = InputFiles({port, camera, lens, field_path, model_path})};
-        fs::path truth_path = png;
-        truth_path.replace_extension(".json");
-        CheckOutput(png, "out", rules);
-        CheckOutput(truth_path, "out", rules, FileKind::kGroundTruth);
-        if (!model_path.empty()) scene.camera = LoadCameraModel(model_path, scene.housed);
-        scene.c_mm = c_mm;
-        scene.bands_nm = bands_nm;
-        if (white_on_black) std::swap(scene.style.black, scene.style.white);
-        render::RenderOptions ro;
-        ro.samples_per_pixel = samples_per_pixel;
-        ro.edge_samples_per_pixel = edge_samples_per_pixel;
-        ro.seed = seed;
-        ro.exposure = exposure;
-        ro.threads = threads;
-        if (noise_e) {  // full well and read noise, electrons
-          ro.full_well_e = RequirePositive("noise_e", (*noise_e)[0]);
-          ro.read_noise_e = (*noise_e)[1];
+        o.baseline_mm = baseline_mm;
+        if (convergence_deg != 0 && !baseline_mm) throw InvalidInput("convergence_deg", "goes with `baseline_mm`");
+        o.convergence_deg = convergence_deg;
+        o.out = Path(out);
+        o.rules = OutputRules{.force = force,
+                              .inputs = InputFiles({port, camera, lens, o.field, o.camera_model, rig_path})};
+        o.keep_truth = true;
+        std::vector<std::string> notes;
+        o.note = [&](const std::string& line) { notes.push_back(line); };
+        const bool several = set > 0 || !rig.is_none() || baseline_mm;
+        render::RenderJobResult r;
+        // The library's fields that are not this function's keywords.
+        WithFieldNames({{"count", "set"}, {"near_mm", "distances_mm"}, {"far_mm", "distances_mm"}, {"cameras", "rig"}},
+                       [&] {
+                         py::gil_scoped_release release;
+                         r = render::RenderJob(o);
+                       });
+        nlohmann::ordered_json j = r.summary;
+        std::vector<std::string> warnings = r.warnings;
+        for (const std::string& n : notes) warnings.push_back(RenameQuotedFields({}, n));  // `rig` -> rig
+        j["warnings"] = warnings;
+        if (!several) {
+          j["ground_truth"] = r.images.front().ground_truth;
+        } else {
+          nlohmann::ordered_json renders = nlohmann::ordered_json::array();
+          for (const render::JobImage& image : r.images) {
+            nlohmann::ordered_json e = {{"camera", image.camera}, {"medium", image.medium}, {"frame", image.frame}};
+            for (const auto& [key, value] : image.summary.items()) {
+              if (!e.contains(key)) e[key] = value;
+            }
+            e["ground_truth"] = image.ground_truth;
+            renders.push_back(std::move(e));
+          }
+          j["renders"] = std::move(renders);
         }
-        if (color != "grey" && color != "rgb") throw InvalidInput("color", "must be grey or rgb");
-        ro.color = color == "rgb" ? render::ColorMode::kRgb : render::ColorMode::kGrey;
-        render::Validate(ro);
-        if (bit_depth != 8 && bit_depth != 16) throw InvalidInput("bit_depth", "must be 8 or 16");
-        RequireFinite("distance_mm", distance_mm);
-        scene.pose = render::PoseFacing(scene.target, distance_mm, {shift_mm[0], shift_mm[1]}, tilt_deg[0],
-                                        tilt_deg[1], roll_deg);
-        render::Rendered r;
-        std::string bytes, truth_text;
-        nlohmann::ordered_json truth;
-        {
-          py::gil_scoped_release release;
-          r = render::Render(scene, ro);
-          bytes = render::EncodePng(r.image, bit_depth);
-          truth = render::TruthJson(scene, ro, r, png.filename().string(), bit_depth);
-          truth_text = truth.dump(1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
-          WriteOutput(truth_path, truth_text, "out", rules);
-          WriteOutput(png, bytes, "out", rules);
-        }
-        const nlohmann::ordered_json j = {{"image", png.string()},
-                                          {"truth", truth_path.string()},
-                                          {"width_px", r.image.width},
-                                          {"height_px", r.image.height},
-                                          {"points", r.truth.size()},
-                                          {"left_out_partial", r.left_out.partial.size()},
-                                          {"left_out_occluded", r.left_out.occluded.size()},
-                                          {"blocked_fraction", r.blocked_fraction},
-                                          {"refined_fraction", r.refined_fraction},
-                                          {"seconds", r.seconds},
-                                          {"warnings", warnings},
-                                          {"ground_truth", nlohmann::ordered_json::parse(truth_text)}};
         return JsonToPython(j);
       },
       py::arg("out"), py::kw_only(), py::arg("target") = "chessboard:9x6:40", py::arg("field") = py::none(),
@@ -173,6 +154,9 @@ void RegisterRender(py::module_& m) {
       py::arg("exposure") = 1.0, py::arg("white_on_black") = false, py::arg("threads") = 0,
       py::arg("force") = false, py::arg("ep_mm") = py::none(), py::arg("natural_vignetting") = false,
       py::arg("vignetting_pa") = std::array<double, 3>{0, 0, 0}, py::arg("noise_e") = py::none(),
+      py::arg("rig") = py::none(), py::arg("baseline_mm") = py::none(), py::arg("convergence_deg") = 0.0,
+      py::arg("set") = 0, py::arg("distances_mm") = py::none(), py::arg("max_tilt_deg") = 35.0,
+      py::arg("min_whole_fraction") = 1.0,
       "Render what the camera sees through the port, as `porthole render --out NAME.png` with its defaults: "
       "target (a spec string, as detect and calibrate take) at distance_mm from the entrance pupil, shifted "
       "shift_mm (x, y, cam frame), tilted tilt_deg (about its x, then y axis) and rolled roll_deg; camera, "
@@ -184,7 +168,14 @@ void RegisterRender(py::module_& m) {
       "exposure, white_on_black; ep_mm: the entrance pupil (x, y, z) in the housing frame (default the lens's); "
       "natural_vignetting (cos^4 for a rectilinear lens), vignetting_pa (lensfun's pa k1, k2, k3); noise_e: "
       "(full well, read noise) in electrons (default none). Writes out (a .png) and its ground truth beside it (.json) and returns what "
-      "`render --json` prints, with ground_truth (that JSON) and warnings.");
+      "`render --json` prints, with ground_truth (that JSON) and warnings. "
+      "set=N (`--set N`): N seeded poses in water and in air into out/water and out/air (out a folder; the lens "
+      "alone: air only), distances_mm (near, far), max_tilt_deg, min_whole_fraction (coded targets: partial views). "
+      "rig (`--rig`): a rig file (calibrate_rig()'s, any rig format) or its dict: every camera with its calibration, "
+      "cam_from_rig and port, the target posed in the rig frame, into out/<camera>/render.png, with set=N "
+      "out/water/<camera>/pose_NNN.png and out/air/<camera>/...; or baseline_mm (and convergence_deg): two of the "
+      "camera behind port. A set or a rig returns `render --json`'s summary with `renders`: one entry per image "
+      "(camera, medium, frame, image, truth, points, ..., ground_truth) and warnings (with any note).");
 }
 
 }  // namespace porthole::python

@@ -323,7 +323,8 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   }
   const auto pitch_of = [&](int k) { return pitches[pitches.size() == 1 ? 0 : k]; };
   // Cameras behind ports, in water: --port one for all or a comma list; --air-calibration a comma
-  // list, one per camera, of each lens alone (--air-lens-bare), as a prior.
+  // list, one per camera (or a rig file), made with the housings on or of each lens alone
+  // (--air-lens-bare), as a prior.
   std::vector<std::string> port_names, air_files;
   if (!o.port.port.empty()) port_names = split(o.port.port);
   if (!o.air.empty()) air_files = split(o.air);
@@ -346,11 +347,6 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
     throw InvalidInput("--air-calibration", fmt::format("{} in-air calibrations for {} cameras: one per camera "
                                                         "(a comma list)", air_files.size(), n));
   }
-  if (!air_files.empty() && !o.air_lens_bare) {
-    throw InvalidInput("--air-calibration",
-                       "were they made with the housings on or of the lenses alone? A rig takes each lens alone "
-                       "(--air-lens-bare); through a port a dome still refracts and would bias the ports");
-  }
   if (o.air_lens_bare && air_files.empty()) {
     throw InvalidInput("--air-lens-bare", "says what --air-calibration holds: give --air-calibration");
   }
@@ -367,6 +363,8 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
     if (!quiet) fmt::print(stderr, "calibrate: {}\n", m);
   };
   calib::RigOptions ro;
+  ro.air_of = o.air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
+                              : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
   // One options set for all, or one per camera when the models or the pitches differ.
   const int n_options = models.size() == 1 && pitches.size() == 1 ? 1 : n;
   for (int k = 0; k < n_options; ++k) {
@@ -694,7 +692,7 @@ void RegisterCalibrate(CLI::App& app) {
                                   "YAML, COLMAP, mrcal, Metashape, calibmar): made with the housing on (the "
                                   "default, the paper's protocol: modelled as the lens behind the port in air, "
                                   "a prior on both), or of the lens alone with --air-lens-bare. A prior needs "
-                                  "its sigma. A rig takes each lens alone (--air-lens-bare)")
+                                  "its sigma. A rig: one per camera (a comma list) or a rig file")
                       ->group(group);
   air_cal->excludes(air_det)->excludes(air_img);
   cmd->add_flag("--air-lens-bare", o->air_lens_bare,

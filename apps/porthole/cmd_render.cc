@@ -1,27 +1,20 @@
 // `porthole render`: what the camera sees through the port — a calibration target at a pose,
 // rendered through the camera model, the thin lens and the port in water or air, with a
 // ground-truth JSON beside each image (docs/render.md). `--set N` renders N seeded poses in water
-// and in air, ready for `porthole detect` and `porthole calibrate`.
+// and in air, ready for `porthole detect` and `porthole calibrate`; `--rig`, `--baseline` every
+// camera of a rig. The steps are the library's (render::RenderJob, render/job.h), as Python's.
 #include <fmt/format.h>
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <cctype>
+#include <limits>
 
 #include "camera_options.h"
 #include "commands.h"
 #include "common.h"
-#include "porthole/calib/result_json.h"
-#include "porthole/core/atomic_file.h"
-#include "porthole/core/input.h"
-#include "porthole/interop/interop.h"
-#include "porthole/io/presets.h"
-#include "porthole/measure/rig_model.h"
-#include "porthole/render/render.h"
-#include "porthole/render/rig.h"
-#include "porthole/simulate/simulate.h"
+#include "porthole/render/job.h"
 
 namespace porthole::cli {
 namespace {
@@ -71,55 +64,6 @@ double ParseLengthOrInf(const std::string& text, const std::string& field) {
   return ParseLengthList({text}, field).front();
 }
 
-// The ground truth beside a PNG: the same name, .json.
-fs::path TruthPath(const fs::path& png) {
-  fs::path json = png;
-  json.replace_extension(".json");
-  return json;
-}
-
-// Renders one scene and writes <png> and <png minus .png>.json, both whole or not at all, under the
-// overwrite rule (`rules`, checked before rendering by the caller); returns what --json prints of it.
-Json RenderOne(const render::Scene& scene, const render::RenderOptions& ro, int bit_depth, const fs::path& png,
-               const std::string& label, bool quiet, const OutputRules& rules) {
-  render::RenderOptions o = ro;
-  int last_decile = 0;
-  if (!quiet) {
-    o.progress = [&](double f) {  // one line per tenth done
-      const int decile = static_cast<int>(f * 10);
-      if (decile > last_decile) fmt::print(stderr, "render: {} {}%\n", label, 10 * decile);
-      last_decile = std::max(last_decile, decile);
-    };
-  }
-  const render::Rendered r = render::Render(scene, o);
-  const std::string bytes = render::EncodePng(r.image, bit_depth);
-  const fs::path json = TruthPath(png);
-  const std::string truth =
-      render::TruthJson(scene, o, r, png.filename().string(), bit_depth).dump(1, ' ', false, Json::error_handler_t::replace) +
-      "\n";
-  WriteOutput(json, truth, "--out", rules);
-  WriteOutput(png, bytes, "--out", rules);
-  if (!quiet) {
-    const std::string edges = o.edge_samples_per_pixel > o.samples_per_pixel
-                                  ? fmt::format(" ({} near edges: {:.1f} % of the pixels)", o.edge_samples_per_pixel,
-                                                100 * r.refined_fraction)
-                                  : "";
-    fmt::print(stderr, "render: {} {}x{} px, {} spp{}, {} bands in {:.1f} s; {:.2f} % of rays blocked by the housing\n",
-               label, r.image.width, r.image.height, o.samples_per_pixel, edges, r.setup.bands.size(), r.seconds,
-               100 * r.blocked_fraction);
-    if (!r.left_out.partial.empty() || !r.left_out.occluded.empty()) {
-      fmt::print(stderr, "render: {} {} targets in the truth; left out: {} not whole in the frame, {} hidden\n", label,
-                 r.truth.size(), r.left_out.partial.size(), r.left_out.occluded.size());
-    }
-  }
-  return Json{{"image", png.string()},        {"truth", json.string()},
-              {"width_px", r.image.width},    {"height_px", r.image.height},
-              {"points", r.truth.size()},     {"left_out_partial", r.left_out.partial.size()},
-              {"left_out_occluded", r.left_out.occluded.size()}, {"blocked_fraction", r.blocked_fraction},
-              {"refined_fraction", r.refined_fraction},
-              {"seconds", r.seconds}};
-}
-
 // "inf" (a pinhole) or a number > 0.
 double ParseFNumber(const std::string& text) {
   if (text == "inf") return std::numeric_limits<double>::infinity();
@@ -131,267 +75,70 @@ double ParseFNumber(const std::string& text) {
   return v;
 }
 
-// A calibration (any format of docs/interop.md), or the camera of a render's ground truth (its "camera"),
-// checked against the body and lens it renders through (simulate::CheckAirCalibration).
-camera::Camera LoadCameraModel(const std::string& path, const housing::HousedCamera& h) {
-  const auto cam = [&] {
-    if (fs::path(path).extension() == ".json") {
-      // Through the same limits as every calibration reader (it had none: 283 MB took 6.5 GB).
-      const std::string text = ReadInputFile(path, "--camera-model", kMaxCalibrationFileBytes);
-      nlohmann::json j;
-      try {
-        j = ParseJsonText(text, "--camera-model", path);
-      } catch (const InvalidInput&) {  // not JSON: the calibration readers below say why
-      }
-      if (j.is_object() && j.contains("points") && j.contains("camera") && j["camera"].is_object()) {
-        return std::pair{calib::CalibrationFromJson(j["camera"], "--camera-model").camera, true};
-      }
-    }
-    const interop::ReadResult r = interop::ReadCalibrationFile(path, h.camera.sensor.pixel_pitch_mm, "--camera-model");
-    return std::pair{r.camera(), r.pitch_known};
-  }();
-  simulate::CheckAirCalibration(cam.first, cam.second, h, "--camera-model '" + path + "'");
-  return cam.first;
-}
-
-// Whether `name` is one render --set writes: pose_NNN.png or pose_NNN.json.
-bool IsSetFileName(const std::string& name) {
-  const std::size_t dot = name.rfind('.');
-  if (name.rfind("pose_", 0) != 0 || dot == std::string::npos || dot < 8) return false;
-  const std::string ext = name.substr(dot);
-  if (ext != ".png" && ext != ".json") return false;
-  for (std::size_t i = 5; i < dot; ++i) {
-    if (!std::isdigit(static_cast<unsigned char>(name[i]))) return false;
-  }
-  return true;
-}
-
-// A set goes into an empty (or new) folder: an earlier set's poses mixed with this one's would be
-// calibrated together. Under --force the earlier set's own files (water/ and air/ pose_NNN.png and
-// .json, the .json a render ground truth) are removed first, all checked before the first is
-// removed; anything else is left, and an input or another command's file stops the run.
-void ClearEarlierSet(const fs::path& out, const OutputRules& rules) {
-  std::error_code ec;
-  if (!fs::is_directory(out, ec) || fs::is_empty(out, ec)) return;
-  if (!rules.force) {
-    throw InvalidInput("--out", out.string() + " is not empty (an earlier set?): --force removes the earlier set's "
-                                "images and ground truth first, or choose an empty folder");
-  }
-  std::vector<fs::path> remove;
-  std::vector<fs::path> dirs;  // water/, air/ and, for a rig, their camera folders
-  for (const char* medium : {"water", "air"}) {
-    const fs::path dir = out / medium;
-    if (!fs::is_directory(fs::symlink_status(dir, ec))) continue;
-    dirs.push_back(dir);
-    for (const auto& e : fs::directory_iterator(dir)) {
-      if (fs::is_directory(fs::symlink_status(e.path(), ec))) dirs.push_back(e.path());
-    }
-  }
-  for (const fs::path& dir : dirs) {
-    for (const auto& e : fs::directory_iterator(dir)) {
-      const std::string name = e.path().filename().string();
-      if (!IsSetFileName(name)) continue;
-      if (!fs::is_regular_file(fs::symlink_status(e.path(), ec))) {
-        throw InvalidInput("--out", e.path().string() + " is not a regular file: not removed");
-      }
-      // The one overwrite rule (core/output.h) decides: never an input, a .json only a ground truth.
-      CheckOutput(e.path(), "--out", rules, e.path().extension() == ".json" ? FileKind::kGroundTruth : FileKind::kOther);
-      remove.push_back(e.path());
-    }
-  }
-  for (const fs::path& p : remove) fs::remove(p);
-}
-
-// The rig of --rig (a rig JSON: each camera's calibration, cam_from_rig and port, when it has one) or
-// of --baseline/--convergence (two of the scene's camera behind the scene's port).
-std::vector<render::RigCamera> RigCameras(const RenderCliOptions& o, const render::Scene& scene) {
-  if (o.baseline_mm) return render::DescribedRig(2, *o.baseline_mm, o.convergence_deg);
-  const measure::Rig rig = measure::LoadRig(o.rig, "--rig");
-  // The ports' names (their glass's dispersion), which the rig model does not keep.
-  const nlohmann::json j = ParseJsonText(ReadInputFile(o.rig, "--rig", kMaxCalibrationFileBytes), "--rig", o.rig);
-  std::vector<render::RigCamera> cams;
-  for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
-    const measure::RigCamera& rc = rig.cameras[k];
-    render::RigCamera c;
-    c.name = rc.name;
-    c.camera = rc.camera;
-    c.cam_from_rig.rotation = rc.CamFromRigRotation();
-    c.cam_from_rig.translation_mm = rc.translation_mm;
-    c.port_use = render::RigCamera::PortUse::kNone;
-    if (rc.shell) {
-      const auto& pj = j["rig"]["cameras"][k]["port"];
-      const std::string name = pj.contains("name") && pj["name"].is_string() ? pj["name"].get<std::string>() : "";
-      std::string material = scene.housed.port.material();
-      try {
-        material = io::LoadPort(name).material();
-      } catch (const InvalidInput&) {
-        if (!o.quiet) {
-          fmt::print(stderr, "porthole: note: --rig: camera {}'s port '{}' is no preset or port file here: its glass "
-                             "taken as {} (--port's)\n", rc.name, name, material);
-        }
-      }
-      c.port_use = render::RigCamera::PortUse::kOwn;
-      c.port = refraction::PortSpecOf(*rc.shell, rc.port, material, name.empty() ? rc.name + "-port" : name);
-    }
-    cams.push_back(std::move(c));
-  }
-  return cams;
-}
-
-void RunRender(const RenderCliOptions& o) {
-  render::Scene scene;
+// The options in the library's words (render/job.h); the words of the command line parsed here.
+render::RenderJobOptions JobOptions(const RenderCliOptions& o) {
+  render::RenderJobOptions j;
   const bool bare = o.port == "none";  // the lens alone: the port only places the pupil
-  scene.housed = o.camera.ToHoused(PortOptions{bare ? PortOptions{}.port : o.port, o.ep}, o.water);
-  scene.bare = bare;
-  const bool rig = !o.rig.empty() || o.baseline_mm.has_value();
-  scene.target = calib::ParseTarget(o.target);
-  if (!o.field.empty()) calib::LoadTargetField(o.field, &scene.target);
-  if (o.medium != "water" && o.medium != "air") throw InvalidInput("--medium", "must be water or air");
-  scene.medium = o.medium == "air" ? render::Medium::kAir : render::Medium::kWater;
-  if (o.focus != "target") scene.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
-  scene.f_number = o.f_number == "lens" ? lens::DefaultFNumber(scene.housed.lens) : ParseFNumber(o.f_number);
+  j.housed = o.camera.ToHoused(PortOptions{bare ? PortOptions{}.port : o.port, o.ep}, o.water);
+  j.bare = bare;
+  j.target = o.target;
+  j.field = o.field;
+  j.medium = o.medium;
+  if (o.focus != "target") j.focus_distance_mm = ParseLengthOrInf(o.focus, "--focus");
+  if (o.f_number != "lens") j.f_number = ParseFNumber(o.f_number);
   if (o.vignetting != "none" && o.vignetting != "natural") throw InvalidInput("--vignetting", "must be none or natural");
-  scene.natural_vignetting = o.vignetting == "natural";
-  if (!o.vignetting_pa.empty()) scene.vignetting_pa = {o.vignetting_pa[0], o.vignetting_pa[1], o.vignetting_pa[2]};
-  // Outputs are checked before anything is read or rendered: an input named as an output is refused
-  // as that, whatever else is wrong with it.
-  if (o.out.empty()) throw InvalidInput("--out", "is required: the PNG file (single image) or a directory (--set)");
-  const OutputRules rules{.force = o.force, .inputs = o.inputs};
-  if (o.set == 0 && !rig) {
-    if (fs::path(o.out).extension() != ".png") throw InvalidInput("--out", "must name a .png file");
-    CheckOutput(o.out, "--out", rules);  // before the long work: both files, the .json as a ground truth
-    CheckOutput(TruthPath(o.out), "--out", rules, FileKind::kGroundTruth);
-  }
-  if (!o.camera_model.empty()) scene.camera = LoadCameraModel(o.camera_model, scene.housed);
-  scene.c_mm = o.c_mm;
-  scene.bands_nm = o.bands;
-  if (o.white_on_black) std::swap(scene.style.black, scene.style.white);
-  render::RenderOptions ro;
-  ro.samples_per_pixel = o.spp;
-  ro.edge_samples_per_pixel = o.edge_spp;
-  ro.seed = o.seed;
-  ro.exposure = o.exposure;
-  if (!o.noise.empty()) {
-    ro.full_well_e = RequirePositive("--noise", o.noise[0]);
-    ro.read_noise_e = o.noise[1];
-  }
-  if (o.color != "grey" && o.color != "rgb") throw InvalidInput("--color", "must be grey or rgb");
-  ro.color = o.color == "rgb" ? render::ColorMode::kRgb : render::ColorMode::kGrey;
-  render::Validate(ro);
-  if (o.bit_depth != 8 && o.bit_depth != 16) throw InvalidInput("--bit-depth", "must be 8 or 16");
+  j.natural_vignetting = o.vignetting == "natural";
+  if (!o.vignetting_pa.empty()) j.vignetting_pa = {o.vignetting_pa[0], o.vignetting_pa[1], o.vignetting_pa[2]};
+  j.camera_model = o.camera_model;
+  j.c_mm = o.c_mm;
+  j.bands_nm = o.bands;
+  j.white_on_black = o.white_on_black;
   if (o.shift.size() != 2 || o.tilt.size() != 2) throw InvalidInput("--shift", "--shift and --tilt take X,Y");
-
-  if (rig) {  // every camera of the rig: the library renders and writes (render/rig.h)
-    const std::vector<render::RigCamera> cams = RigCameras(o, scene);
-    render::RigRenderOptions ro_rig;
-    ro_rig.render = ro;
-    ro_rig.bit_depth = o.bit_depth;
-    ro_rig.set_count = o.set;
-    ro_rig.set.max_tilt_deg = o.max_tilt_deg;
-    ro_rig.set.max_roll_deg = 15;
-    ro_rig.set.min_whole_fraction = o.partial;
-    if (!o.distances.empty()) {
-      const auto d = ParseLengthList(o.distances, "--distances");
-      if (d.size() != 2) throw InvalidInput("--distances", "takes NEAR,FAR in mm");
-      ro_rig.set.near_mm = d[0];
-      ro_rig.set.far_mm = d[1];
-    }
-    ro_rig.out = o.out;
-    ro_rig.rules = rules;
-    if (!o.quiet) ro_rig.log = [](const std::string& line) { fmt::print(stderr, "render: {}\n", line); };
-    if (o.set > 0) ro_rig.prepare = [&] { ClearEarlierSet(o.out, rules); };
-    if (o.set == 0) {  // the target's pose in the rig frame (the first camera's)
-      RequireFinite("--distance", o.distance_mm);
-      scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
-                                      o.roll_deg);
-    }
-    const Json j = render::RenderRig(scene, cams, ro_rig);
-    if (o.json) fmt::print("{}\n", PrintableJson(j));
-    if (!o.quiet) {
-      std::string names;
-      for (const auto& c : cams) names += (names.empty() ? "" : ", ") + c.name;
-      fmt::print(stderr, "render: {} frame{} of {} cameras ({}) in {}\n", j["frames"].get<int>(),
-                 j["frames"].get<int>() == 1 ? "" : "s", cams.size(), names, o.out);
-    }
-    return;
-  }
-
-  if (o.set == 0) {
-    const fs::path png = o.out;
-    RequireFinite("--distance", o.distance_mm);
-    scene.pose = render::PoseFacing(scene.target, o.distance_mm, {o.shift[0], o.shift[1]}, o.tilt[0], o.tilt[1],
-                                    o.roll_deg);
-    const Json j = RenderOne(scene, ro, o.bit_depth, png, png.filename().string(), o.quiet, rules);
-    if (o.json) fmt::print("{}\n", PrintableJson(j));
-    return;
-  }
-
-  // A set: one focus for every image (on the middle distance under water unless --focus gives
-  // FD), the same poses in water and in air.
-  render::SetOptions so;
-  so.count = o.set;
-  so.seed = o.seed;
-  so.max_tilt_deg = o.max_tilt_deg;
-  so.max_roll_deg = 15;
-  so.min_whole_fraction = o.partial;
+  j.distance_mm = o.distance_mm;
+  j.shift_mm = {o.shift[0], o.shift[1]};
+  j.tilt_deg = {o.tilt[0], o.tilt[1]};
+  j.roll_deg = o.roll_deg;
+  j.render.samples_per_pixel = o.spp;
+  j.render.edge_samples_per_pixel = o.edge_spp;
+  j.render.seed = o.seed;
+  j.render.exposure = o.exposure;
+  j.color = o.color;
+  if (!o.noise.empty()) j.noise_e = std::array<double, 2>{o.noise[0], o.noise[1]};
+  j.bit_depth = o.bit_depth;
+  j.set_count = o.set;
   if (!o.distances.empty()) {
     const auto d = ParseLengthList(o.distances, "--distances");
     if (d.size() != 2) throw InvalidInput("--distances", "takes NEAR,FAR in mm");
-    so.near_mm = d[0];
-    so.far_mm = d[1];
+    j.distances_mm = std::array<double, 2>{d[0], d[1]};
   }
-  if (!scene.focus_distance_mm) {
-    render::Scene probe = scene;
-    probe.focus_distance_mm = std::numeric_limits<double>::infinity();
-    const render::Setup s = render::Resolve(probe);
-    // The middle of the distances the set will use: the given ones, or those SetPoses chooses.
-    double mid = 0.5 * (so.near_mm + so.far_mm);
-    if (mid == 0) {
-      const auto pts = calib::TargetPoints(scene.target);
-      double span = 0;
-      for (const auto& p : pts) span = std::max(span, (p - pts.front()).norm());
-      mid = 0.5 * (1 / 0.8 + 1 / 0.3) * s.camera.FocalLengthPx() * span / s.camera.sensor.width_px;
-    }
-    // On its virtual image under water (the lens alone: on the distance itself); closer than the
-    // lens focuses: its closest focus, as a camera would.
-    bool closest = false;
-    scene.focus_distance_mm = render::SetFocusDistanceMm(scene, so, 0, &closest);
-    if (closest && !o.quiet) {
-      fmt::print(stderr, "porthole: note: the lens cannot focus on the set's middle distance ({:.0f} mm){}; focused "
-                         "at its closest, {:g} mm\n", mid, bare ? "" : " under water", scene.housed.lens.min_focus_mm);
-    }
-  }
-  const auto poses = render::SetPoses(scene, so);  // bad options fail here, before any directory exists
-  ClearEarlierSet(o.out, rules);
-  EnsureOutputDirectory(o.out, "--out");
-  // The lens alone (--port none): the water images would be the air ones.
-  const std::vector<render::Medium> media =
-      bare ? std::vector<render::Medium>{render::Medium::kAir}
-           : std::vector<render::Medium>{render::Medium::kWater, render::Medium::kAir};
-  for (const render::Medium m : media) {
-    EnsureOutputDirectory((fs::path(o.out) / (m == render::Medium::kWater ? "water" : "air")).string(), "--out");
-  }
-  Json images = {{"water", Json::array()}, {"air", Json::array()}};
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    for (const render::Medium m : media) {
-      render::Scene sc = scene;
-      sc.pose = poses[i];
-      sc.medium = m;
-      render::RenderOptions r = ro;
-      r.seed = o.seed + i;
-      const std::string dir = m == render::Medium::kWater ? "water" : "air";
-      const fs::path png = fs::path(o.out) / dir / fmt::format("pose_{:03d}.png", i);
-      images[dir].push_back(RenderOne(sc, r, o.bit_depth, png, dir + "/" + png.filename().string(), o.quiet, rules));
-    }
-  }
-  if (o.json) {
-    fmt::print("{}\n", PrintableJson(Json{{"poses", poses.size()}, {"focus_distance_mm", Length(*scene.focus_distance_mm)},
-                                          {"images", images}}));
-  }
+  j.max_tilt_deg = o.max_tilt_deg;
+  j.min_whole_fraction = o.partial;
+  j.rig = o.rig;
+  j.baseline_mm = o.baseline_mm;
+  j.convergence_deg = o.convergence_deg;
+  j.out = o.out;
+  j.rules = OutputRules{.force = o.force, .inputs = o.inputs};
   if (!o.quiet) {
-    const std::string where = bare ? (fs::path(o.out) / "air").string() + " (the lens alone: no water set)"
-                                   : (fs::path(o.out) / "water").string() + " and " + (fs::path(o.out) / "air").string();
-    fmt::print(stderr, "render: {} poses in {}; focus scale {:.1f} mm\n", poses.size(), where, *scene.focus_distance_mm);
+    j.log = [](const std::string& line) { fmt::print(stderr, "render: {}\n", line); };
+    j.note = [](const std::string& line) { fmt::print(stderr, "porthole: note: {}\n", CliWords(line)); };
+  }
+  return j;
+}
+
+void RunRender(const RenderCliOptions& o) {
+  const render::RenderJobOptions job = JobOptions(o);
+  const render::RenderJobResult r = render::RenderJob(job);
+  if (o.json) fmt::print("{}\n", PrintableJson(Json(r.summary)));
+  if (o.quiet) return;
+  if (!o.rig.empty() || o.baseline_mm) {
+    std::string names;
+    for (const auto& c : r.cameras) names += (names.empty() ? "" : ", ") + c;
+    fmt::print(stderr, "render: {} frame{} of {} cameras ({}) in {}\n", r.frames, r.frames == 1 ? "" : "s",
+               r.cameras.size(), names, o.out);
+  } else if (o.set > 0) {
+    const std::string where = job.bare ? (fs::path(o.out) / "air").string() + " (the lens alone: no water set)"
+                                       : (fs::path(o.out) / "water").string() + " and " + (fs::path(o.out) / "air").string();
+    fmt::print(stderr, "render: {} poses in {}; focus scale {:.1f} mm\n", r.frames, where, r.focus_distance_mm.front());
   }
 }
 
@@ -495,14 +242,19 @@ void RegisterRender(CLI::App& app) {
     o->inputs = InputFiles(cmd, {"--out"});
     if (!o->rig.empty() && o->baseline_mm) throw InvalidInput("--rig", "give a rig file or --baseline, not both");
     if (cmd->count("--convergence") > 0 && !o->baseline_mm) throw InvalidInput("--convergence", "goes with --baseline");
+    // A camera model that is not of this camera: the library names it with its file.
+    const std::string model_field = "camera_model '" + o->camera_model + "'";
+    const std::string model_flag = "--camera-model '" + o->camera_model + "'";
     WithFieldNames({PORTHOLE_CAMERA_FLAGS, {"subject_distance_mm", "--distance"}, {"focus_distance_mm", "--focus"},
                     {"focus", "--focus"}, {"f_number", "--f-number"}, {"c_mm", "--c"}, {"bands_nm", "--bands"}, {"lambda_nm", "--bands"},
                     {"samples_per_pixel", "--spp"}, {"edge_samples_per_pixel", "--edge-spp"}, {"exposure", "--exposure"},
                     {"full_well_e", "--noise"}, {"vignetting_pa", "--vignetting-pa"}, {"read_noise_e", "--noise"}, {"pose", "pose"}, {"target", "--target"},
-                    {"bit_depth", "--bit-depth"}, {"count", "--count"}, {"max_tilt_deg", "--max-tilt"},
+                    {"bit_depth", "--bit-depth"}, {"count", "--set"}, {"max_tilt_deg", "--max-tilt"},
                     {"max_roll_deg", "--max-roll"}, {"min_whole_fraction", "--partial"}, {"near_mm", "--distances"},
                     {"far_mm", "--distances"}, {"field", "--field"}, {"baseline_mm", "--baseline"},
-                    {"convergence_deg", "--convergence"}, {"out", "--out"}, {"cameras", "--rig"}},
+                    {"convergence_deg", "--convergence"}, {"out", "--out"}, {"cameras", "--rig"}, {"rig", "--rig"},
+                    {"medium", "--medium"}, {"color", "--color"}, {"noise_e", "--noise"}, {"distance_mm", "--distance"},
+                    {"camera_model", "--camera-model"}, {model_field, model_flag}},
                    [&] { RunRender(*o); });
   });
 }

@@ -33,7 +33,7 @@ from ._results import (CameraModel, Calibration, Comparison, DetectionSet, Detec
                        RefractiveCalibration, RigCalibration, RigCamera, Measurement, MeasuredPoint, MeasuredLength,
                        Record, ReportSummary, Simulation,
                        SkippedImage, SphereFit, Status, Table, TraceResult, VirtualImage, VirtualImageTable)
-from ._results import ConvertResult, RenderResult
+from ._results import ConvertResult, RenderResult, RenderedImage, RenderSet, _IMPLAUSIBLE
 
 __version__: str = _porthole.__version__
 
@@ -383,10 +383,20 @@ def convert(inputs, out, **kwargs) -> ConvertResult:
         return ConvertResult(_porthole.convert(inputs, os.fspath(out), **kwargs))
 
 
-@_wraps(_porthole.render, "porthole.RenderResult", "port may also be a PortSpec.")
-def render(out, **kwargs) -> RenderResult:
+@_wraps(_porthole.render, "porthole.RenderResult | porthole.RenderSet",
+        "port may also be a PortSpec, rig a RigCalibration (calibrate_rig()'s). One image returns a "
+        "RenderResult; a set or a rig a RenderSet (its renders: one RenderedImage per image, with its "
+        "ground truth; of(camera, medium) picks one camera's).")
+def render(out, **kwargs) -> Union[RenderResult, RenderSet]:
+    if isinstance(kwargs.get("rig"), RigCalibration):
+        kwargs["rig"] = kwargs["rig"].to_dict()
     with _port_files(kwargs, "port"):
-        return RenderResult(_porthole.render(os.fspath(out), **kwargs))
+        d = _porthole.render(os.fspath(out), **kwargs)
+    r = RenderSet(d) if "renders" in d else RenderResult(d)
+    for text in r.warnings:  # the notes the CLI prints on stderr (the plausibility warnings are emitted already)
+        if _IMPLAUSIBLE not in text:
+            _warnings.warn(text, PortholeWarning, stacklevel=2)
+    return r
 
 
 # --- scans and fits ---------------------------------------------------------------------------
@@ -444,5 +454,5 @@ __all__ = [
     "Detections", "SkippedImage", "DetectionSet", "Calibration", "PortCalibration", "RefractiveCalibration",
     "VirtualImage", "VirtualImageTable",
     "PortFocal", "TraceResult", "SphereFit", "DomeFit", "Preset", "Medium", "DEFAULT_WD_MM",
-    "convert", "ConvertResult", "render", "RenderResult",
+    "convert", "ConvertResult", "render", "RenderResult", "RenderedImage", "RenderSet",
 ]

@@ -23,7 +23,7 @@ __all__ = [
     "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis",
     "Simulation", "Comparison", "HousingAssembly", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
     "Calibration", "PortCalibration", "RefractiveCalibration", "VirtualImage", "VirtualImageTable", "PortFocal", "TraceResult", "SphereFit",
-    "DomeFit", "Preset", "Medium", "ConvertResult", "RenderResult",
+    "DomeFit", "Preset", "Medium", "ConvertResult", "RenderResult", "RenderedImage", "RenderSet",
 ]
 
 
@@ -259,6 +259,33 @@ class RenderResult(_WarnsRecord):
     """porthole.render(): what `porthole render --json` prints (image, truth: the files written;
     width_px, height_px, points, blocked_fraction, seconds, ...), ground_truth (the truth JSON beside
     the image: camera, pose, bands, and every target point's pixel per band) and warnings."""
+
+
+class RenderedImage(Record):
+    """One image of porthole.render(set=...) or render(rig=...): camera (a rig's camera; "" for one
+    camera), medium (water, air), frame (render, pose_NNN), image and truth (the files written),
+    points, blocked_fraction, seconds, ... (one camera's set also width_px, height_px) and
+    ground_truth (the truth JSON beside the image: camera, pose, bands, every target point's pixel
+    per band; a rig's image also its `rig` block: camera, cam_from_rig, rig_from_target)."""
+
+
+class RenderSet(_WarnsRecord):
+    """porthole.render(set=N) or render(rig=..., baseline_mm=...): what `porthole render --set N` or
+    `--rig` prints with --json (a set: poses, focus_distance_mm, images {water, air}; a rig: cameras,
+    frames, images, and with set=N focus_distance_mm per camera), `renders`: every image written as a
+    RenderedImage (with its ground_truth), in the order rendered, and warnings (the plausibility
+    warnings, also emitted as PortholeWarning, and any note: a lens focused at its closest, a rig
+    port's glass taken from `port`)."""
+
+    def __init__(self, data: Dict[str, Any]):
+        super().__init__(data)
+        object.__setattr__(self, "renders", [RenderedImage(r) for r in data.get("renders", [])])
+
+    def of(self, camera: Optional[str] = None, medium: Optional[str] = None) -> List[RenderedImage]:
+        """The renders of one camera (a rig's camera name; None: every camera) in one medium ("water",
+        "air"; None: both), in frame order."""
+        return [r for r in self.renders
+                if (camera is None or r.camera == camera) and (medium is None or r.medium == medium)]
 
 
 class Preset(NamedTuple):

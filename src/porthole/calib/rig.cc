@@ -16,6 +16,7 @@
 #include <map>
 #include <set>
 
+#include "porthole/calib/housed_prior.h"
 #include "porthole/calib/prior_cost.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
@@ -128,6 +129,8 @@ struct Cam {
   // The in-air prior on the scaled intrinsics (RigOptions::air_lens): r = a·scaled − b; rows 0: none.
   Eigen::MatrixXd prior_a;
   Eigen::VectorXd prior_b;
+  // An in-air calibration made through its port: the prior on the lens and the port (housed_prior.h).
+  std::optional<HousedPrior> housed;
   CalibrationResult alone;    // its own calibration (the start)
   const CalibrationOptions* options = nullptr;
   std::string name;
@@ -242,7 +245,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       ro.search = options.port_search;
       if (n_air > 0) {
         ro.air = options.air_lens[k];
-        ro.air_of = RefractiveOptions::AirCalibrationOf::kLensBare;
+        ro.air_of = options.air_of;
         ro.intrinsics = IntrinsicsMode::kPrior;
       }
       const RefractiveResult alone = CalibrateRefractive(per_camera[k], target, ro);
@@ -257,7 +260,19 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     c.camera = c.alone.camera;
     c.free = c.alone.free;
     c.scale = Scales(c.camera);
-    if (n_air > 0) {  // every parameter the air calibration adjusted but the focal length(s)
+    if (n_air > 0 && options.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort) {
+      // The target at this camera's own poses: a network like its air calibration's.
+      std::vector<std::vector<Eigen::Vector3d>> views;
+      const std::vector<Eigen::Vector3d> target_points = TargetPoints(target);
+      for (const auto& im : c.alone.images) {
+        const Rt x = ToRt(im.rotation_rad, im.translation_mm);
+        views.emplace_back();
+        for (const auto& p : target_points) views.back().push_back(x.r * p + x.t);
+      }
+      c.housed = camera::VisitModel(c.camera.model, [&](auto m) {
+        return MakeHousedPrior<decltype(m)>(options.air_lens[k], views);
+      });
+    } else if (n_air > 0) {  // the lens alone: every parameter it adjusted but the focal length(s)
       const CalibrationRecord& air = options.air_lens[k];
       const camera::ModelInfo& info = c.camera.info();
       std::vector<int> idx;
@@ -357,7 +372,32 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   double weight = 1;
   bool with_priors = false;
   int n_prior = 0;
-  for (const auto& c : cams) n_prior += static_cast<int>(c.prior_a.rows());
+  for (const auto& c : cams) n_prior += static_cast<int>(c.prior_a.rows()) + (c.housed ? c.housed->idx.size() : 0);
+  // The housed priors (housed_prior.h): (re-)linearised at each camera's estimate; the largest move
+  // of their pixels; and their squared residuals.
+  const auto linearise_housed = [&] {
+    double moved = 0;
+    for (auto& c : cams) {
+      if (!c.housed) continue;
+      refraction::Shell air = *c.shell;
+      air.n_water = 1;
+      std::vector<double> lens(c.scale.size());
+      for (std::size_t i = 0; i < lens.size(); ++i) lens[i] = c.scaled[i] * c.scale[i];
+      camera::VisitModel(c.camera.model, [&](auto m) {
+        moved = std::max(moved, LineariseHousedPrior<decltype(m)>(&*c.housed, c.camera.sensor, air, lens.data(),
+                                                                  c.port.data(), nullptr));
+      });
+    }
+    return moved;
+  };
+  const auto housed_cost = [](const Cam& c, auto m) {
+    using M = decltype(m);
+    refraction::Shell air = *c.shell;
+    air.n_water = 1;
+    HousedPriorCost<M> f{&*c.housed, c.camera.sensor, {}, air};
+    std::copy(c.scale.begin(), c.scale.end(), f.scale.begin());
+    return f;
+  };
   const auto build = [&](ceres::Problem* problem) {
     for (const Obs& ob : obs) {
       if (!ob.active) continue;
@@ -396,6 +436,15 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       if (!problem->HasParameterBlock(c.scaled.data())) continue;
       if (with_priors && c.prior_a.rows() > 0) {
         problem->AddResidualBlock(new LinearPriorCost(c.prior_a, c.prior_b), nullptr, c.scaled.data());
+      }
+      if (with_priors && c.housed) {
+        camera::VisitModel(c.camera.model, [&](auto m) {
+          using M = decltype(m);
+          problem->AddResidualBlock(
+              new ceres::AutoDiffCostFunction<HousedPriorCost<M>, M::kNumParams, M::kNumParams,
+                                              refraction::kPortNumParams>(new HousedPriorCost<M>(housed_cost(c, m))),
+              nullptr, c.scaled.data(), c.port.data());
+        });
       }
       std::vector<int> fixed;
       for (std::size_t i = 0; i < c.free.size(); ++i) {
@@ -484,7 +533,10 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   if (n_prior > 0) {  // the images weighted by 1/σ0 of the adjustment above, the priors added
     weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns));
     with_priors = true;
+    linearise_housed();
     solve();
+    // Housed priors: re-linearised at the new estimate until their pixels move by < 1e-4 px.
+    for (int round = 0; round < 8 && linearise_housed() >= 1e-4; ++round) solve();
     sum_squares();
   }
   res.n_points = n_active;
@@ -553,6 +605,14 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   for (const auto& c : cams) {
     if (c.prior_a.rows() > 0) {
       prior_ss += (c.prior_a * Eigen::Map<const Eigen::VectorXd>(c.scaled.data(), c.scaled.size()) - c.prior_b).squaredNorm();
+    }
+    if (c.housed) {
+      camera::VisitModel(c.camera.model, [&](auto m) {
+        std::vector<double> r(decltype(m)::kNumParams);
+        if (housed_cost(c, m).template Residual<double>(c.scaled.data(), c.port.data(), nullptr, r.data())) {
+          for (double x : r) prior_ss += x * x;
+        }
+      });
     }
   }
   const double s02 = with_priors ? (ss * weight * weight + prior_ss) / res.redundancy
@@ -753,6 +813,10 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
                      {"sigma", sigma},
                      {"predicted", predicted},
                      {"shell", refraction::ShellToJson(c.shell)}};
+      if (!options.air_lens.empty()) {  // what its in-air calibration was taken as (RigOptions::air_of)
+        out["port"]["air_calibration_taken_as"] =
+            options.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort ? "through_port" : "lens_bare";
+      }
     }
     out.update(j);
     cameras.push_back(out);

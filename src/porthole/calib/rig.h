@@ -15,8 +15,9 @@
 //    camera k in frame f at Project_k(cam_from_rig_k · rig_from_target_f · X); the residual is
 //    projected − observed, px, by automatic differentiation through the model's Project.
 //  - Behind ports (RigOptions::ports): each camera is its lens model behind its port in water
-//    (refraction::Project), its port parameters adjusted too; with in-air calibrations of the
-//    lenses alone (RigOptions::air_lens) as priors (every parameter but the focal length).
+//    (refraction::Project), its port parameters adjusted too; with in-air calibrations
+//    (RigOptions::air_lens) as priors: made through the ports in air, on each lens and its port
+//    (housed_prior.h); of the lenses alone, on every parameter but the focal length.
 //  - Start: each camera calibrated alone (calib::Calibrate, its own start; behind a port
 //    calib::CalibrateRefractive, with its prior); cam_from_rig of each
 //    camera from its poses and those of a camera already placed over the frames they share
@@ -39,6 +40,7 @@
 #include <vector>
 
 #include "porthole/calib/calibrate.h"
+#include "porthole/calib/refractive.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/ports/port.h"
 #include "porthole/refraction/refraction.h"
@@ -58,12 +60,15 @@ struct RigOptions {
   // its own refractive calibration (calib::CalibrateRefractive, lens free, the axial search); the
   // system's values are the predicted ones the estimate is reported beside.
   std::vector<ports::PortSystem> ports;
-  // With ports: an in-air calibration of each camera's lens ALONE (without the housing; one per
-  // camera), as a Gaussian prior with its covariance on every parameter it adjusted except the
-  // focal length(s) (RefractiveOptions' kPrior: the lens refocuses behind a dome), the image
-  // residuals weighted by 1/σ0 of a first pass. Without it a dome's axial pupil offset is nearly
+  // With ports: an in-air calibration of each camera (one per camera), a Gaussian prior with its
+  // covariance, the image residuals weighted by 1/σ0 of a first pass. What each is (air_of, as
+  // RefractiveOptions::air_of): made in air with the housing on (kThroughPort, the default): a
+  // prior on the lens and its port together (housed_prior.h), every parameter it adjusted, one
+  // focus; of the lens alone (kLensBare): on every parameter it adjusted except the focal
+  // length(s) (the lens refocuses behind a dome). Without it a dome's axial pupil offset is nearly
   // undetermined (it trades with the focal length and the cameras' positions).
   std::vector<CalibrationRecord> air_lens;
+  RefractiveOptions::AirCalibrationOf air_of = RefractiveOptions::AirCalibrationOf::kThroughPort;
   // Each camera's start behind its port searches the axial port parameter (RefractiveOptions::search);
   // off when the predicted ports are known to be close (Monte-Carlo runs).
   bool port_search = true;

@@ -268,6 +268,7 @@ TEST(MeasureRenders, ARigCalibratedFromRendersMeasuresTheDiagonals) {
   ASSERT_EQ(n_frames, 15);
   // Each lens alone in air: the same scene behind a concentric dome centred on its pupil, in air.
   calib::RigOptions o;
+  o.air_of = calib::RefractiveOptions::AirCalibrationOf::kLensBare;  // each lens alone (a concentric dome in air)
   calib::CalibrationOptions co;
   co.pixel_pitch_mm = rs.scenes[0].housed.camera.sensor.pixel_pitch_mm;
   o.cameras = {co};

@@ -111,7 +111,8 @@ Scene CameraScene(const Scene& base, const RigCamera& cam, const Pose& rig_from_
   return s;
 }
 
-double SetFocusDistanceMm(const Scene& scene, const SetOptions& so, double baseline_mm, bool* closest) {
+double SetFocusDistanceMm(const Scene& scene, const SetOptions& so, double baseline_mm, bool* closest,
+                          double* middle_mm) {
   if (closest) *closest = false;
   Scene probe = scene;
   probe.focus_distance_mm = std::numeric_limits<double>::infinity();
@@ -124,6 +125,7 @@ double SetFocusDistanceMm(const Scene& scene, const SetOptions& so, double basel
     for (const auto& p : pts) span = std::max(span, (p - pts.front()).norm());
     mid = (0.5 * (1 / 0.8 + 1 / 0.3) * span + baseline_mm) * s.camera.FocalLengthPx() / s.camera.sensor.width_px;
   }
+  if (middle_mm) *middle_mm = mid;
   try {
     return *FocusOn(scene, mid).focus.focus_distance_mm;
   } catch (const InvalidInput&) {  // closer than the lens focuses: its closest focus, as a camera would
@@ -261,15 +263,17 @@ nlohmann::ordered_json RenderRig(const Scene& base, const std::vector<RigCamera>
     const std::string rel = fs::relative(j.png, o.out).generic_string();
     log(fmt::format("{} ({}/{}) {}x{} px, {} points, {:.1f} s; {:.2f} % of rays blocked by the housing", rel, n + 1,
                     jobs.size(), r.image.width, r.image.height, r.truth.size(), r.seconds, 100 * r.blocked_fraction));
-    images.push_back({{"camera", cameras[j.camera].name},
-                      {"medium", j.medium},
-                      {"frame", j.frame},
-                      {"image", j.png.string()},
-                      {"truth", json.string()},
-                      {"points", r.truth.size()},
-                      {"left_out_partial", r.left_out.partial.size()},
-                      {"blocked_fraction", r.blocked_fraction},
-                      {"seconds", r.seconds}});
+    Json summary = {{"camera", cameras[j.camera].name},
+                    {"medium", j.medium},
+                    {"frame", j.frame},
+                    {"image", j.png.string()},
+                    {"truth", json.string()},
+                    {"points", r.truth.size()},
+                    {"left_out_partial", r.left_out.partial.size()},
+                    {"blocked_fraction", r.blocked_fraction},
+                    {"seconds", r.seconds}};
+    if (o.written) o.written(RigImage{j.camera, j.medium, j.frame, r, truth, summary});
+    images.push_back(std::move(summary));
   }
   Json names = Json::array();
   for (const RigCamera& c : cameras) names.push_back(c.name);

@@ -54,14 +54,26 @@ Scene CameraScene(const Scene& base, const RigCamera& cam, const Pose& rig_from_
 // The focus-scale distance a set focuses at when the scene gives none: under water (or bare, in
 // air) on the middle of the set's distances (SetOptions' near/far, or those SetPosesSeenBy chooses
 // for cameras whose pupils lie up to baseline_mm apart, the camera's focal length taken at infinity
-// focus), or the lens's closest focus when it cannot focus that close (*closest set true).
+// focus), or the lens's closest focus when it cannot focus that close (*closest set true);
+// *middle_mm: that middle distance (from the pupil, mm).
 double SetFocusDistanceMm(const Scene& scene, const SetOptions& options, double baseline_mm = 0,
-                          bool* closest = nullptr);
+                          bool* closest = nullptr, double* middle_mm = nullptr);
 
 // One camera's ground truth (TruthJson) with its "rig" block.
 nlohmann::ordered_json RigTruthJson(const Scene& scene, const RenderOptions& options, const Rendered& r,
                                     const std::string& image_file, int bit_depth, const RigCamera& cam,
                                     int index, const Pose& rig_from_target);
+
+// One image RenderRig wrote: its camera (index), medium, frame, what was rendered, the ground truth's
+// text as written and what RenderRig's summary lists of it.
+struct RigImage {
+  int camera = 0;
+  const std::string& medium;
+  const std::string& frame;
+  const Rendered& rendered;
+  const std::string& truth_text;
+  const nlohmann::ordered_json& summary;
+};
 
 struct RigRenderOptions {
   RenderOptions render;
@@ -80,6 +92,8 @@ struct RigRenderOptions {
   // Called once the images are known (the rig, scene and set checked), before the first folder is
   // made or file checked (the CLI clears an earlier set there). May be empty.
   std::function<void()> prepare;
+  // Called after each image is written (may be empty): what the caller keeps of it.
+  std::function<void(const RigImage&)> written;
 };
 
 // Renders the rig and writes every image and ground truth, each whole or absent; returns what was
