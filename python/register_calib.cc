@@ -350,10 +350,11 @@ void RegisterCalib(py::module_& m) {
          const std::string& free, double reject_k, const py::object& port, const py::object& air_calibration,
          bool air_lens_bare, const std::string& water, std::optional<double> water_index, double lambda_nm,
          double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
-         const std::vector<std::string>& names) {
+         const std::vector<std::string>& names, const py::object& air_detections) {
         return WithFieldNames(
             {{"cameras", "cameras"}, {"images", "cameras"}, {"model", "model"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
              {"port", "port"}, {"air_calibration", "air_calibration"}, {"air_lens", "air_calibration"},
+             {"air_images", "air_detections"},
              {"ports", "port"}, {"camera_options", "model"}},
             [&] {
               const auto t = TargetArg(target, py::none());
@@ -412,6 +413,13 @@ void RegisterCalib(py::module_& m) {
                 auto rec = CalibrationArg(airs[k], lens.pixel_pitch_mm, lens.model, "air_calibration");
                 if (rec) o.air_lens.push_back(*rec);
               }
+              if (!air_detections.is_none()) {  // one list per camera: air images through its port
+                for (const auto& c : air_detections.cast<py::list>()) {
+                  auto dets = DetectionsArg(c.cast<py::list>());
+                  calib::KeepTargetPoints(t, &dets);
+                  o.air_images.push_back(std::move(dets));
+                }
+              }
               calib::RigResult r;
               {
                 py::gil_scoped_release release;
@@ -425,12 +433,13 @@ void RegisterCalib(py::module_& m) {
       py::arg("air_calibration") = py::none(), py::arg("air_lens_bare") = false, py::arg("water") = "seawater",
       py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07, py::arg("temperature_c") = 20.0,
       py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("progress") = false,
-      py::arg("names") = std::vector<std::string>{},
+      py::arg("names") = std::vector<std::string>{}, py::arg("air_detections") = py::none(),
       "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
       "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
       "all or a list; pixel_pitch_mm one for all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
       "water; air_calibration a list, one per camera, made with the housings on (the default) or of each lens alone "
-      "(air_lens_bare=True), as a prior. "
+      "(air_lens_bare=True), as a prior; air_detections a list, one per camera, of the detections of images in air "
+      "through its port (the housing on), adjusted with the rig. "
       "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}}.");
 
   m.def(

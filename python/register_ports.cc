@@ -7,6 +7,7 @@
 #include "porthole/core/field_names.h"
 #include "porthole/io/presets.h"
 #include "porthole/optics/batch.h"
+#include "porthole/ports/describe.h"
 #include "porthole/ports/environment.h"
 #include "porthole/ports/virtual_image.h"
 #include "register.h"
@@ -100,6 +101,10 @@ void RegisterPorts(py::module_& m) {
       .def_property_readonly("_type", [](const ports::PortSystem& s) { return std::string(s.spec.KindName()); })
       .def_property_readonly("is_central", [](const ports::PortSystem& s) { return s.IsCentral(); })
       .def_property_readonly("outer_vertex_z_mm", &ports::PortSystem::OuterVertexZ)
+      .def(
+          "describe", [](const ports::PortSystem& s) { return JsonToPython(ports::PortJson(s)); },
+          "The port as the CLI's JSON gives it (its `port` block of `porthole virtual-image --json`): name, type, "
+          "material, glass_index, the shape's fields (housing frame, mm), outer_vertex_z_mm.")
       .def(
           "virtual_image",
           [](const ports::PortSystem& s, double wd_mm) { return ToDict(ports::ParaxialVirtualImage(s, wd_mm)); },

@@ -283,7 +283,6 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
   }
   const std::vector<std::string>& sources = from_images ? o.image_dirs : o.detection_paths;
   const std::pair<const char*, bool> not_in_rig[] = {
-      {"--air-images", !o.air_images.empty()}, {"--air-detections", !o.air_detections.empty()},
       {"--ep", !o.port.ep.empty()}, {"--intrinsics", !o.intrinsics.empty()}, {"--port-out", !o.port_out.empty()},
       {"--free-water-index", o.free_water_index}, {"--free-shell", o.free_shell}, {"--port-sigma", !o.port_sigma.empty()},
       {"--free-target", o.calib.target_free}, {"--opencv-yaml", !o.yaml.empty()}, {"--field-out", !o.field_out.empty()},
@@ -437,6 +436,33 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
     calib::KeepTargetPoints(target, &dets, say);
     per_camera.push_back(std::move(dets));
   }
+  // Air images through each camera's port (the housing on): --air-images or --air-detections, a
+  // comma list in rig order.
+  const bool air_from_images = !o.air_images.empty();
+  const char* air_flag = air_from_images ? "--air-images" : "--air-detections";
+  if (!o.air_images.empty() || !o.air_detections.empty()) {
+    if (ro.ports.empty()) throw InvalidInput(air_flag, "only with --port (images in air through the ports)");
+    const std::vector<std::string> air_sources = split(air_from_images ? o.air_images : o.air_detections);
+    if (static_cast<int>(air_sources.size()) != n) {
+      throw InvalidInput(air_flag, fmt::format("{} given for {} cameras: one set of air images per camera (a comma "
+                                               "list, in the order of the cameras)", air_sources.size(), n));
+    }
+    for (int k = 0; k < n; ++k) {
+      std::vector<calib::ImageDetections> dets;
+      if (air_from_images) {
+        const auto say_k = [say, name = ro.names[k]](const std::string& m) { say(name + " in air: " + m); };
+        auto source = calib::DetectSource(air_sources[k], target, o.frames, say_k, {}, "--air-images");
+        dets = std::move(source.run.detections);
+        for (auto& sk : source.run.skipped) skipped.push_back({air_sources[k] + ": " + sk.image, sk.reason});
+      } else {
+        calib::TargetSpec t = target;  // detections of another target are refused
+        dets = calib::LoadDetections(air_sources[k], "--air-detections", &t);
+      }
+      calib::KeepTargetPoints(target, &dets, say);
+      if (dets.empty()) throw InvalidInput(air_flag, air_sources[k] + ": no image in which the target was found");
+      ro.air_images.push_back(std::move(dets));
+    }
+  }
   const calib::RigResult r = calib::CalibrateRig(per_camera, target, ro);
   for (const auto& c : r.cameras) {
     camera::RequirePossibleResult(c.calibration.camera, c.calibration.rms_px, from_images ? "--images" : "--detections",
@@ -495,6 +521,10 @@ void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
                          c.port_predicted[i]);
       }
       t += "\n";
+    }
+    if (!c.air_images.empty()) {
+      t += fmt::format("air images: {} through the port in air, adjusted with the rig, RMS {:.4f} px\n",
+                       c.air_images.size(), c.air_rms_px);
     }
   }
   t += "rig status: " + CliWords(r.message) + "\n" + stereo_note;
@@ -681,7 +711,8 @@ void RegisterCalibrate(CLI::App& app) {
   auto* air_det = cmd->add_option("--air-detections", o->air_detections,
                                   "Detections of the same target in air through the same port (the housing on, "
                                   "the focus unchanged: the paper's protocol): adjusted with the water images, "
-                                  "the air ones modelled through the port in air; one lens, one port")
+                                  "the air ones modelled through the port in air; one lens, one port. A rig: a "
+                                  "comma list, one per camera")
                       ->group(group);
   auto* air_img = cmd->add_option("--air-images", o->air_images,
                                   "As --air-detections, from a directory of air images, one image or a video (the target detected here)")

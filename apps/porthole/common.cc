@@ -81,47 +81,6 @@ Json Length(double mm) { return JsonLength<Json>(mm); }
 
 Json Vec3Json(const ports::Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
-Json DescribeSystem(const ports::PortSystem& sys, const ports::Environment& env) {
-  Json port = {{"name", sys.spec.name}, {"type", sys.spec.KindName()},
-               {"material", sys.spec.material()}, {"glass_index", sys.n_glass}};
-  if (sys.IsDome()) {
-    const auto& d = sys.dome();
-    port["outer"] = {{"center_mm", Vec3Json(d.outer.center_mm)}, {"radius_mm", d.outer.radius_mm}};
-    port["inner"] = {{"center_mm", Vec3Json(d.inner.center_mm)}, {"radius_mm", d.inner.radius_mm}};
-  } else if (sys.IsCylinder()) {
-    const auto& c = sys.cylinder();
-    port["axis_point_mm"] = Vec3Json(c.axis_point_mm);
-    port["axis"] = Vec3Json(c.axis);
-    port["inner_radius_mm"] = c.inner_radius_mm;
-    port["outer_radius_mm"] = c.outer_radius_mm;
-  } else {
-    const auto& f = sys.flat();
-    port["inner_point_mm"] = Vec3Json(f.inner_point_mm);
-    port["normal"] = Vec3Json(f.normal);
-    port["thickness_mm"] = f.thickness_mm;
-  }
-  port["outer_vertex_z_mm"] = sys.OuterVertexZ();
-  Json water = {{"model", env.water_index ? "constant" : env.water},
-                {"index", sys.n_water},
-                {"lambda_nm", env.conditions.lambda_nm},
-                {"temperature_c", env.conditions.temperature_c},
-                {"salinity_psu", env.conditions.salinity_psu},
-                {"pressure_dbar", env.conditions.pressure_dbar}};
-  return Json{{"port", port}, {"water", water}, {"ep_in_housing_mm", Vec3Json(sys.ep_in_housing_mm)},
-              {"is_central", sys.IsCentral()}};
-}
-
-std::string DescribeSystemLine(const ports::PortSystem& sys, const ports::Environment& env) {
-  const auto& ep = sys.ep_in_housing_mm;
-  const std::string water = env.water_index ? fmt::format("water n = {:.5f} (fixed)", sys.n_water)
-                                            : fmt::format("{} n = {:.5f} ({:g} degC, {:g} PSU, {:g} dbar)",
-                                                          env.water, sys.n_water, env.conditions.temperature_c,
-                                                          env.conditions.salinity_psu, env.conditions.pressure_dbar);
-  return fmt::format("port {} ({}, {} n = {:.5f}); {}; {:g} nm; entrance pupil ({:g}, {:g}, {:g}) mm",
-                     sys.spec.name, sys.spec.KindName(), sys.spec.material(), sys.n_glass, water,
-                     env.conditions.lambda_nm, ep.x(), ep.y(), ep.z());
-}
-
 std::vector<double> ParseLengthList(const std::vector<std::string>& items, const std::string& field) {
   std::vector<double> out;
   for (const std::string& s : items) {

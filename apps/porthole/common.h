@@ -14,6 +14,7 @@
 #include "porthole/core/output.h"
 #include "porthole/lens/lens.h"
 #include "porthole/ports/environment.h"
+#include "porthole/ports/describe.h"
 #include "porthole/ports/port.h"
 
 namespace porthole::cli {
@@ -47,9 +48,10 @@ struct PortOptions {
   std::optional<ports::Vec3> Ep() const;  // validates the three numbers
 };
 
-// Echo of the inputs for JSON outputs: the port, the pupil and the resolved indices.
-Json DescribeSystem(const ports::PortSystem& sys, const ports::Environment& env);
-std::string DescribeSystemLine(const ports::PortSystem& sys, const ports::Environment& env);
+// Echo of the inputs for JSON outputs: the port, the pupil and the resolved indices (the one port
+// JSON, ports/describe.h).
+using ports::DescribeSystem;
+using ports::DescribeSystemLine;
 
 // The CLI's words for the library's fields (core/field_names.h). The library names its fields
 // (`pixel_pitch_mm`, `images`), never a flag; the field is the flag of the command being run when

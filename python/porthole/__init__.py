@@ -161,6 +161,11 @@ class PortSystem:
                                  magnification=col(par, "magnification"),
                                  aperture_height_mm=float(aperture_height_mm), focal=self.focal())
 
+    def describe(self) -> dict:
+        """The port as `porthole virtual-image --json` gives it (its `port` block, the one port JSON):
+        name, type, material, glass_index, the shape's fields (housing frame, mm), outer_vertex_z_mm."""
+        return self._sys.describe()
+
     def trace_out(self, origins_mm, directions) -> TraceResult:
         """Traces (N, 3) rays from inside the housing out into the water (batched, all cores)."""
         return TraceResult(*self._sys.trace_out(np.asarray(origins_mm, float), np.asarray(directions, float)))
@@ -293,6 +298,9 @@ def calibrate_rig(cameras, target, **kwargs) -> "RigCalibration":
     if kwargs.get("air_calibration") is not None:
         air = kwargs["air_calibration"]
         kwargs["air_calibration"] = [_plain(a) for a in (air if isinstance(air, (list, tuple)) else [air])]
+    if kwargs.get("air_detections") is not None:
+        kwargs["air_detections"] = [_plain(c if isinstance(c, DetectionSet) else list(c))
+                                    for c in kwargs["air_detections"]]
     r = RigCalibration.from_dict(_porthole.calibrate_rig(plain, target, **kwargs))
     for cam in r.cameras:
         for text in cam.warnings:

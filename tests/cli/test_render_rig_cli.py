@@ -4,7 +4,7 @@ with one --images per camera, gives that cam_from_rig back -- two central OpenCV
 apart, 5 deg convergence, from a rig JSON), and the same rig with both cameras behind as-built NI320
 domes (the pupil 0.4, 1.0, 5.4 mm from the outer centre) with the bare lens's in-air calibration,
 rendered with --port none, as its prior, or each camera's calibration made in air with its housing on
-(the rig's own air set), taken as such. Each camera's truth is the same target pose seen through
+(the rig's own air set), taken as such, or that air set itself (--air-images). Each camera's truth is the same target pose seen through
 its cam_from_rig; every camera's folder holds the same frame names; bad rigs get one line, exit 2
 and no file."""
 import json
@@ -164,6 +164,27 @@ def test_a_rig_behind_as_built_domes_calibrates_back_with_its_ports(tmp_path):
     for p, c in zip(pupils3, rig3["rig"]["cameras"]):
         assert math.hypot(p[0] - 0.4, p[1] - 1.0) < 0.1 and abs(p[2] - 5.4) < 0.3
         assert c["port"]["air_calibration_taken_as"] == "through_port"
+    # The same air images given themselves (--air-images, one folder per camera in rig order): each
+    # camera's air set modelled through its own dome in air and adjusted with the rig.
+    air_dirs = ",".join(str(tmp_path / "rig" / "air" / f"cam{k}") for k in (0, 1))
+    rig4 = run("calibrate", "--images", tmp_path / "rig" / "water" / "cam0", "--images",
+               tmp_path / "rig" / "water" / "cam1", "--target", TARGET, "--pixel-pitch-mm", "0.029", "--port",
+               "nimar-ni320", "--air-images", air_dirs, "--json", "--quiet").json()
+    dt4, dr4, _ = rig_errors(rig4)
+    pupils4 = [[c["port"]["parameters"][k] for k in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
+               for c in rig4["rig"]["cameras"]]
+    print(f"dome rig with air images: translation {dt4:.4f} mm, rotation {dr4:.5f} deg; pupils {pupils4}")
+    assert dt4 < 0.2 and dr4 < 0.01
+    for p, c in zip(pupils4, rig4["rig"]["cameras"]):
+        assert math.hypot(p[0] - 0.4, p[1] - 1.0) < 0.1 and abs(p[2] - 5.4) < 0.3
+        assert c["port"]["air"]["n_images"] == 10 and c["port"]["air"]["rms_px"] < 0.15  # --set 10
+    # One air folder for two cameras, or air images without ports: one line, naming the flag.
+    water = ["calibrate", "--images", tmp_path / "rig" / "water" / "cam0", "--images", tmp_path / "rig" / "water" / "cam1",
+             "--target", TARGET, "--pixel-pitch-mm", "0.029", "--quiet"]
+    line = run_bad(*water, "--port", "nimar-ni320", "--air-images", tmp_path / "rig" / "air" / "cam0")
+    assert "--air-images" in line and "1 given for 2 cameras" in line, line
+    line = run_bad(*water, "--air-images", air_dirs)
+    assert "--air-images" in line and "--port" in line, line
     # A pair file for a rig of three cameras names the counts.
     line = run_bad("calibrate", *[a for k in (0, 1, 0) for a in ("--images", tmp_path / "rig" / "water" / f"cam{k}")],
                    "--target", TARGET, "--pixel-pitch-mm", "0.029", "--port", "nimar-ni320",

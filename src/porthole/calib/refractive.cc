@@ -1468,29 +1468,12 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
   // The shell as estimated, in the cam frame (what measure/ reads back to trace through the port).
   const Json estimated_shell = refraction::ShellToJson(refraction::WithShellValues(refraction::ShellOf(options.port), r.shell));
   for (const auto& [key, value] : estimated_shell.items()) shell[key] = value;
-  Json geometry = Json::object();
-  if (const auto* d = std::get_if<ports::DomePort>(&r.estimated_port.shape)) {
-    geometry = {{"frame", "housing"},
-                {"outer_center_mm", {d->outer.center_mm.x(), d->outer.center_mm.y(), d->outer.center_mm.z()}},
-                {"inner_center_mm", {d->inner.center_mm.x(), d->inner.center_mm.y(), d->inner.center_mm.z()}},
-                {"entrance_pupil_mm", {r.estimated_port.default_ep_in_housing_mm.x(),
-                                       r.estimated_port.default_ep_in_housing_mm.y(),
-                                       r.estimated_port.default_ep_in_housing_mm.z()}}};
-  } else if (const auto* c = std::get_if<ports::CylinderPort>(&r.estimated_port.shape)) {
-    geometry = {{"frame", "housing"},
-                {"axis_point_mm", {c->axis_point_mm.x(), c->axis_point_mm.y(), c->axis_point_mm.z()}},
-                {"axis", {c->axis.x(), c->axis.y(), c->axis.z()}},
-                {"entrance_pupil_mm", {r.estimated_port.default_ep_in_housing_mm.x(),
-                                       r.estimated_port.default_ep_in_housing_mm.y(),
-                                       r.estimated_port.default_ep_in_housing_mm.z()}}};
-  } else {
-    const auto& f = std::get<ports::FlatPort>(r.estimated_port.shape);
-    geometry = {{"frame", "housing"},
-                {"normal", {f.normal.x(), f.normal.y(), f.normal.z()}},
-                {"inner_point_mm", {f.inner_point_mm.x(), f.inner_point_mm.y(), f.inner_point_mm.z()}},
-                {"thickness_mm", f.thickness_mm},
-                {"normal_from_predicted_deg", num(r.normal_tilt_from_predicted_deg)}};
-  }
+  // The estimated port in the housing frame: the one port JSON's shape fields (ports/describe.h).
+  Json geometry = {{"frame", "housing"}};
+  geometry.update(std::visit([](const auto& shape) { return shape.GeometryJson(); }, r.estimated_port.shape));
+  const Eigen::Vector3d& ep = r.estimated_port.default_ep_in_housing_mm;
+  geometry["entrance_pupil_mm"] = {ep.x(), ep.y(), ep.z()};
+  if (r.estimated_port.IsFlat()) geometry["normal_from_predicted_deg"] = num(r.normal_tilt_from_predicted_deg);
   const CentralPrediction& cp = r.central_prediction;
   Json central = {{"available", cp.available}};
   if (cp.available) {

@@ -131,6 +131,7 @@ struct Cam {
   Eigen::VectorXd prior_b;
   // An in-air calibration made through its port: the prior on the lens and the port (housed_prior.h).
   std::optional<HousedPrior> housed;
+  std::optional<refraction::Shell> air_shell;  // behind a port with air images: the shell with air outside
   CalibrationResult alone;    // its own calibration (the start)
   const CalibrationOptions* options = nullptr;
   std::string name;
@@ -140,6 +141,16 @@ struct Obs {
   int cam = 0, frame = 0, point = 0, image = 0;  // image: index in the camera's detections
   double u_px = 0, v_px = 0;
   bool active = true;
+  // An air image's observation (RigOptions::air_images): `frame` indexes the air images, `image`
+  // the camera's air detections.
+  bool air = false;
+};
+
+// An image taken in air through a camera's port (RigOptions::air_images): its own pose.
+struct AirImage {
+  int cam = 0;
+  std::string image;
+  Pose6 pose{};  // cam_from_target
 };
 
 std::vector<double> Scales(const camera::Camera& c) {
@@ -151,14 +162,16 @@ std::vector<double> Scales(const camera::Camera& c) {
 }
 
 // The residual (px) of one observation at the current estimate; nullopt where it cannot project.
+// An air image's observation: through the air shell, `frame` its own cam_from_target.
 std::optional<Eigen::Vector2d> Residual(const Cam& c, int cam_index, const Pose6& frame, const Eigen::Vector3d& x,
                                         const Obs& ob) {
   return camera::VisitModel(c.camera.model, [&](auto m) -> std::optional<Eigen::Vector2d> {
     using M = decltype(m);
-    RigResidual<M> f{ob.u_px, ob.v_px, c.camera.sensor, {}, x, c.shell ? &*c.shell : nullptr};
+    const refraction::Shell* shell = ob.air ? &*c.air_shell : c.shell ? &*c.shell : nullptr;
+    RigResidual<M> f{ob.u_px, ob.v_px, c.camera.sensor, {}, x, shell};
     std::copy(c.scale.begin(), c.scale.end(), f.scale.begin());
     double r[2];
-    const bool ok = f.Evaluate(c.scaled.data(), c.port.data(), cam_index == 0 ? nullptr : c.extrinsic.data(),
+    const bool ok = f.Evaluate(c.scaled.data(), c.port.data(), cam_index == 0 || ob.air ? nullptr : c.extrinsic.data(),
                                frame.data(), r);
     if (!ok) return std::nullopt;
     return Eigen::Vector2d(r[0], r[1]);
@@ -207,6 +220,18 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     throw InvalidInput("air_lens", fmt::format("{} in-air calibrations for {} cameras: one per camera", n_air, n_cams));
   }
   if (n_air > 0 && n_ports == 0) throw InvalidInput("air_lens", "a prior on the lens behind a port: give the ports");
+  const int n_air_sets = static_cast<int>(options.air_images.size());
+  if (n_air_sets != 0 && n_air_sets != n_cams) {
+    throw InvalidInput("air_images", fmt::format("{} given for {} cameras: one list of air images per camera",
+                                                 n_air_sets, n_cams));
+  }
+  if (n_air_sets > 0 && n_ports == 0) {
+    throw InvalidInput("air_images", "images in air through the ports: give the ports");
+  }
+  if (n_air_sets > 0 && n_air > 0) {
+    throw InvalidInput("air_images", "not with `air_calibration`: the lenses come from the air images adjusted with "
+                                     "the water ones; give one of them");
+  }
 
   // Frames by name; each camera's own calibration (the start).
   std::map<std::string, int> frame_index;
@@ -220,6 +245,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   }
   const int n_frames = static_cast<int>(res.frames.size());
   std::vector<Cam> cams(n_cams);
+  std::vector<AirImage> air_images;  // every camera's air images (RigOptions::air_images), in order
   // Per camera: frame → the pose of its own calibration (cam_from_target), for the start.
   std::vector<std::map<int, Rt>> seen(n_cams);
   for (int k = 0; k < n_cams; ++k) {
@@ -248,10 +274,18 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
         ro.air_of = options.air_of;
         ro.intrinsics = IntrinsicsMode::kPrior;
       }
+      if (n_air_sets > 0) ro.air_detections = options.air_images[k];
       const RefractiveResult alone = CalibrateRefractive(per_camera[k], target, ro);
       c.alone = alone.lens;
       c.system = ro.port;
       c.shell = refraction::ShellOf(ro.port);
+      if (!alone.air_images.empty()) {  // its air images, at the poses of its own calibration
+        c.air_shell = *c.shell;
+        c.air_shell->n_water = 1;
+        for (const ImageResult& im : alone.air_images) {
+          air_images.push_back({k, im.image, ToPose(ToRt(im.rotation_rad, im.translation_mm))});
+        }
+      }
       c.port = alone.port;
       c.predicted = refraction::ParamsOf(ro.port);
     } else {
@@ -361,6 +395,24 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       }
     }
   }
+  // The air images' observations (the images their cameras' own calibrations kept).
+  for (std::size_t a = 0; a < air_images.size(); ++a) {
+    const int k = air_images[a].cam;
+    const auto& set = options.air_images[k];
+    for (std::size_t i = 0; i < set.size(); ++i) {
+      const ImageDetections& d = set[i];
+      if (d.image != air_images[a].image) continue;
+      for (std::size_t p = 0; p < d.ids.size(); ++p) {
+        if (d.ids[p] < 0 || d.ids[p] >= static_cast<int>(points.size())) continue;
+        obs.push_back({k, static_cast<int>(a), d.ids[p], static_cast<int>(i), d.points_px[p].x(), d.points_px[p].y(),
+                       true, true});
+      }
+    }
+  }
+  // The pose an observation is seen at: its frame's rig_from_target, or its air image's cam_from_target.
+  const auto pose_of = [&](const Obs& ob) -> Pose6& {
+    return ob.air ? air_images[ob.frame].pose : frame_pose[ob.frame];
+  };
   for (auto& c : cams) {
     c.scaled.resize(c.scale.size());
     for (std::size_t i = 0; i < c.scale.size(); ++i) c.scaled[i] = c.camera.params[i] / c.scale[i];
@@ -412,8 +464,14 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
           std::copy(c.scale.begin(), c.scale.end(), f->scale.begin());
           return f;
         };
-        double* frame = frame_pose[ob.frame].data();
-        if (c.shell && ob.cam == 0) {
+        double* frame = pose_of(ob).data();
+        if (ob.air) {
+          RigResidual<M> in_air = base;
+          in_air.shell = &*c.air_shell;
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigPortCost<M>, 2, N, P, 6>(
+                                        with_scale(new RigPortCost<M>{in_air})),
+                                    nullptr, c.scaled.data(), c.port.data(), frame);
+        } else if (c.shell && ob.cam == 0) {
           problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigPortCost<M>, 2, N, P, 6>(
                                         with_scale(new RigPortCost<M>{base})),
                                     nullptr, c.scaled.data(), c.port.data(), frame);
@@ -468,6 +526,9 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     for (auto& pose : frame_pose) {
       if (problem.HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), 0);
     }
+    for (auto& a : air_images) {
+      if (problem.HasParameterBlock(a.pose.data())) ordering->AddElementToGroup(a.pose.data(), 0);
+    }
     for (int k = 0; k < n_cams; ++k) {
       if (problem.HasParameterBlock(cams[k].scaled.data())) ordering->AddElementToGroup(cams[k].scaled.data(), 1);
       if (k > 0 && problem.HasParameterBlock(cams[k].extrinsic.data())) {
@@ -495,17 +556,26 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   int n_used_frames = 0;
   {
     std::set<int> used;
-    for (const Obs& ob : obs) used.insert(ob.frame);
+    for (const Obs& ob : obs) {
+      if (!ob.air) used.insert(ob.frame);
+    }
     n_used_frames = static_cast<int>(used.size());
   }
   n_unknowns += 6 * n_used_frames;
+  {
+    std::set<int> used;
+    for (const Obs& ob : obs) {
+      if (ob.air) used.insert(ob.frame);
+    }
+    n_unknowns += 6 * static_cast<int>(used.size());
+  }
   double ss = 0;
   int n_active = 0;
   const auto sum_squares = [&] {
     ss = 0, n_active = 0;
     for (const Obs& ob : obs) {
       if (!ob.active) continue;
-      const auto r = Residual(cams[ob.cam], ob.cam, frame_pose[ob.frame], points[ob.point], ob);
+      const auto r = Residual(cams[ob.cam], ob.cam, pose_of(ob), points[ob.point], ob);
       ss += r ? r->squaredNorm() : 0;
       ++n_active;
     }
@@ -523,7 +593,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     int rejected = 0;
     for (Obs& ob : obs) {
       if (!ob.active) continue;
-      const auto r = Residual(cams[ob.cam], ob.cam, frame_pose[ob.frame], points[ob.point], ob);
+      const auto r = Residual(cams[ob.cam], ob.cam, pose_of(ob), points[ob.point], ob);
       if (!r || r->norm() > first.reject_k * sigma0) ob.active = false, ++rejected;
     }
     if (rejected == 0) break;
@@ -683,14 +753,22 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     std::map<int, std::pair<double, int>> per_image;  // image index → (Σ|r|², n)
     std::map<int, int> rejected_in;
     double cam_ss = 0;
+    std::map<int, std::pair<double, int>> per_air;  // air image index → (Σ|r|², n)
     for (const Obs& ob : obs) {
       if (ob.cam != k) continue;
+      if (ob.air) {
+        if (!ob.active) continue;
+        const auto r = Residual(c, k, pose_of(ob), points[ob.point], ob);
+        per_air[ob.frame].first += r ? r->squaredNorm() : 0;
+        ++per_air[ob.frame].second;
+        continue;
+      }
       if (!ob.active) {
         ++rejected_in[ob.image];
         ++cr.n_rejected;
         continue;
       }
-      const auto r = Residual(c, k, frame_pose[ob.frame], points[ob.point], ob);
+      const auto r = Residual(c, k, pose_of(ob), points[ob.point], ob);
       const double r2 = r ? r->squaredNorm() : 0;
       per_image[ob.image].first += r2;
       ++per_image[ob.image].second;
@@ -713,6 +791,20 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     }
     cr.n_images = static_cast<int>(cr.images.size());
     rc.n_frames = cr.n_images;
+    double air_ss = 0;
+    int air_n = 0;
+    for (const auto& [a, sn] : per_air) {
+      ImageResult im;
+      im.image = air_images[a].image;
+      im.n_points = sn.second;
+      im.rms_px = std::sqrt(sn.first / sn.second);
+      const Pose6& p = air_images[a].pose;
+      im.rotation_rad = Eigen::Vector3d(p[0], p[1], p[2]);
+      im.translation_mm = Eigen::Vector3d(p[3], p[4], p[5]);
+      rc.air_images.push_back(im);
+      air_ss += sn.first, air_n += sn.second;
+    }
+    if (air_n > 0) rc.air_rms_px = std::sqrt(air_ss / air_n);
     const std::string poor = PoorFitStatus(cr.rms_px);
     cr.message = poor.empty() ? "ok" : poor;
     if (k > 0) {
@@ -813,6 +905,12 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
                      {"sigma", sigma},
                      {"predicted", predicted},
                      {"shell", refraction::ShellToJson(c.shell)}};
+      if (!c.air_images.empty()) {  // its air images through the port (RigOptions::air_images)
+        out["port"]["air"] = {{"lens_from", "air and water images through the port, adjusted with the rig"},
+                              {"n_images", c.air_images.size()},
+                              {"rms_px", num(c.air_rms_px)},
+                              {"images", ImagesJson(c.air_images)}};
+      }
       if (!options.air_lens.empty()) {  // what its in-air calibration was taken as (RigOptions::air_of)
         out["port"]["air_calibration_taken_as"] =
             options.air_of == RefractiveOptions::AirCalibrationOf::kThroughPort ? "through_port" : "lens_bare";

@@ -69,6 +69,11 @@ struct RigOptions {
   // undetermined (it trades with the focal length and the cameras' positions).
   std::vector<CalibrationRecord> air_lens;
   RefractiveOptions::AirCalibrationOf air_of = RefractiveOptions::AirCalibrationOf::kThroughPort;
+  // With ports: images of the target taken in air through each camera's own port (the housing on,
+  // the focus unchanged; the paper's protocol, RefractiveOptions::air_detections): one list per
+  // camera (a list may be empty), each image its own pose (not synchronised), modelled as the
+  // camera's lens behind its port with air outside and adjusted with the rig. Not with air_lens.
+  std::vector<std::vector<ImageDetections>> air_images;
   // Each camera's start behind its port searches the axial port parameter (RefractiveOptions::search);
   // off when the predicted ports are known to be close (Monte-Carlo runs).
   bool port_search = true;
@@ -96,6 +101,10 @@ struct RigCamera {
   std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, port_predicted{};
   ports::PortSpec estimated_port;
   refraction::Shell shell;  // its fixed part (radii, thickness, indices), cam-frame axes
+  // Its air images (RigOptions::air_images): each one's RMS and cam_from_target, and their RMS
+  // (NaN without).
+  std::vector<ImageResult> air_images;
+  double air_rms_px = NAN;
 };
 
 struct RigResult {

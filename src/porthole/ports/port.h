@@ -6,6 +6,7 @@
 // the latter describes an ideal port "centred on the pupil" whatever the lens.
 #pragma once
 
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -24,7 +25,8 @@ using optics::Vec3;
 // naming `where`.<key>); Translate(by) (a cam-frame description moved to the housing frame);
 // RequirePupilInside(ep) (InvalidInput "entrance_pupil_mm" unless the pupil is inside);
 // Outward(n_glass, n_water) (its two surfaces for a ray leaving the camera); InsideOuterSurface(p);
-// VertexZ(ep, of_outer) (where the axis {ep + s ẑ} meets its outer or inner surface).
+// VertexZ(ep, of_outer) (where the axis {ep + s ẑ} meets its outer or inner surface);
+// GeometryJson() (its fields as JSON, mm: the one port JSON of describe.h).
 struct SphereSpec {
   Vec3 center_mm = Vec3::Zero();
   double radius_mm = 0;
@@ -46,6 +48,7 @@ struct DomePort {
   std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
+  nlohmann::ordered_json GeometryJson() const;
   // Both centres at `ep` within tol_mm: rays from it go straight through.
   bool CentralAt(const Vec3& ep, double tol_mm) const;
 };
@@ -66,6 +69,7 @@ struct FlatPort {
   std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
+  nlohmann::ordered_json GeometryJson() const;
 };
 
 // A cylindrical port: glass between two coaxial circular cylinders whose axis crosses the optical
@@ -88,6 +92,7 @@ struct CylinderPort {
   std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
+  nlohmann::ordered_json GeometryJson() const;
 };
 
 // The axis of a cylinder in the sense the port parameters use: unit, +Y half (+X where y = 0).
