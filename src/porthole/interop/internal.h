@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <initializer_list>
 #include <string>
@@ -32,8 +33,8 @@ struct ReadArgs {
   int camera_id = 0;            // COLMAP: the camera of a file holding several (0: the only one)
   std::string origin;           // porthole JSON: the file naming the line of a bad value ("file:N:")
 };
-// A reader returns the calibration with its σ where the format holds one, else WithoutSigma's
-// (unknown); ReadCalibration validates what it returns.
+// A reader returns the calibration with its σ where the format holds one, else NoSigmaRecord's
+// (unknown); ReadCalibration validates what it returns (unless the list says the reader does).
 using Reader = ReadResult (*)(const std::string& content, const ReadArgs& args);
 // A writer gets a valid calibration (WriteCalibration checked it).
 using Writer = WriteResult (*)(const calib::CalibrationRecord& cal, Format format, const std::string& field,
@@ -79,6 +80,15 @@ inline camera::Camera OpenCVCamera(const camera::Sensor& s, std::initializer_lis
 
 // 17 significant digits: reads back exactly.
 inline std::string Num(double v) { return fmt::format("{:.17g}", v); }
+// The shortest text that reads back exactly (calibmar's and the port TOML's numbers).
+inline std::string ShortNum(double v) { return fmt::format("{}", v); }
+
+// Refractive COLMAP's housing parameters in its order (interop.h's RefractiveHousing), as calibmar
+// names them in its comment line.
+inline constexpr std::array<std::string_view, 8> kFlatPortNames = {"Nx", "Ny", "Nz", "int_dist", "int_thick",
+                                                                   "na", "ng", "nw"};
+inline constexpr std::array<std::string_view, 8> kDomePortNames = {"Cx", "Cy", "Cz", "int_radius", "int_thick",
+                                                                   "na", "ng", "nw"};
 
 // What a format without σ gives: WithoutSigma with the note "σ unknown: <format> holds none".
 calib::CalibrationRecord NoSigmaRecord(const camera::Camera& cam, Format format);

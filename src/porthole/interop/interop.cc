@@ -30,9 +30,12 @@ struct FormatEntry {
   std::array<std::string_view, 2> extensions;  // lower case, with the dot; empty: none
   detail::Reader read;
   detail::Writer write;
+  // The reader validates the calibration itself (porthole JSON: CalibrationFromJson, naming the
+  // line of the offending key), so ReadCalibration does not again.
+  bool reader_validates = false;
 };
 constexpr std::array<FormatEntry, 8> kFormats = {{
-    {Format::kJson, "json", {".json"}, detail::ReadPortholeJson, detail::WritePortholeJson},
+    {Format::kJson, "json", {".json"}, detail::ReadPortholeJson, detail::WritePortholeJson, true},
     {Format::kOpenCVYaml, "opencv-yaml", {".yml", ".yaml"}, detail::ReadOpenCVStorageFile,
      detail::WriteOpenCVStorageFile},
     {Format::kOpenCVXml, "opencv-xml", {}, detail::ReadOpenCVStorageFile, detail::WriteOpenCVStorageFile},
@@ -68,10 +71,10 @@ std::optional<Format> FormatOfExtension(const std::string& ext) {
 ReadResult ReadCalibrationFrom(const std::string& content, Format format, double pixel_pitch_mm,
                                const std::string& field, int camera_id, const std::string& origin) {
   RequirePositive("pixel_pitch_mm", pixel_pitch_mm);
-  ReadResult r = Entry(format).read(content, {format, pixel_pitch_mm, field, camera_id, origin});
-  // The one validation of what was read (a JSON calibration had it in CalibrationFromJson, with
-  // the line of the offending key; this second look at the same camera passes).
-  camera::ValidateCalibration(r.camera(), field);
+  const FormatEntry& entry = Entry(format);
+  ReadResult r = entry.read(content, {format, pixel_pitch_mm, field, camera_id, origin});
+  // The one validation of what was read.
+  if (!entry.reader_validates) camera::ValidateCalibration(r.camera(), field);
   return r;
 }
 
