@@ -267,7 +267,7 @@ put("yaml", "fisheye-kd.yml", kd)
 put("yaml", "fisheye-contradiction.yml", kd + b"fisheye_model: 1\ndistortion_model: plumb_bob\n")
 mutants("yaml", "fisheye", ".yml", kd, 10)
 
-# --- COLMAP cameras.txt, several cameras and refractive COLMAP's housing (interop/interop.cc) -----------
+# --- COLMAP cameras.txt, several cameras and refractive COLMAP's housing (interop/colmap.cc) -------------
 ct = (b"# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
       b"1 OPENCV 1920 1080 1500.5 1501.25 960.5 540.5 -0.1 0.05 0.0001 -0.0002 DOMEPORT 0.002 -0.001 0.003 0.1 "
       b"0.008 1 1.5 1.334\n")

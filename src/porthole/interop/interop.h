@@ -1,5 +1,8 @@
 // Calibration files of the tools users already have, read into and written from a camera of the
-// closed model list (camera/camera.h). docs/interop.md gives every mapping with its source.
+// closed model list (camera/camera.h). docs/interop.md gives every mapping with its source. Each
+// format is one .cc of interop/ (porthole_json.cc, opencv_storage.cc, colmap.cc, mrcal.cc,
+// metashape.cc, calibmar.cc) and one row of the format list in interop.cc, which also detects and
+// dispatches; the conversions between models (ConvertCalibration) are refit.cc.
 //
 //   format        file                         models (porthole ← → format)
 //   json          porthole calibration JSON    every model (calib/result_json.h)

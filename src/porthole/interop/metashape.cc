@@ -1,16 +1,25 @@
+// Agisoft Metashape / PhotoScan calibration XML (metashape.h gives the camera model from the
+// Metashape Professional 1.5 manual, Appendix C; docs/interop.md, "Metashape"): the reader and
+// writer, and the format metashape of interop.h's list (frame ↔ opencv, fisheye ↔ kannala-brandt,
+// exact or refit over the image, σ carried through its <covariance>).
 #include "porthole/interop/metashape.h"
 
 #include <fmt/format.h>
 
 #include <sstream>
 
+#include "porthole/camera/validate.h"
 #include "porthole/core/error.h"
+#include "porthole/interop/interop.h"
+#include "porthole/interop/internal.h"
+#include "porthole/interop/refit.h"
 #include "porthole/interop/xml.h"
 #include "porthole/interop/text.h"
 
 namespace porthole::interop {
 namespace {
 
+using detail::Num;
 
 double Number(const std::string& text, const std::string& field) {
   const std::string s = Trim(text);
@@ -36,8 +45,6 @@ int IndexOf(std::string_view name) {
   }
   return -1;
 }
-
-std::string Num(double v) { return fmt::format("{:.17g}", v); }
 
 }  // namespace
 
@@ -188,5 +195,138 @@ std::string MetashapeXml(const MetashapeCalibration& m) {
   out += "</calibration>\n";
   return out;
 }
+
+// ---- The format metashape of interop.h (the format list's reader and writer) ----
+
+namespace {
+
+using camera::Camera;
+using camera::CameraModelId;
+using OpenCV = camera::OpenCVModel;
+using KB = camera::KannalaBrandtModel;
+using detail::CarrySigma;
+using detail::ConvertTo;
+using detail::FreeFirst;
+using detail::NoRepresentation;
+using detail::OpenCVCamera;
+using detail::PixelCalibration;
+using detail::PixelSensor;
+using detail::ToPixelFamily;
+
+// A Metashape calibration read as porthole's opencv (frame) or kannala-brandt (fisheye) model:
+// exact without b2, k4, p3, p4 (frame) or b2, p1–p4 (fisheye), else refit over the image.
+ReadResult ReadMetashape(const std::string& text, double pitch_mm, const std::string& field) {
+  const MetashapeCalibration m = ParseMetashapeXml(text, field);
+  const auto s = PixelSensor(m.width_px, m.height_px, pitch_mm);
+  const auto& q = m.params;
+  const double fx = q[kMsF] + q[kMsB1], fy = q[kMsF];
+  const double cx = 0.5 * m.width_px - 0.5 + q[kMsCx], cy = 0.5 * m.height_px - 0.5 + q[kMsCy];
+  calib::CalibrationRecord in;
+  in.free.assign(kMetashapeNumParams, false);
+  const bool has_cov = m.covariance.size() > 0;
+  for (int i = 0; i < kMetashapeNumParams; ++i) in.free[i] = has_cov ? m.covariance(i, i) > 0 : m.present[i];
+  in.covariance = has_cov ? m.covariance
+                          : Eigen::MatrixXd::Constant(kMetashapeNumParams, kMetashapeNumParams, NAN);
+  in.has_covariance = has_cov;
+  in.covariance_note = has_cov ? "" : "σ unknown: the Metashape file has no <covariance>";
+  const std::vector<double> p(q.begin(), q.end());
+  const MetashapeProjector src{m.fisheye, m.width_px, m.height_px};
+  ReadResult r;
+  r.format = Format::kMetashape;
+  if (m.fisheye) {
+    r.format_model = "fisheye";
+    r.exact = q[kMsB2] == 0 && q[kMsP1] == 0 && q[kMsP2] == 0 && q[kMsP3] == 0 && q[kMsP4] == 0;
+    const Camera start{CameraModelId::kKannalaBrandt, s, {fx, fy, cx, cy, q[kMsK1], q[kMsK2], q[kMsK3], q[kMsK4]}};
+    camera::ValidateCamera(start, field);
+    r.calibration = ConvertTo<KB>(src, p, in.free, in.covariance, in, start,
+                                  FreeFirst(KB::kNumParams, KB::kNumParams), !r.exact, &r.fit);
+  } else {
+    r.format_model = m.photoscan_form ? "frame (PhotoScan fx, fy)" : "frame";
+    r.exact = q[kMsB2] == 0 && q[kMsK4] == 0 && q[kMsP3] == 0 && q[kMsP4] == 0;
+    // OpenCV's p1 is Metashape's P2 and its p2 Metashape's P1.
+    const Camera start = OpenCVCamera(s, {fx, fy, cx, cy, q[kMsK1], q[kMsK2], q[kMsP2], q[kMsP1], q[kMsK3]});
+    camera::ValidateCamera(start, field);
+    r.calibration = ConvertTo<OpenCV>(src, p, in.free, in.covariance, in, start,
+                                      FreeFirst(OpenCV::kNumParams, 9), !r.exact, &r.fit);
+  }
+  return r;
+}
+
+// The Metashape projector's parameters as a record (for CarrySigma's target side).
+MetashapeCalibration ToMetashape(const calib::CalibrationRecord& in, const std::string& field,
+                                 bool* exact, camera::ConversionFit* fit) {
+  const PixelCalibration pc = ToPixelFamily(in, field);
+  const Camera& c = pc.cal.camera;
+  *exact = pc.exact;
+  *fit = pc.fit;
+  MetashapeCalibration m;
+  m.width_px = c.sensor.width_px;
+  m.height_px = c.sensor.height_px;
+  const auto& p = c.params;
+  std::vector<double> q(kMetashapeNumParams, 0.0);
+  std::vector<bool> free_q(kMetashapeNumParams, false);
+  bool refit_q = false;
+  if (c.model == CameraModelId::kKannalaBrandt) {
+    m.fisheye = true;
+    q = {p[KB::kFy], p[KB::kCx] + 0.5 - 0.5 * m.width_px, p[KB::kCy] + 0.5 - 0.5 * m.height_px,
+         p[KB::kFx] - p[KB::kFy], 0, p[KB::kK1], p[KB::kK2], p[KB::kK3], p[KB::kK4], 0, 0, 0, 0};
+    for (int i : {kMsF, kMsCx, kMsCy, kMsB1, kMsK1, kMsK2, kMsK3, kMsK4}) free_q[i] = true;
+  } else if (c.model == CameraModelId::kOpenCV) {
+    q = {p[OpenCV::kFy], p[OpenCV::kCx] + 0.5 - 0.5 * m.width_px, p[OpenCV::kCy] + 0.5 - 0.5 * m.height_px,
+         p[OpenCV::kFx] - p[OpenCV::kFy], 0, p[OpenCV::kK1], p[OpenCV::kK2], p[OpenCV::kK3], 0,
+         p[OpenCV::kP2], p[OpenCV::kP1], 0, 0};
+    for (int i : {kMsF, kMsCx, kMsCy, kMsB1, kMsK1, kMsK2, kMsK3, kMsP1, kMsP2}) free_q[i] = true;
+    // OpenCV's rational k4–k6 have no Metashape term: refit with Metashape's k4 free.
+    refit_q = p[OpenCV::kK4] != 0 || p[OpenCV::kK5] != 0 || p[OpenCV::kK6] != 0;
+    if (refit_q) free_q[kMsK4] = true;
+  } else {
+    NoRepresentation(in.camera, "Metashape", field, "Metashape's frame and fisheye models hold opencv and kannala-brandt");
+  }
+  const MetashapeProjector dst{m.fisheye, m.width_px, m.height_px};
+  const auto rays = refit::GridRays(c.sensor, [&](const Eigen::Vector2d& uv) { return c.Unproject(uv); });
+  calib::CalibrationRecord out;
+  camera::VisitModel(c.model, [&](auto model) {
+    using S = decltype(model);
+    if constexpr (S::kId == CameraModelId::kOpenCV || S::kId == CameraModelId::kKannalaBrandt) {
+      const refit::ListProjector<S> src{c.sensor};
+      if (refit_q) {
+        const refit::ProjectedRays data = refit::ProjectRays(src, p, rays);
+        const camera::ConversionFit f = refit::Fit(dst, &q, free_q, data.rays, data.px);
+        *exact = false;
+        *fit = f;
+        if (!(f.rms_px <= kMaxRefitRmsPx) || !(q[kMsF] > 0)) {
+          throw InvalidInput(field, fmt::format("the refit to Metashape's frame model misses the camera by RMS {:.3g} "
+                                                "px (f {:g} px): Metashape's model cannot hold this camera",
+                                                f.rms_px, q[kMsF]));
+        }
+      }
+      CarrySigma(src, p, pc.cal.free, pc.cal.covariance, dst, q, free_q, rays, &out);
+    }
+  });
+  std::copy(q.begin(), q.end(), m.params.begin());
+  for (int i = 0; i < kMetashapeNumParams; ++i) m.present[i] = out.free[i];
+  if (pc.cal.has_covariance && out.has_covariance) m.covariance = out.covariance;
+  return m;
+}
+
+}  // namespace
+
+namespace detail {
+
+ReadResult ReadMetashapeFile(const std::string& content, const ReadArgs& args) {
+  return ReadMetashape(content, args.pixel_pitch_mm, args.field);
+}
+
+WriteResult WriteMetashapeFile(const calib::CalibrationRecord& cal, Format /*format*/, const std::string& field,
+                               const WriteExtras& /*extras*/) {
+  WriteResult w;
+  const MetashapeCalibration m = ToMetashape(cal, field, &w.exact, &w.fit);
+  w.content = MetashapeXml(m);
+  w.format_model = m.fisheye ? "fisheye" : "frame";
+  w.sigma_written = m.covariance.size() > 0;
+  return w;
+}
+
+}  // namespace detail
 
 }  // namespace porthole::interop

@@ -1,3 +1,6 @@
+// OpenCV FileStorage calibration files, YAML and XML (opencv_storage.h gives the keys and OpenCV's
+// sources; docs/interop.md, "OpenCV FileStorage"): the reader and writer, and the formats
+// opencv-yaml and opencv-xml of interop.h's list (pinhole ↔ opencv, cv::fisheye ↔ kannala-brandt).
 #include "porthole/interop/opencv_storage.h"
 
 #include <fmt/format.h>
@@ -7,12 +10,17 @@
 #include <initializer_list>
 #include <optional>
 
+#include "porthole/camera/camera.h"
 #include "porthole/core/error.h"
+#include "porthole/interop/interop.h"
+#include "porthole/interop/internal.h"
 #include "porthole/interop/xml.h"
 #include "porthole/interop/text.h"
 
 namespace porthole::interop {
 namespace {
+
+using detail::Num;
 
 constexpr std::size_t kMaxNumbers = 20;  // a node porthole reads holds at most 14 (+ slack)
 
@@ -153,8 +161,6 @@ std::string XmlCommentText(std::string_view s) {
   if (!out.empty() && out.back() == '-') out += ' ';
   return out;
 }
-
-std::string Num(double v) { return fmt::format("{:.17g}", v); }
 
 }  // namespace
 
@@ -306,5 +312,87 @@ std::string OpenCVStereoText(const OpenCVStereo& s, bool xml, std::string_view c
   return fmt::format("%YAML:1.0\n---\n# {}\nimage_width: {}\nimage_height: {}\n{}", safe, s.first.width_px,
                      s.first.height_px, body);
 }
+
+// ---- The formats opencv-yaml and opencv-xml of interop.h (the format list's reader and writer) ----
+
+namespace {
+
+using camera::Camera;
+using camera::CameraModelId;
+using OpenCV = camera::OpenCVModel;
+using KB = camera::KannalaBrandtModel;
+
+ReadResult ReadOpenCVStorage(const std::string& text, Format format, double pitch_mm, const std::string& field) {
+  const OpenCVStorageCalibration c = ParseOpenCVStorage(text, format == Format::kOpenCVXml, field);
+  const auto& k = c.camera_matrix;
+  const auto& d = c.distortion;
+  const auto s = detail::PixelSensor(c.width_px, c.height_px, pitch_mm);
+  ReadResult r;
+  if (c.fisheye) {
+    r.calibration.camera = Camera{CameraModelId::kKannalaBrandt, s, {k[0], k[4], k[2], k[5], d[0], d[1], d[2], d[3]}};
+    r.format_model = "fisheye, 4 coefficients";
+  } else {
+    const auto at = [&](std::size_t i) { return i < d.size() ? d[i] : 0.0; };
+    r.calibration.camera = detail::OpenCVCamera(s, {k[0], k[4], k[2], k[5], at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)});
+    r.format_model = fmt::format("{} coefficients", d.size());
+  }
+  r.format = format;
+  return r;
+}
+
+// The camera as a FileStorage calibration: opencv with the fewest of 4, 5, 8 coefficients that hold
+// it exactly, kannala-brandt as cv::fisheye's 4.
+OpenCVStorageCalibration ToOpenCVStorage(const Camera& cam, const std::string& field) {
+  OpenCVStorageCalibration c;
+  c.width_px = cam.sensor.width_px;
+  c.height_px = cam.sensor.height_px;
+  const auto& p = cam.params;
+  const auto matrix = [&](double fx, double fy, double cx, double cy) {
+    c.camera_matrix = {fx, 0, cx, 0, fy, cy, 0, 0, 1};
+  };
+  if (cam.model == CameraModelId::kKannalaBrandt) {
+    c.fisheye = true;
+    matrix(p[KB::kFx], p[KB::kFy], p[KB::kCx], p[KB::kCy]);
+    c.distortion = {p[KB::kK1], p[KB::kK2], p[KB::kK3], p[KB::kK4]};
+    return c;
+  }
+  if (cam.model != CameraModelId::kOpenCV) {
+    detail::NoRepresentation(cam, "OpenCV FileStorage", field, "write opencv, brown (refit) or kannala-brandt (cv::fisheye)");
+  }
+  matrix(p[OpenCV::kFx], p[OpenCV::kFy], p[OpenCV::kCx], p[OpenCV::kCy]);
+  const bool rational = p[OpenCV::kK4] != 0 || p[OpenCV::kK5] != 0 || p[OpenCV::kK6] != 0;
+  const int n = rational ? 8 : p[OpenCV::kK3] != 0 ? 5 : 4;
+  c.distortion.assign(p.begin() + OpenCV::kK1, p.begin() + OpenCV::kK1 + n);
+  return c;
+}
+
+}  // namespace
+
+namespace detail {
+
+ReadResult ReadOpenCVStorageFile(const std::string& content, const ReadArgs& args) {
+  ReadResult r = ReadOpenCVStorage(content, args.format, args.pixel_pitch_mm, args.field);
+  r.calibration = NoSigmaRecord(r.camera(), args.format);
+  return r;
+}
+
+WriteResult WriteOpenCVStorageFile(const calib::CalibrationRecord& cal, Format format, const std::string& field,
+                                   const WriteExtras& /*extras*/) {
+  const PixelCalibration pc = ToPixelFamily(cal, field);  // Brown: refit to opencv
+  const Camera& cam = cal.camera;
+  WriteResult w;
+  w.exact = pc.exact;
+  w.fit = pc.fit;
+  const OpenCVStorageCalibration c = ToOpenCVStorage(pc.cal.camera, field);
+  const std::string how = pc.exact ? "exact" : fmt::format("refit from {}: RMS {:.4f} px, max {:.4f} px over the image",
+                                                           cam.model_name(), pc.fit.rms_px, pc.fit.max_px);
+  w.content = OpenCVStorageText(c, format == Format::kOpenCVXml,
+                                fmt::format("porthole calibration, {} ({})",
+                                            c.fisheye ? "cv::fisheye model" : "OpenCV pinhole model", how));
+  w.format_model = c.fisheye ? "fisheye, 4 coefficients" : fmt::format("{} coefficients", c.distortion.size());
+  return w;
+}
+
+}  // namespace detail
 
 }  // namespace porthole::interop

@@ -1,5 +1,6 @@
 // Dense refits between camera models and the covariance carried through a conversion
-// (docs/interop.md, "What is exact and what is refit"). A projector is any type with
+// (docs/interop.md, "What is exact and what is refit"); refit.cc builds interop.h's
+// ConvertCalibration on them, internal.h the formats' ConvertTo and CarrySigma. A projector is any type with
 //   static constexpr int kNumParams;
 //   template <typename T> std::optional<camera::Vec2<T>> operator()(const T* params, const camera::Vec3<T>& ray) const;
 // returning porthole pixels ((0, 0) the centre of the top-left pixel). Models of the camera list

@@ -13,7 +13,8 @@
 //  - calibmar's calibration.yaml: `model`, `parameters` (COLMAP's model and order, COLMAP's pixel
 //    convention), `non_svp_model` (NONE, FLATPORT, DOMEPORT), `non_svp_parameters`, `width`,
 //    `height`, and in comments `# params_est_std_dev:`, `# non_svp_est_std_dev:`,
-//    `# overall_rms:`, `# target:` (calibmar src/calibmar/core/report.cpp, GenerateCalibrationYaml).
+//    `# overall_rms:`, `# target:` (calibmar src/calibmar/core/report.cpp, GenerateCalibrationYaml);
+//    its reader and writer, and its σ ↔ covariance, are calibmar.cc (the format calibmar of interop.h).
 #pragma once
 
 #include <array>

@@ -46,6 +46,9 @@
 // back: R = R2ᵀR1 and T = R2ᵀ·(Tx/f', Ty/f', 0). A camera_info with R = I and P = [K|0] (a single
 // camera) holds no pose.
 //
+// Files: each format is one .cc of interop/ (rig_json.cc, rig_opencv.cc, rig_viame.cc, rig_ros.cc,
+// rig_kalibr.cc) and one row of the list in rig_files.cc, which also detects and dispatches.
+//
 // Untrusted input: the YAML reader is a bounded line scanner (nesting ≤ 16, ≤ 100 000 lines);
 // the npz through libzip with each member ≤ 1 MiB and at most 64 members. Errors are
 // InvalidInput("<field>: <key>", rule), one line.

@@ -1,4 +1,4 @@
-// COLMAP cameras.bin (interop/interop.cc ParseColmapBinary), every camera id the file may hold, read as every command reads a calibration: an InvalidInput is the answer to bad bytes.
+// COLMAP cameras.bin (interop/colmap.cc ParseColmapBinary), every camera id the file may hold, read as every command reads a calibration: an InvalidInput is the answer to bad bytes.
 #include <cstddef>
 #include <cstdint>
 #include <string>

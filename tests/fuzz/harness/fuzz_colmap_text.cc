@@ -1,4 +1,4 @@
-// COLMAP cameras.txt with refractive COLMAP's housing tokens (interop/interop.cc), read as every
+// COLMAP cameras.txt with refractive COLMAP's housing tokens (interop/colmap.cc), read as every
 // command reads it: each camera id the file holds, and the default (the only camera).
 #include <cstddef>
 #include <cstdint>

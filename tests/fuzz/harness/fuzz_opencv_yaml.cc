@@ -1,4 +1,4 @@
-// OpenCV calibration YAML (interop/interop.cc, the reader of every command).
+// OpenCV calibration YAML (interop/opencv_storage.cc, the reader of every command).
 #include <cstddef>
 #include <cstdint>
 #include <string>
