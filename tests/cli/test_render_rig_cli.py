@@ -58,6 +58,12 @@ def angle_deg(r_a, r_b):
     return math.degrees(math.acos(max(-1.0, min(1.0, (m[0][0] + m[1][1] + m[2][2] - 1) / 2))))
 
 
+def pupils_of(cal):
+    """Each camera's pupil in its dome (ep_in_dome x, y, z mm) from a rig calibration's JSON."""
+    return [[c["port"]["parameters"][k] for k in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
+            for c in cal["rig"]["cameras"]]
+
+
 def rig_errors(cal):
     c1 = cal["rig"]["cameras"][1]["cam_from_rig"]
     dt = math.dist(c1["translation_mm"], TRUE_T)
@@ -115,8 +121,7 @@ def test_a_rig_behind_as_built_domes_calibrates_back_with_its_ports(tmp_path):
         "--air-calibration", f"{lens},{lens}", "--air-lens-bare", "--out", cal, "--quiet")
     rig = json.loads(cal.read_text())
     dt, dr, _ = rig_errors(rig)
-    pupils = [[c["port"]["parameters"][k] for k in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
-              for c in rig["rig"]["cameras"]]
+    pupils = pupils_of(rig)
     print(f"dome rig: translation {dt:.4f} mm, rotation {dr:.5f} deg from the truth; pupils {pupils}")
     assert dt < 0.2 and dr < 0.01
     for p in pupils:
@@ -137,8 +142,7 @@ def test_a_rig_behind_as_built_domes_calibrates_back_with_its_ports(tmp_path):
         "--model", "opencv", "--air-calibration", pair, "--air-lens-bare", "--out", cal2, "--quiet")
     rig2 = json.loads(cal2.read_text())
     dt2, dr2, _ = rig_errors(rig2)
-    pupils2 = [[c["port"]["parameters"][k] for k in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
-               for c in rig2["rig"]["cameras"]]
+    pupils2 = pupils_of(rig2)
     print(f"dome rig, air lenses from the air pair's rig file: translation {dt2:.4f} mm, rotation {dr2:.5f} deg; pupils {pupils2}")
     assert dt2 < 0.2 and dr2 < 0.01
     for p, q in zip(pupils2, pupils):
@@ -157,8 +161,7 @@ def test_a_rig_behind_as_built_domes_calibrates_back_with_its_ports(tmp_path):
         "--air-calibration", f"{housed[0]},{housed[1]}", "--out", cal3, "--quiet")
     rig3 = json.loads(cal3.read_text())
     dt3, dr3, _ = rig_errors(rig3)
-    pupils3 = [[c["port"]["parameters"][k] for k in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
-               for c in rig3["rig"]["cameras"]]
+    pupils3 = pupils_of(rig3)
     print(f"dome rig, housed air calibrations: translation {dt3:.4f} mm, rotation {dr3:.5f} deg; pupils {pupils3}")
     assert dt3 < 0.2 and dr3 < 0.01
     for p, c in zip(pupils3, rig3["rig"]["cameras"]):
@@ -171,8 +174,7 @@ def test_a_rig_behind_as_built_domes_calibrates_back_with_its_ports(tmp_path):
                tmp_path / "rig" / "water" / "cam1", "--target", TARGET, "--pixel-pitch-mm", "0.029", "--port",
                "nimar-ni320", "--air-images", air_dirs, "--json", "--quiet").json()
     dt4, dr4, _ = rig_errors(rig4)
-    pupils4 = [[c["port"]["parameters"][k] for k in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
-               for c in rig4["rig"]["cameras"]]
+    pupils4 = pupils_of(rig4)
     print(f"dome rig with air images: translation {dt4:.4f} mm, rotation {dr4:.5f} deg; pupils {pupils4}")
     assert dt4 < 0.2 and dr4 < 0.01
     for p, c in zip(pupils4, rig4["rig"]["cameras"]):

@@ -31,6 +31,7 @@ using fixtures::AirViews;
 using fixtures::AsBuiltNi320;
 using fixtures::Displaced;
 using fixtures::ExactLens;
+using fixtures::RecordOf;
 using fixtures::Options;
 using fixtures::Print;
 using fixtures::TiltedFlat;
@@ -111,12 +112,7 @@ TEST(RefractiveCalibration, AirAndWaterImagesThroughThePortTogether) {
   // The housed air calibration: what a central calibration of the air images gives.
   CalibrationOptions co;
   co.pixel_pitch_mm = cam.sensor.pixel_pitch_mm;
-  const CalibrationResult housed = Calibrate(air, target, co);
-  CalibrationRecord rec;
-  rec.camera = housed.camera;
-  rec.free = housed.free;
-  rec.covariance = housed.covariance;
-  rec.has_covariance = true;
+  const CalibrationRecord rec = RecordOf(Calibrate(air, target, co));
   RefractiveOptions h = Options(Displaced(truth, {-0.4, -1.0, -5.4}), cam.sensor.pixel_pitch_mm);
   h.air = rec;
   h.intrinsics = IntrinsicsMode::kPrior;
@@ -210,13 +206,7 @@ TEST(RefractiveCalibration, HousedAirCalibrationSigmaMatchesMonteCarloSpread) {
   std::array<double, 4> sum{}, sum2{}, sigma{};
   double fit_rms = 0;
   for (int k = 0; k < runs; ++k) {
-    const CalibrationResult housed = Calibrate(AirViews(cam, truth, target, 5000 + k), target, co);
-    CalibrationRecord rec;
-    rec.camera = housed.camera;
-    rec.free = housed.free;
-    rec.covariance = housed.covariance;
-    rec.has_covariance = true;
-    o.air = rec;
+    o.air = RecordOf(Calibrate(AirViews(cam, truth, target, 5000 + k), target, co));
     const auto r = CalibrateRefractive(Views(cam, truth, target, 4000 + k), target, o);
     fit_rms = std::max(fit_rms, r.housed_fit_rms_px);
     for (int i = 0; i < 4; ++i) {

@@ -105,6 +105,16 @@ inline RefractiveOptions Options(const PortSystem& predicted, double pitch_mm) {
   return o;
 }
 
+// A calibration as the record a calibration file holds (its camera, free set and covariance).
+inline CalibrationRecord RecordOf(const CalibrationResult& r) {
+  CalibrationRecord rec;
+  rec.camera = r.camera;
+  rec.free = r.free;
+  rec.covariance = r.covariance;
+  rec.has_covariance = true;
+  return rec;
+}
+
 // The in-air calibration of the lens: 20 synthetic views of the target in air, σ noise_px (0.3 px).
 inline CalibrationRecord AirCalibration(const camera::Camera& cam, const TargetSpec& target,
                                         double noise_px = 0.3, uint64_t noise_seed = 22) {

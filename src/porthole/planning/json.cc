@@ -2,6 +2,7 @@
 
 #include "porthole/camera/projection.h"
 #include "porthole/core/json_length.h"
+#include "porthole/ports/describe.h"
 
 #include <algorithm>
 #include <cmath>
@@ -41,8 +42,7 @@ Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
                     {"min_focus_assumed", ln.min_focus_assumed}, {"pupil_estimated", ln.pupil_estimated},
                     {"projection", camera::ProjectionName(ln.projection)},
                     {"projection_estimated", ln.projection_estimated}}},
-          {"port", {{"name", sys.spec.name}, {"type", sys.spec.KindName()},
-                    {"glass_index", sys.n_glass}, {"outer_vertex_z_mm", sys.OuterVertexZ()}}},
+          {"port", ports::PortJson(sys)},  // the one port JSON (ports/describe.h)
           {"water", {{"index", sys.n_water}, {"lambda_nm", s.env.conditions.lambda_nm}}},
           {"ep_in_housing_mm", {sys.ep_in_housing_mm.x(), sys.ep_in_housing_mm.y(), sys.ep_in_housing_mm.z()}}};
 }
