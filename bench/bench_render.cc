@@ -17,7 +17,7 @@
 #include <opencv2/core.hpp>
 
 #include "porthole/calib/detect.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/optics/batch.h"
 #include "porthole/render/render.h"
 
@@ -33,9 +33,9 @@ double CpuSeconds() {
 
 render::Scene PaperFrame() {
   render::Scene s;
-  s.housed.camera = io::LoadCamera("nikon-d300");
-  s.housed.lens = io::LoadLens("nikkor-24mm-f2.8d");
-  s.housed.port = io::LoadPort("nimar-ni320");
+  s.housed.camera = catalogue::LoadCamera("nikon-d300");
+  s.housed.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
+  s.housed.port = catalogue::LoadPort("nimar-ni320");
   s.target = calib::ParseTarget("chessboard:9x6:60");
   s.pose = render::PoseFacing(s.target, 1200, {40, -30}, 20, -15, 8);
   return s;

@@ -3,7 +3,7 @@
 // Target < 0.2 s. Counters: the fit's residual RMS (µm) and c water/air is in docs/simulate.md.
 #include <benchmark/benchmark.h>
 
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/simulate/simulate.h"
 
 namespace {
@@ -12,9 +12,9 @@ using namespace porthole;
 
 void BM_SimulateFit50x50x3(benchmark::State& state) {
   simulate::SystemSpec spec;
-  spec.port = io::LoadPort("nimar-ni320");
-  spec.camera = io::LoadCamera("nikon-d300");
-  spec.lens = io::LoadLens("nikkor-24mm-f2.8d");
+  spec.port = catalogue::LoadPort("nimar-ni320");
+  spec.camera = catalogue::LoadCamera("nikon-d300");
+  spec.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
   const housing::FocusSetting focus = simulate::FocusUnderWater(spec);
   simulate::CameraSetup cam;
   cam.sensor = spec.camera.sensor;

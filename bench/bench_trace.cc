@@ -32,7 +32,7 @@
 #include <string>
 
 #include "peer.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/materials/materials.h"
 #include "porthole/optics/batch.h"
 #include "porthole/ports/port.h"
@@ -53,7 +53,7 @@ constexpr double kWaterIndex = 1.341;  // the paper's sea water
 
 const porthole::ports::PortSystem& Ni320() {
   static const porthole::ports::PortSystem s = [] {
-    const auto spec = porthole::io::LoadPort("nimar-ni320");
+    const auto spec = porthole::catalogue::LoadPort("nimar-ni320");
     return porthole::ports::Place(spec, spec.default_ep_in_housing_mm,
                                   porthole::materials::Index(spec.material()), kWaterIndex);
   }();

@@ -10,8 +10,8 @@
 #include "porthole/calib/result_json.h"
 #include "porthole/core/field_names.h"
 #include "porthole/interop/interop.h"
-#include "porthole/io/lookup.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/lookup.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/materials/materials.h"
 #include "porthole/planning/focus.h"
 #include "porthole/ports/environment.h"
@@ -65,16 +65,16 @@ inline ports::Environment MakeEnvironment(const std::string& water, std::optiona
 
 // The camera body and lens from the keyword arguments every planning binding accepts (presets,
 // files, then lensfun names; one place, as MakeEnvironment).
-inline io::CameraAndLens FindCameraAndLens(const std::string& camera, const std::string& lens,
+inline catalogue::CameraAndLens FindCameraAndLens(const std::string& camera, const std::string& lens,
                                            std::optional<double> pixel_pitch_mm,
-                                           std::optional<double> focal_mm, const io::LensData& lens_data = {}) {
-  io::CameraLensQuery q;
+                                           std::optional<double> focal_mm, const catalogue::LensData& lens_data = {}) {
+  catalogue::CameraLensQuery q;
   q.camera = camera;
   q.lens = lens;
   q.pixel_pitch_mm = pixel_pitch_mm;
   q.focal_length_mm = focal_mm;
   q.lens_data = lens_data;
-  return io::FindCameraAndLens(q);
+  return catalogue::FindCameraAndLens(q);
 }
 
 // The housed camera of plan, flat and report from their keyword arguments.
@@ -82,12 +82,12 @@ inline planning::Setup MakeSetup(const std::string& camera, const std::string& l
                                  const std::string& water, std::optional<double> water_index, double lambda_nm,
                                  double temperature_c, double salinity_psu, double pressure_dbar,
                                  std::optional<double> pixel_pitch_mm, std::optional<double> focal_mm,
-                                 const io::LensData& lens_data = {}) {
-  const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm, lens_data);
+                                 const catalogue::LensData& lens_data = {}) {
+  const catalogue::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm, lens_data);
   planning::Setup s;
   s.camera = cl.camera;
   s.lens = cl.lens;
-  s.port = io::LoadPort(port);
+  s.port = catalogue::LoadPort(port);
   s.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
                           pressure_dbar);
   return s;

@@ -400,7 +400,7 @@ void RegisterCalib(py::module_& m) {
               const ports::Environment env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c,
                                                              salinity_psu, pressure_dbar);
               for (const auto& p : list_of(port)) {
-                o.ports.push_back(ports::MakeSystem(io::LoadPort(p.cast<std::string>()), env, std::nullopt));
+                o.ports.push_back(ports::MakeSystem(catalogue::LoadPort(p.cast<std::string>()), env, std::nullopt));
               }
               const auto airs = list_of(air_calibration);
               o.air_of = air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare

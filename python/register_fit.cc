@@ -10,7 +10,7 @@
 #include "porthole/fit/assembly.h"
 #include "porthole/fit/dome.h"
 #include "porthole/fit/sphere_fit.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/pointcloud/pointcloud.h"
 #include "register.h"
 
@@ -165,7 +165,7 @@ void RegisterFit(py::module_& m) {
               }
               if (!lens.empty()) {
                 if (!focus_mm) throw InvalidInput("focus_mm", "required with lens (mm, math.inf allowed)");
-                in.pupil_to_flange_mm = io::LoadLens(lens).PupilToFlangeMm(*focus_mm);
+                in.pupil_to_flange_mm = catalogue::LoadLens(lens).PupilToFlangeMm(*focus_mm);
               } else {
                 in.pupil_to_flange_mm = *pupil_to_flange_mm;
               }

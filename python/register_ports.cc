@@ -5,7 +5,7 @@
 #include <limits>
 
 #include "porthole/core/field_names.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/optics/batch.h"
 #include "porthole/ports/describe.h"
 #include "porthole/ports/environment.h"
@@ -73,13 +73,13 @@ void RegisterPorts(py::module_& m) {
       .def_readonly("description", &ports::PortSpec::description, "What the port is, with its source.")
       .def_property_readonly("_type", [](const ports::PortSpec& p) { return std::string(p.KindName()); })
       .def_property_readonly("material", &ports::PortSpec::material, "The glass (a medium of media()).")
-      .def("to_toml", &io::PortToToml, "The port as a TOML file's text (the schema of docs/presets.md).")
+      .def("to_toml", &catalogue::PortToToml, "The port as a TOML file's text (the schema of docs/presets.md).")
       .def("__repr__", [](const ports::PortSpec& p) { return "<PortSpec " + p.name + ">"; });
 
   m.def(
       "load_port",
       [](const std::string& name_or_path) {
-        return WithFieldNames({{"port", "name_or_path"}}, [&] { return io::LoadPort(name_or_path); });
+        return WithFieldNames({{"port", "name_or_path"}}, [&] { return catalogue::LoadPort(name_or_path); });
       },
       py::arg("name_or_path"),
         "A built-in port preset by name (see presets()) or a port TOML file.");
@@ -87,8 +87,8 @@ void RegisterPorts(py::module_& m) {
       "presets",
       [] {
         py::list out;
-        for (const auto& p : io::BuiltinPresets()) {
-          out.append(py::make_tuple(std::string(p.kind), std::string(p.name), io::PresetDescription(p)));
+        for (const auto& p : catalogue::BuiltinPresets()) {
+          out.append(py::make_tuple(std::string(p.kind), std::string(p.name), catalogue::PresetDescription(p)));
         }
         return out;
       },

@@ -30,7 +30,7 @@ void RegisterReport(py::module_& m) {
           // Chosen to fit the camera, as the CLI does (a fixed-focus action camera behind a flat port gets a
           // dome it can focus through).
           in.other_port = WithFieldNames({{"port", "compare_port"}}, [&] {
-            return io::LoadPort(compare_port.empty() ? report::ChooseOtherPort(in.setup, subject_distance_mm).name
+            return catalogue::LoadPort(compare_port.empty() ? report::ChooseOtherPort(in.setup, subject_distance_mm).name
                                                      : compare_port);
           });
           in.subject_distance_mm = subject_distance_mm;

@@ -5,8 +5,8 @@
 
 #include "porthole/camera/json.h"
 #include "porthole/core/field_names.h"
-#include "porthole/io/lookup.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/lookup.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/simulate/report.h"
 #include "register.h"
 
@@ -25,9 +25,9 @@ void RegisterSimulate(py::module_& m) {
          const std::vector<double>& offsets_mm, bool with_map, std::optional<double> pixel_pitch_mm,
          std::optional<double> focal_mm, std::optional<double> min_focus_mm, std::optional<double> pupil_mm) {
         return WithFieldNames({{"subject_distance_mm", "focus_distance_mm"}, {"focal_length_mm", "focal_mm"}, {"port", "port"}}, [&] {
-        const io::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm, {min_focus_mm, pupil_mm});
+        const catalogue::CameraAndLens cl = FindCameraAndLens(camera, lens, pixel_pitch_mm, focal_mm, {min_focus_mm, pupil_mm});
         simulate::SystemSpec spec;
-        spec.port = io::LoadPort(port);
+        spec.port = catalogue::LoadPort(port);
         spec.camera = cl.camera;
         spec.lens = cl.lens;
         spec.env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c,

@@ -11,7 +11,7 @@
 #include "common.h"
 #include "porthole/core/field_names.h"
 #include "porthole/housing/housed.h"
-#include "porthole/io/lookup.h"
+#include "porthole/catalogue/lookup.h"
 
 namespace porthole::cli {
 
@@ -22,7 +22,7 @@ namespace porthole::cli {
       {"port", "--port"}, {"min_focus_mm", "--min-focus-mm"}, {"pupil_mm", "--pupil-mm"}
 
 struct CameraLensOptions {
-  io::CameraLensQuery query;
+  catalogue::CameraLensQuery query;
 
   void Add(CLI::App* cmd) {
     cmd->add_option("--camera", query.camera,
@@ -50,10 +50,10 @@ struct CameraLensOptions {
         ->group("Camera");
   }
   housing::HousedCamera ToHoused(const PortOptions& port, const WaterOptions& water) const {
-    const io::CameraAndLens cl = io::FindCameraAndLens(query);
+    const catalogue::CameraAndLens cl = catalogue::FindCameraAndLens(query);
     housing::HousedCamera s;
     s.camera = cl.camera;
-    const auto& pitch = query.pixel_pitch_mm;  // a preset body's other pitch: io::FindCamera
+    const auto& pitch = query.pixel_pitch_mm;  // a preset body's other pitch: catalogue::FindCamera
     s.lens = cl.lens;
     WarnIfImplausible(pitch ? "--pixel-pitch-mm" : query.camera + ": pixel_pitch_mm", s.camera.sensor.pixel_pitch_mm,
                       kPixelPitchRange);

@@ -8,7 +8,7 @@
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
 #include "porthole/fit/assembly.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
 namespace porthole::cli {
 namespace {
@@ -93,7 +93,7 @@ void RegisterAssemble(CLI::App& app) {
     if (!o->lens.empty()) {
       if (o->focus.empty()) throw InvalidInput("--focus", "required with --lens");
       focus_mm = ParseLengthList({o->focus}, "--focus")[0];
-      const lens::LensSpec spec = io::LoadLens(o->lens);
+      const lens::LensSpec spec = catalogue::LoadLens(o->lens);
       try {
         in.pupil_to_flange_mm = spec.PupilToFlangeMm(focus_mm);
       } catch (const InvalidInput& e) {  // the library names it "focus"
@@ -105,7 +105,7 @@ void RegisterAssemble(CLI::App& app) {
       throw InvalidInput("--lens", "give --lens NAME --focus MM, or --pupil-offset MM");
     }
     const fit::HousingAssembly a = fit::AssembleHousing(in);
-    const std::string toml = io::PortToToml(fit::AsBuiltPort(a, o->name, o->material));
+    const std::string toml = catalogue::PortToToml(fit::AsBuiltPort(a, o->name, o->material));
 
     Json j = fit::AssemblyToJson(a, in.pupil_to_flange_mm);
     j["lens"] = o->lens.empty() ? Json(nullptr) : Json(o->lens);

@@ -31,7 +31,7 @@
 #include "porthole/interop/interop.h"
 #include "porthole/interop/opencv_storage.h"
 #include "porthole/interop/rig_files.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
 namespace porthole::cli {
 namespace {

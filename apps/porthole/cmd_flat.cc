@@ -48,7 +48,7 @@ void RunFlat(const FlatCliOptions* o) {
   std::string t = fmt::format("{} + {} behind {} (water n = {:.4f}, glass n = {:.4f}), c = {:.2f} mm\n\n",
                               setup.camera.name, setup.lens.name, a.system.spec.name, a.n_water, a.n_glass,
                               a.principal_distance_mm);
-  t.insert(t.size() - 1, io::DescribeCameraAndLens(setup.camera, setup.lens));
+  t.insert(t.size() - 1, catalogue::DescribeCameraAndLens(setup.camera, setup.lens));
   t += fmt::format("{:<34} {:>7} {:>7} {:>7}\n", "field of view, deg", "horiz.", "vert.", "diag.");
   t += fmt::format("{:<34} {}\n", "in air", fov(a.air));
   t += fmt::format("{:<34} {}\n", "in water, thin port at the pupil", fov(a.water_thin));

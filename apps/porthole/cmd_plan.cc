@@ -51,7 +51,7 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
                               "confusion {:.4f} mm ({})\n\n",
                               s.camera.name, s.lens.name, s.lens.focal_length_mm, projection, sys.spec.name,
                               sys.spec.KindName(), sys.n_water, p.f_number, p.coc_mm, p.coc_source);
-  t.insert(t.size() - 1, io::DescribeCameraAndLens(s.camera, s.lens));
+  t.insert(t.size() - 1, catalogue::DescribeCameraAndLens(s.camera, s.lens));
   t += std::isfinite(p.d_s2ep_infinity_mm)
            ? fmt::format("virtual image of infinity      {:>9} mm from the entrance pupil (lens focused on it)\n",
                          Dist(p.d_s2ep_infinity_mm, 1))

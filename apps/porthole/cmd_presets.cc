@@ -4,7 +4,7 @@
 #include "commands.h"
 #include "common.h"
 #include "porthole/core/error.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
 namespace porthole::cli {
 
@@ -18,9 +18,9 @@ void RegisterPresets(CLI::App& app) {
   cmd->add_option("name", o->name, "A preset to print in full");
   cmd->add_flag("--json", o->json, "JSON output for scripts");
   cmd->callback([o] {
-    const auto& all = io::BuiltinPresets();
+    const auto& all = catalogue::BuiltinPresets();
     if (!o->name.empty()) {
-      for (const io::Preset& p : all) {
+      for (const catalogue::Preset& p : all) {
         if (p.name == o->name) {
           fmt::print("{}", p.toml);
           return;
@@ -30,14 +30,14 @@ void RegisterPresets(CLI::App& app) {
     }
     if (o->json) {
       Json list = Json::array();
-      for (const io::Preset& p : all) {
-        list.push_back({{"kind", p.kind}, {"name", p.name}, {"description", io::PresetDescription(p)}});
+      for (const catalogue::Preset& p : all) {
+        list.push_back({{"kind", p.kind}, {"name", p.name}, {"description", catalogue::PresetDescription(p)}});
       }
       fmt::print("{}\n", Json{{"presets", list}}.dump(2));
       return;
     }
     std::string text = fmt::format("{:<8} {:<24} {}\n", "kind", "name", "description");
-    for (const io::Preset& p : all) text += fmt::format("{:<8} {:<24} {}\n", p.kind, p.name, io::PresetDescription(p));
+    for (const catalogue::Preset& p : all) text += fmt::format("{:<8} {:<24} {}\n", p.kind, p.name, catalogue::PresetDescription(p));
     text += "\n'porthole presets NAME' prints one as TOML; edit it and pass the file with --port my-port.toml.\n";
     fmt::print("{}", text);
   });

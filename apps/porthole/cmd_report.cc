@@ -10,7 +10,7 @@
 #include "porthole/calib/result_json.h"
 #include "porthole/interop/interop.h"
 #include "porthole/core/input.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/measure/measure.h"
 #include "porthole/measure/rig_model.h"
 #include "porthole/report/report.h"
@@ -89,10 +89,10 @@ void RegisterReport(CLI::App& app) {
           WithFieldNames({{"compare_port", "--compare-port"}},
                          [&] { return report::ChooseOtherPort(in.setup, o->subject_distance_mm); });
       if (!choice.why.empty()) fmt::print(stderr, "porthole report: {}\n", choice.why);
-      in.other_port = io::LoadPort(choice.name);
+      in.other_port = catalogue::LoadPort(choice.name);
       why = choice.why;
     } else {
-      in.other_port = io::LoadPort(o->other_port);
+      in.other_port = catalogue::LoadPort(o->other_port);
     }
     in.subject_distance_mm = o->subject_distance_mm;
     in.f_number = o->aperture.value_or(lens::DefaultFNumber(in.setup.lens));

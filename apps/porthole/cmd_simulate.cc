@@ -17,7 +17,7 @@
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/input.h"
 #include "porthole/interop/interop.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/simulate/report.h"
 
 namespace porthole::cli {
@@ -65,7 +65,7 @@ struct SimulateCliOptions {
 
 // A fisheye lens: the Kannala–Brandt fits in water and in air (pixels).
 std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Prediction& p) {
-  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + io::DescribeCameraAndLens(spec.camera, spec.lens);
+  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + catalogue::DescribeCameraAndLens(spec.camera, spec.lens);
   t += fmt::format("{} + {} ({} fisheye) focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
                    "{}; c = {:.3f} mm\n\n{} fitted, pixels:\n",
                    spec.camera.name, spec.lens.name, camera::ProjectionName(spec.lens.projection),
@@ -107,7 +107,7 @@ std::string FisheyeText(const simulate::SystemSpec& spec, const simulate::Predic
 // A rectilinear lens: the Brown fits, the change, the profile and the error at other distances.
 std::string BrownText(const simulate::SystemSpec& spec, const simulate::Prediction& p,
                     const std::vector<simulate::DistanceError>& errors, const std::vector<double>& radii) {
-  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + io::DescribeCameraAndLens(spec.camera, spec.lens);
+  std::string t = DescribeSystemLine(p.water_system, spec.env) + "\n" + catalogue::DescribeCameraAndLens(spec.camera, spec.lens);
   t += fmt::format("{} + {} focused for {:g} mm under water: virtual image {:.1f} mm from the pupil, "
                    "{}, pupil {:.2f} mm ahead of the flange; c = {:.3f} mm\n\n",
                    spec.camera.name, spec.lens.name, p.object_distance_mm, p.focus.d_s2ep_mm,

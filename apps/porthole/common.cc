@@ -14,7 +14,7 @@
 #include "porthole/core/field_names.h"
 #include "porthole/core/json_length.h"
 #include "porthole/housing/plausible.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/materials/materials.h"
 
 namespace porthole::cli {
@@ -65,7 +65,7 @@ void PortOptions::Add(CLI::App* cmd) {
 }
 
 ports::PortSpec PortOptions::Spec() const {
-  ports::PortSpec spec = io::LoadPort(port);
+  ports::PortSpec spec = catalogue::LoadPort(port);
   WarnIfImplausiblePort(spec, port + ": port");
   return spec;
 }

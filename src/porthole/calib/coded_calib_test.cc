@@ -23,7 +23,7 @@
 #include "porthole/coded/raster.h"
 #include "porthole/coded/sheet.h"
 #include "porthole/core/error.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/refraction/test_camera.h"
 #include "porthole/render/dots.h"
 #include "porthole/render/render.h"
@@ -172,9 +172,9 @@ TEST(CodedCalib, RecoversARenderedPinholeCamera) {
 std::vector<ImageDetections> CodedViewsThroughNi320(const camera::Camera& cam, const TargetSpec& target,
                                                     double noise_px, uint64_t seed, ports::PortSystem* truth) {
   render::Scene s;
-  s.housed.camera = io::LoadCamera("nikon-d300");
-  s.housed.lens = io::LoadLens("nikkor-24mm-f2.8d");
-  s.housed.port = io::LoadPort("nimar-ni320");
+  s.housed.camera = catalogue::LoadCamera("nikon-d300");
+  s.housed.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
+  s.housed.port = catalogue::LoadPort("nimar-ni320");
   s.camera = cam;
   s.target = target;
   s.bands_nm = {546.07};

@@ -13,7 +13,7 @@
 #include "porthole/core/plausible.h"
 #include "porthole/housing/plausible.h"
 #include "porthole/interop/interop.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
 namespace porthole::calib {
 namespace {
@@ -105,7 +105,7 @@ RefractiveOptions RefractiveOptionsOf(const CalibrateJobOptions& o, const Calibr
                                       CalibrateJobResult* out) {
   RefractiveOptions ro;
   ro.lens = lens;
-  const ports::PortSpec spec = io::LoadPort(o.port);
+  const ports::PortSpec spec = catalogue::LoadPort(o.port);
   for (const std::string& w : housing::PortPlausibilityWarnings(spec, o.port + ": port")) {
     out->warnings.push_back(w);
     if (o.warn) o.warn(w);
@@ -220,7 +220,7 @@ CalibrateJobResult CalibrateJob(const CalibrateJobOptions& o) {
     }
     out.refractive = CalibrateRefractive(out.detections, out.target, ro);
     RequirePossibleCalibration(out.refractive->lens, images_field);
-    if (o.port_out) out.port_toml = io::PortToToml(out.refractive->estimated_port);
+    if (o.port_out) out.port_toml = catalogue::PortToToml(out.refractive->estimated_port);
     return out;
   }
   out.central = Calibrate(out.detections, out.target, out.lens);

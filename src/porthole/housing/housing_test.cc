@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "porthole/housing/housed.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/ports/virtual_image.h"
 
 namespace porthole::housing {
@@ -12,9 +12,9 @@ namespace {
 
 HousedCamera Paper(const std::string& port = "nimar-ni320") {
   HousedCamera h;
-  h.camera = io::LoadCamera("nikon-d300");
-  h.lens = io::LoadLens("nikkor-24mm-f2.8d");
-  h.port = io::LoadPort(port);
+  h.camera = catalogue::LoadCamera("nikon-d300");
+  h.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
+  h.port = catalogue::LoadPort(port);
   return h;
 }
 
@@ -44,14 +44,14 @@ TEST(Housing, OffsetMovesThePupilInsideACamFramePort) {
 TEST(Housing, UnreachableFocusIsReportedWithItsCloseup) {
   const Focused f = SolveFocus(Paper(), [](const ports::PortSystem&) { return 100.0; });
   EXPECT_FALSE(f.focus.focus_distance_mm);
-  const lens::LensSpec l = io::LoadLens("nikkor-24mm-f2.8d");
+  const lens::LensSpec l = catalogue::LoadLens("nikkor-24mm-f2.8d");
   const double closest = lens::SubjectToPupilMm(l, lens::MountByName("nikon-f"), l.min_focus_mm);
   EXPECT_NEAR(f.focus.closeup_dioptre, 1000.0 / 100 - 1000.0 / closest, 1e-12);
   EXPECT_THROW(FocusOnSubject(Paper(), 50), InvalidInput);  // inside the dome
 }
 
 TEST(Housing, ChiefRaysFollowTheProjectionBeyondNinetyDegrees) {
-  lens::LensSpec l = io::LoadLens("nikkor-24mm-f2.8d");
+  lens::LensSpec l = catalogue::LoadLens("nikkor-24mm-f2.8d");
   const Vec3 r = *ChiefRay(l, 24, 10, 0);
   EXPECT_NEAR(std::atan2(r.x(), r.z()), std::atan(10.0 / 24), 1e-12);
   l.projection = camera::Projection::kEquidistant;

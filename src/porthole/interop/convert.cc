@@ -12,7 +12,7 @@
 #include "porthole/core/output.h"
 #include "porthole/core/plausible.h"
 #include "porthole/interop/refractive.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/materials/materials.h"
 
 namespace porthole::interop {
@@ -102,7 +102,7 @@ std::optional<RefractiveHousing> HousingOfPort(const ConvertOptions& o, Format f
   if (format != Format::kCalibmar && format != Format::kColmapText) {
     throw InvalidInput("port", "only calibmar and COLMAP cameras.txt (refractive COLMAP) outputs hold a housing");
   }
-  const ports::PortSpec port = io::LoadPort(o.port);
+  const ports::PortSpec port = catalogue::LoadPort(o.port);
   const double n_water = o.water_index ? *o.water_index : materials::Index("seawater");
   return RefractiveFromPort(port, materials::Index(port.material()), n_water, "port");
 }
@@ -188,8 +188,8 @@ ConvertResult Convert(const ConvertOptions& o) {
     ports::PortSpec port = PortFromRefractive(*in.housing, "inputs '" + o.inputs.front() + "'", &res.port_water_index);
     const std::string note = fmt::format("; water index {:g} (give `water_index`)", res.port_water_index);
     port.description += o.words ? o.words(note) : RenameQuotedFieldsBy(NoWord, note);
-    port_toml = io::PortToToml(port) + HousingSigmaToml(*in.housing);
-    io::ParsePortToml(port_toml, "port_out");  // porthole reads what it writes
+    port_toml = catalogue::PortToToml(port) + HousingSigmaToml(*in.housing);
+    catalogue::ParsePortToml(port_toml, "port_out");  // porthole reads what it writes
     res.port_out = o.port_out;
   }
   const std::string out_field = "out '" + out.string() + "'";

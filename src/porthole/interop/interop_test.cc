@@ -32,7 +32,7 @@
 #include "porthole/interop/metashape.h"
 #include "porthole/interop/pyliteral.h"
 #include "porthole/interop/refractive.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/optics/trace.h"
 
 namespace porthole::interop {
@@ -271,7 +271,7 @@ TEST(Interop, SeveralCamerasAndRefractiveColmapCamerasTxt) {
 }
 
 // The housing's σ (calibmar's # non_svp_est_std_dev, metres) as the port TOML's [sigma] table in mm,
-// which io::ParsePortToml accepts with the port; a negative σ is refused naming the key.
+// which catalogue::ParsePortToml accepts with the port; a negative σ is refused naming the key.
 TEST(Interop, HousingSigmaGoesIntoThePortToml) {
   RefractiveHousing flat;
   flat.model = "FLATPORT";
@@ -281,12 +281,12 @@ TEST(Interop, HousingSigmaGoesIntoThePortToml) {
   const std::string sigma = HousingSigmaToml(flat);
   EXPECT_NE(sigma.find("[sigma]\nnormal = [0.001, 0.002, 0.0005]\ndistance_mm = 0.1\n"), std::string::npos) << sigma;
   EXPECT_EQ(sigma.find("thickness_mm"), std::string::npos);  // unknown: not written
-  const std::string toml = io::PortToToml(PortFromRefractive(flat, "IN", &nw)) + sigma;
-  EXPECT_NO_THROW(io::ParsePortToml(toml, "port.toml"));
+  const std::string toml = catalogue::PortToToml(PortFromRefractive(flat, "IN", &nw)) + sigma;
+  EXPECT_NO_THROW(catalogue::ParsePortToml(toml, "port.toml"));
   std::string bad = toml;
   bad.replace(bad.find("distance_mm = 0.1"), 17, "distance_mm = -0.1");
   try {
-    io::ParsePortToml(bad, "port.toml");
+    catalogue::ParsePortToml(bad, "port.toml");
     ADD_FAILURE() << "a negative sigma was accepted";
   } catch (const InvalidInput& e) {
     EXPECT_NE(std::string(e.what()).find("sigma.distance_mm"), std::string::npos) << e.what();
@@ -750,7 +750,7 @@ TEST(Calibmar, HousingAsAPortTracesAsRefractiveColmap) {
     const ports::PortSpec port = PortFromRefractive(h, "IN", &n_water);
     EXPECT_EQ(n_water, h.params[7]);
     // Through the port TOML and back: exact.
-    const ports::PortSpec read = io::ParsePortToml(io::PortToToml(port), "port.toml");
+    const ports::PortSpec read = catalogue::ParsePortToml(catalogue::PortToToml(port), "port.toml");
     const RefractiveHousing back = RefractiveFromPort(read, std::stod(read.material()), n_water, "port");
     EXPECT_EQ(back.model, h.model);
     for (int i = 0; i < 8; ++i) EXPECT_NEAR(back.params[i], h.params[i], 1e-15) << i;
@@ -776,7 +776,7 @@ TEST(Calibmar, HousingAsAPortTracesAsRefractiveColmap) {
                 worst_mm, worst_dir);
   }
   // A dome that is not concentric has no DOMEPORT.
-  EXPECT_THROW(RefractiveFromPort(io::LoadPort("nimar-ni320"), 1.5, 1.34, "port"), InvalidInput);
+  EXPECT_THROW(RefractiveFromPort(catalogue::LoadPort("nimar-ni320"), 1.5, 1.34, "port"), InvalidInput);
 }
 
 TEST(Calibmar, MalformedFilesNameTheKey) {

@@ -8,7 +8,7 @@
 //      DOMEPORT  Cx Cy Cz int_radius int_thick na ng nw: one centre for the inner sphere (radius
 //                int_radius) and the outer one (int_radius + int_thick) — concentric only;
 //    with na, ng, nw the indices of the housing air, the glass and the water;
-//  - porthole's port (ports/port.h, as its TOML: io::ParsePortToml / io::PortToToml), in mm, with
+//  - porthole's port (ports/port.h, as its TOML: catalogue::ParsePortToml / catalogue::PortToToml), in mm, with
 //    indices relative to air (so ng/na, nw/na) and the water index given apart (--water-index);
 //  - calibmar's calibration.yaml: `model`, `parameters` (COLMAP's model and order, COLMAP's pixel
 //    convention), `non_svp_model` (NONE, FLATPORT, DOMEPORT), `non_svp_parameters`, `width`,
@@ -44,7 +44,7 @@ RefractiveHousing RefractiveFromPort(const ports::PortSpec& port, double n_glass
 // center_mm = [σCx, σCy, σCz], inner_radius_mm, thickness_mm; a flat port's normal = [σNx, σNy, σNz],
 // distance_mm (of the inner interface from the pupil), thickness_mm; both n_glass (σ of ng/na) and
 // n_water (σ of nw/na). A vector is written when all three of its σ are known. Empty when no σ is
-// known. io::ParsePortToml reads and checks the table; porthole's optics do not use it.
+// known. catalogue::ParsePortToml reads and checks the table; porthole's optics do not use it.
 std::string HousingSigmaToml(const RefractiveHousing& h);
 
 struct CalibmarFile {

@@ -59,7 +59,7 @@ struct LensSpec {
   // lists them). The pupil samples are for `mount`; on another of these mounts the pupil keeps its
   // distance from the sensor.
   std::vector<std::string> other_mounts;
-  // Where the name was found: "preset", "file" or "lensfun" (io::FindLens); empty when built in code.
+  // Where the name was found: "preset", "file" or "lensfun" (catalogue::FindLens); empty when built in code.
   std::string lookup;
 
   // D_EP2F at focus-scale distance fd_mm, linear in 1/FD between samples (lens extension is close
@@ -74,7 +74,7 @@ struct CameraBody {
   std::string mount;
   // The lens of a fixed-lens camera (mount "fixed"): body and lens in one file.
   std::optional<LensSpec> fixed_lens;
-  // Where the name was found: "preset", "file" or "lensfun" (io::FindCamera); empty when built in code.
+  // Where the name was found: "preset", "file" or "lensfun" (catalogue::FindCamera); empty when built in code.
   std::string lookup;
   double SensorWidthMm() const { return sensor.width_px * sensor.pixel_pitch_mm; }
   double SensorHeightMm() const { return sensor.height_px * sensor.pixel_pitch_mm; }

@@ -7,7 +7,7 @@
 
 #include <cmath>
 
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/planning/flat.h"
 #include "porthole/planning/plan.h"
 
@@ -18,13 +18,13 @@ constexpr double kDeg = 180.0 / M_PI;
 
 Setup FisheyeSetup(camera::Projection p, double f_mm, const std::string& port) {
   Setup s;
-  s.camera = io::LoadCamera("nikon-d300");
-  s.lens = io::LoadLens("nikkor-24mm-f2.8d");
+  s.camera = catalogue::LoadCamera("nikon-d300");
+  s.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
   s.lens.projection = p;
   s.lens.focal_length_mm = f_mm;
   s.lens.f_number_min = 2.8;
   s.lens.min_focus_mm = 80;
-  s.port = io::LoadPort(port);
+  s.port = catalogue::LoadPort(port);
   s.env.water_index = 1.341;
   return s;
 }

@@ -9,7 +9,7 @@
 #include <cmath>
 
 #include "porthole/core/error.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
 namespace porthole::planning {
 namespace {
@@ -29,8 +29,8 @@ ports::PortSpec ThinFlat() {  // the pupil at the glass: a 1 um plate 1 um ahead
 
 Setup FlatSetup(const ports::PortSpec& port, double n_w) {
   Setup s;
-  s.camera = io::LoadCamera("nikon-d300");
-  s.lens = io::LoadLens("nikkor-24mm-f2.8d");
+  s.camera = catalogue::LoadCamera("nikon-d300");
+  s.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
   s.port = port;
   s.env.water_index = n_w;
   return s;
@@ -59,7 +59,7 @@ TEST(Flat, MaximumFieldOfViewFromTheCriticalAngle) {
 }
 
 TEST(Flat, RealPortFieldOfViewFollowsSnell) {
-  const FlatAnalysis a = AnalyseFlat(FlatSetup(io::LoadPort("flat-acrylic-10mm"), 1.341), {.wd_mm = 1000});
+  const FlatAnalysis a = AnalyseFlat(FlatSetup(catalogue::LoadPort("flat-acrylic-10mm"), 1.341), {.wd_mm = 1000});
   // A plate with parallel faces: n_w sin θ_w = sin θ_a for every edge ray, whatever its thickness.
   EXPECT_NEAR(a.water_traced.horizontal_deg, a.water_thin.horizontal_deg, 1e-9);
   EXPECT_NEAR(a.water_traced.diagonal_deg, a.water_thin.diagonal_deg, 1e-9);
@@ -85,7 +85,7 @@ TEST(Flat, RealPortFieldOfViewFollowsSnell) {
 // What limits the field is the critical angle for light coming in (the water field stays below
 // 2 asin(1/n_w)) and the port's aperture (the corner rays' radius on the outer face, closed form).
 TEST(Flat, WideLensIsLimitedByTheCriticalAngleInwardAndTheAperture) {
-  planning::Setup s = FlatSetup(io::LoadPort("flat-acrylic-10mm"), 1.341);
+  planning::Setup s = FlatSetup(catalogue::LoadPort("flat-acrylic-10mm"), 1.341);
   s.lens.focal_length_mm = 10;
   const FlatAnalysis a = AnalyseFlat(s, {.wd_mm = 1000});
   ASSERT_GT(a.air.diagonal_deg, a.max_fov_deg);
@@ -111,7 +111,7 @@ TEST(Flat, WideLensIsLimitedByTheCriticalAngleInwardAndTheAperture) {
   EXPECT_TRUE(names_aperture);
 }
 
-TEST(Flat, RejectsADome) { EXPECT_THROW(AnalyseFlat(FlatSetup(io::LoadPort("nimar-ni320"), 1.341), {}), InvalidInput); }
+TEST(Flat, RejectsADome) { EXPECT_THROW(AnalyseFlat(FlatSetup(catalogue::LoadPort("nimar-ni320"), 1.341), {}), InvalidInput); }
 
 }  // namespace
 }  // namespace porthole::planning

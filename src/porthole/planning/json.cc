@@ -29,7 +29,7 @@ Json FieldCutJson(const FieldCut& c) {
 Json SetupToJson(const Setup& s, const ports::PortSystem& sys) {
   const auto& cam = s.camera;
   const auto& ln = s.lens;
-  // found_in: which source answered the name ("preset", "file", "lensfun"; io::FindCamera); source:
+  // found_in: which source answered the name ("preset", "file", "lensfun"; catalogue::FindCamera); source:
   // where its values come from, null when the preset or file states none.
   const auto source = [](const std::string& v) { return v.empty() ? Json(nullptr) : Json(v); };
   return {{"camera", {{"name", cam.name}, {"found_in", cam.lookup}, {"source", source(cam.source)}, {"mount", cam.mount},

@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "porthole/core/error.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/planning/thin_lens.h"
 
 namespace porthole::planning {
@@ -36,9 +36,9 @@ std::map<std::string, double> PaperSection4() {
 
 Setup PaperSetup(const std::string& lens = "nikkor-24mm-f2.8d", const std::string& port = "nimar-ni320-nominal") {
   Setup s;
-  s.camera = io::LoadCamera("nikon-d300");
-  s.lens = io::LoadLens(lens);
-  s.port = io::LoadPort(port);
+  s.camera = catalogue::LoadCamera("nikon-d300");
+  s.lens = catalogue::LoadLens(lens);
+  s.port = catalogue::LoadPort(port);
   s.env.water_index = 1.341;  // reproduces Table 5
   return s;
 }
@@ -150,7 +150,7 @@ TEST(Plan, AsBuiltDomeMovesThePupilWithFocus) {
   const Plan p = MakePlan(PaperSetup("nikkor-24mm-f2.8d", "nimar-ni320"), o);
   const TargetPlan& t = *p.target;
   ASSERT_TRUE(t.focus.focus_distance_mm);
-  const lens::LensSpec l = io::LoadLens("nikkor-24mm-f2.8d");
+  const lens::LensSpec l = catalogue::LoadLens("nikkor-24mm-f2.8d");
   EXPECT_NEAR(p.system.ep_in_housing_mm.z(), l.PupilToFlangeMm(*t.focus.focus_distance_mm), 1e-8);
   EXPECT_NEAR(ports::ParaxialVirtualImage(p.system, 1000).d_s2ep_mm,
               *t.focus.focus_distance_mm - 46.5 - p.system.ep_in_housing_mm.z(), 1e-6);

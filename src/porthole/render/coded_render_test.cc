@@ -24,7 +24,7 @@
 #include "porthole/coded/detect.h"
 #include "porthole/coded/ellipse.h"
 #include "porthole/core/error.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/render/dots.h"
 #include "porthole/render/render.h"
 #include "porthole/render/test_scenes.h"

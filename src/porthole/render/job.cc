@@ -15,7 +15,7 @@
 #include "porthole/core/input.h"
 #include "porthole/housing/plausible.h"
 #include "porthole/interop/interop.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/lens/lens.h"
 #include "porthole/measure/rig_model.h"
 #include "porthole/simulate/simulate.h"
@@ -350,7 +350,7 @@ std::vector<RigCamera> CamerasOf(const measure::Rig& rig, const nlohmann::json* 
       }
       std::string material = fallback_material;
       try {
-        material = io::LoadPort(name).material();
+        material = catalogue::LoadPort(name).material();
       } catch (const InvalidInput&) {
         Say(note, fmt::format("`rig`: camera {}'s port '{}' is no preset or port file here: its glass taken as {} "
                               "(`port`'s)", rc.name, name, material));

@@ -9,7 +9,7 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/render/job.h"
 #include "porthole/render/test_scenes.h"
 

@@ -16,7 +16,7 @@
 
 #include "porthole/core/error.h"
 #include "porthole/core/input.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/optics/batch.h"
 #include "porthole/render/dots.h"
 
@@ -771,7 +771,7 @@ nlohmann::ordered_json TruthJson(const Scene& scene, const RenderOptions& o, con
                 {"focus_distance_mm", s.focus.focus_distance_mm ? length(*s.focus.focus_distance_mm) : Json(nullptr)},
                 {"d_s2ep_mm", length(s.focus.d_s2ep_mm)},
                 {"ep_in_housing_mm", vec(s.ep_in_housing_mm)}};
-  j["port"] = scene.bare ? Json(nullptr) : Json{{"name", s.system.spec.name}, {"toml", io::PortToToml(s.system.spec)}};
+  j["port"] = scene.bare ? Json(nullptr) : Json{{"name", s.system.spec.name}, {"toml", catalogue::PortToToml(s.system.spec)}};
   j["medium"] = scene.medium == Medium::kWater && !scene.bare ? "water" : "air";
   const auto& env = scene.housed.env;
   j["water"] = {{"name", scene.medium == Medium::kWater && !scene.bare ? env.water : "air"},

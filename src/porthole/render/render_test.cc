@@ -14,7 +14,7 @@
 
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/detect.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/materials/materials.h"
 #include "porthole/render/render.h"
 #include "porthole/render/dots.h"

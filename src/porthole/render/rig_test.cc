@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 #include "porthole/camera/models.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/render/rig.h"
 #include "porthole/render/test_scenes.h"
 
@@ -36,7 +36,7 @@ camera::Camera OpenCVCamera(const camera::Sensor& sensor, double k1) {
 // The as-built NI320 (its inner sphere off the outer one) as a calibrated port: its shell, and the
 // pupil at `p` from the outer centre.
 refraction::Shell NI320Shell() {
-  const ports::PortSpec spec = io::LoadPort("nimar-ni320");
+  const ports::PortSpec spec = catalogue::LoadPort("nimar-ni320");
   return refraction::ShellOf(ports::Place(spec, spec.default_ep_in_housing_mm, 1.5, 1.34));
 }
 

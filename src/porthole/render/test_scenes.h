@@ -5,7 +5,7 @@
 #include <string>
 #include <variant>
 
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/ports/port.h"
 #include "porthole/render/render.h"
 
@@ -15,9 +15,9 @@ namespace porthole::render::testing {
 // same size in mm (small images keep the tests fast). Target, pose and medium are the caller's.
 inline Scene PaperScene(const std::string& port, int width) {
   Scene s;
-  s.housed.camera = io::LoadCamera("nikon-d300");
-  s.housed.lens = io::LoadLens("nikkor-24mm-f2.8d");
-  s.housed.port = io::LoadPort(port);
+  s.housed.camera = catalogue::LoadCamera("nikon-d300");
+  s.housed.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
+  s.housed.port = catalogue::LoadPort(port);
   camera::Sensor& sensor = s.housed.camera.sensor;
   const double width_mm = sensor.width_px * sensor.pixel_pitch_mm;
   sensor = {width, width * 2 / 3, width_mm / width};
@@ -27,7 +27,7 @@ inline Scene PaperScene(const std::string& port, int width) {
 // The 8" dome made concentric and centred on the pupil (a cam-frame port, no rim): no ray is bent,
 // the camera alone.
 inline ports::PortSpec ConcentricDome() {
-  ports::PortSpec dome = io::LoadPort("generic-dome-8in");
+  ports::PortSpec dome = catalogue::LoadPort("generic-dome-8in");
   ports::DomePort shape = std::get<ports::DomePort>(dome.shape);
   dome.frame = ports::PortFrame::kCam;
   shape.outer.center_mm = shape.inner.center_mm = Eigen::Vector3d::Zero();

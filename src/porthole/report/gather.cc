@@ -9,7 +9,7 @@
 
 #include "porthole/core/error.h"
 #include "porthole/housing/housed.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/planning/thin_lens.h"
 #include "porthole/report/internal.h"
 
@@ -96,7 +96,7 @@ OtherPortChoice ChooseOtherPort(const planning::Setup& setup, double subject_dis
   std::string refused;
   for (const std::string& name : domes) {
     planning::Setup other = setup;
-    other.port = io::LoadPort(name);
+    other.port = catalogue::LoadPort(name);
     try {
       housing::FocusOnSubject(other, subject_distance_mm);
     } catch (const InvalidInput&) {

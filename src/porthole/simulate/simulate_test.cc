@@ -11,7 +11,7 @@
 
 #include "porthole/camera/json.h"
 #include "porthole/camera/profile.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/simulate/report.h"
 #include "porthole/simulate/simulate.h"
 
@@ -20,9 +20,9 @@ namespace {
 
 SystemSpec PaperSystem(const std::string& port = "nimar-ni320") {
   SystemSpec s;
-  s.port = io::LoadPort(port);
-  s.camera = io::LoadCamera("nikon-d300");
-  s.lens = io::LoadLens("nikkor-24mm-f2.8d");
+  s.port = catalogue::LoadPort(port);
+  s.camera = catalogue::LoadCamera("nikon-d300");
+  s.lens = catalogue::LoadLens("nikkor-24mm-f2.8d");
   return s;
 }
 
@@ -146,7 +146,7 @@ TEST(Simulate, ThinFlatPortAtThePupilMultipliesCByTheWaterIndex) {
   spec.shape = flat;
   const ports::Environment env;
   CameraSetup cam;
-  cam.sensor = io::LoadCamera("nikon-d300").sensor;
+  cam.sensor = catalogue::LoadCamera("nikon-d300").sensor;
   cam.lens.c_mm = 100;  // narrow field: 8° half diagonal
   cam.ep_in_housing_mm = Vec3(0, 0, 30);
   const ports::PortSystem water = ports::MakeSystem(spec, env, cam.ep_in_housing_mm);
@@ -264,7 +264,7 @@ TEST(Simulate, InvalidOptionsNameTheField) {
 // are its Taylor coefficients (to the truncation the fit spreads over k3, k4), fx = c / pitch.
 TEST(Simulate, FisheyeBehindAConcentricDomeFitsTheProjectionsSeries) {
   SystemSpec spec = PaperSystem("nimar-ni320-nominal");
-  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  spec.lens = catalogue::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
   const Prediction p = Predict(spec);
   ASSERT_TRUE(p.water_fisheye && p.air_fisheye);
   for (const CameraFit* f : {&*p.water_fisheye, &*p.air_fisheye}) {
@@ -289,7 +289,7 @@ TEST(Simulate, FisheyeBehindAConcentricDomeFitsTheProjectionsSeries) {
 // The 10.5 mm fisheye behind a thin flat port (1 µm of glass) 0.1 µm ahead of its pupil.
 SystemSpec FisheyeBehindAThinFlatPort() {
   SystemSpec spec = PaperSystem();
-  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  spec.lens = catalogue::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
   ports::FlatPort flat;
   flat.inner_point_mm = Vec3(0, 0, 1e-4);
   flat.thickness_mm = 1e-3;
@@ -334,7 +334,7 @@ TEST(Simulate, FisheyeBehindAThinFlatPortFollowsSnellsLaw) {
 // radial profile is odd in the offset to first order, and the sweep's offset 0 is the prediction.
 TEST(Simulate, FisheyeSweepIsOddAboutTheDomeCentre) {
   SystemSpec spec = PaperSystem("nimar-ni320-nominal");
-  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  spec.lens = catalogue::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
   const Prediction p = Predict(spec);
   const std::vector<SweepRow> rows = SweepPupilOffset(p, 2, {-1.0, 0.0, 1.0});
   ASSERT_EQ(rows.size(), 3u);
@@ -366,7 +366,7 @@ camera::Camera DecentredFisheyeCalibration(const camera::Sensor& sensor, double 
 
 TEST(Simulate, FisheyeAirCalibrationBehindAConcentricDomeIsPredictedUnchanged) {
   SystemSpec spec = PaperSystem("nimar-ni320-nominal");
-  spec.lens = io::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
+  spec.lens = catalogue::LoadLens("nikkor-10.5mm-f2.8g-fisheye");
   const camera::Camera cal = DecentredFisheyeCalibration(spec.camera.sensor, 10.5);
   spec.air_fisheye_calibration = cal;
   const Prediction p = Predict(spec);

@@ -1,6 +1,6 @@
 // Proves that the built-in presets carry the paper's geometry, that port TOML files are parsed with
 // errors naming file, line and key, and that writing and re-reading a port is lossless.
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 
 #include "porthole/core/error.h"
 
-namespace porthole::io {
+namespace porthole::catalogue {
 namespace {
 
 std::string ErrorOf(const std::string& text) {
@@ -207,4 +207,4 @@ TEST(Presets, EveryPresetNamesItsSourceAndAssumedGeometryIsLabelled) {
 }
 
 }  // namespace
-}  // namespace porthole::io
+}  // namespace porthole::catalogue

@@ -1,4 +1,4 @@
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
 #include <fmt/format.h>
 
@@ -15,7 +15,7 @@
 #include "porthole/core/input.h"
 #include "porthole/materials/materials.h"
 
-namespace porthole::io {
+namespace porthole::catalogue {
 
 // Defined in the generated presets_data.cc (CMake embeds presets/<kind>s/*.toml).
 extern const std::vector<Preset> kBuiltinPresets;
@@ -485,4 +485,4 @@ std::string PortToToml(const ports::PortSpec& p) {
   return s;
 }
 
-}  // namespace porthole::io
+}  // namespace porthole::catalogue

@@ -17,7 +17,7 @@
 
 #include "porthole/lens/lens.h"
 
-namespace porthole::io {
+namespace porthole::catalogue {
 
 // Names match exactly, never loosely: a TOML file (a path), else a preset id, else a lensfun
 // camera's maker + model (any of its spellings: "Sony ILCE-7M4" or "Sony Alpha 7 IV"), compared
@@ -96,4 +96,4 @@ std::optional<camera::Projection> ProjectionFromLensfunType(int lf_type, bool* e
 // The porthole mount name of a lensfun mount ("Nikon F AF" → "nikon-f"); nullopt if unknown.
 std::optional<std::string> MountFromLensfun(const std::string& lensfun_mount);
 
-}  // namespace porthole::io
+}  // namespace porthole::catalogue

@@ -2,7 +2,7 @@
 // are refused with three "did you mean" candidates, never loosely substituted (issue 23: 38 real
 // names in tests/data/camera_lens_names.csv), and that lens data lensfun lacks is flagged as
 // assumed or taken as given (--min-focus-mm, --pupil-mm).
-#include "porthole/io/lookup.h"
+#include "porthole/catalogue/lookup.h"
 
 #include <gtest/gtest.h>
 
@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "porthole/core/error.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
-namespace porthole::io {
+namespace porthole::catalogue {
 namespace {
 
 struct NameRow {
@@ -218,4 +218,4 @@ TEST(Lookup, LensTomlTakesPupilMm) {
 }
 
 }  // namespace
-}  // namespace porthole::io
+}  // namespace porthole::catalogue

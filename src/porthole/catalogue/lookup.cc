@@ -1,4 +1,4 @@
-#include "porthole/io/lookup.h"
+#include "porthole/catalogue/lookup.h"
 
 #include <fmt/format.h>
 #include <lensfun/lensfun.h>
@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "porthole/core/error.h"
-#include "porthole/io/presets.h"
+#include "porthole/catalogue/presets.h"
 
-namespace porthole::io {
+namespace porthole::catalogue {
 namespace {
 
 constexpr double kFullFrameDiagonalMm = 43.2666;  // 36 × 24 mm
@@ -503,4 +503,4 @@ CameraAndLens FindCameraAndLens(const CameraLensQuery& q) {
   return out;
 }
 
-}  // namespace porthole::io
+}  // namespace porthole::catalogue

@@ -9,7 +9,7 @@
 #include "porthole/lens/lens.h"
 #include "porthole/ports/port.h"
 
-namespace porthole::io {
+namespace porthole::catalogue {
 
 struct Preset {
   std::string_view kind;  // "port", later "camera", "lens"
@@ -39,4 +39,4 @@ lens::LensSpec ParseLensToml(std::string_view text, const std::string& origin);
 // The TOML text of a port (housing or cam frame as given); ParsePortToml(PortToToml(p)) == p.
 std::string PortToToml(const ports::PortSpec& p);
 
-}  // namespace porthole::io
+}  // namespace porthole::catalogue
