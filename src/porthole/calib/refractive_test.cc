@@ -154,6 +154,35 @@ TEST(RefractiveCalibration, AirAndWaterImagesThroughThePortTogether) {
   EXPECT_THROW(PlanRefractiveFromImages(water, target, o), InvalidInput);
 }
 
+// The errors of the three port parameters and c over Monte-Carlo runs, and their mean reported σ.
+struct PortAndCSpread {
+  std::array<double, 4> sum{}, sum2{}, sigma{};
+  int runs = 0;
+
+  void Add(const RefractiveResult& r, const std::array<double, refraction::kPortNumParams>& truth,
+           const camera::Camera& cam, int n_runs) {
+    runs = n_runs;
+    for (int i = 0; i < 4; ++i) {
+      const double e = i < 3 ? r.port[i] - truth[i] : r.lens.camera.params[camera::kBrownC] - cam.params[camera::kBrownC];
+      sum[i] += e;
+      sum2[i] += e * e;
+      sigma[i] += (i < 3 ? r.port_sigma[i] : r.lens.sigma[camera::kBrownC]) / n_runs;
+    }
+  }
+  // Prints `what`'s ratios and checks σ / spread within [1/1.5, 1.5] and no mean error beyond 3 spread/√runs.
+  void Expect(const char* what) const {
+    for (int i = 0; i < 4; ++i) {
+      const double mean = sum[i] / runs;
+      const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
+      std::printf("%s %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f, mean error %.4g\n", what,
+                  i == 0 ? "ep_x" : i == 1 ? "ep_y" : i == 2 ? "ep_z" : "c", sigma[i], spread, sigma[i] / spread, mean);
+      EXPECT_GT(sigma[i] / spread, 1 / 1.5) << i;
+      EXPECT_LT(sigma[i] / spread, 1.5) << i;
+      EXPECT_LE(std::abs(mean), 3 * spread / std::sqrt(runs) + 1e-3) << i;  // no bias beyond the noise
+    }
+  }
+};
+
 // Air and water together: the reported σ of the port and of c against their spread over 30 noise
 // draws (issue 26's acceptance: within [0.67, 1.5]).
 TEST(RefractiveCalibration, AirAndWaterSigmaMatchesMonteCarloSpread) {
@@ -165,26 +194,12 @@ TEST(RefractiveCalibration, AirAndWaterSigmaMatchesMonteCarloSpread) {
   o.search = false;
   o.compare_central = false;
   const int runs = std::getenv("PORTHOLE_MC_RUNS") ? std::atoi(std::getenv("PORTHOLE_MC_RUNS")) : 30;
-  std::array<double, 4> sum{}, sum2{}, sigma{};
+  PortAndCSpread mc;
   for (int k = 0; k < runs; ++k) {
     o.air_detections = AirViews(cam, truth, target, 5000 + k);
-    const auto r = CalibrateRefractive(Views(cam, truth, target, 4000 + k), target, o);
-    for (int i = 0; i < 4; ++i) {
-      const double e = i < 3 ? r.port[i] - t[i] : r.lens.camera.params[camera::kBrownC] - cam.params[camera::kBrownC];
-      sum[i] += e;
-      sum2[i] += e * e;
-      sigma[i] += (i < 3 ? r.port_sigma[i] : r.lens.sigma[camera::kBrownC]) / runs;
-    }
+    mc.Add(CalibrateRefractive(Views(cam, truth, target, 4000 + k), target, o), t, cam, runs);
   }
-  for (int i = 0; i < 4; ++i) {
-    const double mean = sum[i] / runs;
-    const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
-    std::printf("air + water %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f, mean error %.4g\n",
-                i == 0 ? "ep_x" : i == 1 ? "ep_y" : i == 2 ? "ep_z" : "c", sigma[i], spread, sigma[i] / spread, mean);
-    EXPECT_GT(sigma[i] / spread, 1 / 1.5) << i;
-    EXPECT_LT(sigma[i] / spread, 1.5) << i;
-    EXPECT_LE(std::abs(mean), 3 * spread / std::sqrt(runs) + 1e-3) << i;  // no bias beyond the noise
-  }
+  mc.Expect("air + water");
 }
 
 // The paper's protocol with the air set reduced to its calibration (a central calibration of the
@@ -203,29 +218,16 @@ TEST(RefractiveCalibration, HousedAirCalibrationSigmaMatchesMonteCarloSpread) {
   CalibrationOptions co;
   co.pixel_pitch_mm = cam.sensor.pixel_pitch_mm;
   const int runs = std::getenv("PORTHOLE_MC_RUNS") ? std::atoi(std::getenv("PORTHOLE_MC_RUNS")) : 30;
-  std::array<double, 4> sum{}, sum2{}, sigma{};
+  PortAndCSpread mc;
   double fit_rms = 0;
   for (int k = 0; k < runs; ++k) {
     o.air = RecordOf(Calibrate(AirViews(cam, truth, target, 5000 + k), target, co));
     const auto r = CalibrateRefractive(Views(cam, truth, target, 4000 + k), target, o);
     fit_rms = std::max(fit_rms, r.housed_fit_rms_px);
-    for (int i = 0; i < 4; ++i) {
-      const double e = i < 3 ? r.port[i] - t[i] : r.lens.camera.params[camera::kBrownC] - cam.params[camera::kBrownC];
-      sum[i] += e;
-      sum2[i] += e * e;
-      sigma[i] += (i < 3 ? r.port_sigma[i] : r.lens.sigma[camera::kBrownC]) / runs;
-    }
+    mc.Add(r, t, cam, runs);
   }
   std::printf("housed air calibration: largest central fit RMS %.4f px\n", fit_rms);
-  for (int i = 0; i < 4; ++i) {
-    const double mean = sum[i] / runs;
-    const double spread = std::sqrt((sum2[i] - runs * mean * mean) / (runs - 1));
-    std::printf("housed air calibration %s: sigma %.4g, Monte-Carlo spread %.4g, ratio %.2f, mean error %.4g\n",
-                i == 0 ? "ep_x" : i == 1 ? "ep_y" : i == 2 ? "ep_z" : "c", sigma[i], spread, sigma[i] / spread, mean);
-    EXPECT_GT(sigma[i] / spread, 1 / 1.5) << i;
-    EXPECT_LT(sigma[i] / spread, 1.5) << i;
-    EXPECT_LE(std::abs(mean), 3 * spread / std::sqrt(runs) + 1e-3) << i;
-  }
+  mc.Expect("housed air calibration");
 }
 
 // The prediction of c, x0, y0 from the TRUE port (σ 0.5 mm per axis) with the in-air calibration:
