@@ -55,6 +55,10 @@ def test_a_prior_needs_sigma(detections, air_files):
         line = run_bad("calibrate", "--detections", detections, "--model", "opencv", "--port", PORT,
                        "--air-calibration", air_files[name], "--air-lens-bare")
         assert "--air-calibration" in line and "--intrinsics fixed" in line and "sigma" in line, line
+    # Made through the port (no --air-lens-bare) it cannot be held fixed: the line says free instead.
+    line = run_bad("calibrate", "--detections", detections, "--model", "opencv", "--port", PORT,
+                   "--air-calibration", air_files["opencv-yaml"])
+    assert "--intrinsics free" in line and "--intrinsics fixed" not in line and "sigma" in line, line
     j = refractive(detections, air_files["json"])
     assert j["port"]["intrinsics"] == "prior"
     # A chessboard: no centre correction, stated as such (calib_real_test checks coded targets).

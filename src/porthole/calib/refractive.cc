@@ -1234,9 +1234,13 @@ void CheckOptions(const RefractiveOptions& o) {
       throw InvalidInput(
           "air_calibration",
           fmt::format("a prior (`intrinsics` prior, the default with `air_calibration`) needs the "
-                      "in-air covariance, and this calibration has none{}: give `intrinsics` "
-                      "fixed, or a calibration with sigma (porthole JSON, Metashape XML, calibmar)",
-                      o.air->covariance_note.empty() ? "" : " (" + o.air->covariance_note + ")"));
+                      "in-air covariance, and this calibration has none{}: give {}, or a calibration "
+                      "with sigma (porthole JSON, Metashape XML, calibmar)",
+                      o.air->covariance_note.empty() ? "" : " (" + o.air->covariance_note + ")",
+                      o.air_of == RefractiveOptions::AirCalibrationOf::kLensBare
+                          ? "`intrinsics` fixed"
+                          : "`intrinsics` free (it is then only the start; made through the port it "
+                            "cannot be held fixed)"));
     }
   }
 }
