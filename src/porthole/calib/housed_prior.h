@@ -34,6 +34,7 @@
 #include <optional>
 #include <vector>
 
+#include "porthole/calib/prior_cost.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/camera/sensor.h"
 #include "porthole/core/error.h"
@@ -97,19 +98,10 @@ HousedPrior MakeHousedPrior(const CalibrationRecord& air, const std::vector<std:
   for (int i = 0; i < N; ++i) {
     if (air.free[i]) h.idx.push_back(i);
   }
-  const int m = static_cast<int>(h.idx.size());
-  if (m == 0) throw InvalidInput("air_calibration", "adjusted no parameter: it cannot be a prior");
-  h.mean.resize(m);
-  Eigen::MatrixXd cov(m, m);
-  for (int a = 0; a < m; ++a) {
-    h.mean(a) = air.camera.params[h.idx[a]];
-    for (int b = 0; b < m; ++b) cov(a, b) = air.covariance(h.idx[a], h.idx[b]);
-  }
-  const Eigen::LLT<Eigen::MatrixXd> llt(cov);
-  if (llt.info() != Eigen::Success) {
-    throw InvalidInput("air_calibration", "its covariance is not positive definite");
-  }
-  h.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
+  if (h.idx.empty()) throw InvalidInput("air_calibration", "adjusted no parameter: it cannot be a prior");
+  const WhitenedPrior w = WhitenedPriorOf(air, h.idx, "air_calibration");
+  h.mean = w.mean;
+  h.whiten = w.whiten;
   h.held = air.camera.params;
   const camera::Sensor& s = air.camera.sensor;
   for (const auto& v : views) {

@@ -5,10 +5,40 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <string>
 #include <utility>
+#include <vector>
+
+#include "porthole/calib/result_json.h"
+#include "porthole/core/error.h"
 
 namespace porthole::calib {
+
+// A calibration's parameters `idx` (model order) as a Gaussian prior N(μ, Σ), whitened: μ and
+// W = L⁻¹ with Σ = L·Lᵀ (the record's covariance over idx). Throws InvalidInput(field, `who` +
+// …) when Σ is not positive definite. Shared by the lens priors of refractive.cc and rig.cc and
+// the housed prior (housed_prior.h).
+struct WhitenedPrior {
+  Eigen::VectorXd mean;
+  Eigen::MatrixXd whiten;
+};
+inline WhitenedPrior WhitenedPriorOf(const CalibrationRecord& rec, const std::vector<int>& idx,
+                                     const std::string& field, const std::string& who = "") {
+  const int m = static_cast<int>(idx.size());
+  WhitenedPrior p;
+  p.mean.resize(m);
+  Eigen::MatrixXd cov(m, m);
+  for (int a = 0; a < m; ++a) {
+    p.mean(a) = rec.camera.params[idx[a]];
+    for (int b = 0; b < m; ++b) cov(a, b) = rec.covariance(idx[a], idx[b]);
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+  if (llt.info() != Eigen::Success) throw InvalidInput(field, who + "its covariance is not positive definite");
+  p.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
+  return p;
+}
 
 class LinearPriorCost final : public ceres::CostFunction {
  public:

@@ -714,19 +714,10 @@ std::optional<Prior> MakePrior(const RefractiveOptions& o) {
   for (int i = info.num_focal; i < info.num_params; ++i) {
     if (o.air->free[i]) prior.idx.push_back(i);
   }
-  const int m = static_cast<int>(prior.idx.size());
-  if (m == 0) return std::nullopt;
-  prior.mean.resize(m);
-  Eigen::MatrixXd cov(m, m);
-  for (int a = 0; a < m; ++a) {
-    prior.mean(a) = o.air->camera.params[prior.idx[a]];
-    for (int b = 0; b < m; ++b) cov(a, b) = o.air->covariance(prior.idx[a], prior.idx[b]);
-  }
-  const Eigen::LLT<Eigen::MatrixXd> llt(cov);
-  if (llt.info() != Eigen::Success) {
-    throw InvalidInput("air_calibration", "its covariance is not positive definite");
-  }
-  prior.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
+  if (prior.idx.empty()) return std::nullopt;
+  const WhitenedPrior w = WhitenedPriorOf(*o.air, prior.idx, "air_calibration");
+  prior.mean = w.mean;
+  prior.whiten = w.whiten;
   return prior;
 }
 

@@ -315,21 +315,11 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       }
       const int m = static_cast<int>(idx.size());
       if (m > 0) {
-        Eigen::MatrixXd cov(m, m);
-        Eigen::VectorXd mean(m);
-        for (int a = 0; a < m; ++a) {
-          mean(a) = air.camera.params[idx[a]];
-          for (int b = 0; b < m; ++b) cov(a, b) = air.covariance(idx[a], idx[b]);
-        }
-        const Eigen::LLT<Eigen::MatrixXd> llt(cov);
-        if (llt.info() != Eigen::Success) {
-          throw InvalidInput("air_lens", c.name + ": its covariance is not positive definite");
-        }
-        const Eigen::MatrixXd w = llt.matrixL().solve(Eigen::MatrixXd::Identity(m, m));
+        const WhitenedPrior w = WhitenedPriorOf(air, idx, "air_lens", c.name + ": ");
         Eigen::MatrixXd e = Eigen::MatrixXd::Zero(m, info.num_params);
         for (int a = 0; a < m; ++a) e(a, idx[a]) = c.scale[idx[a]];
-        c.prior_a = w * e;
-        c.prior_b = w * mean;
+        c.prior_a = w.whiten * e;
+        c.prior_b = w.whiten * w.mean;
       }
     }
     for (const auto& im : c.alone.images) seen[k][frame_index.at(FrameName(im.image))] = ToRt(im.rotation_rad, im.translation_mm);
