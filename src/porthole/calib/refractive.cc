@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 
+#include "porthole/calib/bundle.h"
 #include "porthole/calib/compare.h"
 #include "porthole/calib/housed_prior.h"
 #include "porthole/calib/prior_cost.h"
@@ -54,59 +55,6 @@ struct Obs {
   // The detector's measurement; u_px, v_px are it minus the centre offset of a circular target
   // (RefractiveAdjustment::UpdateCentreOffsets), or it unchanged.
   double measured_u_px = 0, measured_v_px = 0;
-};
-
-// The image residual through the port (refraction::Project), px times `weight`. Blocks: scaled
-// lens [N], port [3], pose [6] (angle-axis rad, translation mm); the shell's values at the shell's own.
-template <typename M>
-struct RefractiveCost {
-  double u_px, v_px, weight;
-  camera::Sensor sensor;
-  std::array<double, M::kNumParams> scale;
-  refraction::Shell shell;
-  Eigen::Vector3d point;
-  // An image taken in air through the port: `shell` is the air shell (outside index 1) and the
-  // water index factor (shell value 0) does not apply.
-  bool in_air = false;
-
-  // `shell_values`: nullptr, or the shell's values (refraction::ShellParams).
-  template <typename T>
-  bool Residual(const T* scaled, const T* port, const T* shell_values, const T* pose, T* r) const {
-    const T* rotation = pose;
-    const T* translation = pose + 3;
-    T air_values[kShellNumParams];
-    if (in_air && shell_values != nullptr) {
-      std::copy(shell_values, shell_values + kShellNumParams, air_values);
-      air_values[0] = T(1);
-      shell_values = air_values;
-    }
-    T cam[M::kNumParams];
-    for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
-    const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
-    T p[3];
-    ceres::AngleAxisRotatePoint(rotation, x, p);
-    const refraction::Vec3T<T> pc(p[0] + translation[0], p[1] + translation[1],
-                                  p[2] + translation[2]);
-    const auto uv = refraction::Project<M, T>(sensor, cam, shell, port, pc, shell_values);
-    if (!uv) return false;
-    r[0] = ((*uv)(0) - T(u_px)) * T(weight);
-    r[1] = ((*uv)(1) - T(v_px)) * T(weight);
-    return true;
-  }
-  template <typename T>
-  bool operator()(const T* scaled, const T* port, const T* pose, T* r) const {
-    return Residual<T>(scaled, port, nullptr, pose, r);
-  }
-};
-
-// The same with the shell's values as a block between the port and the rotation (only when some
-// are adjusted: the Jets are 6 wider).
-template <typename M>
-struct RefractiveShellCost : RefractiveCost<M> {
-  template <typename T>
-  bool operator()(const T* scaled, const T* port, const T* shell_values, const T* pose, T* r) const {
-    return this->template Residual<T>(scaled, port, shell_values, pose, r);
-  }
 };
 
 // The in-air calibration as a Gaussian prior on the lens parameters `idx`: r = L⁻¹(p − μ) with
@@ -206,31 +154,14 @@ class RefractiveAdjustment {
       }
     }
     std::array<double, N> scaled;
-    ceres::Problem problem;
-    Build(&scaled, &problem);
-    ceres::Solver::Options so;
-    so.logging_type = ceres::SILENT;  // no Ceres lines on stderr (issue 24)
-    so.linear_solver_type = ceres::DENSE_SCHUR;
-    so.max_num_iterations = max_iterations;
-    so.max_num_consecutive_invalid_steps = 50;
-    // The start (a central calibration's poses, the lens) is close: let Levenberg–Marquardt take
-    // the Gauss–Newton step at once, as Calibrate does.
-    so.initial_trust_region_radius = 1e8;
+    const std::unique_ptr<Bundle> bundle = MakeBundle(&scaled);
+    BundleSolveOptions so;
+    so.max_iterations = max_iterations;
     so.function_tolerance = 1e-9;
     so.parameter_tolerance = 1e-9;
     so.gradient_tolerance = 1e-12;
     so.num_threads = o_.lens.num_threads;
-    // The poses eliminated first (a reduced system of the lens, port and shell alone).
-    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    for (double* block : {scaled.data(), port.data(), shell_values.data()}) {
-      if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, 1);
-    }
-    for (auto& pose : pose_) {
-      if (problem.HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), 0);
-    }
-    so.linear_solver_ordering = ordering;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
+    const ceres::Solver::Summary summary = bundle->Solve(so);
     for (int i = 0; i < N; ++i) lens[i] = scaled[i] * scale_[i];
     if (cost) *cost = summary.IsSolutionUsable() ? summary.final_cost : INFINITY;
     return static_cast<int>(summary.iterations.size());
@@ -240,8 +171,8 @@ class RefractiveAdjustment {
   // the poses, in the parameters' own units (0 for parameters not adjusted); false if singular.
   bool Covariance(Eigen::MatrixXd* cov) {
     std::array<double, N> scaled;
-    ceres::Problem problem;
-    Build(&scaled, &problem);
+    const std::unique_ptr<Bundle> bundle = MakeBundle(&scaled);
+    ceres::Problem& problem = bundle->problem();
     ceres::Covariance::Options co;
     co.num_threads = o_.lens.num_threads;
     ceres::Covariance covariance(co);
@@ -365,67 +296,59 @@ class RefractiveAdjustment {
   }
 
  private:
-  // Holds the parameters `free[i]` false of a block constant (all: the whole block).
-  template <std::size_t K>
-  static void FixSubset(ceres::Problem* problem, double* block, const std::array<bool, K>& free) {
-    std::vector<int> fixed;
-    for (std::size_t i = 0; i < K; ++i) {
-      if (!free[i]) fixed.push_back(static_cast<int>(i));
-    }
-    if (fixed.size() == K) {
-      problem->SetParameterBlockConstant(block);
-    } else if (!fixed.empty()) {
-      problem->SetManifold(block, new ceres::SubsetManifold(static_cast<int>(K), fixed));
-    }
-  }
-
-  void Build(std::array<double, N>* scaled, ceres::Problem* problem) {
+  // The adjustment at the current estimate as a Bundle (bundle.h): the lens (scaled into
+  // `scaled`, which must outlive it), the port, the shell's values when some are adjusted, one
+  // pose per image, the images in water and in air through the port, the priors.
+  std::unique_ptr<Bundle> MakeBundle(std::array<double, N>* scaled) {
     for (int i = 0; i < N; ++i) (*scaled)[i] = lens[i] / scale_[i];
+    auto bundle = std::make_unique<Bundle>();
+    BundleCamera c;
+    c.model = M::kId;
+    c.sensor = sensor_;
+    c.scaled = scaled->data();
+    c.scale.assign(scale_.begin(), scale_.end());
+    c.free.assign(lens_free.begin(), lens_free.begin() + N);
+    c.water_shell = &shell_;
+    c.air_shell = &air_shell_;
+    c.port = port.data();
+    c.port_free = port_free;
     const bool with_shell = UsesShell();
+    if (with_shell) {
+      c.shell_values = shell_values.data();
+      c.shell_free = shell_free;
+    }
+    bundle->AddCamera(c);
     for (const auto& ob : obs_) {
       if (!ob.active) continue;
-      const bool air = InAir(ob.image);
-      const RefractiveCost<M> f{ob.u_px, ob.v_px, weight, sensor_, scale_, air ? air_shell_ : shell_,
-                                points_[ob.point], air};
-      if (with_shell) {
-        problem->AddResidualBlock(
-            new ceres::AutoDiffCostFunction<RefractiveShellCost<M>, 2, N, kPortNumParams,
-                                            kShellNumParams, 6>(new RefractiveShellCost<M>{f}),
-            nullptr, scaled->data(), port.data(), shell_values.data(), pose_[ob.image].data());
-      } else {
-        problem->AddResidualBlock(
-            new ceres::AutoDiffCostFunction<RefractiveCost<M>, 2, N, kPortNumParams, 6>(
-                new RefractiveCost<M>(f)),
-            nullptr, scaled->data(), port.data(), pose_[ob.image].data());
-      }
+      BundleObservation bo;
+      bo.pose = pose_[ob.image].data();
+      bo.point = points_[ob.point];
+      bo.u_px = ob.u_px, bo.v_px = ob.v_px;
+      bo.weight = weight;
+      bo.medium = InAir(ob.image) ? Medium::kAir : Medium::kWater;
+      bundle->AddObservation(bo);
     }
     if (prior) {
       // r = W(S·scaled − μ) over idx: A = W·E·S, b = W·μ.
       const int m = static_cast<int>(prior->idx.size());
       Eigen::MatrixXd e = Eigen::MatrixXd::Zero(m, N);
       for (int a = 0; a < m; ++a) e(a, prior->idx[a]) = scale_[prior->idx[a]];
-      problem->AddResidualBlock(new LinearPriorCost(prior->whiten * e, prior->whiten * prior->mean),
-                                nullptr, scaled->data());
+      bundle->AddCost(new LinearPriorCost(prior->whiten * e, prior->whiten * prior->mean), {scaled->data()});
     }
     if (housed && with_shell) {
-      problem->AddResidualBlock(
+      bundle->AddCost(
           new ceres::AutoDiffCostFunction<HousedPriorShellCost<M>, N, N, kPortNumParams, kShellNumParams>(
               new HousedPriorShellCost<M>{{&*housed, sensor_, scale_, air_shell_}}),
-          nullptr, scaled->data(), port.data(), shell_values.data());
+          {scaled->data(), port.data(), shell_values.data()});
     } else if (housed) {
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<HousedPriorCost<M>, N, N, kPortNumParams>(
-                                    new HousedPriorCost<M>{&*housed, sensor_, scale_, air_shell_}),
-                                nullptr, scaled->data(), port.data());
+      bundle->AddCost(new ceres::AutoDiffCostFunction<HousedPriorCost<M>, N, N, kPortNumParams>(
+                          new HousedPriorCost<M>{&*housed, sensor_, scale_, air_shell_}),
+                      {scaled->data(), port.data()});
     }
     if (shell_prior && with_shell) {
-      problem->AddResidualBlock(new LinearPriorCost(shell_prior->a, shell_prior->b), nullptr,
-                                shell_values.data());
+      bundle->AddCost(new LinearPriorCost(shell_prior->a, shell_prior->b), {shell_values.data()});
     }
-    std::array<bool, N> lf;
-    for (int i = 0; i < N; ++i) lf[i] = lens_free[i];
-    FixSubset(problem, scaled->data(), lf);
-    FixSubset(problem, port.data(), port_free);
-    if (with_shell) FixSubset(problem, shell_values.data(), shell_free);
+    return bundle;
   }
 
   const RefractiveOptions& o_;
