@@ -100,6 +100,29 @@ ceres::CostFunction* NewObservationCost(const BundleCamera& c, const BundleObser
   return c.port != nullptr ? bundle_detail::NewPortCost(c, ob) : bundle_detail::NewCentralCost(c, ob, form);
 }
 
+namespace {
+
+// An observation's blocks in the cost's order (NewObservationCost).
+std::vector<double*> BlocksOf(const BundleCamera& c, const BundleObservation& ob) {
+  std::vector<double*> blocks = {c.scaled};
+  if (c.port != nullptr) blocks.push_back(c.port);
+  if (c.port != nullptr && c.shell_values != nullptr) blocks.push_back(c.shell_values);
+  if (ob.cam_from_rig != nullptr) blocks.push_back(ob.cam_from_rig);
+  blocks.push_back(ob.pose);
+  if (ob.point_block != nullptr) blocks.push_back(ob.point_block);
+  return blocks;
+}
+
+}  // namespace
+
+std::optional<Eigen::Vector2d> ObservationResidual(const BundleCamera& c, const BundleObservation& ob) {
+  const std::unique_ptr<ceres::CostFunction> cost(NewObservationCost(c, ob));
+  const std::vector<double*> blocks = BlocksOf(c, ob);
+  double r[2];
+  if (!cost->Evaluate(blocks.data(), r, nullptr)) return std::nullopt;
+  return Eigen::Vector2d(r[0], r[1]);
+}
+
 Bundle::Bundle(LossKind loss, double loss_scale_px, Form form)
     : loss_(loss), loss_scale_px_(loss_scale_px), form_(form), problem_(std::make_unique<ceres::Problem>()) {}
 
@@ -112,12 +135,7 @@ int Bundle::AddCamera(const BundleCamera& camera) {
 
 void Bundle::AddObservation(const BundleObservation& ob) {
   const BundleCamera& c = cameras_.at(ob.camera);
-  std::vector<double*> blocks = {c.scaled};
-  if (c.port != nullptr) blocks.push_back(c.port);
-  if (c.port != nullptr && c.shell_values != nullptr) blocks.push_back(c.shell_values);
-  if (ob.cam_from_rig != nullptr) blocks.push_back(ob.cam_from_rig);
-  blocks.push_back(ob.pose);
-  if (ob.point_block != nullptr) blocks.push_back(ob.point_block);
+  const std::vector<double*> blocks = BlocksOf(c, ob);
   ceres::LossFunction* loss = nullptr;
   if (loss_ == LossKind::kHuber) loss = new ceres::HuberLoss(loss_scale_px_);
   if (loss_ == LossKind::kCauchy) loss = new ceres::CauchyLoss(loss_scale_px_);

@@ -21,6 +21,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "porthole/calib/calibrate.h"
@@ -82,6 +83,10 @@ struct BundleSolveOptions {
 ceres::CostFunction* NewObservationCost(const BundleCamera& c, const BundleObservation& ob,
                                         Form form = Form::kProject);
 
+// The residual (px, times ob.weight) of one observation at the blocks' current values; nullopt
+// where it cannot be projected.
+std::optional<Eigen::Vector2d> ObservationResidual(const BundleCamera& c, const BundleObservation& ob);
+
 class Bundle {
  public:
   // `loss`: the robust loss of the image residuals (scale in px); `form`: the residual form of
@@ -97,6 +102,8 @@ class Bundle {
   void AddObservation(const BundleObservation& ob);
   // A prior or any other cost on the caller's blocks (owned by the Bundle).
   void AddCost(ceres::CostFunction* cost, const std::vector<double*>& blocks);
+  // Whether some cost has this block.
+  bool HasBlock(double* block) const { return problem_->HasParameterBlock(block); }
   // Holds the coordinates `held` (0–2) of a free point, or all of it (empty `held`: constant).
   void HoldPoint(double* point_block, const std::vector<int>& held = {});
 

@@ -16,6 +16,7 @@
 #include <map>
 #include <set>
 
+#include "porthole/calib/bundle.h"
 #include "porthole/calib/housed_prior.h"
 #include "porthole/calib/prior_cost.h"
 #include "porthole/calib/refractive.h"
@@ -51,71 +52,6 @@ Pose6 ToPose(const Rt& x) {
 }
 Rt Compose(const Rt& a, const Rt& b) { return {a.r * b.r, a.r * b.t + a.t}; }  // a ∘ b
 Rt Inverse(const Rt& a) { return {a.r.transpose(), -a.r.transpose() * a.t}; }
-
-// Project_k(cam_from_rig · rig_from_target · X) − observed, px; behind a port (shell non-null) the
-// exact forward projection through it (refraction::Project) with the port parameters `port`.
-template <typename M>
-struct RigResidual {
-  double u_px, v_px;
-  camera::Sensor sensor;
-  std::array<double, M::kNumParams> scale;
-  Eigen::Vector3d point;
-  const refraction::Shell* shell = nullptr;
-  double weight = 1;  // 1/σ of the image residuals (with priors)
-
-  template <typename T>
-  bool Evaluate(const T* scaled, const T* port, const T* cam_from_rig, const T* rig_from_target, T* r) const {
-    T cam[M::kNumParams];
-    for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
-    const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
-    T q[3], p[3];
-    ceres::AngleAxisRotatePoint(rig_from_target, x, q);
-    for (int k = 0; k < 3; ++k) q[k] += rig_from_target[3 + k];
-    if (cam_from_rig != nullptr) {
-      ceres::AngleAxisRotatePoint(cam_from_rig, q, p);
-      for (int k = 0; k < 3; ++k) p[k] += cam_from_rig[3 + k];
-    } else {
-      std::copy(q, q + 3, p);
-    }
-    std::optional<camera::Vec2<T>> uv;
-    if (shell != nullptr) {
-      uv = refraction::Project<M, T>(sensor, cam, *shell, port, refraction::Vec3T<T>(p[0], p[1], p[2]), nullptr);
-    } else {
-      uv = M::template Project<T>(sensor, cam, camera::Vec3<T>(p[0], p[1], p[2]));
-    }
-    if (!uv) return false;
-    r[0] = ((*uv)(0) - T(u_px)) * T(weight);
-    r[1] = ((*uv)(1) - T(v_px)) * T(weight);
-    return true;
-  }
-};
-
-// Blocks without a port: scaled intrinsics [N], cam_from_rig [6] (cameras k > 0 only),
-// rig_from_target [6].
-template <typename M>
-struct RigCentralCost : RigResidual<M> {
-  template <typename T>
-  bool operator()(const T* scaled, const T* rig_from_target, T* r) const {
-    return this->template Evaluate<T>(scaled, nullptr, nullptr, rig_from_target, r);
-  }
-  template <typename T>
-  bool operator()(const T* scaled, const T* cam_from_rig, const T* rig_from_target, T* r) const {
-    return this->template Evaluate<T>(scaled, nullptr, cam_from_rig, rig_from_target, r);
-  }
-};
-
-// Behind a port: scaled intrinsics [N], port [3], cam_from_rig [6] (k > 0 only), rig_from_target [6].
-template <typename M>
-struct RigPortCost : RigResidual<M> {
-  template <typename T>
-  bool operator()(const T* scaled, const T* port, const T* rig_from_target, T* r) const {
-    return this->template Evaluate<T>(scaled, port, nullptr, rig_from_target, r);
-  }
-  template <typename T>
-  bool operator()(const T* scaled, const T* port, const T* cam_from_rig, const T* rig_from_target, T* r) const {
-    return this->template Evaluate<T>(scaled, port, cam_from_rig, rig_from_target, r);
-  }
-};
 
 struct Cam {
   camera::Camera camera;      // model, sensor, parameters (current estimate)
@@ -161,21 +97,40 @@ std::vector<double> Scales(const camera::Camera& c) {
   });
 }
 
+// Camera c as the Bundle (bundle.h) sees it: its blocks are c's own.
+BundleCamera BundleCameraOf(Cam& c) {
+  BundleCamera b;
+  b.model = c.camera.model;
+  b.sensor = c.camera.sensor;
+  b.scaled = c.scaled.data();
+  b.scale = c.scale;
+  b.free = c.free;
+  if (c.shell) {
+    b.water_shell = &*c.shell;
+    b.air_shell = c.air_shell ? &*c.air_shell : nullptr;
+    b.port = c.port.data();
+  }
+  return b;
+}
+
+// An observation of camera `cam_index` (c) at `pose`: a frame's rig_from_target, with the camera's
+// cam_from_rig but for the first camera; an air image's own cam_from_target (air set).
+BundleObservation BundleObservationOf(Cam& c, int cam_index, Pose6& pose, const Eigen::Vector3d& x, const Obs& ob,
+                                      double weight) {
+  BundleObservation b;
+  b.camera = cam_index;
+  b.pose = pose.data();
+  b.cam_from_rig = cam_index == 0 || ob.air ? nullptr : c.extrinsic.data();
+  b.point = x;
+  b.u_px = ob.u_px, b.v_px = ob.v_px;
+  b.weight = weight;
+  b.medium = ob.air ? Medium::kAir : Medium::kWater;
+  return b;
+}
+
 // The residual (px) of one observation at the current estimate; nullopt where it cannot project.
-// An air image's observation: through the air shell, `frame` its own cam_from_target.
-std::optional<Eigen::Vector2d> Residual(const Cam& c, int cam_index, const Pose6& frame, const Eigen::Vector3d& x,
-                                        const Obs& ob) {
-  return camera::VisitModel(c.camera.model, [&](auto m) -> std::optional<Eigen::Vector2d> {
-    using M = decltype(m);
-    const refraction::Shell* shell = ob.air ? &*c.air_shell : c.shell ? &*c.shell : nullptr;
-    RigResidual<M> f{ob.u_px, ob.v_px, c.camera.sensor, {}, x, shell};
-    std::copy(c.scale.begin(), c.scale.end(), f.scale.begin());
-    double r[2];
-    const bool ok = f.Evaluate(c.scaled.data(), c.port.data(), cam_index == 0 || ob.air ? nullptr : c.extrinsic.data(),
-                               frame.data(), r);
-    if (!ok) return std::nullopt;
-    return Eigen::Vector2d(r[0], r[1]);
-  });
+std::optional<Eigen::Vector2d> Residual(Cam& c, int cam_index, Pose6& pose, const Eigen::Vector3d& x, const Obs& ob) {
+  return ObservationResidual(BundleCameraOf(c), BundleObservationOf(c, cam_index, pose, x, ob, 1.0));
 }
 
 Eigen::Matrix3d ChordalMean(const std::vector<Eigen::Matrix3d>& rs) {
@@ -440,103 +395,39 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     std::copy(c.scale.begin(), c.scale.end(), f.scale.begin());
     return f;
   };
-  const auto build = [&](ceres::Problem* problem) {
+  // The adjustment as a Bundle (bundle.h): every camera (its port behind one), every active
+  // observation at its frame's pose (air images at their own), the priors once weighed.
+  const auto build = [&](Bundle* bundle) {
+    for (auto& c : cams) bundle->AddCamera(BundleCameraOf(c));
     for (const Obs& ob : obs) {
       if (!ob.active) continue;
-      Cam& c = cams[ob.cam];
-      camera::VisitModel(c.camera.model, [&](auto m) {
-        using M = decltype(m);
-        constexpr int N = M::kNumParams;
-        constexpr int P = refraction::kPortNumParams;
-        const RigResidual<M> base{ob.u_px, ob.v_px, c.camera.sensor, {}, points[ob.point], c.shell ? &*c.shell : nullptr,
-                                  weight};
-        const auto with_scale = [&](auto* f) {
-          std::copy(c.scale.begin(), c.scale.end(), f->scale.begin());
-          return f;
-        };
-        double* frame = pose_of(ob).data();
-        if (ob.air) {
-          RigResidual<M> in_air = base;
-          in_air.shell = &*c.air_shell;
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigPortCost<M>, 2, N, P, 6>(
-                                        with_scale(new RigPortCost<M>{in_air})),
-                                    nullptr, c.scaled.data(), c.port.data(), frame);
-        } else if (c.shell && ob.cam == 0) {
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigPortCost<M>, 2, N, P, 6>(
-                                        with_scale(new RigPortCost<M>{base})),
-                                    nullptr, c.scaled.data(), c.port.data(), frame);
-        } else if (c.shell) {
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigPortCost<M>, 2, N, P, 6, 6>(
-                                        with_scale(new RigPortCost<M>{base})),
-                                    nullptr, c.scaled.data(), c.port.data(), c.extrinsic.data(), frame);
-        } else if (ob.cam == 0) {
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigCentralCost<M>, 2, N, 6>(
-                                        with_scale(new RigCentralCost<M>{base})),
-                                    nullptr, c.scaled.data(), frame);
-        } else {
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RigCentralCost<M>, 2, N, 6, 6>(
-                                        with_scale(new RigCentralCost<M>{base})),
-                                    nullptr, c.scaled.data(), c.extrinsic.data(), frame);
-        }
-      });
+      bundle->AddObservation(BundleObservationOf(cams[ob.cam], ob.cam, pose_of(ob), points[ob.point], ob, weight));
     }
     for (auto& c : cams) {
-      if (!problem->HasParameterBlock(c.scaled.data())) continue;
-      if (with_priors && c.prior_a.rows() > 0) {
-        problem->AddResidualBlock(new LinearPriorCost(c.prior_a, c.prior_b), nullptr, c.scaled.data());
-      }
-      if (with_priors && c.housed) {
+      if (!with_priors || !bundle->HasBlock(c.scaled.data())) continue;
+      if (c.prior_a.rows() > 0) bundle->AddCost(new LinearPriorCost(c.prior_a, c.prior_b), {c.scaled.data()});
+      if (c.housed) {
         camera::VisitModel(c.camera.model, [&](auto m) {
           using M = decltype(m);
-          problem->AddResidualBlock(
-              new ceres::AutoDiffCostFunction<HousedPriorCost<M>, M::kNumParams, M::kNumParams,
-                                              refraction::kPortNumParams>(new HousedPriorCost<M>(housed_cost(c, m))),
-              nullptr, c.scaled.data(), c.port.data());
+          bundle->AddCost(new ceres::AutoDiffCostFunction<HousedPriorCost<M>, M::kNumParams, M::kNumParams,
+                                                          refraction::kPortNumParams>(
+                              new HousedPriorCost<M>(housed_cost(c, m))),
+                          {c.scaled.data(), c.port.data()});
         });
-      }
-      std::vector<int> fixed;
-      for (std::size_t i = 0; i < c.free.size(); ++i) {
-        if (!c.free[i]) fixed.push_back(static_cast<int>(i));
-      }
-      if (fixed.size() == c.free.size()) {
-        problem->SetParameterBlockConstant(c.scaled.data());
-      } else if (!fixed.empty()) {
-        problem->SetManifold(c.scaled.data(), new ceres::SubsetManifold(static_cast<int>(c.free.size()), fixed));
       }
     }
   };
   int iterations = 0;
   const auto solve = [&] {
-    ceres::Problem problem;
-    build(&problem);
-    ceres::Solver::Options so;
-    so.logging_type = ceres::SILENT;
-    so.linear_solver_type = ceres::DENSE_SCHUR;
-    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    for (auto& pose : frame_pose) {
-      if (problem.HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), 0);
-    }
-    for (auto& a : air_images) {
-      if (problem.HasParameterBlock(a.pose.data())) ordering->AddElementToGroup(a.pose.data(), 0);
-    }
-    for (int k = 0; k < n_cams; ++k) {
-      if (problem.HasParameterBlock(cams[k].scaled.data())) ordering->AddElementToGroup(cams[k].scaled.data(), 1);
-      if (k > 0 && problem.HasParameterBlock(cams[k].extrinsic.data())) {
-        ordering->AddElementToGroup(cams[k].extrinsic.data(), 1);
-      }
-      if (problem.HasParameterBlock(cams[k].port.data())) ordering->AddElementToGroup(cams[k].port.data(), 1);
-    }
-    so.linear_solver_ordering = ordering;
-    so.max_num_iterations = first.max_iterations;
-    so.max_num_consecutive_invalid_steps = 50;
-    so.initial_trust_region_radius = 1e8;  // the start is each camera's own optimum: close
+    Bundle bundle;
+    build(&bundle);
+    BundleSolveOptions so;
+    so.max_iterations = first.max_iterations;
     so.function_tolerance = 1e-12;
     so.parameter_tolerance = 1e-12;
     so.gradient_tolerance = 1e-14;
     so.num_threads = first.num_threads;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
-    iterations += static_cast<int>(summary.iterations.size());
+    iterations += static_cast<int>(bundle.Solve(so).iterations.size());
   };
   int n_unknowns = 6 * (n_cams - 1);
   for (const auto& c : cams) {
@@ -612,8 +503,9 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
 
   // Statistics: each camera's intrinsics and cam_from_rig, marginal over the frames.
   say("rig: covariance");
-  ceres::Problem problem;
-  build(&problem);
+  Bundle bundle;
+  build(&bundle);
+  ceres::Problem& problem = bundle.problem();
   ceres::Covariance::Options co;
   co.num_threads = first.num_threads;
   ceres::Covariance covariance(co);
