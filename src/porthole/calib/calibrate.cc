@@ -1,4 +1,5 @@
 #include "porthole/calib/calibrate.h"
+#include "porthole/calib/bundle.h"
 
 #include <ceres/ceres.h>
 #include <glog/logging.h>
@@ -284,53 +285,6 @@ Datum ChooseDatum(const std::vector<Eigen::Vector3d>& pts, const std::set<int>& 
   return d;
 }
 
-// The analytic cost of one observation in the residual form `form`.
-template <bool kPointFree>
-ceres::CostFunction* NewCost(Form form, const Observation& ob, double pitch_mm,
-                             const CameraScales& scale, const Eigen::Vector3d& point) {
-  if (form == Form::kProject) {
-    return new AnalyticResidual<Form::kProject, kPointFree>(ob.x_mm, ob.y_mm, pitch_mm, scale,
-                                                            point);
-  }
-  return new AnalyticResidual<Form::kCorrect, kPointFree>(ob.x_mm, ob.y_mm, pitch_mm, scale,
-                                                          point);
-}
-
-// The image residual of any model by automatic differentiation: Project(R·X + t) − observed, px.
-// Blocks: scaled camera [N], rotation [3], translation [3] and, with a free target, the point [3].
-template <typename M>
-struct ModelResidual {
-  double u_px, v_px;
-  camera::Sensor sensor;
-  std::array<double, M::kNumParams> scale;
-  Eigen::Vector3d point;
-
-  template <typename T>
-  bool Evaluate(const T* scaled, const T* rotation, const T* translation, const T* x,
-                T* r) const {
-    T cam[M::kNumParams];
-    for (int i = 0; i < M::kNumParams; ++i) cam[i] = scaled[i] * T(scale[i]);
-    T p[3];
-    ceres::AngleAxisRotatePoint(rotation, x, p);
-    const auto uv = M::template Project<T>(
-        sensor, cam, camera::Vec3<T>(p[0] + translation[0], p[1] + translation[1], p[2] + translation[2]));
-    if (!uv) return false;
-    r[0] = (*uv)(0) - T(u_px);
-    r[1] = (*uv)(1) - T(v_px);
-    return true;
-  }
-  template <typename T>
-  bool operator()(const T* scaled, const T* rotation, const T* translation, T* r) const {
-    const T x[3] = {T(point.x()), T(point.y()), T(point.z())};
-    return Evaluate(scaled, rotation, translation, x, r);
-  }
-  template <typename T>
-  bool operator()(const T* scaled, const T* rotation, const T* translation, const T* x,
-                  T* r) const {
-    return Evaluate(scaled, rotation, translation, x, r);
-  }
-};
-
 // Residual (projected − observed) in px, or nullopt where the projection fails.
 template <typename M>
 std::optional<Eigen::Vector2d> Residual(const State<M::kNumParams>& s, const Observation& o,
@@ -343,46 +297,6 @@ std::optional<Eigen::Vector2d> Residual(const State<M::kNumParams>& s, const Obs
   if (!uv) return std::nullopt;
   return Eigen::Vector2d(*uv - Eigen::Vector2d(o.u_px, o.v_px));
 }
-
-// A cost over (camera, rotation [3], translation [3][, point [3]]) seen as (camera, pose [6]
-// [, point]): one pose block per image. Ceres's Schur solvers eliminate an independent set of
-// blocks; with the rotation and the translation apart (one residual touches both) only one of
-// the two left each image, the reduced system grew by 3 per image and the solve as n^2.5 (issue
-// 26: 2.95 s at 1,000 views). With one block per pose every pose is eliminated and the reduced
-// system is the camera's N × N: a solve linear in the images.
-class PoseBlockCost final : public ceres::CostFunction {
- public:
-  explicit PoseBlockCost(ceres::CostFunction* inner) : inner_(inner) {
-    const std::vector<int32_t>& in = inner->parameter_block_sizes();
-    set_num_residuals(inner->num_residuals());
-    auto* sizes = mutable_parameter_block_sizes();
-    *sizes = {in[0], 6};
-    if (in.size() > 3) sizes->push_back(in[3]);
-  }
-
-  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
-    const bool with_point = parameter_block_sizes().size() > 2;
-    const double* q[] = {p[0], p[1], p[1] + 3, with_point ? p[2] : nullptr};
-    if (jacobians == nullptr) return inner_->Evaluate(q, residuals, nullptr);
-    constexpr int kMaxResiduals = 2;
-    std::array<double, kMaxResiduals * 3> jr, jt;
-    double* j[] = {jacobians[0], jacobians[1] ? jr.data() : nullptr, jacobians[1] ? jt.data() : nullptr,
-                   with_point ? jacobians[2] : nullptr};
-    if (!inner_->Evaluate(q, residuals, j)) return false;
-    if (jacobians[1] != nullptr) {
-      for (int row = 0; row < num_residuals(); ++row) {
-        for (int c = 0; c < 3; ++c) {
-          jacobians[1][row * 6 + c] = jr[row * 3 + c];
-          jacobians[1][row * 6 + 3 + c] = jt[row * 3 + c];
-        }
-      }
-    }
-    return true;
-  }
-
- private:
-  std::unique_ptr<ceres::CostFunction> inner_;
-};
 
 // A control point's prior (CalibrationOptions::datum kControl): (p − given) / σ · weight per
 // coordinate of σ > 0 (0 for the others, which are held), weight σ0 px: the prior as an image
@@ -449,24 +363,17 @@ class Adjustment {
   // always uses the image residual); updates the state and returns the Ceres iterations.
   int Solve(const FreeMask& free, Form form) {
     std::array<double, N> scaled;
-    ceres::Problem problem;
-    Build(free, form, &scaled, &problem);
-    ceres::Solver::Options so;
-    so.logging_type = ceres::SILENT;  // no Ceres lines on stderr (issue 24)
+    const std::unique_ptr<Bundle> bundle = MakeBundle(free, form, &scaled);
+    BundleSolveOptions so;
     // Schur elimination of the poses (and free target points): the reduced camera system is
     // small, so the dense variant is the fastest; large free targets use the sparse one.
-    so.linear_solver_type = (o_.target_free && used_.size() > 200) ? ceres::SPARSE_SCHUR
-                                                                    : ceres::DENSE_SCHUR;
-    so.max_num_iterations = o_.max_iterations;
+    so.sparse = o_.target_free && used_.size() > 200;
+    so.max_iterations = o_.max_iterations;
     // The scaled parameters (ParameterScales) and the homography start make the Gauss–Newton step
     // good from the first iteration: a large initial trust region lets Levenberg–Marquardt take
     // it (the radius still shrinks after a failed step). Ceres's default 1e4 damps the first
     // steps and cost 3–4 extra iterations per stage on the samples.
     so.initial_trust_region_radius = M::kCaps.analytic_jacobian ? 1e8 : 1e4;
-    // A step that carries a point beyond a model's valid field (a fisheye's fold) cannot be
-    // evaluated; Ceres then shrinks the trust region. Its default gives up after 5 such steps in a
-    // row, before the region is small enough.
-    so.max_num_consecutive_invalid_steps = 50;
     // The correction-form stage is only the start of the image-residual stage, which converges
     // from anywhere near its optimum in 2–3 steps: 1e-6 is enough there. The image-residual
     // stage stops at 1e-8 relative changes, far below the statistics' precision.
@@ -474,20 +381,7 @@ class Adjustment {
     so.parameter_tolerance = form == Form::kProject ? 1e-8 : 1e-6;
     so.gradient_tolerance = 1e-12;
     so.num_threads = o_.num_threads;
-    // Eliminate the free target points (with a free target) or else the poses first.
-    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    ordering->AddElementToGroup(scaled.data(), 1);
-    for (auto& pose : pose_) {
-      if (problem.HasParameterBlock(pose.data())) ordering->AddElementToGroup(pose.data(), o_.target_free ? 1 : 0);
-    }
-    if (o_.target_free) {
-      for (auto& point : s_->points) {
-        if (problem.HasParameterBlock(point.data())) ordering->AddElementToGroup(point.data(), 0);
-      }
-    }
-    so.linear_solver_ordering = ordering;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
+    const ceres::Solver::Summary summary = bundle->Solve(so);
     for (int i = 0; i < N; ++i) s_->camera[i] = scaled[i] * scale_[i];
     for (std::size_t i = 0; i < pose_.size(); ++i) {
       std::copy(pose_[i].begin(), pose_[i].begin() + 3, s_->rotation[i].begin());
@@ -515,66 +409,51 @@ class Adjustment {
   const Datum& datum() const { return datum_; }
 
  private:
-  ceres::CostFunction* NewModelCost(Form form, const Observation& ob, bool point_free) const {
-    const Eigen::Vector3d& point = s_->points[ob.point];
-    if constexpr (M::kCaps.analytic_jacobian) {
-      const double pitch = sensor_.pixel_pitch_mm;
-      return point_free ? NewCost<true>(form, ob, pitch, scale_, point)
-                        : NewCost<false>(form, ob, pitch, scale_, point);
-    } else {
-      auto* f = new ModelResidual<M>{ob.u_px, ob.v_px, sensor_, scale_, point};
-      if (point_free) return new ceres::AutoDiffCostFunction<ModelResidual<M>, 2, N, 3, 3, 3>(f);
-      return new ceres::AutoDiffCostFunction<ModelResidual<M>, 2, N, 3, 3>(f);
-    }
+  // The camera as the Bundle (bundle.h) sees it; `scaled` its block.
+  BundleCamera CameraOf(const FreeMask& free, double* scaled) const {
+    BundleCamera c;
+    c.model = M::kId;
+    c.sensor = sensor_;
+    c.scaled = scaled;
+    c.scale.assign(scale_.begin(), scale_.end());
+    c.free.assign(free.begin(), free.begin() + N);
+    return c;
   }
 
-  void Build(const FreeMask& free, Form form, std::array<double, N>* scaled,
-             ceres::Problem* problem) {
+  // The adjustment as a Bundle (bundle.h) in the residual form `form`: the camera (scaled into
+  // `scaled`, which must outlive it), one pose block [rotation, translation] per image (copied
+  // back after Solve), the free target's points with the datum held, the control points' priors.
+  std::unique_ptr<Bundle> MakeBundle(const FreeMask& free, Form form, std::array<double, N>* scaled) {
     for (int i = 0; i < N; ++i) (*scaled)[i] = s_->camera[i] / scale_[i];
-    // One pose block [rotation, translation] per image (PoseBlockCost), copied back after Solve.
     pose_.resize(s_->rotation.size());
     for (std::size_t i = 0; i < pose_.size(); ++i) {
       std::copy(s_->rotation[i].begin(), s_->rotation[i].end(), pose_[i].begin());
       std::copy(s_->translation[i].begin(), s_->translation[i].end(), pose_[i].begin() + 3);
     }
+    auto bundle = std::make_unique<Bundle>(o_.loss, o_.loss_scale_px, form);
+    bundle->AddCamera(CameraOf(free, scaled->data()));
     for (const auto& ob : *obs_) {
       if (!ob.active) continue;
-      ceres::LossFunction* loss = nullptr;
-      if (o_.loss == LossKind::kHuber) loss = new ceres::HuberLoss(o_.loss_scale_px);
-      if (o_.loss == LossKind::kCauchy) loss = new ceres::CauchyLoss(o_.loss_scale_px);
-      Eigen::Vector3d* point = &s_->points[ob.point];
-      double* pose = pose_[ob.image].data();
-      const bool point_free = PointFree(ob.point);
-      ceres::CostFunction* cost = new PoseBlockCost(NewModelCost(form, ob, point_free));
-      if (point_free) {
-        problem->AddResidualBlock(cost, loss, scaled->data(), pose, point->data());
-      } else {
-        problem->AddResidualBlock(cost, loss, scaled->data(), pose);
-      }
+      BundleObservation b;
+      b.pose = pose_[ob.image].data();
+      b.point = s_->points[ob.point];
+      if (PointFree(ob.point)) b.point_block = s_->points[ob.point].data();
+      b.u_px = ob.u_px, b.v_px = ob.v_px;
+      bundle->AddObservation(b);
     }
-    std::vector<int> fixed;
-    for (int i = 0; i < N; ++i) {
-      if (!free[i]) fixed.push_back(i);
-    }
-    if (static_cast<int>(fixed.size()) == N) {
-      problem->SetParameterBlockConstant(scaled->data());
-    } else if (!fixed.empty()) {
-      problem->SetManifold(scaled->data(), new ceres::SubsetManifold(N, fixed));
-    }
-    if (o_.target_free && control_.empty() && problem->HasParameterBlock(s_->points[datum_.c].data())) {
-      problem->SetManifold(s_->points[datum_.c].data(), new ceres::SubsetManifold(3, {datum_.axis}));
-    }
+    if (o_.target_free && control_.empty()) bundle->HoldPoint(s_->points[datum_.c].data(), {datum_.axis});
     // The control points: coordinates of σ 0 held, the others a prior.
     for (const auto& [id, sigma] : control_) {
       double* point = s_->points[id].data();
-      if (!problem->HasParameterBlock(point)) continue;  // every coordinate held
+      if (!bundle->HasBlock(point)) continue;  // every coordinate held
       std::vector<int> held;
       for (int k = 0; k < 3; ++k) {
         if (!(sigma(k) > 0)) held.push_back(k);
       }
-      if (!held.empty()) problem->SetManifold(point, new ceres::SubsetManifold(3, held));
-      problem->AddResidualBlock(new ControlPrior(given_.at(id), sigma, prior_weight_), nullptr, point);
+      if (!held.empty()) bundle->HoldPoint(point, held);
+      bundle->AddCost(new ControlPrior(given_.at(id), sigma, prior_weight_), {point});
     }
+    return bundle;
   }
 
   // Whether point `id` is a parameter block: a free target's point, unless the datum holds it whole.
@@ -591,8 +470,8 @@ class Adjustment {
   bool CeresCovariance(const FreeMask& free, CameraMatrix* covariance,
                        std::vector<Eigen::Vector3d>* point_variance) {
     std::array<double, N> scaled;
-    ceres::Problem problem;
-    Build(free, Form::kProject, &scaled, &problem);
+    const std::unique_ptr<Bundle> bundle = MakeBundle(free, Form::kProject, &scaled);
+    ceres::Problem& problem = bundle->problem();
     ceres::Covariance::Options co;
     co.num_threads = o_.num_threads;
     ceres::Covariance cov(co);
@@ -640,17 +519,22 @@ class Adjustment {
     std::vector<Eigen::Matrix<double, N, 6>> w(n_images, Eigen::Matrix<double, N, 6>::Zero());
     std::vector<Eigen::Matrix<double, 6, 6>> v(n_images, Eigen::Matrix<double, 6, 6>::Zero());
     Eigen::Matrix<double, 2, N, Eigen::RowMajor> jc;
-    RowJacobian3 jr, jt;
-    Eigen::Matrix<double, 2, 6> jp;
+    Eigen::Matrix<double, 2, 6, Eigen::RowMajor> jp;
     double r[2];
+    const BundleCamera camera = CameraOf(free, scaled.data());
+    std::array<double, 6> pose;
     for (const auto& ob : *obs_) {
       if (!ob.active) continue;
-      const std::unique_ptr<ceres::CostFunction> cost(NewModelCost(Form::kProject, ob, false));
-      const double* params[] = {scaled.data(), s_->rotation[ob.image].data(),
-                                s_->translation[ob.image].data()};
-      double* jac[] = {jc.data(), jr.data(), jt.data()};
+      std::copy(s_->rotation[ob.image].begin(), s_->rotation[ob.image].end(), pose.begin());
+      std::copy(s_->translation[ob.image].begin(), s_->translation[ob.image].end(), pose.begin() + 3);
+      BundleObservation b;
+      b.pose = pose.data();
+      b.point = s_->points[ob.point];
+      b.u_px = ob.u_px, b.v_px = ob.v_px;
+      const std::unique_ptr<ceres::CostFunction> cost(NewObservationCost(camera, b));
+      const double* params[] = {scaled.data(), pose.data()};
+      double* jac[] = {jc.data(), jp.data()};
       if (!cost->Evaluate(params, r, jac)) return false;
-      jp << jr, jt;
       u.noalias() += jc.transpose() * jc;
       w[ob.image].noalias() += jc.transpose() * jp;
       v[ob.image].noalias() += jp.transpose() * jp;
@@ -780,13 +664,23 @@ void RefinePose(const camera::Camera& cam, const ImageDetections& d,
       if (!cam.Project(r * nominal[id] + Eigen::Vector3d(translation->data()))) return;
     }
   }
+  BundleCamera c;  // held: its parameters unscaled
+  c.model = M::kId;
+  c.sensor = cam.sensor;
+  c.scaled = params.data();
+  c.scale.assign(unit.begin(), unit.end());
+  c.free.assign(M::kNumParams, false);
+  std::array<double, 6> pose;
+  std::copy(rotation->begin(), rotation->end(), pose.begin());
+  std::copy(translation->begin(), translation->end(), pose.begin() + 3);
   ceres::Problem problem;
   for (std::size_t k = 0; k < d.ids.size(); ++k) {
-    auto* f = new ModelResidual<M>{d.points_px[k].x(), d.points_px[k].y(), cam.sensor, unit,
-                                   nominal[d.ids[k]]};
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ModelResidual<M>, 2, M::kNumParams, 3, 3>(f),
-                             new ceres::HuberLoss(0.02 * cam.sensor.width_px), params.data(),
-                             rotation->data(), translation->data());
+    BundleObservation b;
+    b.pose = pose.data();
+    b.point = nominal[d.ids[k]];
+    b.u_px = d.points_px[k].x(), b.v_px = d.points_px[k].y();
+    problem.AddResidualBlock(NewObservationCost(c, b), new ceres::HuberLoss(0.02 * cam.sensor.width_px),
+                             params.data(), pose.data());
   }
   problem.SetParameterBlockConstant(params.data());
   ceres::Solver::Options so;
@@ -795,6 +689,8 @@ void RefinePose(const camera::Camera& cam, const ImageDetections& d,
   so.max_num_iterations = 50;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  std::copy(pose.begin(), pose.begin() + 3, rotation->begin());
+  std::copy(pose.begin() + 3, pose.end(), translation->begin());
 }
 
 // The start poses of every image for a start camera, and the RMS (px) of the observations

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <unistd.h>
 #include <string>
 
 #include <fmt/format.h>
@@ -17,8 +18,12 @@ namespace porthole::calib {
 namespace {
 namespace fs = std::filesystem;
 
+// In a directory of this process's own: ctest runs the tests of this file at once, in processes of
+// their own, and a file they shared was read half-written (a test failed at random).
 std::string WriteFile(const std::string& name, const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / name;
+  const fs::path dir = fs::temp_directory_path() / ("porthole_dets_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
   std::ofstream(p) << text;
   return p.string();
 }
