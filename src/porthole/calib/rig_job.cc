@@ -249,7 +249,7 @@ void RequireStereoPair(const std::vector<CalibrationOptions>& cameras, bool port
 CalibrateRigJobResult CalibrateRigJob(const CalibrateRigJobOptions& o) {
   CalibrateRigJobResult out;
   const bool from_images = !o.images.empty();
-  if (from_images && (!o.detections.empty() || o.given)) {
+  if (int(from_images) + int(!o.detections.empty()) + int(o.given.has_value()) > 1) {
     throw InvalidInput("images", "a rig's cameras come all from `images` or all from `detections`");
   }
   if (!from_images && o.detections.empty() && !o.given) {
@@ -264,6 +264,9 @@ CalibrateRigJobResult CalibrateRigJob(const CalibrateRigJobOptions& o) {
   }
   const int n = o.given ? static_cast<int>(o.given->size())
                         : static_cast<int>(from_images ? o.images.size() : o.detections.size());
+  if (!o.names.empty() && static_cast<int>(o.names.size()) != n) {
+    throw InvalidInput("names", fmt::format("{} names for {} cameras", o.names.size(), n));
+  }
   // One for all or one per camera: the models, the pitches, the ports.
   if (o.model.empty()) throw InvalidInput("model", "give a model (one for all or one per camera)");
   RequireOneOrEach(o.model.size(), n, "model", "models");

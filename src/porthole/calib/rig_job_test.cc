@@ -93,6 +93,9 @@ TEST(CalibrateRigJob, RefusesWhatARigCannotTakeNamingTheField) {
   o.air_given_detections = *o.given;  // air images without a port
   EXPECT_EQ(field_of(o), "air_detections");
   o = StereoJob();
+  o.names = {"left"};  // one name for two cameras
+  EXPECT_EQ(field_of(o), "names");
+  o = StereoJob();
   o.lens.target_free = true;
   EXPECT_EQ(field_of(o), "free_target");
   o = StereoJob();
