@@ -8,7 +8,7 @@
 // CalibrateRigJob and print or return the result; CalibrateRigJobJson is the JSON both give.
 //
 // Errors are InvalidInput naming the library's fields, as CalibrateJob's (calib/job.h): images,
-// detections, target, field, model, free, pixel_pitch_mm, port, air_calibration, air_lens_bare,
+// detections, names, target, field, model, free, pixel_pitch_mm, port, air_calibration, air_lens_bare,
 // air_images, air_detections, stereo_out, and the options a rig refuses (ep, intrinsics, port_out,
 // free_water_index, free_shell, port_sigma, free_target, opencv_yaml, field_out, plan_only,
 // drop_insignificant); CalibrateRig's own (cameras, …) pass through.
