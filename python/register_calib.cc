@@ -17,6 +17,7 @@
 #include "porthole/calib/detections_json.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/rig.h"
+#include "porthole/calib/rig_job.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/calib/synthetic.h"
 #include "porthole/camera/json.h"
@@ -74,18 +75,6 @@ calib::TargetSpec TargetArg(const std::string& target, const py::object& field) 
 std::function<void(const std::string&)> Progress(bool progress) {
   if (!progress) return {};
   return [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
-}
-
-// The lens options of calibrate_rig() (calib::LensOptionsFromNames).
-calib::CalibrationOptions LensOptions(const std::string& model, double pixel_pitch_mm, const std::string& free,
-                                      double reject_k, const std::string& loss, double loss_scale_px,
-                                      bool progress, const std::string& centre_correction = "auto") {
-  calib::CalibrationOptions o;
-  o.pixel_pitch_mm = pixel_pitch_mm;
-  o.reject_k = reject_k;
-  o.loss_scale_px = loss_scale_px;
-  o.progress = Progress(progress);
-  return calib::LensOptionsFromNames(o, model, free, loss, centre_correction);
 }
 
 // The options calibrate() and calibrate_refractive() share, for calib::CalibrateJob: the
@@ -352,18 +341,11 @@ void RegisterCalib(py::module_& m) {
          double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
          const std::vector<std::string>& names, const py::object& air_detections) {
         return WithFieldNames(
-            {{"cameras", "cameras"}, {"images", "cameras"}, {"model", "model"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
-             {"port", "port"}, {"air_calibration", "air_calibration"}, {"air_lens", "air_calibration"},
-             {"air_images", "air_detections"},
-             {"ports", "port"}, {"camera_options", "model"}},
+            {{"cameras", "cameras"}, {"images", "cameras"}, {"detections", "cameras"}, {"model", "model"},
+             {"pixel_pitch_mm", "pixel_pitch_mm"}, {"port", "port"}, {"air_calibration", "air_calibration"},
+             {"air_lens", "air_calibration"}, {"air_lens_bare", "air_lens_bare"}, {"air_images", "air_detections"},
+             {"air_detections", "air_detections"}, {"ports", "port"}, {"camera_options", "model"}},
             [&] {
-              const auto t = TargetArg(target, py::none());
-              std::vector<std::vector<calib::ImageDetections>> per_camera;
-              for (const auto& c : cameras) {
-                auto dets = DetectionsArg(c.cast<py::list>());
-                calib::KeepTargetPoints(t, &dets);
-                per_camera.push_back(std::move(dets));
-              }
               const auto list_of = [](const py::object& v) {
                 std::vector<py::object> out;
                 if (v.is_none()) return out;
@@ -374,58 +356,46 @@ void RegisterCalib(py::module_& m) {
                 }
                 return out;
               };
-              calib::RigOptions o;
+              calib::CalibrateRigJobOptions o;
+              o.given.emplace();
+              for (const auto& c : cameras) o.given->push_back(DetectionsArg(c.cast<py::list>()));
               o.names = names;
-              // One options set for all, or one per camera when the models or the pitches differ.
-              const auto models = list_of(model);
-              std::vector<double> pitches;
-              for (const auto& p : list_of(pixel_pitch_mm)) pitches.push_back(p.cast<double>());
-              if (pitches.empty()) pitches.push_back(1.0);
-              if (models.empty()) throw InvalidInput("model", "give a model (one for all or one per camera)");
-              const std::size_t n = cameras.size();
-              if (pitches.size() != 1 && pitches.size() != n) {
-                throw InvalidInput("pixel_pitch_mm", fmt::format("{} pitches for {} cameras: give one for all or one per "
-                                                                 "camera", pitches.size(), n));
-              }
-              if (models.size() != 1 && models.size() != n) {
-                throw InvalidInput("model", fmt::format("{} models for {} cameras: give one for all or one per camera",
-                                                        models.size(), n));
-              }
-              const std::size_t n_options = models.size() == 1 && pitches.size() == 1 ? 1 : n;
-              for (std::size_t k = 0; k < n_options; ++k) {
-                const auto& m = models[models.size() == 1 ? 0 : k];
-                o.cameras.push_back(LensOptions(m.cast<std::string>(), pitches[pitches.size() == 1 ? 0 : k], free,
-                                                reject_k, "none", 1.0, progress, "auto"));
-              }
-              const ports::Environment env = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c,
-                                                             salinity_psu, pressure_dbar);
-              for (const auto& p : list_of(port)) {
-                o.ports.push_back(ports::MakeSystem(catalogue::LoadPort(p.cast<std::string>()), env, std::nullopt));
-              }
-              const auto airs = list_of(air_calibration);
-              o.air_of = air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
-                                       : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
-              if (air_lens_bare && airs.empty()) {
-                throw InvalidInput("air_lens_bare", "says what air_calibration holds: give air_calibration");
-              }
-              for (std::size_t k = 0; k < airs.size(); ++k) {
-                const auto& lens = o.cameras[o.cameras.size() == 1 ? 0 : k];
-                auto rec = CalibrationArg(airs[k], lens.pixel_pitch_mm, lens.model, "air_calibration");
-                if (rec) o.air_lens.push_back(*rec);
-              }
-              if (!air_detections.is_none()) {  // one list per camera: air images through its port
-                for (const auto& c : air_detections.cast<py::list>()) {
-                  auto dets = DetectionsArg(c.cast<py::list>());
-                  calib::KeepTargetPoints(t, &dets);
-                  o.air_images.push_back(std::move(dets));
+              o.target = target;
+              o.model.clear();
+              for (const auto& m : list_of(model)) o.model.push_back(m.cast<std::string>());
+              for (const auto& p : list_of(pixel_pitch_mm)) o.pixel_pitch_mm.push_back(p.cast<double>());
+              o.free = free;
+              o.lens.reject_k = reject_k;
+              o.lens.progress = Progress(progress);
+              for (const auto& p : list_of(port)) o.port.push_back(py::str(py::module_::import("os").attr("fspath")(p)));
+              o.water = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
+                                        pressure_dbar);
+              // In-air calibrations: files (one per camera, or a rig file) or dicts, one per camera.
+              for (const auto& a : list_of(air_calibration)) {
+                if (py::isinstance<py::dict>(a)) {
+                  if (!o.air_given) o.air_given.emplace();
+                  o.air_given->push_back(calib::CalibrationFromJson(PythonToJson(a), "air_calibration"));
+                } else if (py::isinstance<py::str>(a) || py::hasattr(a, "__fspath__")) {
+                  o.air_calibration.push_back(py::str(py::module_::import("os").attr("fspath")(a)));
+                } else {
+                  throw InvalidInput("air_calibration", "a file path or a calibration dict");
                 }
               }
-              calib::RigResult r;
+              o.air_lens_bare = air_lens_bare;
+              if (!air_detections.is_none()) {  // one list per camera: air images through its port
+                o.air_given_detections.emplace();
+                for (const auto& c : air_detections.cast<py::list>()) {
+                  o.air_given_detections->push_back(DetectionsArg(c.cast<py::list>()));
+                }
+              }
+              calib::CalibrateRigJobResult r;
               {
                 py::gil_scoped_release release;
-                r = calib::CalibrateRig(per_camera, t, o);
+                r = calib::CalibrateRigJob(o);
               }
-              return JsonToPython(calib::RigToJson(r, t, o));
+              nlohmann::ordered_json j = calib::CalibrateRigJobJson(r);
+              PythonWordsInJson(&j);
+              return JsonToPython(j);
             });
       },
       py::arg("cameras"), py::arg("target"), py::kw_only(), py::arg("model") = "brown", py::arg("pixel_pitch_mm") = 1.0,
@@ -437,10 +407,11 @@ void RegisterCalib(py::module_& m) {
       "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
       "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
       "all or a list; pixel_pitch_mm one for all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
-      "water; air_calibration a list, one per camera, made with the housings on (the default) or of each lens alone "
-      "(air_lens_bare=True), as a prior; air_detections a list, one per camera, of the detections of images in air "
+      "water; air_calibration a list, one per camera (files of any format or calibration dicts), or one rig file of "
+      "any rig format, made with the housings on (the default) or of each lens alone (air_lens_bare=True), as a "
+      "prior; air_detections a list, one per camera, of the detections of images in air "
       "through its port (the housing on), adjusted with the rig. "
-      "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}}.");
+      "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, \"skipped\": []}.");
 
   m.def(
       "synthetic_detections",

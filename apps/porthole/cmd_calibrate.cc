@@ -2,16 +2,14 @@
 // saved detections, with any camera model of the list (--model); the parameter table with σ and
 // significance as in the paper's Table 6, σ0, RMS, correlations; JSON (--json, --out) and OpenCV
 // YAML (--opencv-yaml) outputs. With --port, the explicit refractive calibration (the lens behind
-// the port, calib/refractive.h): the port block in the JSON, --port-out as-calibrated.toml.
+// the port, calib/refractive.h): the port block in the JSON, --port-out as-calibrated.toml. A rig
+// (--images or --detections repeated) is calib::CalibrateRigJob (calib/rig_job.h).
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <optional>
 
 #include "commands.h"
@@ -23,14 +21,11 @@
 #include "porthole/calib/job.h"
 #include "porthole/calib/refractive.h"
 #include "porthole/calib/rig.h"
+#include "porthole/calib/rig_job.h"
 #include "porthole/calib/result_json.h"
 #include "porthole/camera/camera.h"
-#include "porthole/camera/validate.h"
 #include "porthole/core/atomic_file.h"
 #include "porthole/core/error.h"
-#include "porthole/interop/interop.h"
-#include "porthole/interop/opencv_storage.h"
-#include "porthole/interop/rig_files.h"
 #include "porthole/catalogue/presets.h"
 
 namespace porthole::cli {
@@ -258,235 +253,73 @@ struct CalibrateCliOptions {
   std::string centre_correction = "auto";
 };
 
-// A rig (issue 26): --images or --detections repeated, one per camera; frames matched by file name.
-// --model takes one model for all or a comma list, one per camera; --pixel-pitch-mm one value for all.
-// The in-air lenses of a rig given as one rig file (porthole's rig JSON, OpenCV's stereo YAML/XML,
-// VIAME's npz, a Kalibr camchain) or as one ROS camera_info per camera: each camera's calibration,
-// in rig order; nullopt when the files are single cameras' calibrations.
-std::optional<std::vector<calib::CalibrationRecord>> AirLensesOfARigFile(const std::vector<std::string>& files,
-                                                                          double pixel_pitch_mm) {
-  std::ifstream in(files.front(), std::ios::binary);
-  if (!in) return std::nullopt;  // the single-camera reader names the missing file
-  const std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (!interop::DetectRigFormat(files.front(), content)) return std::nullopt;
-  interop::RigReadOptions ro;
-  ro.pixel_pitch_mm = pixel_pitch_mm;
-  // Only the lenses are taken: the cameras' poses (and so the unit of T) are not used.
-  ro.length_unit = interop::LengthUnit::kMm;
-  return interop::ReadRigCalibrations(files, ro, "--air-calibration");
+// A comma list's items ("a,b" → a, b; "" → one empty item).
+std::vector<std::string> SplitList(const std::string& list) {
+  std::vector<std::string> items;
+  for (std::size_t a = 0, b; a <= list.size(); a = b + 1) {
+    b = list.find(',', a);
+    if (b == std::string::npos) b = list.size();
+    items.push_back(list.substr(a, b - a));
+  }
+  return items;
 }
 
-void CalibrateRigCommand(CalibrateCliOptions& o, const OutputRules& rules) {
-  const bool from_images = !o.image_dirs.empty();
-  if (from_images && !o.detection_paths.empty()) {
-    throw InvalidInput("--images", "a rig's cameras come all from --images or all from --detections");
-  }
-  const std::vector<std::string>& sources = from_images ? o.image_dirs : o.detection_paths;
-  const std::pair<const char*, bool> not_in_rig[] = {
-      {"--ep", !o.port.ep.empty()}, {"--intrinsics", !o.intrinsics.empty()}, {"--port-out", !o.port_out.empty()},
-      {"--free-water-index", o.free_water_index}, {"--free-shell", o.free_shell}, {"--port-sigma", !o.port_sigma.empty()},
-      {"--free-target", o.calib.target_free}, {"--opencv-yaml", !o.yaml.empty()}, {"--field-out", !o.field_out.empty()},
-      {"--plan-only", o.plan_only}, {"--drop-insignificant", o.calib.drop_insignificant}};
-  for (const auto& [flag, given] : not_in_rig) {
-    if (given) throw InvalidInput(flag, "not with a rig (several --images or --detections) yet");
-  }
-  if (from_images && o.target.empty()) throw InvalidInput("--target", "required with --images");
-  calib::TargetSpec target;
-  if (!o.target.empty()) {
-    target = calib::ParseTarget(o.target);
-    if (!o.field.empty()) calib::LoadTargetField(o.field, &target);
-  }
-  const int n = static_cast<int>(sources.size());
-  const auto split = [](const std::string& list) {
-    std::vector<std::string> items;
-    for (std::size_t a = 0, b; a <= list.size(); a = b + 1) {
-      b = list.find(',', a);
-      if (b == std::string::npos) b = list.size();
-      items.push_back(list.substr(a, b - a));
-    }
-    return items;
-  };
-  const std::vector<std::string> models = split(o.model);
-  if (models.size() != 1 && static_cast<int>(models.size()) != n) {
-    throw InvalidInput("--model", fmt::format("{} models for {} cameras: give one for all or one per camera",
-                                              models.size(), n));
-  }
-  std::vector<double> pitches = o.pitches_mm.empty() ? std::vector<double>{1.0} : o.pitches_mm;
-  if (pitches.size() != 1 && static_cast<int>(pitches.size()) != n) {
-    throw InvalidInput("--pixel-pitch-mm", fmt::format("{} pitches for {} cameras: give one for all or one per camera",
-                                                       pitches.size(), n));
-  }
-  for (double p : pitches) {
-    RequirePositive("--pixel-pitch-mm", p);
-    if (p != 1.0) WarnIfImplausible("--pixel-pitch-mm", p, kPixelPitchRange);
-  }
-  const auto pitch_of = [&](int k) { return pitches[pitches.size() == 1 ? 0 : k]; };
-  // Cameras behind ports, in water: --port one for all or a comma list; --air-calibration a comma
-  // list, one per camera (or a rig file), made with the housings on or of each lens alone
-  // (--air-lens-bare), as a prior.
-  std::vector<std::string> port_names, air_files;
-  if (!o.port.port.empty()) port_names = split(o.port.port);
-  if (!o.air.empty()) air_files = split(o.air);
-  if (port_names.size() > 1 && static_cast<int>(port_names.size()) != n) {
-    throw InvalidInput("--port", fmt::format("{} ports for {} cameras: give one for all or one per camera",
-                                             port_names.size(), n));
-  }
-  if (!air_files.empty() && port_names.empty()) throw InvalidInput("--air-calibration", "only with --port");
-  const auto rig_air = air_files.empty() ? std::nullopt : AirLensesOfARigFile(air_files, pitch_of(0));
-  if (rig_air && std::any_of(pitches.begin(), pitches.end(), [&](double p) { return p != pitches.front(); })) {
-    // A pixel format read at one pitch would be wrong for the other cameras.
-    throw InvalidInput("--air-calibration", "one rig file with a pitch per camera: give each lens's calibration "
-                                            "(a comma list) instead");
-  }
-  if (rig_air && static_cast<int>(rig_air->size()) != n) {
-    throw InvalidInput("--air-calibration", fmt::format("the rig file holds {} cameras, the rig {}",
-                                                        rig_air->size(), n));
-  }
-  if (!rig_air && !air_files.empty() && static_cast<int>(air_files.size()) != n) {
-    throw InvalidInput("--air-calibration", fmt::format("{} in-air calibrations for {} cameras: one per camera "
-                                                        "(a comma list)", air_files.size(), n));
-  }
-  if (o.air_lens_bare && air_files.empty()) {
-    throw InvalidInput("--air-lens-bare", "says what --air-calibration holds: give --air-calibration");
-  }
-  if (o.free != "default" && models.size() > 1) {
-    throw InvalidInput("--free", "names one model's parameters: not with a model per camera");
-  }
-  o.calib.pixel_pitch_mm = pitch_of(0);
-  if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
-  if (!o.stereo_out.empty()) CheckOutput(o.stereo_out, "--stereo-out", rules);
-  using CC = calib::CalibrationOptions::CentreCorrection;
-  o.calib.centre_correction = o.centre_correction == "on" ? CC::kOn : o.centre_correction == "off" ? CC::kOff : CC::kAuto;
-  o.calib.loss = o.loss == "huber" ? calib::LossKind::kHuber : o.loss == "cauchy" ? calib::LossKind::kCauchy : calib::LossKind::kNone;
-  const auto say = [quiet = o.quiet](const std::string& m) {
+// A rig (issue 26): --images or --detections repeated, one per camera; --model, --pixel-pitch-mm,
+// --port one for all or a comma list, --air-calibration a comma list or a rig file, --air-images
+// or --air-detections a comma list. The options as calib::CalibrateRigJob takes them, then its
+// result printed and written.
+void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules) {
+  calib::CalibrateRigJobOptions job;
+  job.images = o.image_dirs;
+  job.detections = o.detection_paths;
+  job.target = o.target;
+  job.field = o.field;
+  job.frames = o.frames;
+  job.model = SplitList(o.model);
+  job.free = o.free;
+  job.loss = o.loss;
+  job.centre_correction = o.centre_correction;
+  job.lens = o.calib;
+  job.lens.progress = [quiet = o.quiet](const std::string& m) {
     if (!quiet) fmt::print(stderr, "calibrate: {}\n", m);
   };
-  calib::RigOptions ro;
-  ro.air_of = o.air_lens_bare ? calib::RefractiveOptions::AirCalibrationOf::kLensBare
-                              : calib::RefractiveOptions::AirCalibrationOf::kThroughPort;
-  // One options set for all, or one per camera when the models or the pitches differ.
-  const int n_options = models.size() == 1 && pitches.size() == 1 ? 1 : n;
-  for (int k = 0; k < n_options; ++k) {
-    const std::string& m = models[models.size() == 1 ? 0 : k];
-    calib::CalibrationOptions c = o.calib;
-    c.pixel_pitch_mm = pitch_of(k);
-    c.model = camera::ModelFromName(m, "--model");
-    c.free = calib::ParseFreeParameters(c.model, o.free);
-    c.progress = say;
-    ro.cameras.push_back(c);
-  }
-  const ports::Environment env = o.water.ToEnvironment();
-  for (const std::string& name : port_names) {
-    PortOptions one = o.port;
-    one.port = name;
-    ro.ports.push_back(ports::MakeSystem(one.Spec(), env, std::nullopt));
-  }
-  for (int k = 0; !rig_air && k < static_cast<int>(air_files.size()); ++k) {
-    const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
-    ro.air_lens.push_back(interop::ReadCalibrationFileAs(air_files[k], pitch_of(k), model, "--air-calibration").calibration);
-  }
-  for (int k = 0; rig_air && k < n; ++k) {  // a rig file: each camera's lens as the camera's model
-    if (!(*rig_air)[k].has_covariance) {
-      throw InvalidInput("--air-calibration",
-                         fmt::format("{} holds no covariance, and a rig takes each in-air lens as a prior with "
-                                     "its covariance: give porthole's JSON of that calibration (the rig's --out, or "
-                                     "each lens's)", air_files.front()));
-    }
-    const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
-    interop::ReadResult r;
-    r.calibration = (*rig_air)[k];
-    const interop::ReadResult as = interop::ConvertRead(std::move(r), model, fmt::format("--air-calibration: camera {}", k));
-    if (!as.exact) {
-      say(fmt::format("air calibration of camera {}: refit to {} over the image, RMS {:.4f} px, max {:.4f} px", k,
-                      camera::Info(model).name, as.fit.rms_px, as.fit.max_px));
-    }
-    ro.air_lens.push_back(as.calibration);
-  }
-  if (!o.stereo_out.empty()) {  // refused before the work: the first two cameras as OpenCV knows them
-    for (int k = 0; k < 2; ++k) {
-      const auto model = ro.cameras[ro.cameras.size() == 1 ? 0 : k].model;
-      if (model != camera::CameraModelId::kOpenCV || !ro.ports.empty()) {
-        throw InvalidInput("--stereo-out", fmt::format("writes two cameras of the opencv model without a port; camera "
-                                                       "{} is {}{}", k, camera::Info(model).name,
-                                                       ro.ports.empty() ? ": give --model opencv" : " behind a port"));
-      }
-    }
-  }
-  std::vector<std::vector<calib::ImageDetections>> per_camera;
-  std::vector<calib::SkippedImage> skipped;
-  nlohmann::ordered_json rig_sources = nlohmann::ordered_json::array();  // --images: each camera's frames
-  for (int k = 0; k < n; ++k) {
-    ro.names.push_back(std::filesystem::path(sources[k]).filename().string());
-    if (ro.names.back().empty()) ro.names.back() = std::filesystem::path(sources[k]).parent_path().filename().string();
-    std::vector<calib::ImageDetections> dets;
-    if (from_images) {
-      const auto say_k = [say, name = ro.names.back()](const std::string& m) { say(name + ": " + m); };
-      auto source = calib::DetectSource(sources[k], target, o.frames, say_k, {}, "--images");
-      rig_sources.push_back(calib::FrameChoiceToJson(source.choice, source.run.detections));
-      auto& run = source.run;
-      dets = std::move(run.detections);
-      for (auto& s : run.skipped) skipped.push_back({sources[k] + ": " + s.image, s.reason});
-    } else {
-      calib::TargetSpec t = target;  // detections of another target than the first camera's are refused
-      dets = calib::LoadDetections(sources[k], "--detections", &t);
-      if (t.cols == 0) throw InvalidInput("--target", "the detections name no target");
-      if (k == 0) target = t;
-      if (!o.field.empty() && target.field.empty()) calib::LoadTargetField(o.field, &target);
-    }
-    calib::KeepTargetPoints(target, &dets, say);
-    per_camera.push_back(std::move(dets));
-  }
-  // Air images through each camera's port (the housing on): --air-images or --air-detections, a
-  // comma list in rig order.
-  const bool air_from_images = !o.air_images.empty();
-  const char* air_flag = air_from_images ? "--air-images" : "--air-detections";
-  if (!o.air_images.empty() || !o.air_detections.empty()) {
-    if (ro.ports.empty()) throw InvalidInput(air_flag, "only with --port (images in air through the ports)");
-    const std::vector<std::string> air_sources = split(air_from_images ? o.air_images : o.air_detections);
-    if (static_cast<int>(air_sources.size()) != n) {
-      throw InvalidInput(air_flag, fmt::format("{} given for {} cameras: one set of air images per camera (a comma "
-                                               "list, in the order of the cameras)", air_sources.size(), n));
-    }
-    for (int k = 0; k < n; ++k) {
-      std::vector<calib::ImageDetections> dets;
-      if (air_from_images) {
-        const auto say_k = [say, name = ro.names[k]](const std::string& m) { say(name + " in air: " + m); };
-        auto source = calib::DetectSource(air_sources[k], target, o.frames, say_k, {}, "--air-images");
-        dets = std::move(source.run.detections);
-        for (auto& sk : source.run.skipped) skipped.push_back({air_sources[k] + ": " + sk.image, sk.reason});
-      } else {
-        calib::TargetSpec t = target;  // detections of another target are refused
-        dets = calib::LoadDetections(air_sources[k], "--air-detections", &t);
-      }
-      calib::KeepTargetPoints(target, &dets, say);
-      if (dets.empty()) throw InvalidInput(air_flag, air_sources[k] + ": no image in which the target was found");
-      ro.air_images.push_back(std::move(dets));
-    }
-  }
-  const calib::RigResult r = calib::CalibrateRig(per_camera, target, ro);
-  for (const auto& c : r.cameras) {
-    camera::RequirePossibleResult(c.calibration.camera, c.calibration.rms_px, from_images ? "--images" : "--detections",
-                                  "the calibration of camera " + c.name);
-  }
-  auto j = calib::RigToJson(r, target, ro);
+  job.pixel_pitch_mm = o.pitches_mm;
+  job.warn = [](const std::string& w) { fmt::print(stderr, "porthole: warning: {}\n", CliWords(w)); };
+  if (!o.port.port.empty()) job.port = SplitList(o.port.port);
+  job.water = o.water.ToEnvironment();
+  if (!o.air.empty()) job.air_calibration = SplitList(o.air);
+  job.air_lens_bare = o.air_lens_bare;
+  if (!o.air_images.empty()) job.air_images = SplitList(o.air_images);
+  if (!o.air_detections.empty()) job.air_detections = SplitList(o.air_detections);
+  job.ep = !o.port.ep.empty();
+  job.intrinsics = !o.intrinsics.empty();
+  job.port_out = !o.port_out.empty();
+  job.free_water_index = o.free_water_index;
+  job.free_shell = o.free_shell;
+  job.port_sigma = !o.port_sigma.empty();
+  job.opencv_yaml = !o.yaml.empty();
+  job.field_out = !o.field_out.empty();
+  job.plan_only = o.plan_only;
+  job.stereo_out = o.stereo_out;
+  job.check_outputs = [&] {
+    if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
+    if (!o.stereo_out.empty()) CheckOutput(o.stereo_out, "--stereo-out", rules);
+  };
+  const calib::CalibrateRigJobResult result = calib::CalibrateRigJob(job);
+  const calib::RigResult& r = result.rig;
+  const calib::RigOptions& ro = result.rig_options;
+  auto j = calib::CalibrateRigJobJson(result);
   CliWordsInJson(&j);  // the library's `field` in the CLI's words
-  if (from_images) j["images_source"] = rig_sources;
   std::string stereo_note;
   if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T (interop/rig_files.h)
-    interop::RigFile pair = interop::RigFileFromResult(r);
-    pair.cameras.resize(2);  // opencv models without a port (checked above)
-    const bool xml = std::filesystem::path(o.stereo_out).extension() == ".xml";
-    const auto w = interop::WriteRigFile(
-        pair, xml ? interop::RigFormat::kOpenCVStereoXml : interop::RigFormat::kOpenCVStereoYaml, "--stereo-out");
-    WriteOutput(o.stereo_out, w.files.front().second, "--stereo-out", rules);
+    WriteOutput(o.stereo_out, result.stereo_text, "--stereo-out", rules);
     j["rig"]["stereo_out"] = o.stereo_out;
     stereo_note = fmt::format("OpenCV stereo file (K1 D1 K2 D2 R T) written to {}\n", o.stereo_out);
   }
-  Json skip = Json::array();
-  for (const auto& s : skipped) skip.push_back({{"image", s.image}, {"reason", s.reason}});
-  j["skipped"] = skip;
   if (!o.out.empty()) WriteOutput(o.out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
   if (o.json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
+  const calib::TargetSpec& target = result.target;
+  const std::vector<calib::SkippedImage>& skipped = result.skipped;
   std::string t = fmt::format("rig of {} cameras (rig frame: camera {}'s), {} frames, {} points ({} rejected), "
                               "sigma0 {:.4f} px, RMS {:.4f} px ({} iterations, {:.3f} s)\n",
                               r.cameras.size(), r.cameras[0].name, r.frames.size(), r.n_points, r.n_rejected,
