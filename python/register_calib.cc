@@ -278,10 +278,11 @@ void RegisterCalib(py::module_& m) {
          std::optional<Vec3> ep_mm, const std::string& water, std::optional<double> water_index,
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
          bool compare_central, bool progress, const py::object& field, const std::string& centre_correction,
-         const py::object& air_detections, bool air_lens_bare) {
+         const py::object& air_detections, bool air_lens_bare, bool air_refocused) {
         return WithFieldNames(
             {{"images", "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"}, {"port", "port"},
              {"air_calibration", "air_calibration"}, {"air_lens_bare", "air_lens_bare"},
+             {"air_refocused", "air_refocused"},
              {"air_detections", "air_detections"}, {"air_images", "air_detections"},
              {"intrinsics", "intrinsics"},
              {"free_port", "free_port"}, {"port_sigma", "port_sigma"},
@@ -300,6 +301,7 @@ void RegisterCalib(py::module_& m) {
               } else if (!air_calibration.is_none()) {
                 throw InvalidInput("air_calibration", "a file path or a calibration dict");
               }
+              o.air_refocused = air_refocused;
               o.air_lens_bare = air_lens_bare;
               if (!air_detections.is_none()) o.air_given_detections = DetectionsArg(air_detections.cast<py::list>());
               o.intrinsics = intrinsics;
@@ -321,12 +323,12 @@ void RegisterCalib(py::module_& m) {
       py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,
       py::arg("compare_central") = true, py::arg("progress") = false, py::arg("field") = py::none(),
       py::arg("centre_correction") = "auto", py::arg("air_detections") = py::none(),
-      py::arg("air_lens_bare") = false,
+      py::arg("air_lens_bare") = false, py::arg("air_refocused") = false,
       "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
       "images; pixel_pitch_mm None: an air_calibration file's own (porthole JSON), else 1. "
       "air_detections: detections of the same target in air through the same port (the "
-      "housing on, the paper's protocol), adjusted with the water ones. air_calibration: a file of "
+      "housing on, the paper's protocol), adjusted with the water ones; air_refocused=True when they were taken at another focus (their own focal length, a factor adjusted). air_calibration: a file of "
       "any format or a calibration dict, made in air with the housing on (the default: modelled as the "
       "lens behind the port in air, a prior on both) or of the lens alone (air_lens_bare=True); "
       "intrinsics prior (the default with one), fixed (the lens alone only) or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "

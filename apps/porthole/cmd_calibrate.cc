@@ -247,6 +247,7 @@ struct CalibrateCliOptions {
   WaterOptions water;
   std::string air, intrinsics, free_port = "all", port_out, air_detections, air_images, stereo_out;
   bool air_lens_bare = false;
+  bool air_refocused = false;
   std::vector<double> port_sigma;
   bool plan_only = false, free_water_index = false, free_shell = false;
   double plan_sigma_px = 0.3;
@@ -289,6 +290,7 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
   job.water = o.water.ToEnvironment();
   if (!o.air.empty()) job.air_calibration = SplitList(o.air);
   job.air_lens_bare = o.air_lens_bare;
+  job.air_refocused = o.air_refocused;
   if (!o.air_images.empty()) job.air_images = SplitList(o.air_images);
   if (!o.air_detections.empty()) job.air_detections = SplitList(o.air_detections);
   job.ep = !o.port.ep.empty();
@@ -390,6 +392,7 @@ void CalibrateSingle(const CalibrateCliOptions& o, bool pitch_given, const Outpu
   if (!job.port.empty()) job.water = o.water.ToEnvironment();
   job.air_calibration = o.air;
   job.air_lens_bare = o.air_lens_bare;
+  job.air_refocused = o.air_refocused;
   job.air_images = o.air_images;
   job.air_detections = o.air_detections;
   job.intrinsics = o.intrinsics;
@@ -559,6 +562,10 @@ void RegisterCalibrate(CLI::App& app) {
                                   "its sigma. A rig: one per camera (a comma list) or a rig file")
                       ->group(group);
   air_cal->excludes(air_det)->excludes(air_img);
+  cmd->add_flag("--air-refocused", o->air_refocused,
+                "The air images (--air-images, --air-detections) were taken at another focus: they get "
+                "their own focal length, a factor on the water images' adjusted with the rest")
+      ->group(group);
   cmd->add_flag("--air-lens-bare", o->air_lens_bare,
                 "--air-calibration was made without the housing: the bare lens")
       ->group(group);

@@ -60,6 +60,26 @@ def test_air_and_water_images_together_find_the_rendered_pupil(renders):
     assert "air images: 20 through the port in air, adjusted with the water images (one lens)" in t
 
 
+def test_refocused_air_images_of_one_focus_find_a_factor_of_one(renders):
+    """--air-refocused gives the air images their own focal length (a factor on the water images'): on
+    renders of one focus the factor is 1 within 3 sigma and the pupil is still the rendered one."""
+    s = renders / "set"
+    j = run("calibrate", "--images", s / "water", "--air-images", s / "air", "--target", TARGET, *PITCH,
+            "--port", "nimar-ni320", "--air-refocused", "--json", "--quiet").json()
+    air = j["port"]["air"]
+    p, sigma = port_of(j)
+    print(f"refocused air renders: focal scale {air['focal_scale']:.5f} +- {air['focal_scale_sigma']:.5f}; pupil "
+          f"{p[0]:.3f} {p[1]:.3f} {p[2]:.3f} +- {sigma[0]:.3f} {sigma[1]:.3f} {sigma[2]:.3f} mm")
+    assert air["refocused"] is True
+    assert abs(air["focal_scale"] - 1) < 3 * air["focal_scale_sigma"] and air["focal_scale_sigma"] < 0.002
+    for k in range(3):
+        assert abs(p[k] - RENDERED[k]) < 3 * sigma[k], KEYS[k]
+    # Without air images there is no second focus.
+    bad = run_bad("calibrate", "--images", s / "water", "--target", TARGET, *PITCH, "--port", "nimar-ni320",
+                  "--air-refocused")
+    assert "--air-refocused" in bad and "--air-images" in bad
+
+
 def test_a_housed_air_calibration_is_not_the_bare_lens(renders):
     s = renders / "set"
     housed = renders / "housed.json"

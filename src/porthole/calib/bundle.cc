@@ -89,7 +89,8 @@ ceres::CostFunction* NewCentralCost(const BundleCamera& c, const BundleObservati
       case 0: return Auto<M, 0, 6>(c, ob);
       case kPoint: return Auto<M, kPoint, 6, 3>(c, ob);
       case kRig: return Auto<M, kRig, 6, 6>(c, ob);
-      default: throw InternalError("bundle: a rig camera with a free target is not supported yet");
+      default: throw InternalError("bundle: a central camera with this layout (a rig camera with a free target, a "
+                                   "refocused set) is not supported yet");
     }
   });
 }
@@ -105,6 +106,7 @@ namespace {
 // An observation's blocks in the cost's order (NewObservationCost).
 std::vector<double*> BlocksOf(const BundleCamera& c, const BundleObservation& ob) {
   std::vector<double*> blocks = {c.scaled};
+  if (ob.focal_scale != nullptr) blocks.push_back(ob.focal_scale);
   if (c.port != nullptr) blocks.push_back(c.port);
   if (c.port != nullptr && c.shell_values != nullptr) blocks.push_back(c.shell_values);
   if (ob.cam_from_rig != nullptr) blocks.push_back(ob.cam_from_rig);

@@ -64,6 +64,9 @@ struct BundleObservation {
   double u_px = 0, v_px = 0;
   double weight = 1;  // the residual's factor (1/σ px when priors are weighed against it)
   Medium medium = Medium::kWater;
+  // A set taken at another focus (the lens refocused between sets): [1] a factor on the camera's
+  // focal length(s) (its first kNumFocal parameters) for this observation, or null (the camera's).
+  double* focal_scale = nullptr;
 };
 
 struct BundleSolveOptions {
@@ -77,9 +80,9 @@ struct BundleSolveOptions {
   bool sparse = false;
 };
 
-// The cost of one observation of camera c; its blocks in this order: c.scaled, c.port (behind a
-// port), c.shell_values (when given), ob.cam_from_rig (when given), ob.pose, ob.point_block (when
-// given). Residual in px times ob.weight. `form`: as Bundle's.
+// The cost of one observation of camera c; its blocks in this order: c.scaled, ob.focal_scale
+// (when given), c.port (behind a port), c.shell_values (when given), ob.cam_from_rig (when given),
+// ob.pose, ob.point_block (when given). Residual in px times ob.weight. `form`: as Bundle's.
 ceres::CostFunction* NewObservationCost(const BundleCamera& c, const BundleObservation& ob,
                                         Form form = Form::kProject);
 

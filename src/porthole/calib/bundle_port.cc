@@ -23,6 +23,8 @@ ceres::CostFunction* NewPortCost(const BundleCamera& c, const BundleObservation&
       case kPort: return Auto<M, kPort, P, 6>(c, ob);
       case kPort | kShell: return Auto<M, kPort | kShell, P, S, 6>(c, ob);
       case kPort | kRig: return Auto<M, kPort | kRig, P, 6, 6>(c, ob);
+      case kPort | kFocus: return Auto<M, kPort | kFocus, 1, P, 6>(c, ob);
+      case kPort | kShell | kFocus: return Auto<M, kPort | kShell | kFocus, 1, P, S, 6>(c, ob);
       default: throw InternalError("bundle: a port with this layout (rig shell values or a free target) is not supported yet");
     }
   });

@@ -12,9 +12,9 @@
 
 namespace porthole::calib::bundle_detail {
 
-// Which blocks a cost has beside the lens and the pose (in this order: lens, port, shell values,
-// cam_from_rig, pose, point).
-enum : unsigned { kPort = 1, kShell = 2, kRig = 4, kPoint = 8 };
+// Which blocks a cost has beside the lens and the pose (in this order: lens, focal scale, port,
+// shell values, cam_from_rig, pose, point).
+enum : unsigned { kPort = 1, kShell = 2, kRig = 4, kPoint = 8, kFocus = 16 };
 
 // (Project(X in the camera frame) − observed) · weight, px. Project is the lens alone, or the exact
 // forward projection through the port (`shell`: the medium's); `point` is X unless kPoint.
@@ -31,6 +31,7 @@ struct BundleResidual {
   bool Evaluate(const T* const* b, T* r) const {
     int i = 0;
     const T* scaled = b[i++];
+    const T* focal_scale = (kBlocks & kFocus) ? b[i++] : nullptr;
     const T* port = (kBlocks & kPort) ? b[i++] : nullptr;
     const T* shell_values = (kBlocks & kShell) ? b[i++] : nullptr;
     const T* cam_from_rig = (kBlocks & kRig) ? b[i++] : nullptr;
@@ -39,6 +40,9 @@ struct BundleResidual {
     if constexpr ((kBlocks & kPoint) != 0) std::copy(b[i], b[i] + 3, x);
     T cam[M::kNumParams];
     for (int k = 0; k < M::kNumParams; ++k) cam[k] = scaled[k] * T(scale[k]);
+    if (focal_scale != nullptr) {
+      for (int k = 0; k < M::kNumFocal; ++k) cam[k] *= focal_scale[0];
+    }
     T p[3];
     ceres::AngleAxisRotatePoint(pose, x, p);
     for (int k = 0; k < 3; ++k) p[k] += pose[3 + k];
@@ -80,6 +84,11 @@ struct BundleResidual {
     const T* b[] = {b0, b1, b2, b3};
     return Evaluate(b, r);
   }
+  template <typename T>
+  bool operator()(const T* b0, const T* b1, const T* b2, const T* b3, const T* b4, T* r) const {
+    const T* b[] = {b0, b1, b2, b3, b4};
+    return Evaluate(b, r);
+  }
 };
 
 // The functor of one observation (its scale, shell and point filled in).
@@ -97,7 +106,7 @@ BundleResidual<M, kBlocks> ResidualOf(const BundleCamera& c, const BundleObserva
 
 // The layout bits of an observation of camera c.
 inline unsigned LayoutOf(const BundleCamera& c, const BundleObservation& ob) {
-  return (c.port != nullptr ? kPort : 0u) | (c.shell_values != nullptr ? kShell : 0u) |
+  return (ob.focal_scale != nullptr ? kFocus : 0u) | (c.port != nullptr ? kPort : 0u) | (c.shell_values != nullptr ? kShell : 0u) |
          (ob.cam_from_rig != nullptr ? kRig : 0u) | (ob.point_block != nullptr ? kPoint : 0u);
 }
 

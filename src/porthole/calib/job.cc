@@ -80,12 +80,17 @@ void RequireConsistent(const CalibrateJobOptions& o, const CalibrationOptions& l
         {"ep", o.ep_mm.has_value()}, {"plan_only", o.plan_only},
         {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell},
         {"air_detections", !o.air_detections.empty() || o.air_given_detections},
-        {"air_images", !o.air_images.empty()}, {"air_lens_bare", o.air_lens_bare}};
+        {"air_images", !o.air_images.empty()}, {"air_lens_bare", o.air_lens_bare},
+        {"air_refocused", o.air_refocused}};
     for (const auto& [field, is_given] : given) {
       if (is_given) throw InvalidInput(field, "only with `port` (the refractive calibration)");
     }
   }
   const bool air_images = !o.air_images.empty() || !o.air_detections.empty() || o.air_given_detections;
+  if (o.air_refocused && !air_images) {
+    throw InvalidInput("air_refocused", "says the air images were taken at another focus: give `air_images` or "
+                                        "`air_detections`");
+  }
   if (o.plan_only && air_images) {
     throw InvalidInput("plan_only",
                        "plans the water images alone: not with air images (`air_images`, `air_detections`)");
@@ -128,6 +133,7 @@ RefractiveOptions RefractiveOptionsOf(const CalibrateJobOptions& o, const Calibr
   ro.predicted_sigma = o.port_sigma;
   ro.free_water_index = o.free_water_index;
   ro.free_shell = o.free_shell;
+  ro.air_refocused = o.air_refocused;
   ro.compare_central = o.compare_central;
   return ro;
 }

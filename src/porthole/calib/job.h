@@ -8,7 +8,7 @@
 //
 // Errors are InvalidInput naming the library's fields, which are the CLI's flags with dashes and
 // Python's keywords: images, detections, target, field, model, free, loss, centre_correction,
-// datum, free_target, pixel_pitch_mm, port, ep, air_calibration, air_lens_bare, air_images,
+// datum, free_target, pixel_pitch_mm, port, ep, air_calibration, air_lens_bare, air_images, air_refocused,
 // air_detections, intrinsics, free_port, port_sigma, free_water_index, free_shell, plan_only,
 // opencv_yaml, field_out, port_out. A rule names another field between backquotes.
 #pragma once
@@ -66,6 +66,8 @@ struct CalibrateJobOptions {
   // given).
   std::string air_images, air_detections;
   std::optional<std::vector<ImageDetections>> air_given_detections;
+  // The air images were taken at another focus: their own focal length (RefractiveOptions).
+  bool air_refocused = false;
   std::string intrinsics;  // free | fixed | prior; empty: prior with an air calibration, else free
   std::string free_port = "all";
   std::optional<std::array<double, refraction::kPortNumParams>> port_sigma;

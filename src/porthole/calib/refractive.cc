@@ -109,6 +109,10 @@ class RefractiveAdjustment {
   std::optional<ShellPrior> shell_prior;
   // A calibration made in air through the port (housed_prior.h): a prior on the lens and the port.
   std::optional<HousedPrior> housed;
+  // The air images' focal length(s) as a factor on the lens's (RefractiveOptions::air_refocused),
+  // adjusted when air_focus_free.
+  std::array<double, 1> air_focus{1.0};
+  bool air_focus_free = false;
 
   // The shell's values as the air images see them (the water factor 1).
   ShellArray AirShellValues() const {
@@ -124,7 +128,7 @@ class RefractiveAdjustment {
   }
 
   // cam_from_target of each image: angle-axis (rad) then translation (mm), one Ceres block (so
-  // that the Schur solver eliminates every pose: calibrate.cc's PoseBlockCost).
+  // that the Schur solver eliminates every pose: bundle.h).
   void SetPose(int image, const Eigen::Vector3d& rotation_rad, const Eigen::Vector3d& translation_mm) {
     pose_[image] = {rotation_rad.x(), rotation_rad.y(), rotation_rad.z(),
                     translation_mm.x(), translation_mm.y(), translation_mm.z()};
@@ -169,7 +173,8 @@ class RefractiveAdjustment {
 
   // The σ0²-free covariance (JᵀJ)⁻¹ of [lens (model order), port, shell] (kT × kT), marginal over
   // the poses, in the parameters' own units (0 for parameters not adjusted); false if singular.
-  bool Covariance(Eigen::MatrixXd* cov) {
+  // With the air images' focal factor adjusted, *focus_variance (if given) gets its variance.
+  bool Covariance(Eigen::MatrixXd* cov, double* focus_variance = nullptr) {
     std::array<double, N> scaled;
     const std::unique_ptr<Bundle> bundle = MakeBundle(&scaled);
     ceres::Problem& problem = bundle->problem();
@@ -184,7 +189,13 @@ class RefractiveAdjustment {
     for (std::size_t i = 0; i < blocks.size(); ++i) {
       for (std::size_t j = i; j < blocks.size(); ++j) pairs.push_back({blocks[i].first, blocks[j].first});
     }
+    const bool with_focus = air_focus_free && problem.HasParameterBlock(air_focus.data());
+    if (with_focus) pairs.push_back({air_focus.data(), air_focus.data()});
     if (!covariance.Compute(pairs, &problem)) return false;
+    if (with_focus && focus_variance != nullptr &&
+        !covariance.GetCovarianceBlock(air_focus.data(), air_focus.data(), focus_variance)) {
+      return false;
+    }
     const auto size = [&](const double* b) {
       return b == scaled.data() ? N : b == port.data() ? kPortNumParams : kShellNumParams;
     };
@@ -214,7 +225,9 @@ class RefractiveAdjustment {
     const Eigen::Vector3d p = r * point_in_target_mm + Translation(image);
     if (InAir(image)) {
       const ShellArray v = AirShellValues();
-      return refraction::Project<M, double>(sensor_, lens.data(), air_shell_, port.data(), p, v.data());
+      std::array<double, N> air_lens = lens;
+      for (int k = 0; k < M::kNumFocal; ++k) air_lens[k] *= air_focus[0];
+      return refraction::Project<M, double>(sensor_, air_lens.data(), air_shell_, port.data(), p, v.data());
     }
     return refraction::Project<M, double>(sensor_, lens.data(), shell_, port.data(), p, shell_values.data());
   }
@@ -326,6 +339,7 @@ class RefractiveAdjustment {
       bo.u_px = ob.u_px, bo.v_px = ob.v_px;
       bo.weight = weight;
       bo.medium = InAir(ob.image) ? Medium::kAir : Medium::kWater;
+      if (air_focus_free && InAir(ob.image)) bo.focal_scale = air_focus.data();
       bundle->AddObservation(bo);
     }
     if (prior) {
@@ -733,6 +747,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   const FreeMask lens_free = LensFree(o);
   adj.lens_free = lens_free;
   adj.port_free = o.port_free;
+  adj.air_focus_free = o.air_refocused && n_air > 0;
 
   // 1-D search of the axial port parameter (dome and cylinder ep_z, flat distance) around the
   // prediction.
@@ -759,6 +774,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     }
     std::copy(start.params.begin(), start.params.end(), adj.lens.begin());
     adj.port = p;
+    adj.air_focus = {1.0};
     set_poses();
     double cost = INFINITY;
     iterations += adj.Solve(candidates.size() > 1 ? 4 : 0, &cost);
@@ -774,6 +790,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   std::copy(start.params.begin(), start.params.end(), adj.lens.begin());
   adj.port = predicted;
   adj.port[axial] = best_axial;
+  adj.air_focus = {1.0};
   set_poses();
 
   // Adjust with outlier rejection (as Calibrate), the water index factor free when asked but the
@@ -792,8 +809,9 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   for (bool f : lens_free) n_lens_free += f;
   for (bool f : res.shell_free) n_shell_free += f;
   adj.shell_free[0] = res.shell_free[0];
-  const int n_unknowns_first = n_lens_free + n_port_free + adj.shell_free[0] + 6 * n_total;
-  const int n_unknowns = n_lens_free + n_port_free + n_shell_free + 6 * n_total;
+  const int n_focus_free = adj.air_focus_free ? 1 : 0;
+  const int n_unknowns_first = n_lens_free + n_port_free + adj.shell_free[0] + n_focus_free + 6 * n_total;
+  const int n_unknowns = n_lens_free + n_port_free + n_shell_free + n_focus_free + 6 * n_total;
   double ss = 0;
   int n_active = 0;
   for (int round = 0;; ++round) {
@@ -866,7 +884,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   const double s0w2 = weighted_ss / lr.redundancy;  // σ0² of the weighted adjustment
   say(fmt::format("adjusted: RMS {:.4f} px, {} iterations; covariance", lr.rms_px, iterations));
   Eigen::MatrixXd cov;
-  lr.covariance_ok = adj.Covariance(&cov);
+  double focus_variance = NAN;
+  lr.covariance_ok = adj.Covariance(&cov, &focus_variance);
   constexpr int S = N + kPortNumParams, T = S + kShellNumParams;
   if (!lr.covariance_ok) {
     throw InvalidInput("images", std::string("the port parameters and the lens are not determined "
@@ -902,6 +921,10 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     res.shell_sigma[i] = res.shell_free[i] ? std::sqrt(cov(S + i, S + i)) : NAN;
   }
   res.n_water = o.port.n_water * res.shell[0];
+  if (adj.air_focus_free) {
+    res.air_focal_scale = adj.air_focus[0];
+    res.air_focal_scale_sigma = std::sqrt(s0w2 * focus_variance);
+  }
   // Per image; the water images' sum of squares alone for the model choice.
   std::vector<double> image_ss(n_total, 0);
   std::vector<ImageResult> all_images(n_total);
@@ -1123,6 +1146,10 @@ void CheckOptions(const RefractiveOptions& o) {
   ShellPriorFor(o, refraction::ShellOf(o.port));  // --free-shell needs the port file's σ
   if (o.intrinsics != IntrinsicsMode::kFree && !o.air) {
     throw InvalidInput("intrinsics", ToString(o.intrinsics) + " needs `air_calibration`");
+  }
+  if (o.air_refocused && o.air_detections.empty()) {
+    throw InvalidInput("air_refocused", "says the air images were taken at another focus: give `air_images` or "
+                                        "`air_detections`");
   }
   if (o.air && !o.air_detections.empty()) {
     throw InvalidInput("air_calibration",
@@ -1457,6 +1484,11 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
     air["n_images"] = r.air_images.size();
     air["rms_px"] = num(r.air_rms_px);
     air["water_rms_px"] = num(r.water_rms_px);
+    air["refocused"] = options.air_refocused;
+    if (options.air_refocused) {
+      air["focal_scale"] = num(r.air_focal_scale);  // the air images' focal length(s) / the water images'
+      air["focal_scale_sigma"] = num(r.air_focal_scale_sigma);
+    }
     air["images"] = ImagesJson(r.air_images);
   }
   j["port"]["air"] = air;

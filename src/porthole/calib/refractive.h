@@ -96,6 +96,10 @@ struct RefractiveOptions {
   // water index factor does not apply), adjusted together with the water images: one lens, one
   // port, each image its own pose. Not with `air` (two sources of the same lens).
   std::vector<ImageDetections> air_detections;
+  // The air images were taken at another focus (the lens refocused between the sets): they get
+  // their own focal length(s), the water images' times a factor adjusted with the rest (start 1).
+  // Only with air_detections.
+  bool air_refocused = false;
   // Which port parameters are adjusted (the others stay at the predicted value).
   std::array<bool, refraction::kPortNumParams> port_free{true, true, true};
   // 1σ of the predicted port parameters (the χ² test): dome pupil position 0.5 mm per axis (a
@@ -161,6 +165,9 @@ struct RefractiveResult {
   // without air images).
   std::vector<ImageResult> air_images;
   double air_rms_px = NAN, water_rms_px = NAN;
+  // With air_refocused: the air images' focal length(s) over the water images', and its σ (NaN
+  // otherwise).
+  double air_focal_scale = NAN, air_focal_scale_sigma = NAN;
   IntrinsicsMode intrinsics = IntrinsicsMode::kFree;
   refraction::PortKind kind = refraction::PortKind::kDome;
   std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, predicted{},

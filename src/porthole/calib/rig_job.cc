@@ -49,7 +49,8 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
       {"ep", o.ep}, {"intrinsics", o.intrinsics}, {"port_out", o.port_out},
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
       {"free_target", o.lens.target_free}, {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
-      {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant}};
+      {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
+      {"air_refocused", o.air_refocused}};
   for (const auto& [field, given] : not_in_rig) {
     if (given) throw InvalidInput(field, "not with a rig (several `images` or `detections`) yet");
   }

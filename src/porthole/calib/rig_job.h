@@ -64,6 +64,7 @@ struct CalibrateRigJobOptions {
   std::optional<std::vector<std::vector<ImageDetections>>> air_given_detections;
   // The single camera's options a rig does not take (yet): set, each is refused by its name.
   bool ep = false, intrinsics = false, port_out = false, free_water_index = false, free_shell = false,
+       air_refocused = false,
        port_sigma = false, opencv_yaml = false, field_out = false, plan_only = false;
   // The first two cameras as OpenCV's stereo file (result.stereo_text): the file name the front end
   // will write (.xml: XML, else YAML); empty: none. Both cameras of the opencv model without a port.
