@@ -26,16 +26,6 @@ double FromAxis(const Vec3& p, const Vec3& c, const Vec3& a) {
   return (q - q.dot(a) * a).norm();
 }
 
-// Two surfaces, air → glass → water, with glass only where z >= rim (a dome's, a cylinder's).
-std::vector<optics::Interface> WithRim(optics::Surface inner, optics::Surface outer, double rim_z,
-                                       double n_glass, double n_water) {
-  for (optics::Surface* s : {&inner, &outer}) {
-    s->aperture_point = Vec3(0, 0, rim_z);
-    s->aperture_normal = Vec3(0, 0, 1);
-  }
-  return {optics::Interface{inner, 1.0, n_glass}, optics::Interface{outer, n_glass, n_water}};
-}
-
 }  // namespace
 
 // ---- Dome ----
@@ -70,10 +60,9 @@ void DomePort::RequirePupilInside(const Vec3& ep) const {
   }
 }
 
-std::vector<optics::Interface> DomePort::Outward(double n_glass, double n_water) const {
-  return WithRim(optics::Surface::MakeSphere(inner.center_mm, inner.radius_mm),
-                 optics::Surface::MakeSphere(outer.center_mm, outer.radius_mm),
-                 rim_z_mm.value_or(outer.center_mm.z()), n_glass, n_water);
+TwoInterfaces<double> DomePort::Outward(double n_glass, double n_water) const {
+  return Interfaces<double>(inner.center_mm, inner.radius_mm, outer.center_mm, outer.radius_mm,
+                            rim_z_mm.value_or(outer.center_mm.z()), n_glass, n_water);
 }
 
 bool DomePort::InsideOuterSurface(const Vec3& p) const { return (p - outer.center_mm).norm() < outer.radius_mm; }
@@ -106,11 +95,8 @@ void FlatPort::RequirePupilInside(const Vec3& ep) const {
   }
 }
 
-std::vector<optics::Interface> FlatPort::Outward(double n_glass, double n_water) const {
-  using optics::Interface;
-  using optics::Surface;
-  return {Interface{Surface::MakePlane(inner_point_mm, normal), 1.0, n_glass},
-          Interface{Surface::MakePlane(inner_point_mm + thickness_mm * normal, normal), n_glass, n_water}};
+TwoInterfaces<double> FlatPort::Outward(double n_glass, double n_water) const {
+  return Interfaces<double>(inner_point_mm, normal, 0.0, thickness_mm, n_glass, n_water);
 }
 
 bool FlatPort::InsideOuterSurface(const Vec3& p) const { return (p - inner_point_mm).dot(normal) < thickness_mm; }
@@ -154,11 +140,9 @@ void CylinderPort::RequirePupilInside(const Vec3& ep) const {
   }
 }
 
-std::vector<optics::Interface> CylinderPort::Outward(double n_glass, double n_water) const {
-  const Vec3 a = CanonicalAxis(axis);
-  return WithRim(optics::Surface::MakeCylinder(axis_point_mm, a, inner_radius_mm),
-                 optics::Surface::MakeCylinder(axis_point_mm, a, outer_radius_mm),
-                 rim_z_mm.value_or(axis_point_mm.z()), n_glass, n_water);
+TwoInterfaces<double> CylinderPort::Outward(double n_glass, double n_water) const {
+  return Interfaces<double>(axis_point_mm, CanonicalAxis(axis), inner_radius_mm, outer_radius_mm,
+                            rim_z_mm.value_or(axis_point_mm.z()), n_glass, n_water);
 }
 
 bool CylinderPort::InsideOuterSurface(const Vec3& p) const {
@@ -218,7 +202,9 @@ PortSystem Place(const PortSpec& spec_in, const Vec3& ep, double n_glass, double
 }
 
 std::vector<optics::Interface> PortSystem::Outward() const {
-  return std::visit([&](const auto& p) { return p.Outward(n_glass, n_water); }, spec.shape);
+  const TwoInterfaces<double> f =
+      std::visit([&](const auto& p) { return p.Outward(n_glass, n_water); }, spec.shape);
+  return {f.begin(), f.end()};
 }
 
 std::vector<optics::Interface> PortSystem::Inward() const { return optics::Reversed(Outward()); }

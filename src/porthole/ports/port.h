@@ -7,6 +7,7 @@
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>
+#include <array>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -18,15 +19,26 @@
 namespace porthole::ports {
 
 using optics::Vec3;
+template <typename T>
+using Vec3T = optics::Vec3T<T>;
+// A port's two refracting surfaces as the tracer (optics::Step) takes them, inner then outer:
+// air → glass → water.
+template <typename T>
+using TwoInterfaces = std::array<optics::InterfaceT<T>, 2>;
 
 // The port shapes: one closed list, the alternatives of PortSpec::shape (dome, flat, cylinder).
 // Each shape is one struct with its fields and the same members, which Validate, Place and
 // PortSystem visit (port.cc): kName (its `type` in port files); Validate(where) (InvalidInput
 // naming `where`.<key>); Translate(by) (a cam-frame description moved to the housing frame);
 // RequirePupilInside(ep) (InvalidInput "entrance_pupil_mm" unless the pupil is inside);
-// Outward(n_glass, n_water) (its two surfaces for a ray leaving the camera); InsideOuterSurface(p);
+// Interfaces<T>(shape values…, n_glass, n_water) (static: its two surfaces for a ray leaving the
+// camera, in scalar T — double, or ceres::Jet where a calibration adjusts the port — the ONE
+// statement of the shape's surfaces, defined below the structs); Outward(n_glass, n_water)
+// (Interfaces<double> of its own fields: what PortSystem traces); InsideOuterSurface(p);
 // VertexZ(ep, of_outer) (where the axis {ep + s ẑ} meets its outer or inner surface);
-// GeometryJson() (its fields as JSON, mm: the one port JSON of describe.h).
+// GeometryJson() (its fields as JSON, mm: the one port JSON of describe.h). The refractive
+// projection (refraction/refraction.h, InterfacesOf) calls Interfaces<T> with the shape's values
+// in the cam frame.
 struct SphereSpec {
   Vec3 center_mm = Vec3::Zero();
   double radius_mm = 0;
@@ -45,7 +57,12 @@ struct DomePort {
   void Validate(const std::string& where) const;
   void Translate(const Vec3& by);
   void RequirePupilInside(const Vec3& ep) const;
-  std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
+  // The inner sphere then the outer, glass only where z >= rim_z_mm on both.
+  template <typename T>
+  static TwoInterfaces<T> Interfaces(const Vec3T<T>& inner_center_mm, const T& inner_radius_mm,
+                                     const Vec3T<T>& outer_center_mm, const T& outer_radius_mm,
+                                     double rim_z_mm, const T& n_glass, const T& n_water);
+  TwoInterfaces<double> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
   nlohmann::ordered_json GeometryJson() const;
@@ -66,7 +83,14 @@ struct FlatPort {
   void Validate(const std::string& where) const;
   void Translate(const Vec3& by);
   void RequirePupilInside(const Vec3& ep) const;
-  std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
+  // The inner plane distance_mm along the unit normal from `from_mm`, then the outer one
+  // thickness_mm further; unbounded. (Its own Outward: from its inner point, distance 0; the
+  // refractive projection: from the pupil.)
+  template <typename T>
+  static TwoInterfaces<T> Interfaces(const Vec3T<T>& from_mm, const Vec3T<T>& normal,
+                                     const T& distance_mm, const T& thickness_mm, const T& n_glass,
+                                     const T& n_water);
+  TwoInterfaces<double> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
   nlohmann::ordered_json GeometryJson() const;
@@ -89,7 +113,13 @@ struct CylinderPort {
   void Validate(const std::string& where) const;
   void Translate(const Vec3& by);
   void RequirePupilInside(const Vec3& ep) const;
-  std::vector<optics::Interface> Outward(double n_glass, double n_water) const;
+  // The inner cylinder then the outer about one axis (a point on it, unit direction), glass only
+  // where z >= rim_z_mm on both.
+  template <typename T>
+  static TwoInterfaces<T> Interfaces(const Vec3T<T>& axis_point_mm, const Vec3T<T>& unit_axis,
+                                     const T& inner_radius_mm, const T& outer_radius_mm,
+                                     double rim_z_mm, const T& n_glass, const T& n_water);
+  TwoInterfaces<double> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
   nlohmann::ordered_json GeometryJson() const;
@@ -97,6 +127,53 @@ struct CylinderPort {
 
 // The axis of a cylinder in the sense the port parameters use: unit, +Y half (+X where y = 0).
 Vec3 CanonicalAxis(const Vec3& axis);
+
+// ---- The shapes' surfaces, in scalar T (declared in the structs above) ----
+
+namespace detail {
+// Inner and outer surface, air → glass → water; with a rim, glass only where z >= rim_z_mm (the
+// aperture is a value only: optics::SurfaceT).
+template <typename T>
+TwoInterfaces<T> GlassBetween(optics::SurfaceT<T> inner, optics::SurfaceT<T> outer, const T& n_glass,
+                              const T& n_water, std::optional<double> rim_z_mm) {
+  if (rim_z_mm) {
+    for (optics::SurfaceT<T>* s : {&inner, &outer}) {
+      s->aperture_point = Vec3(0, 0, *rim_z_mm);
+      s->aperture_normal = Vec3(0, 0, 1);
+    }
+  }
+  return {optics::InterfaceT<T>{inner, T(1.0), n_glass}, optics::InterfaceT<T>{outer, n_glass, n_water}};
+}
+}  // namespace detail
+
+template <typename T>
+TwoInterfaces<T> DomePort::Interfaces(const Vec3T<T>& inner_center_mm, const T& inner_radius_mm,
+                                      const Vec3T<T>& outer_center_mm, const T& outer_radius_mm,
+                                      double rim_z_mm, const T& n_glass, const T& n_water) {
+  using S = optics::SurfaceT<T>;
+  return detail::GlassBetween<T>(S::MakeSphere(inner_center_mm, inner_radius_mm),
+                                 S::MakeSphere(outer_center_mm, outer_radius_mm), n_glass, n_water, rim_z_mm);
+}
+
+template <typename T>
+TwoInterfaces<T> FlatPort::Interfaces(const Vec3T<T>& from_mm, const Vec3T<T>& normal,
+                                      const T& distance_mm, const T& thickness_mm, const T& n_glass,
+                                      const T& n_water) {
+  using S = optics::SurfaceT<T>;
+  return detail::GlassBetween<T>(S::MakePlane(Vec3T<T>(from_mm + normal * distance_mm), normal),
+                                 S::MakePlane(Vec3T<T>(from_mm + normal * (distance_mm + thickness_mm)), normal),
+                                 n_glass, n_water, std::nullopt);
+}
+
+template <typename T>
+TwoInterfaces<T> CylinderPort::Interfaces(const Vec3T<T>& axis_point_mm, const Vec3T<T>& unit_axis,
+                                          const T& inner_radius_mm, const T& outer_radius_mm,
+                                          double rim_z_mm, const T& n_glass, const T& n_water) {
+  using S = optics::SurfaceT<T>;
+  return detail::GlassBetween<T>(S::MakeCylinder(axis_point_mm, unit_axis, inner_radius_mm),
+                                 S::MakeCylinder(axis_point_mm, unit_axis, outer_radius_mm), n_glass,
+                                 n_water, rim_z_mm);
+}
 
 enum class PortFrame { kHousing, kCam };
 

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
+#include <utility>
+#include <variant>
 
 #include "porthole/core/error.h"
 
@@ -143,20 +145,26 @@ bool NewtonSystem(const Geometry<J2>& g, const Vec3& x, Solution* s, Eigen::Vect
   return true;
 }
 
+// A kind is the index of its shape in ports::PortSpec::shape.
+using Shapes = decltype(ports::PortSpec::shape);
+template <PortKind K>
+using ShapeOf = std::variant_alternative_t<static_cast<std::size_t>(K), Shapes>;
+static_assert(std::is_same_v<ShapeOf<PortKind::kDome>, ports::DomePort> &&
+              std::is_same_v<ShapeOf<PortKind::kFlat>, ports::FlatPort> &&
+              std::is_same_v<ShapeOf<PortKind::kCylinder>, ports::CylinderPort> &&
+              std::variant_size_v<Shapes> == 3);
+
 }  // namespace
 
 std::string_view PortKindName(PortKind kind) {
-  switch (kind) {
-    case PortKind::kDome: return "dome";
-    case PortKind::kFlat: return "flat";
-    case PortKind::kCylinder: return "cylinder";
-  }
-  return "unknown";
+  static constexpr auto kNames = []<std::size_t... I>(std::index_sequence<I...>) {
+    return std::array<std::string_view, sizeof...(I)>{std::variant_alternative_t<I, Shapes>::kName...};
+  }(std::make_index_sequence<std::variant_size_v<Shapes>>());
+  const auto i = static_cast<std::size_t>(kind);
+  return i < kNames.size() ? kNames[i] : "unknown";
 }
 
-PortKind KindOf(const ports::PortSpec& spec) {
-  return spec.IsDome() ? PortKind::kDome : spec.IsCylinder() ? PortKind::kCylinder : PortKind::kFlat;
-}
+PortKind KindOf(const ports::PortSpec& spec) { return static_cast<PortKind>(spec.shape.index()); }
 
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind) {
   static constexpr std::array<PortParamInfo, kPortNumParams> kDome = {{

@@ -67,11 +67,12 @@ using Vec3T = Eigen::Matrix<T, 3, 1>;
 template <typename T>
 using Vec2T = Eigen::Matrix<T, 2, 1>;
 
-// The port shapes, one closed list (ports/port.h has their specs).
+// The port shapes, one closed list: the alternatives of ports::PortSpec::shape (ports/port.h), a
+// kind being its index there (refraction.cc asserts the order).
 enum class PortKind { kDome, kFlat, kCylinder };
-// "dome", "flat", "cylinder": the name the files and the tables use.
+// "dome", "flat", "cylinder": the name the files and the tables use (the shape's kName).
 std::string_view PortKindName(PortKind kind);
-// The kind of a port spec's shape.
+// The kind of a port spec's shape (its index in the list).
 PortKind KindOf(const ports::PortSpec& spec);
 
 // The fixed part of a port (see the file comment), cam-frame axes, mm.
@@ -166,38 +167,24 @@ Geometry<T> MakeGeometry(const Shell& s, const T* p, const T* shell_values = nul
 }
 
 // The port's two surfaces in the cam frame, as the tracer takes them (inner then outer, air →
-// glass → water), in scalar T: the one description of a port's shape that the refractive
-// projection, the backward trace (Interfaces below) and, placed in the housing frame,
-// ports::PortSystem trace.
+// glass → water), in scalar T: each shape's own ports::<Shape>Port::Interfaces<T> (ports/port.h,
+// the one statement of a shape's surfaces, which ports::PortSystem::Outward also calls, in double
+// in the housing frame) given the geometry's values. The refractive projection and the backward
+// trace (Interfaces below) trace them.
 template <typename T>
-std::array<optics::InterfaceT<T>, 2> InterfacesOf(const Geometry<T>& g) {
-  using S = optics::SurfaceT<T>;
-  std::array<optics::InterfaceT<T>, 2> f;
+ports::TwoInterfaces<T> InterfacesOf(const Geometry<T>& g) {
   switch (g.kind) {
     case PortKind::kDome:
-      f[0].surface = S::MakeSphere(g.inner_center, g.inner_radius);
-      f[1].surface = S::MakeSphere(g.outer_center, g.outer_radius);
-      break;
+      return ports::DomePort::Interfaces<T>(g.inner_center, g.inner_radius, g.outer_center,
+                                            g.outer_radius, g.rim_z, g.n_glass, g.n_water);
     case PortKind::kCylinder:
-      f[0].surface = S::MakeCylinder(g.axis_point, g.normal, g.inner_radius);
-      f[1].surface = S::MakeCylinder(g.axis_point, g.normal, g.outer_radius);
-      break;
+      return ports::CylinderPort::Interfaces<T>(g.axis_point, g.normal, g.inner_radius,
+                                                g.outer_radius, g.rim_z, g.n_glass, g.n_water);
     case PortKind::kFlat:
-      f[0].surface = S::MakePlane(Vec3T<T>(g.normal * g.distance), g.normal);
-      f[1].surface = S::MakePlane(Vec3T<T>(g.normal * (g.distance + g.thickness)), g.normal);
       break;
   }
-  if (g.kind != PortKind::kFlat) {
-    for (auto& i : f) {
-      i.surface.aperture_point = Vec3(0, 0, g.rim_z);
-      i.surface.aperture_normal = Vec3(0, 0, 1);
-    }
-  }
-  f[0].n_before = T(1);
-  f[0].n_after = g.n_glass;
-  f[1].n_before = g.n_glass;
-  f[1].n_after = g.n_water;
-  return f;
+  return ports::FlatPort::Interfaces<T>(Vec3T<T>::Zero(), g.normal, g.distance, g.thickness,
+                                        g.n_glass, g.n_water);
 }
 
 // Traces the ray leaving the pupil (the cam-frame origin) along `dir` (any length) out through
