@@ -108,3 +108,12 @@ def test_air_detections_through_the_port_match_the_cli(sample, inputs, tmp_path)
         porthole.calibrate(water, TARGET, port="generic-dome-4in", air_calibration=air, intrinsics="fixed")
     with pytest.raises(ValueError, match="^air_lens_bare"):
         porthole.calibrate(water, TARGET, port="generic-dome-4in", air_lens_bare=True)
+    # A lens refocused between the sets (air_refocused), as `--air-refocused`.
+    ours = porthole.calibrate(water, TARGET, port="generic-dome-4in", air_detections=air_dets, air_refocused=True,
+                              compare_central=False)
+    theirs = cli_json("calibrate", "--detections", d / "water.json", "--air-detections", tmp_path / "air_dets.json",
+                      "--port", "generic-dome-4in", "--air-refocused", "--quiet")
+    for key in ("focal_scale", "focal_scale_sigma"):
+        assert ours.to_dict()["port"]["air"][key] == pytest.approx(theirs["port"]["air"][key], rel=1e-9), key
+    with pytest.raises(ValueError, match="^air_refocused"):
+        porthole.calibrate(water, TARGET, port="generic-dome-4in", air_refocused=True)

@@ -139,6 +139,8 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     assert "one per camera" in line, line
     assert "only with --port" in run_bad(*base, "--model", "opencv", "--air-calibration", f"{cal},{cal}",
                                          "--air-lens-bare")
+    line = run_bad(*base, "--model", "opencv", "--port", "nimar-ni320", "--air-refocused")
+    assert line.startswith("porthole: error: --air-refocused: not with a rig"), line
 
 
 def test_a_pixel_pitch_per_camera(rig):
