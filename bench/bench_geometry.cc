@@ -17,6 +17,7 @@
 #include <random>
 #include <vector>
 
+#include "port_samples.h"
 #include "porthole/camera/camera.h"
 #include "porthole/camera/models.h"
 #include "porthole/refraction/refraction.h"
@@ -73,28 +74,10 @@ const char* Label(int which) {
   return which == 0 ? "as-built NI320 dome" : which == 1 ? "flat 5 deg" : "cylinder 4 in";
 }
 
-struct Sample {
-  Eigen::Vector2d pixel;
-  Vec3 point_in_cam;
-};
+using Sample = bench::PortSample;
 
 std::vector<Sample> Samples(const camera::Camera& cam, const ports::PortSystem& sys, int n) {
-  std::mt19937_64 rng(11);
-  std::uniform_real_distribution<double> u(0, 1);
-  const auto seq = sys.Outward();
-  std::vector<Sample> out;
-  while (static_cast<int>(out.size()) < n) {
-    const Eigen::Vector2d px(u(rng) * (cam.sensor.width_px - 1), u(rng) * (cam.sensor.height_px - 1));
-    const auto ray = cam.Unproject(px);
-    optics::Ray r;
-    if (!ray || optics::TraceSequence(seq, optics::Ray{sys.ep_in_housing_mm, *ray}, &r) !=
-                    optics::RayStatus::kOk) {
-      continue;
-    }
-    const double s = 200 * std::pow(100.0, u(rng));  // 0.2 … 20 m, log-uniform
-    out.push_back({px, r.origin + s * r.dir - sys.ep_in_housing_mm});
-  }
-  return out;
+  return bench::PortSamples(cam, sys, n, 11);
 }
 
 // Project<BrownModel, Jet<19>>: what one residual of a refractive bundle adjustment costs.
