@@ -60,6 +60,31 @@ def test_air_and_water_images_together_find_the_rendered_pupil(renders):
     assert "air images: 20 through the port in air, adjusted with the water images (one lens)" in t
 
 
+def test_three_render_sets_of_forty_put_the_pupil_within_the_issue_bounds(tmp_path):
+    """The issue's bound, the pupil within 0.1 mm laterally and 0.3 mm axially, on renders: with 20 + 20
+    images sigma is 0.085 mm a lateral axis (the test above), so one set misses 0.1 mm by chance as often
+    as not. Three independent render sets (seeds 1-3) of 40 air + 40 water images: each pupil within
+    3 sigma of the rendered one, their mean within 0.1 mm laterally and 0.3 mm axially."""
+    found = []
+    for seed in (1, 2, 3):
+        d = tmp_path / f"seed{seed}"
+        run("render", "--set", 40, "--seed", seed, "--out", d, "--spp", 4, *PITCH, "--f-number", "inf", "--quiet")
+        j = run("calibrate", "--images", d / "water", "--air-images", d / "air", "--target", TARGET, *PITCH,
+                "--port", "nimar-ni320", "--json", "--quiet").json()
+        p, sigma = port_of(j)
+        print(f"40 + 40 renders, seed {seed}: pupil {p[0]:.3f} {p[1]:.3f} {p[2]:.3f} +- {sigma[0]:.3f} "
+              f"{sigma[1]:.3f} {sigma[2]:.3f} mm; lateral error {math.hypot(p[0] - RENDERED[0], p[1] - RENDERED[1]):.3f}"
+              f" mm, axial {p[2] - RENDERED[2]:+.3f} mm")
+        for k in range(3):
+            assert abs(p[k] - RENDERED[k]) < 3 * sigma[k], (seed, KEYS[k])
+        found.append(p)
+    mean = [sum(p[k] for p in found) / 3 for k in range(3)]
+    lateral = math.hypot(mean[0] - RENDERED[0], mean[1] - RENDERED[1])
+    print(f"mean of the three: {mean[0]:.3f} {mean[1]:.3f} {mean[2]:.3f} mm; lateral error {lateral:.3f} mm, "
+          f"axial {mean[2] - RENDERED[2]:+.3f} mm")
+    assert lateral < 0.1 and abs(mean[2] - RENDERED[2]) < 0.3
+
+
 def test_refocused_air_images_of_one_focus_find_a_factor_of_one(renders):
     """--air-refocused gives the air images their own focal length (a factor on the water images'): on
     renders of one focus the factor is 1 within 3 sigma and the pupil is still the rendered one."""
