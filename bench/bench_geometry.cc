@@ -30,29 +30,14 @@ constexpr int kNCam = camera::BrownModel::kNumParams;
 constexpr int kN = kNCam + refraction::kPortNumParams + refraction::kShellNumParams;
 using J = ceres::Jet<double, kN>;
 
-camera::Camera D300() {
-  camera::BrownParams b;
-  b.c_mm = 24.6;
-  b.K1 = 1.8e-4;
-  b.K2 = -3e-7;
-  b.P1 = 2e-6;
-  return camera::FromBrown(b, camera::Sensor{4288, 2848, 0.0055});
-}
+camera::Camera D300() { return bench::BenchD300(); }
 
 // 0: the as-built NI320 dome (not axial); 1: a flat port tilted 5°; 2: a 4-inch acrylic tube,
 // pupil 1.5 mm off its axis across and 3 mm behind it, axis turned 10° from +Y.
 ports::PortSystem Port(int which) {
   ports::PortSpec s;
   const Vec3 ep(0, 0, 26.9);
-  if (which == 1) {
-    ports::FlatPort f;
-    const double t = 5 * M_PI / 180;
-    f.normal = Vec3(std::sin(t), 0, std::cos(t));
-    f.inner_point_mm = ep + 20 * f.normal;
-    f.thickness_mm = 10;
-    s.shape = f;
-    return ports::Place(s, ep, 1.49, 1.341);
-  }
+  if (which == 1) return bench::TiltedFlat5();
   if (which == 2) {
     ports::CylinderPort c;
     const double t = 10 * M_PI / 180;

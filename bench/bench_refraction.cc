@@ -21,27 +21,12 @@ namespace {
 using namespace porthole;
 using optics::Vec3;
 
-camera::Camera D300() {
-  camera::BrownParams b;
-  b.c_mm = 24.6;
-  b.K1 = 1.8e-4;
-  b.K2 = -3e-7;
-  b.P1 = 2e-6;
-  return camera::FromBrown(b, camera::Sensor{4288, 2848, 0.0055});
-}
+camera::Camera D300() { return bench::BenchD300(); }
 
 ports::PortSystem Port(int which) {
   ports::PortSpec s;
   const Vec3 ep(0, 0, 26.9);
-  if (which == 2) {
-    ports::FlatPort f;
-    const double t = 5 * M_PI / 180;
-    f.normal = Vec3(std::sin(t), 0, std::cos(t));
-    f.inner_point_mm = ep + 20 * f.normal;
-    f.thickness_mm = 10;
-    s.shape = f;
-    return ports::Place(s, ep, 1.49, 1.341);
-  }
+  if (which == 2) return bench::TiltedFlat5();
   ports::DomePort d;
   if (which == 0) {  // the paper's as-built NI320: not axial
     d.outer = {Vec3(-0.4, -1.0, 21.5), 83.4};

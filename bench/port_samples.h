@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "porthole/camera/brown.h"
 #include "porthole/camera/camera.h"
 #include "porthole/optics/trace.h"
 #include "porthole/ports/port.h"
@@ -18,6 +19,30 @@ struct PortSample {
   Eigen::Vector2d pixel;
   Eigen::Vector3d point_in_cam;  // mm, the pupil at the origin
 };
+
+// The camera of the refraction benchmarks: a D300 body (4288 × 2848 px of 5.5 µm), Brown lens c 24.6 mm.
+inline camera::Camera BenchD300() {
+  camera::BrownParams b;
+  b.c_mm = 24.6;
+  b.K1 = 1.8e-4;
+  b.K2 = -3e-7;
+  b.P1 = 2e-6;
+  return camera::FromBrown(b, camera::Sensor{4288, 2848, 0.0055});
+}
+
+// A flat port tilted 5° about y: its inner face 20 mm from the pupil (0, 0, 26.9) along the normal,
+// 10 mm of acrylic (n 1.49), seawater (1.341).
+inline ports::PortSystem TiltedFlat5() {
+  const Eigen::Vector3d ep(0, 0, 26.9);
+  ports::FlatPort f;
+  const double t = 5 * M_PI / 180;
+  f.normal = Eigen::Vector3d(std::sin(t), 0, std::cos(t));
+  f.inner_point_mm = ep + 20 * f.normal;
+  f.thickness_mm = 10;
+  ports::PortSpec s;
+  s.shape = f;
+  return ports::Place(s, ep, 1.49, 1.341);
+}
 
 // n pixels uniform over the frame whose rays leave the port, each with a point on its ray in the
 // water; `seed` of the generator.
