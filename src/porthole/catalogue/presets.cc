@@ -228,15 +228,21 @@ void CheckWithLine(const toml::table& t, const std::string& origin, const std::s
   }
 }
 
+// The keys every preset file has: its name (default `default_name`), description and source.
+template <typename T>
+void ReadIdentity(Reader& r, const std::string& default_name, T* x) {
+  x->name = r.OptString("name").value_or(default_name);
+  x->description = r.OptString("description").value_or("");
+  x->source = r.OptString("source").value_or("");
+}
+
 }  // namespace
 
 ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) {
   const toml::table t = ParseToml(text, origin);
   Reader r(t, origin, "");
   ports::PortSpec p;
-  p.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
-  p.description = r.OptString("description").value_or("");
-  p.source = r.OptString("source").value_or("");
+  ReadIdentity(r, std::filesystem::path(origin).stem().string(), &p);
   const std::string frame = r.OptString("frame").value_or("housing");
   if (frame == "housing") {
     p.frame = ports::PortFrame::kHousing;
@@ -353,9 +359,7 @@ namespace {
 // The lens keys (docs/presets.md), from a lens file or a fixed-lens camera's [lens] table.
 lens::LensSpec ReadLens(Reader& r, const std::string& default_name, bool fixed) {
   lens::LensSpec l;
-  l.name = r.OptString("name").value_or(default_name);
-  l.description = r.OptString("description").value_or("");
-  l.source = r.OptString("source").value_or("");
+  ReadIdentity(r, default_name, &l);
   if (fixed) {
     l.mount = "fixed";
   } else if (const toml::node* m = r.Node("mount"); m && m->is_array()) {
@@ -420,9 +424,7 @@ lens::CameraBody ParseCameraToml(std::string_view text, const std::string& origi
   const toml::table t = ParseToml(text, origin);
   Reader r(t, origin, "");
   lens::CameraBody b;
-  b.name = r.OptString("name").value_or(std::filesystem::path(origin).stem().string());
-  b.description = r.OptString("description").value_or("");
-  b.source = r.OptString("source").value_or("");
+  ReadIdentity(r, std::filesystem::path(origin).stem().string(), &b);
   b.mount = r.OptString("mount").value_or("");
   b.sensor.width_px = r.PositiveInt("width_px");
   b.sensor.height_px = r.PositiveInt("height_px");
