@@ -142,8 +142,8 @@ void Bundle::AddObservation(const BundleObservation& ob) {
   if (loss_ == LossKind::kHuber) loss = new ceres::HuberLoss(loss_scale_px_);
   if (loss_ == LossKind::kCauchy) loss = new ceres::CauchyLoss(loss_scale_px_);
   problem_->AddResidualBlock(NewObservationCost(c, ob, form_), loss, blocks);
-  poses_.push_back(ob.pose);
-  if (ob.point_block != nullptr) points_.push_back(ob.point_block);
+  poses_.insert(ob.pose);
+  if (ob.point_block != nullptr) points_.insert(ob.point_block);
 }
 
 void Bundle::AddCost(ceres::CostFunction* cost, const std::vector<double*>& blocks) {
@@ -212,13 +212,11 @@ ceres::Solver::Summary Bundle::Solve(const BundleSolveOptions& o) {
   so.num_threads = o.num_threads;
   // The Schur complement eliminates the free target points (when there are) or else the poses:
   // the reduced system is the cameras' (lenses, ports, rig offsets) and, with a free target, the poses'.
-  const std::set<double*> points(points_.begin(), points_.end());
-  const std::set<double*> poses(poses_.begin(), poses_.end());
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   std::vector<double*> blocks;
   problem_->GetParameterBlocks(&blocks);
   for (double* b : blocks) {
-    const bool eliminated = points.empty() ? poses.count(b) > 0 : points.count(b) > 0;
+    const bool eliminated = points_.empty() ? poses_.count(b) > 0 : points_.count(b) > 0;
     ordering->AddElementToGroup(b, eliminated ? 0 : 1);
   }
   so.linear_solver_ordering = ordering;

@@ -22,6 +22,7 @@
 #include <array>
 #include <memory>
 #include <optional>
+#include <unordered_set>
 #include <vector>
 
 #include "porthole/calib/calibrate.h"
@@ -122,7 +123,7 @@ class Bundle {
   double loss_scale_px_;
   Form form_;
   std::vector<BundleCamera> cameras_;
-  std::vector<double*> poses_, points_;  // the blocks the Schur solver eliminates
+  std::unordered_set<double*> poses_, points_;  // the blocks the Schur solver eliminates
   std::unique_ptr<ceres::Problem> problem_;
   bool sealed_ = false;
 };
