@@ -204,3 +204,32 @@ def test_simulate_says_what_its_air_calibration_is():
     t = run("simulate", "--air-calibration", table6).out
     assert "in-air calibration taken as made with the housing on" in t
     assert "air_calibration_taken_as" not in run("simulate", "--json").json()  # no calibration, no claim
+
+
+def test_a_free_target_behind_the_port(renders, tmp_path):
+    """--free-target with --port (issue 26): the target's points adjusted with the lens and the port, the
+    datum the minimal one (7 coordinates at the nominal values). The rendered board is the nominal one:
+    every point within 0.15 mm of it, the pupil the rendered one within 3 sigma; the points and their
+    sigma in the JSON's target_adjusted, the datum said in the text."""
+    s = renders / "set"
+    out = tmp_path / "free.json"
+    r = run("calibrate", "--images", s / "water", "--air-images", s / "air", "--target", TARGET, *PITCH,
+            "--port", "nimar-ni320", "--free-target", "--out", out)
+    j = json.loads(out.read_text())
+    p, sigma = port_of(j)
+    points = j["target_adjusted"]["points"]
+    moved = max(math.dist(q["xyz_mm"], q["nominal_mm"]) for q in points)
+    print(f"free target behind the port: pupil {p[0]:.3f} {p[1]:.3f} {p[2]:.3f} +- {sigma[0]:.3f} {sigma[1]:.3f} "
+          f"{sigma[2]:.3f} mm; {len(points)} points, the largest {moved:.3f} mm from the nominal")
+    for k in range(3):
+        assert abs(p[k] - RENDERED[k]) < 3 * sigma[k], KEYS[k]
+    assert len(points) == 54 and moved < 0.15
+    assert "free target: 54 points adjusted" in r.out
+    datum = j["target_adjusted"]["datum"]
+    held = set(datum["fixed"]) | {datum["one_coordinate"]}
+    assert all(0 < q["sigma_mm"][2] < 0.1 for q in points if q["id"] not in held)
+    assert all(q["sigma_mm"] == [0, 0, 0] for q in points if q["id"] in datum["fixed"])
+    # Planning takes no images to adjust.
+    bad = run_bad("calibrate", "--images", s / "water", "--target", TARGET, *PITCH, "--port", "nimar-ni320",
+                  "--free-target", "--plan-only")
+    assert "--free-target" in bad and "--plan-only" in bad

@@ -319,9 +319,15 @@ def test_field_out_writes_the_self_calibrated_field(tmp_path):
     # Bad input: one line, nothing written.
     assert "--free-target" in run_bad("calibrate", *common, "--field", tmp_path / "wrong.txt", "--field-out",
                                       tmp_path / "x.txt", "--out", tmp_path / "x.json")
-    assert "--free-target" in run_bad("calibrate", *common, "--field", tmp_path / "wrong.txt", "--port",
-                                      "flat-acrylic-10mm", "--free-target", "--field-out", tmp_path / "x.txt")
     assert not (tmp_path / "x.txt").exists() and not (tmp_path / "x.json").exists()
+    # Behind a port the field is adjusted too (issue 26; plumbing: these in-air views behind a flat
+    # port): the same file, its datum the same minimal one.
+    behind = tmp_path / "behind.txt"
+    b = run("calibrate", *common, "--field", tmp_path / "wrong.txt", "--port", "flat-acrylic-10mm",
+            "--free-target", "--field-out", behind, "--json", "--quiet").json()
+    assert "port" in b and b["field_out"] == str(behind)
+    assert sorted(read_field_out(behind)) == sorted(wrong)
+    assert b["target_adjusted"]["datum"]["fixed"] == j["target_adjusted"]["datum"]["fixed"]
 
 
 def test_targets_facing_other_ways(tmp_path):

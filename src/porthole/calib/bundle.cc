@@ -68,12 +68,6 @@ ceres::CostFunction* NewAnalytic(Form form, const BundleCamera& c, const BundleO
   return new PoseBlockCost(new AnalyticResidual<Form::kCorrect, kPointFree>(xy.x(), xy.y(), pitch, scale, ob.point));
 }
 
-template <typename M, unsigned kB, int... kSizes>
-ceres::CostFunction* Auto(const BundleCamera& c, const BundleObservation& ob) {
-  return new ceres::AutoDiffCostFunction<BundleResidual<M, kB>, 2, M::kNumParams, kSizes...>(
-      new BundleResidual<M, kB>(ResidualOf<M, kB>(c, ob)));
-}
-
 }  // namespace
 
 ceres::CostFunction* NewCentralCost(const BundleCamera& c, const BundleObservation& ob, Form form) {
@@ -86,9 +80,9 @@ ceres::CostFunction* NewCentralCost(const BundleCamera& c, const BundleObservati
       if (layout == kPoint && ob.weight == 1) return NewAnalytic<true>(form, c, ob);
     }
     switch (layout) {
-      case 0: return Auto<M, 0, 6>(c, ob);
-      case kPoint: return Auto<M, kPoint, 6, 3>(c, ob);
-      case kRig: return Auto<M, kRig, 6, 6>(c, ob);
+      case 0: return AutoCost<M, 0, 6>(c, ob);
+      case kPoint: return AutoCost<M, kPoint, 6, 3>(c, ob);
+      case kRig: return AutoCost<M, kRig, 6, 6>(c, ob);
       default: throw InternalError("bundle: a central camera with this layout (a rig camera with a free target, a "
                                    "refocused set) is not supported yet");
     }

@@ -1,5 +1,5 @@
-// The residual of bundle.h, shared by its two translation units (bundle.cc: central cameras;
-// bundle_port.cc: cameras behind a port), which instantiate it for every model of the camera list.
+// The residual of bundle.h, shared by its translation units (bundle.cc: central cameras;
+// bundle_port.cc, bundle_port_point.cc: cameras behind a port), which instantiate it for every model of the camera list.
 #pragma once
 
 #include <ceres/ceres.h>
@@ -89,6 +89,11 @@ struct BundleResidual {
     const T* b[] = {b0, b1, b2, b3, b4};
     return Evaluate(b, r);
   }
+  template <typename T>
+  bool operator()(const T* b0, const T* b1, const T* b2, const T* b3, const T* b4, const T* b5, T* r) const {
+    const T* b[] = {b0, b1, b2, b3, b4, b5};
+    return Evaluate(b, r);
+  }
 };
 
 // The functor of one observation (its scale, shell and point filled in).
@@ -110,8 +115,17 @@ inline unsigned LayoutOf(const BundleCamera& c, const BundleObservation& ob) {
          (ob.cam_from_rig != nullptr ? kRig : 0u) | (ob.point_block != nullptr ? kPoint : 0u);
 }
 
-// The costs (blocks in the layout's order); defined in bundle.cc and bundle_port.cc.
+// The costs (blocks in the layout's order); defined in bundle.cc, bundle_port.cc and, for a free
+// target behind a port, bundle_port_point.cc.
 ceres::CostFunction* NewCentralCost(const BundleCamera& c, const BundleObservation& ob, Form form);
 ceres::CostFunction* NewPortCost(const BundleCamera& c, const BundleObservation& ob);
+ceres::CostFunction* NewPortPointCost(const BundleCamera& c, const BundleObservation& ob);
+
+// The AutoDiff cost of layout kB (block sizes after the lens: kSizes).
+template <typename M, unsigned kB, int... kSizes>
+ceres::CostFunction* AutoCost(const BundleCamera& c, const BundleObservation& ob) {
+  return new ceres::AutoDiffCostFunction<BundleResidual<M, kB>, 2, M::kNumParams, kSizes...>(
+      new BundleResidual<M, kB>(ResidualOf<M, kB>(c, ob)));
+}
 
 }  // namespace porthole::calib::bundle_detail

@@ -16,6 +16,7 @@
 #include <memory>
 #include <set>
 
+#include "porthole/calib/prior_cost.h"
 #include "porthole/calib/residual.h"
 #include "porthole/calib/scales.h"
 #include "porthole/coded/ellipse.h"
@@ -297,29 +298,6 @@ std::optional<Eigen::Vector2d> Residual(const State<M::kNumParams>& s, const Obs
   if (!uv) return std::nullopt;
   return Eigen::Vector2d(*uv - Eigen::Vector2d(o.u_px, o.v_px));
 }
-
-// A control point's prior (CalibrationOptions::datum kControl): (p − given) / σ · weight per
-// coordinate of σ > 0 (0 for the others, which are held), weight σ0 px: the prior as an image
-// observation of that σ.
-class ControlPrior final : public ceres::SizedCostFunction<3, 3> {
- public:
-  ControlPrior(const Eigen::Vector3d& given_mm, const Eigen::Vector3d& sigma_mm, double weight)
-      : given_(given_mm), sigma_(sigma_mm), weight_(weight) {}
-  bool Evaluate(double const* const* p, double* r, double** jac) const override {
-    for (int k = 0; k < 3; ++k) {
-      const double w = sigma_(k) > 0 ? weight_ / sigma_(k) : 0.0;
-      r[k] = w * (p[0][k] - given_(k));
-      if (jac != nullptr && jac[0] != nullptr) {
-        for (int m = 0; m < 3; ++m) jac[0][3 * k + m] = m == k ? w : 0.0;
-      }
-    }
-    return true;
-  }
-
- private:
-  Eigen::Vector3d given_, sigma_;
-  double weight_;
-};
 
 template <typename M>
 class Adjustment {
@@ -1261,10 +1239,7 @@ CalibrationResult Calibrate(const std::vector<ImageDetections>& detections,
   }
   const std::vector<Eigen::Vector3d> nominal = TargetPoints(target);
   // The field's control points (id → σ, mm): the datum of a free target (CalibrationOptions::datum).
-  std::map<int, Eigen::Vector3d> control;
-  for (const auto& t : target.field) {
-    if (t.control_sigma_mm) control[t.id] = *t.control_sigma_mm;
-  }
+  const std::map<int, Eigen::Vector3d> control = FieldControl(target);
   if (options.datum == CalibrationOptions::DatumKind::kControl && !options.target_free) {
     throw InvalidInput("datum", "the control points are a datum of a free target (`target_free`)");
   }

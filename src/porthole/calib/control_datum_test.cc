@@ -20,6 +20,7 @@
 
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/synthetic.h"
+#include "porthole/calib/test_fields.h"
 #include "porthole/refraction/test_camera.h"
 
 namespace porthole::calib {
@@ -27,30 +28,10 @@ namespace {
 
 using camera::kBrownParamInfo;
 
-// A 350 × 250 mm board, an 8 × 6 grid of targets 50 mm apart (Z = 0, ids 1–48), and 12 targets
-// raised 30–110 mm toward the camera (Z < 0, ids 49–60).
-coded::PlacedTarget Target(int id, const Eigen::Vector3d& xyz_mm) {
-  coded::PlacedTarget t;
-  t.id = id;
-  t.xyz_mm = xyz_mm;
-  return t;
-}
-
-TargetSpec RaisedBoard() {
-  TargetSpec t = ParseTarget("coded:14:2.5");
-  int id = 1;
-  for (int r = 0; r < 6; ++r) {
-    for (int c = 0; c < 8; ++c) t.field.push_back(Target(id++, Eigen::Vector3d(50.0 * c, 50.0 * r, 0)));
-  }
-  for (int k = 0; k < 12; ++k) {
-    const double height_mm = 30 + 80 * ((k * 5) % 12) / 11.0;
-    t.field.push_back(Target(id++, Eigen::Vector3d(40 + 90 * (k % 4), 40 + 85 * (k / 4), -height_mm)));
-  }
-  return t;
-}
-
+using fixtures::RaisedBoard;
 // The board's four corners and one raised target.
-const std::vector<int> kControl = {1, 8, 41, 48, 54};
+const std::vector<int>& kControl = fixtures::kRaisedBoardControl;
+
 // Adjusted points compared with their truth: a board point near the middle, one on an edge, two
 // raised ones; with priors, the raised control point too.
 const std::vector<int> kChecked = {20, 5, 50, 59};

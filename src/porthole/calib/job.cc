@@ -97,7 +97,7 @@ void RequireConsistent(const CalibrateJobOptions& o, const CalibrationOptions& l
   }
   if (refractive) {
     if (o.opencv_yaml) throw InvalidInput("opencv_yaml", "not with `port` (a refractive camera is not an OpenCV one)");
-    if (lens.target_free) throw InvalidInput("free_target", "not with `port`");
+    if (lens.target_free && o.plan_only) throw InvalidInput("free_target", "not with `plan_only` (nothing is adjusted)");
     if (o.air_lens_bare && o.air_calibration.empty() && !o.air_given) {
       throw InvalidInput("air_lens_bare", "says what `air_calibration` holds: give `air_calibration`");
     }
@@ -227,6 +227,7 @@ CalibrateJobResult CalibrateJob(const CalibrateJobOptions& o) {
     out.refractive = CalibrateRefractive(out.detections, out.target, ro);
     RequirePossibleCalibration(out.refractive->lens, images_field);
     if (o.port_out) out.port_toml = catalogue::PortToToml(out.refractive->estimated_port);
+    if (o.field_out) out.field_text = AdjustedFieldText(out.refractive->lens, out.target);
     return out;
   }
   out.central = Calibrate(out.detections, out.target, out.lens);

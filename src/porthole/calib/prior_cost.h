@@ -1,6 +1,7 @@
-// A Gaussian prior on one parameter block as a Ceres cost, whitened: r = A·x − b (A = W·E·S and
-// b = W·μ for a prior N(μ, Σ = L·Lᵀ) on the scaled parameters x, W = L⁻¹). Shared by the
-// refractive calibration (refractive.cc) and the rig (rig.cc).
+// Priors as Ceres costs. A Gaussian prior on one parameter block, whitened: r = A·x − b (A = W·E·S and
+// b = W·μ for a prior N(μ, Σ = L·Lᵀ) on the scaled parameters x, W = L⁻¹); a control point's.
+// Shared by the central calibration (calibrate.cc: control points), the refractive one
+// (refractive.cc) and the rig (rig.cc).
 #pragma once
 
 #include <ceres/ceres.h>
@@ -59,6 +60,30 @@ class LinearPriorCost final : public ceres::CostFunction {
  private:
   Eigen::MatrixXd a_;
   Eigen::VectorXd b_;
+};
+
+// A control point's prior (CalibrationOptions::datum kControl): (p − given) / σ · weight per
+// coordinate of σ > 0 (0 for the others, which are held). The central calibration weighs it with
+// σ0 (px): the prior as an image observation of that σ; the refractive one with 1, its image
+// residuals weighted by 1/σ0 instead.
+class ControlPrior final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  ControlPrior(const Eigen::Vector3d& given_mm, const Eigen::Vector3d& sigma_mm, double weight)
+      : given_(given_mm), sigma_(sigma_mm), weight_(weight) {}
+  bool Evaluate(double const* const* p, double* r, double** jac) const override {
+    for (int k = 0; k < 3; ++k) {
+      const double w = sigma_(k) > 0 ? weight_ / sigma_(k) : 0.0;
+      r[k] = w * (p[0][k] - given_(k));
+      if (jac != nullptr && jac[0] != nullptr) {
+        for (int m = 0; m < 3; ++m) jac[0][3 * k + m] = m == k ? w : 0.0;
+      }
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector3d given_, sigma_;
+  double weight_;
 };
 
 }  // namespace porthole::calib

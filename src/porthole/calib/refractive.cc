@@ -12,6 +12,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <set>
 
 #include "porthole/calib/bundle.h"
 #include "porthole/calib/compare.h"
@@ -113,6 +114,18 @@ class RefractiveAdjustment {
   // adjusted when air_focus_free.
   std::array<double, 1> air_focus{1.0};
   bool air_focus_free = false;
+  // A free target (CalibrationOptions::target_free): every observed point adjusted but those the
+  // datum holds whole; `held` the coordinates held of the others (the minimal datum's third point,
+  // a control point's coordinates of σ 0); `control` the control points' priors (id → given, σ
+  // per coordinate, mm; weight 1: the images are weighted by 1/σ0).
+  struct FreeTarget {
+    std::set<int> adjusted;
+    std::map<int, std::vector<int>> held;
+    std::map<int, std::pair<Eigen::Vector3d, Eigen::Vector3d>> control;
+  };
+  std::optional<FreeTarget> free_target;
+  // The target's points (target frame, mm), by id: adjusted in place with a free target.
+  std::vector<Eigen::Vector3d>& points() { return points_; }
 
   // The shell's values as the air images see them (the water factor 1).
   ShellArray AirShellValues() const {
@@ -174,7 +187,10 @@ class RefractiveAdjustment {
   // The σ0²-free covariance (JᵀJ)⁻¹ of [lens (model order), port, shell] (kT × kT), marginal over
   // the poses, in the parameters' own units (0 for parameters not adjusted); false if singular.
   // With the air images' focal factor adjusted, *focus_variance (if given) gets its variance.
-  bool Covariance(Eigen::MatrixXd* cov, double* focus_variance = nullptr) {
+  // With a free target, *point_variance (if given) gets the diagonal of each adjusted point's block
+  // (mm², likewise σ0²-free; 0 for held coordinates, NaN for points not adjusted).
+  bool Covariance(Eigen::MatrixXd* cov, double* focus_variance = nullptr,
+                  std::vector<Eigen::Vector3d>* point_variance = nullptr) {
     std::array<double, N> scaled;
     const std::unique_ptr<Bundle> bundle = MakeBundle(&scaled);
     ceres::Problem& problem = bundle->problem();
@@ -191,7 +207,23 @@ class RefractiveAdjustment {
     }
     const bool with_focus = air_focus_free && problem.HasParameterBlock(air_focus.data());
     if (with_focus) pairs.push_back({air_focus.data(), air_focus.data()});
+    std::vector<int> point_ids;
+    if (free_target && point_variance != nullptr) {
+      for (int id : free_target->adjusted) {
+        if (!problem.HasParameterBlock(points_[id].data())) continue;
+        point_ids.push_back(id);
+        pairs.push_back({points_[id].data(), points_[id].data()});
+      }
+    }
     if (!covariance.Compute(pairs, &problem)) return false;
+    if (point_variance != nullptr) {
+      point_variance->assign(points_.size(), Eigen::Vector3d::Constant(NAN));
+      for (int id : point_ids) {
+        Eigen::Matrix3d c;  // ambient: a held coordinate has variance 0
+        if (!covariance.GetCovarianceBlock(points_[id].data(), points_[id].data(), c.data())) return false;
+        (*point_variance)[id] = c.diagonal();
+      }
+    }
     if (with_focus && focus_variance != nullptr &&
         !covariance.GetCovarianceBlock(air_focus.data(), air_focus.data(), focus_variance)) {
       return false;
@@ -301,6 +333,19 @@ class RefractiveAdjustment {
       ss += (shell_prior->a * Eigen::Map<const Eigen::VectorXd>(shell_values.data(), kShellNumParams) -
              shell_prior->b).squaredNorm();
     }
+    return ss + ControlSumSquares();
+  }
+
+  // Σ of the control points' squared prior residuals (weight 1) at the current points.
+  double ControlSumSquares() const {
+    double ss = 0;
+    if (!free_target) return ss;
+    for (const auto& [id, given_sigma] : free_target->control) {
+      const auto& [given, sigma] = given_sigma;
+      for (int k = 0; k < 3; ++k) {
+        if (sigma(k) > 0) ss += std::pow((points_[id](k) - given(k)) / sigma(k), 2);
+      }
+    }
     return ss;
   }
 
@@ -336,6 +381,7 @@ class RefractiveAdjustment {
       BundleObservation bo;
       bo.pose = pose_[ob.image].data();
       bo.point = points_[ob.point];
+      if (free_target && free_target->adjusted.count(ob.point)) bo.point_block = points_[ob.point].data();
       bo.u_px = ob.u_px, bo.v_px = ob.v_px;
       bo.weight = weight;
       bo.medium = InAir(ob.image) ? Medium::kAir : Medium::kWater;
@@ -361,6 +407,13 @@ class RefractiveAdjustment {
     }
     if (shell_prior && with_shell) {
       bundle->AddCost(new LinearPriorCost(shell_prior->a, shell_prior->b), {shell_values.data()});
+    }
+    if (free_target) {
+      for (const auto& [id, coords] : free_target->held) bundle->HoldPoint(points_[id].data(), coords);
+      for (const auto& [id, given_sigma] : free_target->control) {
+        if (!bundle->HasBlock(points_[id].data())) continue;
+        bundle->AddCost(new ControlPrior(given_sigma.first, given_sigma.second, 1.0), {points_[id].data()});
+      }
     }
     return bundle;
   }
@@ -735,6 +788,45 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   const int n_air = n_total - n_images;
   RefractiveAdjustment<M> adj(o, sensor, shell, obs, TargetPoints(target), TargetNormals(target), n_total,
                               n_air);
+  // A free target: the points from the central calibration of the water images (which adjusted
+  // them too), its datum held (the minimal one at the nominal values, or the control points).
+  int n_point_unknowns = 0, n_control_prior = 0;
+  if (o.lens.target_free) {
+    adj.points() = central.target_points_mm;
+    typename RefractiveAdjustment<M>::FreeTarget ft;
+    for (const Obs& ob : obs) ft.adjusted.insert(ob.point);
+    const CalibrationResult::Datum& d = central.datum;
+    if (d.control.empty()) {
+      ft.adjusted.erase(d.a);
+      ft.adjusted.erase(d.b);
+      ft.held[d.c] = {d.axis};
+      n_point_unknowns = 3 * static_cast<int>(ft.adjusted.size() + 2) - 7;
+    } else {
+      const std::map<int, Eigen::Vector3d> sigmas = FieldControl(target);
+      const std::vector<Eigen::Vector3d> given = TargetPoints(target);
+      n_point_unknowns = 3 * static_cast<int>(ft.adjusted.size());
+      for (int id : d.control) {
+        const Eigen::Vector3d& sigma = sigmas.at(id);
+        std::vector<int> held;
+        for (int k = 0; k < 3; ++k) {
+          if (sigma(k) > 0) {
+            ++n_control_prior;
+          } else {
+            held.push_back(k);
+          }
+        }
+        n_point_unknowns -= static_cast<int>(held.size());
+        if (held.size() == 3) {
+          ft.adjusted.erase(id);
+          adj.points()[id] = given[id];
+        } else {
+          if (!held.empty()) ft.held[id] = held;
+          ft.control[id] = {given[id], sigma};
+        }
+      }
+    }
+    adj.free_target = std::move(ft);
+  }
   const auto set_poses = [&] {
     for (int i = 0; i < n_total; ++i) {
       const ImageResult& im = *start_pose[i];
@@ -810,14 +902,15 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   for (bool f : res.shell_free) n_shell_free += f;
   adj.shell_free[0] = res.shell_free[0];
   const int n_focus_free = adj.air_focus_free ? 1 : 0;
-  const int n_unknowns_first = n_lens_free + n_port_free + adj.shell_free[0] + n_focus_free + 6 * n_total;
-  const int n_unknowns = n_lens_free + n_port_free + n_shell_free + n_focus_free + 6 * n_total;
+  const int n_unknowns_first =
+      n_lens_free + n_port_free + adj.shell_free[0] + n_focus_free + 6 * n_total + n_point_unknowns;
+  const int n_unknowns = n_lens_free + n_port_free + n_shell_free + n_focus_free + 6 * n_total + n_point_unknowns;
   double ss = 0;
   int n_active = 0;
   for (int round = 0;; ++round) {
     solve();
     ss = adj.SumSquares(&n_active);
-    const int redundancy = 2 * n_active - n_unknowns_first;
+    const int redundancy = 2 * n_active + n_control_prior - n_unknowns_first;
     if (redundancy <= 0) {
       throw InvalidInput("images", fmt::format("{} points in {} images give {} observations for "
                                                  "{} unknowns: add images", n_active, n_total,
@@ -835,13 +928,14 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     say(fmt::format("rejected {} points beyond {:g} sigma0 ({:.3f} px); readjusting", rejected,
                     o.lens.reject_k, sigma0));
   }
-  int n_prior = 0;
+  int n_prior = n_control_prior;
   const std::optional<Prior> used_prior = MakePrior(o);
   if (Housed(o)) {
     adj.housed = MakeHousedPrior<M>(*o.air, adj.Views(n_images));
   }
-  if (used_prior || shell_prior || adj.housed) {
-    adj.weight = 1 / std::sqrt(ss / (2 * n_active - n_unknowns_first));
+  if (used_prior || shell_prior || adj.housed || n_control_prior > 0) {
+    // The images weighted by 1/σ0 of the first pass (its control priors counted as σ0 = 1 px).
+    adj.weight = 1 / std::sqrt((ss + adj.ControlSumSquares()) / (2 * n_active + n_control_prior - n_unknowns_first));
     if (used_prior) n_prior += static_cast<int>(used_prior->idx.size());
     if (shell_prior) n_prior += static_cast<int>(shell_prior->a.rows());
     if (adj.housed) n_prior += static_cast<int>(adj.housed->idx.size());
@@ -885,7 +979,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   say(fmt::format("adjusted: RMS {:.4f} px, {} iterations; covariance", lr.rms_px, iterations));
   Eigen::MatrixXd cov;
   double focus_variance = NAN;
-  lr.covariance_ok = adj.Covariance(&cov, &focus_variance);
+  std::vector<Eigen::Vector3d> point_variance;
+  lr.covariance_ok = adj.Covariance(&cov, &focus_variance, o.lens.target_free ? &point_variance : nullptr);
   constexpr int S = N + kPortNumParams, T = S + kShellNumParams;
   if (!lr.covariance_ok) {
     throw InvalidInput("images", std::string("the port parameters and the lens are not determined "
@@ -960,7 +1055,24 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
     res.air_rms_px = std::sqrt(air_ss / n_air_points);
     res.water_rms_px = std::sqrt(water_ss / n_water_active);
   }
-  lr.target_points_mm = TargetPoints(target);
+  lr.target_points_mm = adj.points();
+  if (o.lens.target_free) {
+    lr.datum = central.datum;
+    lr.target_sigma_mm.assign(adj.points().size(), Eigen::Vector3d::Constant(NAN));
+    for (std::size_t id = 0; id < point_variance.size(); ++id) {
+      if (point_variance[id].allFinite()) lr.target_sigma_mm[id] = (s0w2 * point_variance[id]).cwiseSqrt();
+    }
+    // The datum's points: their held coordinates σ 0.
+    for (const auto& [id, coords] : adj.free_target->held) {
+      if (!lr.target_sigma_mm[id].allFinite()) lr.target_sigma_mm[id].setZero();
+    }
+    for (int id : {central.datum.a, central.datum.b}) {
+      if (id >= 0) lr.target_sigma_mm[id].setZero();
+    }
+    for (int id : central.datum.control) {
+      if (!adj.free_target->adjusted.count(id)) lr.target_sigma_mm[id].setZero();
+    }
+  }
 
   // χ² of the estimate against the prediction.
   std::vector<int> pf;
@@ -1187,14 +1299,17 @@ void CheckOptions(const RefractiveOptions& o) {
 }
 
 // The central calibration of the same images (CalibrateRefractive's first step).
+// With `free_target` (the water images of a free target) it adjusts the points too: their start
+// and the datum.
 CalibrationResult CentralOf(const std::vector<ImageDetections>& detections,
                             const TargetSpec& target, const RefractiveOptions& o,
-                            const std::string& which = "") {
+                            const std::string& which = "", bool free_target = false) {
   CalibrationOptions co = o.lens;
   co.drop_insignificant = false;
   co.initial.reset();
   co.free.reset();
-  co.target_free = false;
+  co.target_free = free_target;
+  if (!free_target) co.datum = CalibrationOptions::DatumKind::kAuto;
   co.progress = [&](const std::string& m) {
     if (o.lens.progress) o.lens.progress(which + "central: " + m);
   };
@@ -1341,7 +1456,7 @@ RefractiveResult CalibrateRefractive(const std::vector<ImageDetections>& detecti
   }
   // The central calibration of the same images: the poses, the start, and the model choice; the
   // same of the air images.
-  const CalibrationResult central = CentralOf(detections, target, o);
+  const CalibrationResult central = CentralOf(detections, target, o, "", o.lens.target_free);
   std::optional<CalibrationResult> central_air;
   if (!o.air_detections.empty()) {
     central_air = CentralOf(o.air_detections, target, o, "air: ");

@@ -162,6 +162,14 @@ std::vector<Eigen::Vector3d> TargetNormals(const TargetSpec& t) {
   return n;
 }
 
+std::map<int, Eigen::Vector3d> FieldControl(const TargetSpec& t) {
+  std::map<int, Eigen::Vector3d> control;
+  for (const auto& p : t.field) {
+    if (p.control_sigma_mm) control[p.id] = *p.control_sigma_mm;
+  }
+  return control;
+}
+
 std::vector<bool> TargetPointMask(const TargetSpec& t) {
   if (t.kind != TargetKind::kCoded) return std::vector<bool>(t.NumPoints(), true);
   const auto& pts = t.field.empty() ? CodedSheet(t).targets : t.field;

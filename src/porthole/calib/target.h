@@ -18,6 +18,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,10 @@ std::vector<Eigen::Vector3d> TargetPoints(const TargetSpec& target);
 // The unit normal of each point's dot, indexed as TargetPoints: the side it is printed on, −Z for
 // every point of a sheet or a board; a field's targets as its file gives them (coded/sheet.h).
 std::vector<Eigen::Vector3d> TargetNormals(const TargetSpec& target);
+
+// The field's control points: id → σ per coordinate (mm; 0: held), the datum of a free target
+// (CalibrationOptions::datum). Empty for a target without a field or a field without control points.
+std::map<int, Eigen::Vector3d> FieldControl(const TargetSpec& target);
 
 // HasPoint of every id at once (size NumPoints()): true where the id is one of the target's points.
 // HasPoint lays out a coded sheet at every call; loops over points use this.
