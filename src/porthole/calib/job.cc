@@ -142,7 +142,7 @@ RefractiveOptions RefractiveOptionsOf(const CalibrateJobOptions& o, const Calibr
 // detections that name it.
 void ReadImages(const CalibrateJobOptions& o, const Say& say, CalibrateJobResult* out) {
   if (!o.images.empty()) {
-    auto source = DetectSource(o.images, out->target, o.frames, say, {}, "images");
+    auto source = DetectSource(o.images, out->target, o.frames, say, o.detect, "images");
     out->images_source = FrameChoiceToJson(source.choice, source.run.detections);
     out->detections = std::move(source.run.detections);
     out->skipped = std::move(source.run.skipped);
@@ -166,7 +166,7 @@ void ReadAirImages(const CalibrateJobOptions& o, const Say& say, CalibrateJobRes
     const auto say_air = [say](const std::string& m) {
       if (say) say("air images: " + m);
     };
-    auto source = DetectSource(o.air_images, out->target, o.frames, say_air, {}, "air_images");
+    auto source = DetectSource(o.air_images, out->target, o.frames, say_air, o.detect, "air_images");
     out->air_images_source = FrameChoiceToJson(source.choice, source.run.detections);
     *air = std::move(source.run.detections);
     for (auto& s : source.run.skipped) out->skipped.push_back({"air: " + s.image, s.reason});
