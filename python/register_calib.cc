@@ -88,14 +88,19 @@ struct ImageSearch {
 
 // The options calibrate() and calibrate_refractive() share, for calib::CalibrateJob: the
 // detections given or the images to search, the target and its field, the lens by name.
-calib::CalibrateJobOptions JobOptions(const py::object& detections, const ImageSearch& search, const std::string& target,
-                                      const py::object& field, const std::string& model,
-                                      std::optional<double> pixel_pitch_mm, const std::string& free, double reject_k,
-                                      const std::string& loss, double loss_scale_px, bool progress,
-                                      const std::string& centre_correction) {
+calib::CalibrateJobOptions JobOptions(const py::object& detections, const py::object& image_files,
+                                      const ImageSearch& search, const std::string& target, const py::object& field,
+                                      const std::string& model, std::optional<double> pixel_pitch_mm,
+                                      const std::string& free, double reject_k, const std::string& loss,
+                                      double loss_scale_px, bool progress, const std::string& centre_correction) {
   calib::CalibrateJobOptions o;
-  if (IsPath(detections)) {
-    o.images = py::str(py::module_::import("os").attr("fspath")(detections));
+  if (IsPath(detections) || !image_files.is_none()) {
+    if (!image_files.is_none()) {  // a list of image files
+      o.image_files.emplace();
+      for (const auto& f : image_files) o.image_files->push_back(py::str(py::module_::import("os").attr("fspath")(f)));
+    } else {  // a folder, one image or a video
+      o.images = py::str(py::module_::import("os").attr("fspath")(detections));
+    }
     if (search.threads < 0) throw InvalidInput("threads", "must be >= 0 (0 = all cores)");
     o.detect.threads = search.threads;
     o.frames.every = search.every;
@@ -272,13 +277,15 @@ void RegisterCalib(py::module_& m) {
       [](const py::object& detections, const std::string& target, const std::string& model,
          double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
          bool target_free, bool drop_insignificant, double significance_t, bool progress, const py::object& field,
-         const std::string& centre_correction, const std::string& datum, int threads, int every, int max_frames) {
-        return WithFieldNames({{"images", IsPath(detections) ? "images" : "detections"},
+         const std::string& centre_correction, const std::string& datum, int threads, int every, int max_frames,
+         const py::object& image_files) {
+        const bool searched = IsPath(detections) || !image_files.is_none();
+        return WithFieldNames({{"images", searched ? "images" : "detections"},
                                {"pixel_pitch_mm", "pixel_pitch_mm"}, {"free_target", "target_free"}},
                               [&] {
                                 calib::CalibrateJobOptions o =
-                                    JobOptions(detections, {threads, every, max_frames}, target, field, model,
-                                               pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress,
+                                    JobOptions(detections, image_files, {threads, every, max_frames}, target, field,
+                                               model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress,
                                                centre_correction);
                                 o.lens.target_free = target_free;
                                 o.datum = datum;
@@ -293,9 +300,11 @@ void RegisterCalib(py::module_& m) {
       py::arg("drop_insignificant") = false, py::arg("significance_t") = 2.0,
       py::arg("progress") = false, py::arg("field") = py::none(), py::arg("centre_correction") = "auto",
       py::arg("datum") = "auto", py::arg("threads") = 0, py::arg("every") = 0, py::arg("max_frames") = 0,
+      py::arg("image_files") = py::none(),
       "Self-calibration from detections (list of dicts: image, width_px, height_px, ids, "
       "points_px) or from images to search (a folder, one image or a video: `porthole calibrate --images`; "
-      "threads, every, max_frames as detect()'s, a video keeping 40 frames chosen automatically), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
+      "or image_files, a list of files, with detections []; threads, every, max_frames as detect()'s, a video "
+      "keeping 40 frames chosen automatically), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
       "stereographic, orthographic). field: a coded target's field file (`--field`, 3-D fields "
       "too); centre_correction: auto | on | off (`--centre-correction`); datum: auto | minimal | control "
       "(`--datum`: with target_free, the field's control points or 7 coordinates). Returns the calibration "
@@ -312,9 +321,10 @@ void RegisterCalib(py::module_& m) {
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
          bool compare_central, bool progress, const py::object& field, const std::string& centre_correction,
          const py::object& air_detections, bool air_lens_bare, bool air_refocused, int threads, int every,
-         int max_frames) {
+         int max_frames, const py::object& image_files) {
+        const bool searched = IsPath(detections) || !image_files.is_none();
         return WithFieldNames(
-            {{"images", IsPath(detections) ? "images" : "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
+            {{"images", searched ? "images" : "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
              {"port", "port"},
              {"air_calibration", "air_calibration"}, {"air_lens_bare", "air_lens_bare"},
              {"air_refocused", "air_refocused"},
@@ -324,8 +334,8 @@ void RegisterCalib(py::module_& m) {
              {"free_shell", "free_shell"}},
             [&] {
               calib::CalibrateJobOptions o =
-                  JobOptions(detections, {threads, every, max_frames}, target, field, model, pixel_pitch_mm, free,
-                             reject_k, loss, loss_scale_px, progress, centre_correction);
+                  JobOptions(detections, image_files, {threads, every, max_frames}, target, field, model,
+                             pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress, centre_correction);
               o.port = port;
               o.ep_mm = ep_mm;
               o.water = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
@@ -360,7 +370,7 @@ void RegisterCalib(py::module_& m) {
       py::arg("compare_central") = true, py::arg("progress") = false, py::arg("field") = py::none(),
       py::arg("centre_correction") = "auto", py::arg("air_detections") = py::none(),
       py::arg("air_lens_bare") = false, py::arg("air_refocused") = false, py::arg("threads") = 0,
-      py::arg("every") = 0, py::arg("max_frames") = 0,
+      py::arg("every") = 0, py::arg("max_frames") = 0, py::arg("image_files") = py::none(),
       "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
       "images (or the images to search, as calibrate()'s); pixel_pitch_mm None: an air_calibration file's own (porthole JSON), else 1. "

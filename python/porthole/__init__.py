@@ -367,16 +367,14 @@ def calibrate_images(images, target: str, *, threads: int = 0, field=None, every
                      port=None, **calibrate_options) -> Calibration:
     """Detects `target` in the images (a folder, one image, a video or a list of files) and calibrates
     from what was found — `porthole calibrate --images`, the same library call (calib::CalibrateJob
-    searches a folder, an image or a video itself; a list of files is searched by detect() first).
-    A video keeps 40 frames chosen automatically unless max_frames says otherwise (blurred ones out,
+    searches them itself). A video keeps 40 frames chosen automatically unless max_frames says otherwise (blurred ones out,
     the rest spread over the frame and the tilts). field: a coded target's field file (`--field`; 3-D
     fields too). The keywords are calibrate()'s (model, pixel_pitch_mm, free, reject_k, loss,
     target_free, centre_correction, port, ...)."""
+    search = dict(calibrate_options, threads=threads, field=field, every=every, max_frames=max_frames)
     if isinstance(images, (str, os.PathLike)):
-        return _calibrate(os.fspath(images), target, port,
-                          dict(calibrate_options, threads=threads, field=field, every=every, max_frames=max_frames))
-    found = detect(images, target, threads=threads, field=field, every=every, max_frames=max_frames)
-    return calibrate(found, target, field=field, port=port, **calibrate_options)
+        return _calibrate(os.fspath(images), target, port, search)
+    return _calibrate([], target, port, dict(search, image_files=[os.fspath(i) for i in images]))
 
 
 @_wraps(_porthole.synthetic_detections, "list[porthole.Detections]")

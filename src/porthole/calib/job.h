@@ -36,6 +36,9 @@ struct CalibrateJobOptions {
   std::string images;
   std::string detections;
   std::optional<std::vector<ImageDetections>> given;
+  // Or a list of image files to search (Python's calibrate_images of a list; errors name `images`):
+  // each searched, no frame choice (frames.every and max_frames refused).
+  std::optional<std::vector<std::string>> image_files;
   std::string target;  // the spec (ParseTarget); may be empty with detections that name theirs
   std::string field;   // a coded target's field file (empty: the default sheet)
   FrameOptions frames;  // a video's or a folder's frames (images, air_images)
