@@ -346,12 +346,16 @@ def undistort(calibration, images, out, **kwargs) -> Record:
 
 @_wraps(_porthole.plan_rig, "porthole.Record", "rig may be a RigCalibration. The Record holds rig, sigma_px, "
         "length_mm, sigma_holds, central_model and `ranges` (one row per range: range_mm, common_width_mm, "
-        "common_height_mm, n_lengths, sigma_median_mm, sigma_p90_mm, central_abs_median_mm, ...).")
+        "common_height_mm, n_lengths, sigma_median_mm, sigma_p90_mm, central_abs_median_mm, ...); its attribute "
+        "`warnings` (not in to_dict(), the CLI's JSON) the plausibility warnings of a described rig's camera, lens "
+        "and port, emitted as PortholeWarning as the notes are.")
 def plan_rig(**kwargs) -> Record:
     if isinstance(kwargs.get("rig"), RigCalibration):
         kwargs["rig"] = kwargs["rig"].to_dict()
-    r = Record(_porthole.plan_rig(**kwargs)["rig_plan"])
-    for text in r.notes:
+    d = _porthole.plan_rig(**kwargs)
+    r = Record(d["rig_plan"])
+    object.__setattr__(r, "warnings", list(d["warnings"]))
+    for text in r.warnings + list(r.notes):  # as the CLI prints them on stderr
         _warnings.warn(text, PortholeWarning, stacklevel=2)
     return r
 

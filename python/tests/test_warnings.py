@@ -2,10 +2,12 @@
 checks -- pixel pitch, circle of confusion, focal length, dome radius, flat-port thickness -- porthole.plan()
 or porthole.flat() returns the same warning in result.warnings (naming the library field) and emits it as
 a porthole.PortholeWarning, and the hint is computed from the value given. Then every range x every
-front-end call with a Python equivalent (plan, flat, simulate, report, render, calibrate, calibrate with a
-port, calibrate_rig, place for virtual-image and trace, convert): Python's warnings and the CLI's stderr
-warnings are the same texts after the field, each once. `porthole compare --pixel-pitch-mm` has no Python
-equivalent (compare() takes calibrations, not files read at a pitch)."""
+front-end call with a Python equivalent (plan, flat, simulate, report, render, plan_rig, calibrate,
+calibrate with a port, calibrate_rig, place for virtual-image and trace, convert): Python's warnings and
+the CLI's stderr warnings are the same texts after the field, each once. `porthole compare
+--pixel-pitch-mm` has no Python equivalent (compare() takes calibrations, not files read at a pitch);
+report's and plan_rig's focal length and report's dome radius are not compared (those calls refuse the
+lenses and domes that make them implausible)."""
 import json
 import math
 import os
@@ -156,6 +158,7 @@ HINT = {"pixel_pitch_mm": "a pixel pitch in um? 5.5 um is 0.0055 mm",
         "port.inner.radius_mm": "a radius in cm? 9.36 cm is 93.6 mm",
         "port.thickness_mm": "a thickness in m? 0.012 m is 12 mm"}
 # A dome typed in um instead: 50 m across, for the calls that need the lens focused through it (at 100 m).
+_IMPLAUSIBLE = "is outside the range of any physical camera or port"
 HINT_UM = dict(HINT, **{"port.outer.radius_mm": "a radius in um? 50000 um is 50 mm",
                         "port.inner.radius_mm": "a radius in um? 49990 um is 49.99 mm"})
 
@@ -289,6 +292,23 @@ def detections(tmp_path_factory):
     path = tmp_path_factory.mktemp("dets") / "cam.json"
     path.write_text(json.dumps({"target": TARGET, "images": [d.to_dict() for d in dets]}))
     return dets, path
+
+
+@pytest.mark.parametrize("port,extra,fields", BEHIND)
+def test_plan_rig_every_range(inputs, port, extra, fields):
+    # A rig described by its baseline: the camera's and port's warnings (the notes are no plausibility
+    # warnings). Its focal-length range is not compared: the described rig refuses a lens longer than a
+    # subject 1.1 m from the pupil.
+    fields = [f for f in fields if f != "focal_length_mm"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = porthole.plan_rig(baseline_mm=300, pixel_pitch_mm=5.5, port=str(inputs / port), central_range_mm=0,
+                              ranges_mm=[1e5 + 1000])
+    py = [w for w in r.warnings if _IMPLAUSIBLE in w]
+    assert [str(w.message) for w in caught if _IMPLAUSIBLE in str(w.message)] == py
+    cli = all_cli_warnings("plan", "--baseline", "300", "--pixel-pitch-mm", "5.5", "--port", inputs / port,
+                           "--central-range", "0", "--ranges", str(1e5 + 1000))
+    same_warnings(py, cli, PITCH + fields, HINT_UM)
 
 
 def test_calibrate_every_range(detections):
