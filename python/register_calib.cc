@@ -77,14 +77,42 @@ std::function<void(const std::string&)> Progress(bool progress) {
   return [](const std::string& m) { std::fprintf(stderr, "calibrate: %s\n", m.c_str()); };
 }
 
+// A path (str or os.PathLike): images to search (calibrate_images), not detections.
+bool IsPath(const py::object& v) { return py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__"); }
+
+// How calibrate_images searches its images (a folder, one image or a video): detect()'s threads,
+// every and max_frames; a video keeps 40 frames chosen automatically unless max_frames says otherwise.
+struct ImageSearch {
+  int threads = 0, every = 0, max_frames = 0;
+};
+
 // The options calibrate() and calibrate_refractive() share, for calib::CalibrateJob: the
-// detections given, the target and its field, the lens by name.
-calib::CalibrateJobOptions JobOptions(const py::list& detections, const std::string& target, const py::object& field,
-                                      const std::string& model, std::optional<double> pixel_pitch_mm, const std::string& free,
-                                      double reject_k, const std::string& loss, double loss_scale_px, bool progress,
-                                      const std::string& centre_correction) {
+// detections given or the images to search, the target and its field, the lens by name.
+calib::CalibrateJobOptions JobOptions(const py::object& detections, const py::object& image_files,
+                                      const ImageSearch& search, const std::string& target, const py::object& field,
+                                      const std::string& model, std::optional<double> pixel_pitch_mm,
+                                      const std::string& free, double reject_k, const std::string& loss,
+                                      double loss_scale_px, bool progress, const std::string& centre_correction) {
   calib::CalibrateJobOptions o;
-  o.given = DetectionsArg(detections);
+  if (IsPath(detections) || !image_files.is_none()) {
+    if (!image_files.is_none()) {  // a list of image files
+      o.image_files.emplace();
+      for (const auto& f : image_files) o.image_files->push_back(py::str(py::module_::import("os").attr("fspath")(f)));
+    } else {  // a folder, one image or a video
+      o.images = py::str(py::module_::import("os").attr("fspath")(detections));
+    }
+    if (search.threads < 0) throw InvalidInput("threads", "must be >= 0 (0 = all cores)");
+    o.detect.threads = search.threads;
+    o.frames.every = search.every;
+    o.frames.max_frames = search.max_frames;
+    o.frames.for_calibration = true;
+  } else {
+    for (const auto& [name, value] : {std::pair{"threads", search.threads}, std::pair{"every", search.every},
+                                      std::pair{"max_frames", search.max_frames}}) {
+      if (value != 0) throw InvalidInput(name, "searches images: give a folder, an image or a video (calibrate_images)");
+    }
+    o.given = DetectionsArg(detections.cast<py::list>());
+  }
   o.target = target;
   if (!field.is_none()) o.field = py::str(py::module_::import("os").attr("fspath")(field));
   o.model = model;
@@ -112,6 +140,14 @@ void PythonWordsInJson(nlohmann::ordered_json* j) {  // `air_lens_bare` → air_
   } else if (j->is_structured()) {
     for (auto& v : *j) PythonWordsInJson(&v);
   }
+}
+// A job's warnings as the CLI prints them, a quoted `field` as the bare keyword (pixel_pitch_mm: …).
+nlohmann::ordered_json PythonWarnings(const std::vector<std::string>& warnings) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const std::string& w : warnings) {
+    out.push_back(RenameQuotedFieldsBy([](std::string_view) { return std::optional<std::string>(); }, w));
+  }
+  return out;
 }
 py::object JobJson(const calib::CalibrateJobResult& r) {
   nlohmann::ordered_json j = calib::CalibrateJobJson(r);
@@ -238,16 +274,19 @@ void RegisterCalib(py::module_& m) {
 
   m.def(
       "calibrate",
-      [](const py::list& detections, const std::string& target, const std::string& model,
+      [](const py::object& detections, const std::string& target, const std::string& model,
          double pixel_pitch_mm, const std::string& free, double reject_k, const std::string& loss, double loss_scale_px,
          bool target_free, bool drop_insignificant, double significance_t, bool progress, const py::object& field,
-         const std::string& centre_correction, const std::string& datum) {
-        return WithFieldNames({{"images", "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
-                               {"free_target", "target_free"}},
+         const std::string& centre_correction, const std::string& datum, int threads, int every, int max_frames,
+         const py::object& image_files) {
+        const bool searched = IsPath(detections) || !image_files.is_none();
+        return WithFieldNames({{"images", searched ? "images" : "detections"},
+                               {"pixel_pitch_mm", "pixel_pitch_mm"}, {"free_target", "target_free"}},
                               [&] {
                                 calib::CalibrateJobOptions o =
-                                    JobOptions(detections, target, field, model, pixel_pitch_mm, free, reject_k,
-                                               loss, loss_scale_px, progress, centre_correction);
+                                    JobOptions(detections, image_files, {threads, every, max_frames}, target, field,
+                                               model, pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress,
+                                               centre_correction);
                                 o.lens.target_free = target_free;
                                 o.datum = datum;
                                 o.lens.drop_insignificant = drop_insignificant;
@@ -260,9 +299,12 @@ void RegisterCalib(py::module_& m) {
       py::arg("loss") = "none", py::arg("loss_scale_px") = 1.0, py::arg("target_free") = false,
       py::arg("drop_insignificant") = false, py::arg("significance_t") = 2.0,
       py::arg("progress") = false, py::arg("field") = py::none(), py::arg("centre_correction") = "auto",
-      py::arg("datum") = "auto",
+      py::arg("datum") = "auto", py::arg("threads") = 0, py::arg("every") = 0, py::arg("max_frames") = 0,
+      py::arg("image_files") = py::none(),
       "Self-calibration from detections (list of dicts: image, width_px, height_px, ids, "
-      "points_px), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
+      "points_px) or from images to search (a folder, one image or a video: `porthole calibrate --images`; "
+      "or image_files, a list of files, with detections []; threads, every, max_frames as detect()'s, a video "
+      "keeping 40 frames chosen automatically), with any camera model (brown, opencv, kannala-brandt, equidistant, equisolid, "
       "stereographic, orthographic). field: a coded target's field file (`--field`, 3-D fields "
       "too); centre_correction: auto | on | off (`--centre-correction`); datum: auto | minimal | control "
       "(`--datum`: with target_free, the field's control points or 7 coordinates). Returns the calibration "
@@ -270,7 +312,7 @@ void RegisterCalib(py::module_& m) {
 
   m.def(
       "calibrate_refractive",
-      [](const py::list& detections, const std::string& target, const std::string& port,
+      [](const py::object& detections, const std::string& target, const std::string& port,
          const std::string& model, std::optional<double> pixel_pitch_mm, const std::string& free, double reject_k,
          const std::string& loss, double loss_scale_px, const py::object& air_calibration,
          const std::string& intrinsics, const std::string& free_port,
@@ -278,9 +320,12 @@ void RegisterCalib(py::module_& m) {
          std::optional<Vec3> ep_mm, const std::string& water, std::optional<double> water_index,
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
          bool compare_central, bool progress, const py::object& field, const std::string& centre_correction,
-         const py::object& air_detections, bool air_lens_bare, bool air_refocused) {
+         const py::object& air_detections, bool air_lens_bare, bool air_refocused, int threads, int every,
+         int max_frames, const py::object& image_files) {
+        const bool searched = IsPath(detections) || !image_files.is_none();
         return WithFieldNames(
-            {{"images", "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"}, {"port", "port"},
+            {{"images", searched ? "images" : "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
+             {"port", "port"},
              {"air_calibration", "air_calibration"}, {"air_lens_bare", "air_lens_bare"},
              {"air_refocused", "air_refocused"},
              {"air_detections", "air_detections"}, {"air_images", "air_detections"},
@@ -288,8 +333,9 @@ void RegisterCalib(py::module_& m) {
              {"free_port", "free_port"}, {"port_sigma", "port_sigma"},
              {"free_shell", "free_shell"}},
             [&] {
-              calib::CalibrateJobOptions o = JobOptions(detections, target, field, model, pixel_pitch_mm, free,
-                                                        reject_k, loss, loss_scale_px, progress, centre_correction);
+              calib::CalibrateJobOptions o =
+                  JobOptions(detections, image_files, {threads, every, max_frames}, target, field, model,
+                             pixel_pitch_mm, free, reject_k, loss, loss_scale_px, progress, centre_correction);
               o.port = port;
               o.ep_mm = ep_mm;
               o.water = MakeEnvironment(water, water_index, std::nullopt, lambda_nm, temperature_c, salinity_psu,
@@ -311,7 +357,7 @@ void RegisterCalib(py::module_& m) {
               o.free_shell = free_shell;
               o.compare_central = compare_central;
               const calib::CalibrateJobResult r = RunJob(o);
-              return py::make_tuple(JobJson(r), r.refractive->estimated_port);
+              return py::make_tuple(JobJson(r), r.refractive->estimated_port, JsonToPython(PythonWarnings(r.warnings)));
             });
       },
       py::arg("detections"), py::arg("target"), py::arg("port"), py::kw_only(), py::arg("model") = "brown",
@@ -323,17 +369,19 @@ void RegisterCalib(py::module_& m) {
       py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,
       py::arg("compare_central") = true, py::arg("progress") = false, py::arg("field") = py::none(),
       py::arg("centre_correction") = "auto", py::arg("air_detections") = py::none(),
-      py::arg("air_lens_bare") = false, py::arg("air_refocused") = false,
+      py::arg("air_lens_bare") = false, py::arg("air_refocused") = false, py::arg("threads") = 0,
+      py::arg("every") = 0, py::arg("max_frames") = 0, py::arg("image_files") = py::none(),
       "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
-      "images; pixel_pitch_mm None: an air_calibration file's own (porthole JSON), else 1. "
+      "images (or the images to search, as calibrate()'s); pixel_pitch_mm None: an air_calibration file's own (porthole JSON), else 1. "
       "air_detections: detections of the same target in air through the same port (the "
       "housing on, the paper's protocol), adjusted with the water ones; air_refocused=True when they were taken at another focus (their own focal length, a factor adjusted). air_calibration: a file of "
       "any format or a calibration dict, made in air with the housing on (the default: modelled as the "
       "lens behind the port in air, a prior on both) or of the lens alone (air_lens_bare=True); "
       "intrinsics prior (the default with one), fixed (the lens alone only) or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
       "of the predicted port for the chi2 test; free_water_index, free_shell as the CLI's flags. "
-      "Returns (the JSON of `porthole calibrate --port --json`, the estimated port).");
+      "Returns (the JSON of `porthole calibrate --port --json`, the estimated port, the plausibility warnings of the "
+      "pitch and the port as the CLI prints them).");
 
   m.def(
       "calibrate_rig",
@@ -341,12 +389,14 @@ void RegisterCalib(py::module_& m) {
          const std::string& free, double reject_k, const py::object& port, const py::object& air_calibration,
          bool air_lens_bare, const std::string& water, std::optional<double> water_index, double lambda_nm,
          double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
-         const std::vector<std::string>& names, const py::object& air_detections) {
+         const std::vector<std::string>& names, const py::object& air_detections, const py::object& datum,
+         const py::object& free_port) {
         return WithFieldNames(
             {{"cameras", "cameras"}, {"images", "cameras"}, {"detections", "cameras"}, {"model", "model"},
              {"pixel_pitch_mm", "pixel_pitch_mm"}, {"port", "port"}, {"air_calibration", "air_calibration"},
              {"air_lens", "air_calibration"}, {"air_lens_bare", "air_lens_bare"}, {"air_images", "air_detections"},
-             {"air_detections", "air_detections"}, {"ports", "port"}, {"camera_options", "model"}},
+             {"air_detections", "air_detections"}, {"ports", "port"}, {"camera_options", "model"},
+             {"datum", "datum"}, {"free_port", "free_port"}},
             [&] {
               const auto list_of = [](const py::object& v) {
                 std::vector<py::object> out;
@@ -384,6 +434,9 @@ void RegisterCalib(py::module_& m) {
                 }
               }
               o.air_lens_bare = air_lens_bare;
+              // calibrate()'s datum and calibrate_refractive()'s free_port: given, the job refuses them.
+              o.datum = !datum.is_none();
+              o.free_port = !free_port.is_none();
               if (!air_detections.is_none()) {  // one list per camera: air images through its port
                 o.air_given_detections.emplace();
                 for (const auto& c : air_detections.cast<py::list>()) {
@@ -397,6 +450,7 @@ void RegisterCalib(py::module_& m) {
               }
               nlohmann::ordered_json j = calib::CalibrateRigJobJson(r);
               PythonWordsInJson(&j);
+              j["warnings"] = PythonWarnings(r.warnings);  // the pitches' and the ports', as the CLI prints them
               return JsonToPython(j);
             });
       },
@@ -406,14 +460,17 @@ void RegisterCalib(py::module_& m) {
       py::arg("water_index") = py::none(), py::arg("lambda_nm") = 546.07, py::arg("temperature_c") = 20.0,
       py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("progress") = false,
       py::arg("names") = std::vector<std::string>{}, py::arg("air_detections") = py::none(),
+      py::arg("datum") = py::none(), py::arg("free_port") = py::none(),
       "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
       "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
       "all or a list; pixel_pitch_mm one for all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
       "water; air_calibration a list, one per camera (files of any format or calibration dicts), or one rig file of "
       "any rig format, made with the housings on (the default) or of each lens alone (air_lens_bare=True), as a "
       "prior; air_detections a list, one per camera, of the detections of images in air "
-      "through its port (the housing on), adjusted with the rig. "
-      "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, \"skipped\": []}.");
+      "through its port (the housing on), adjusted with the rig. datum and free_port (calibrate()'s, "
+      "calibrate_refractive()'s) are refused: a rig does not take them yet. "
+      "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, \"skipped\": []}, "
+      "with warnings: the plausibility warnings of the pitches and the ports, as the CLI prints them.");
 
   m.def(
       "synthetic_detections",

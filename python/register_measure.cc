@@ -13,6 +13,7 @@
 #include "porthole/core/input.h"
 #include "porthole/lens/lens.h"
 #include "porthole/measure/measure.h"
+#include "porthole/housing/plausible.h"
 #include "porthole/measure/plan_rig.h"
 #include "register.h"
 
@@ -153,6 +154,7 @@ void RegisterPlanRig(py::module_& m) {
           }
           measure::Rig r;
           std::string what;
+          std::vector<std::string> warnings;  // a described rig's camera, lens and port, as the CLI says them
           if (!rig.is_none()) {
             if (py::isinstance<py::str>(rig) || py::hasattr(rig, "__fspath__")) {
               const std::string path = py::str(py::module_::import("os").attr("fspath")(rig)).cast<std::string>();
@@ -165,6 +167,7 @@ void RegisterPlanRig(py::module_& m) {
           } else {
             const planning::Setup s = MakeSetup(camera, lens, port, water, water_index, lambda_nm, temperature_c,
                                                 salinity_psu, pressure_dbar, pixel_pitch_mm, focal_mm);
+            warnings = housing::PlausibilityWarnings(s);
             r = measure::DescribedRig(s, *baseline_mm, convergence_deg, central_range_mm > 0 ? central_range_mm : 1500,
                                       f_number.value_or(lens::DefaultFNumber(s.lens)), &what);
           }
@@ -180,7 +183,8 @@ void RegisterPlanRig(py::module_& m) {
             py::gil_scoped_release release;
             p = measure::PlanRig(r, o);
           }
-          return JsonToPython(measure::RigPlanToJson(p, what));
+          return JsonToPython(nlohmann::ordered_json{{"rig_plan", measure::RigPlanToJson(p, what)["rig_plan"]},
+                                                     {"warnings", warnings}});
         });
       },
       py::kw_only(), py::arg("rig") = py::none(), py::arg("baseline_mm") = py::none(), py::arg("convergence_deg") = 0.0,
@@ -191,7 +195,8 @@ void RegisterPlanRig(py::module_& m) {
       py::arg("sigma_px") = 0.3, py::arg("length_mm") = 300.0, py::arg("ranges_mm") = std::vector<double>{},
       py::arg("central_range_mm") = 1500.0, py::arg("threads") = 0,
       "Plan a rig (`porthole plan --rig` / `--baseline`): the sigma of a length over the common field at each range "
-      "and a central model's error. Returns the JSON of `porthole plan --rig --json`.");
+      "and a central model's error. Returns the JSON of `porthole plan --rig --json` with warnings: the plausibility "
+      "warnings of a described rig's camera, lens and port.");
 }
 
 }  // namespace porthole::python

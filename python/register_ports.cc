@@ -6,6 +6,7 @@
 
 #include "porthole/core/field_names.h"
 #include "porthole/catalogue/presets.h"
+#include "porthole/housing/plausible.h"
 #include "porthole/optics/batch.h"
 #include "porthole/ports/describe.h"
 #include "porthole/ports/environment.h"
@@ -151,13 +152,16 @@ void RegisterPorts(py::module_& m) {
          double salinity_psu, double pressure_dbar, bool extrapolate) {
         const ports::Environment env = MakeEnvironment(water, water_index, glass_index, lambda_nm,
                                                        temperature_c, salinity_psu, pressure_dbar, extrapolate);
-        return ports::MakeSystem(spec, env, ep_mm);
+        // The port's plausibility warnings (housing/plausible.h), as `porthole virtual-image` and
+        // `trace` print them for --port.
+        return py::make_tuple(ports::MakeSystem(spec, env, ep_mm), housing::PortPlausibilityWarnings(spec));
       },
       py::arg("port"), py::kw_only(), py::arg("water") = "seawater", py::arg("water_index") = py::none(),
       py::arg("glass_index") = py::none(), py::arg("ep_mm") = py::none(), py::arg("lambda_nm") = 546.07,
       py::arg("temperature_c") = 20.0, py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0,
       py::arg("extrapolate") = false,
-      "Place a port in front of the entrance pupil (housing frame, mm) in the given water.");
+      "Place a port in front of the entrance pupil (housing frame, mm) in the given water. Returns (the system, "
+      "the port's plausibility warnings).");
 }
 
 }  // namespace porthole::python

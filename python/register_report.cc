@@ -7,6 +7,7 @@
 #include "porthole/core/field_names.h"
 #include "porthole/report/report.h"
 #include "porthole/lens/lens.h"
+#include "porthole/housing/plausible.h"
 #include "register.h"
 
 namespace py = pybind11;
@@ -55,7 +56,9 @@ void RegisterReport(py::module_& m) {
                                {"report_json", (s.index_html.parent_path() / "report.json").string()},
                                {"figures", s.figures},
                                {"step_seconds", steps},
-                               {"seconds", s.seconds}});
+                               {"seconds", s.seconds},
+                               // the inputs' plausibility, as `porthole report` prints it on stderr
+                               {"warnings", housing::PlausibilityWarnings(in.setup)}});
         });
       },
       py::arg("out"), py::kw_only(), py::arg("camera") = "nikon-d300", py::arg("lens") = "",

@@ -346,9 +346,15 @@ void RegisterPlan(CLI::App& app) {
                      po.subject_distance_mm = o->subject_mm;
                      po.f_number = o->aperture.value_or(lens::DefaultFNumber(setup.lens));
                      po.coc_mm = o->coc_mm;
-                     if (o->coc_mm) WarnIfImplausible("--coc", *o->coc_mm, kCocRange);
                      po.lambda_nm = setup.env.conditions.lambda_nm;
                      planning::Plan plan = planning::MakePlan(setup, po);
+                     // The circle of confusion's plausibility is the plan's warning (the camera's and
+                     // the port's were said as they were read): printed with --coc for coc_mm.
+                     for (const std::string& w : plan.warnings) {
+                       if (w.rfind("coc_mm: ", 0) == 0 && w.find(kImplausiblePhrase) != std::string::npos) {
+                         fmt::print(stderr, "porthole: warning: --coc{}\n", w.substr(6));
+                       }
+                     }
                      for (std::string& w : plan.warnings) w = CliWords(w);  // `min_focus_mm` → --min-focus-mm
                      if (!o->json) {
                        fmt::print("{}", PlanText(setup, plan));

@@ -196,7 +196,6 @@ void RunSimulate(const SimulateCliOptions& o_ref) {  // NOLINT: the body of the 
     simulate::SystemSpec spec;
     static_cast<housing::HousedCamera&>(spec) =
         HousedWithCalibrationPitch(o->camera, PortOptions{o->port, {}}, o->water, o->air_calibration, "--air-calibration");
-    WarnIfImplausiblePort(spec.port, o->port + ": port");
     if (!o->sweep_out.empty()) CheckOutput(o->sweep_out, "--sweep-out", o->rules);
     if (!o->map_out.empty()) CheckOutput(o->map_out, "--map", o->rules);
     spec.object_distance_mm = RequirePositive("--focus-distance", o->focus_distance_mm);

@@ -96,10 +96,13 @@ DEFAULT_WD_MM = (200.0, 300.0, 400.0, 500.0, 750.0, 1000.0, 3000.0, 5000.0, 1000
 
 class PortSystem:
     """A port placed in front of an entrance pupil in a given water (place()): refractive indices
-    resolved, housing frame (mm; +Z toward the scene)."""
+    resolved, housing frame (mm; +Z toward the scene). `warnings`: the port's plausibility warnings
+    (a radius or thickness in the wrong unit), as `porthole virtual-image` and `trace` print them;
+    place() emits each as a PortholeWarning."""
 
-    def __init__(self, system):
+    def __init__(self, system, warnings=()):
         self._sys = system
+        self.warnings = list(warnings)
 
     @property
     def n_glass(self) -> float:
@@ -183,7 +186,10 @@ class PortSystem:
 def place(port, **kwargs) -> PortSystem:
     if isinstance(port, (str, os.PathLike)):
         port = load_port(os.fspath(port))
-    return PortSystem(_porthole.place(port, **kwargs))
+    system = PortSystem(*_porthole.place(port, **kwargs))
+    for text in system.warnings:  # as the CLI prints them on stderr
+        _warnings.warn(text, PortholeWarning, stacklevel=2)
+    return system
 
 
 def virtual_image_table(*, port: str = "nimar-ni320", wd_mm: Iterable[float] = DEFAULT_WD_MM,
@@ -274,10 +280,16 @@ def detect(images, target, **kwargs) -> DetectionSet:
         + _core_doc("calibrate_refractive"))
 def calibrate(detections, target, *, port=None, **kwargs) -> Calibration:
     plain = _plain(detections if isinstance(detections, DetectionSet) else list(detections))
+    return _calibrate(plain, target, port, kwargs)
+
+
+def _calibrate(source, target, port, kwargs) -> Calibration:
+    """calibrate() of detections (plain dicts) or of images to search (a path: calibrate_images()),
+    each one library call (calib::CalibrateJob), its warnings emitted as the CLI prints them."""
     if port is None:
-        c = Calibration.from_dict(_porthole.calibrate(plain, target, **kwargs))
+        c = Calibration.from_dict(_porthole.calibrate(source, target, **kwargs))
         for text in c.warnings:  # as the CLI prints them on stderr
-            _warnings.warn(text, PortholeWarning, stacklevel=2)
+            _warnings.warn(text, PortholeWarning, stacklevel=3)
         return c
     if "air_calibration" in kwargs:
         kwargs["air_calibration"] = _plain(kwargs["air_calibration"])
@@ -286,8 +298,11 @@ def calibrate(detections, target, *, port=None, **kwargs) -> Calibration:
         kwargs["air_detections"] = _plain(air if isinstance(air, DetectionSet) else list(air))
     kwargs["port"] = port
     with _port_files(kwargs, "port"):
-        d, estimated_port = _porthole.calibrate_refractive(plain, target, **kwargs)
-    return RefractiveCalibration.from_dict(d, estimated_port)
+        d, estimated_port, said = _porthole.calibrate_refractive(source, target, **kwargs)
+    c = RefractiveCalibration.from_dict(d, estimated_port, warnings=said)
+    for text in c.warnings:  # the pitch's and the port's, as the CLI prints them on stderr
+        _warnings.warn(text, PortholeWarning, stacklevel=3)
+    return c
 
 
 @_wraps(_porthole.calibrate_rig, "porthole.RigCalibration",
@@ -302,9 +317,8 @@ def calibrate_rig(cameras, target, **kwargs) -> "RigCalibration":
         kwargs["air_detections"] = [_plain(c if isinstance(c, DetectionSet) else list(c))
                                     for c in kwargs["air_detections"]]
     r = RigCalibration.from_dict(_porthole.calibrate_rig(plain, target, **kwargs))
-    for cam in r.cameras:
-        for text in cam.warnings:
-            _warnings.warn(f"{cam.name}: {text}", PortholeWarning, stacklevel=2)
+    for text in r.warnings:  # the job's, as the CLI prints them on stderr (each camera's repeat its pitch's)
+        _warnings.warn(text, PortholeWarning, stacklevel=2)
     return r
 
 
@@ -332,12 +346,16 @@ def undistort(calibration, images, out, **kwargs) -> Record:
 
 @_wraps(_porthole.plan_rig, "porthole.Record", "rig may be a RigCalibration. The Record holds rig, sigma_px, "
         "length_mm, sigma_holds, central_model and `ranges` (one row per range: range_mm, common_width_mm, "
-        "common_height_mm, n_lengths, sigma_median_mm, sigma_p90_mm, central_abs_median_mm, ...).")
+        "common_height_mm, n_lengths, sigma_median_mm, sigma_p90_mm, central_abs_median_mm, ...); its attribute "
+        "`warnings` (not in to_dict(), the CLI's JSON) the plausibility warnings of a described rig's camera, lens "
+        "and port, emitted as PortholeWarning as the notes are.")
 def plan_rig(**kwargs) -> Record:
     if isinstance(kwargs.get("rig"), RigCalibration):
         kwargs["rig"] = kwargs["rig"].to_dict()
-    r = Record(_porthole.plan_rig(**kwargs)["rig_plan"])
-    for text in r.notes:
+    d = _porthole.plan_rig(**kwargs)
+    r = Record(d["rig_plan"])
+    object.__setattr__(r, "warnings", list(d["warnings"]))
+    for text in r.warnings + list(r.notes):  # as the CLI prints them on stderr
         _warnings.warn(text, PortholeWarning, stacklevel=2)
     return r
 
@@ -350,20 +368,17 @@ def _is_camera_list(c) -> bool:
 
 
 def calibrate_images(images, target: str, *, threads: int = 0, field=None, every: int = 0, max_frames: int = 0,
-                     **calibrate_options) -> Calibration:
+                     port=None, **calibrate_options) -> Calibration:
     """Detects `target` in the images (a folder, one image, a video or a list of files) and calibrates
-    from what was found: calibrate(detect(images, target, threads=threads, field=field, every=every,
-    max_frames=max_frames, for_calibration=True), target, field=field, **calibrate_options) —
-    `porthole calibrate --images`. A video keeps 40 frames chosen automatically unless max_frames
-    says otherwise (blurred ones out, the rest spread over the frame and the tilts). field: a coded
-    target's field file (`--field`; 3-D fields too). The keywords are calibrate()'s (model,
-    pixel_pitch_mm, free, reject_k, loss, target_free, centre_correction, ...)."""
+    from what was found — `porthole calibrate --images`, the same library call (calib::CalibrateJob
+    searches them itself). A video keeps 40 frames chosen automatically unless max_frames says otherwise (blurred ones out,
+    the rest spread over the frame and the tilts). field: a coded target's field file (`--field`; 3-D
+    fields too). The keywords are calibrate()'s (model, pixel_pitch_mm, free, reject_k, loss,
+    target_free, centre_correction, port, ...)."""
+    search = dict(calibrate_options, threads=threads, field=field, every=every, max_frames=max_frames)
     if isinstance(images, (str, os.PathLike)):
-        found = detect(images, target, threads=threads, field=field, every=every, max_frames=max_frames,
-                       for_calibration=True)
-    else:
-        found = detect(images, target, threads=threads, field=field, every=every, max_frames=max_frames)
-    return calibrate(found, target, field=field, **calibrate_options)
+        return _calibrate(os.fspath(images), target, port, search)
+    return _calibrate([], target, port, dict(search, image_files=[os.fspath(i) for i in images]))
 
 
 @_wraps(_porthole.synthetic_detections, "list[porthole.Detections]")

@@ -244,8 +244,9 @@ class HousingAssembly(Record):
     scan frames), as `porthole assemble --json`, and `port`: the as-built PortSpec."""
 
 
-class ReportSummary(Record):
-    """porthole.report(): where the report is (index_html, report_json), its figures and timings."""
+class ReportSummary(_WarnsRecord):
+    """porthole.report(): where the report is (index_html, report_json), its figures and timings, and
+    warnings: the plausibility warnings of its inputs (also emitted as PortholeWarning)."""
 
 
 class ConvertResult(_WarnsRecord):
@@ -520,10 +521,14 @@ class RefractiveCalibration(Calibration):
     port: PortCalibration = dataclasses.field(default=None)
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any], estimated_port: Any = None) -> "RefractiveCalibration":
-        """From the JSON of `porthole calibrate --port --json` (and the estimated PortSpec)."""
+    def from_dict(cls, d: Dict[str, Any], estimated_port: Any = None,
+                  warnings: Optional[List[str]] = None) -> "RefractiveCalibration":
+        """From the JSON of `porthole calibrate --port --json` (and the estimated PortSpec); warnings:
+        calibrate()'s, the pitch's and the port's (else the JSON's, the pitch's)."""
         base = Calibration.from_dict(d)
         fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(Calibration)}
+        if warnings is not None:
+            fields["warnings"] = [str(w) for w in warnings]
         return cls(**fields, port=PortCalibration.from_dict(d["port"], estimated_port))
 
 
@@ -561,8 +566,9 @@ class RigCamera(Calibration):
 @dataclasses.dataclass(frozen=True, eq=False)
 class RigCalibration:
     """calibrate_rig(): a rig of cameras (`porthole calibrate --detections A --detections B ...`):
-    `cameras` (RigCamera each), the frames, sigma0_px and rms_px over all cameras, status.
-    to_dict() gives the JSON of the CLI."""
+    `cameras` (RigCamera each), the frames, sigma0_px and rms_px over all cameras, status, and
+    warnings: the plausibility warnings of the pitches and the ports, as the CLI prints them (also
+    emitted as PortholeWarning). to_dict() gives the JSON of the CLI."""
     cameras: List[RigCamera]
     n_frames: int
     n_points: int
@@ -570,13 +576,16 @@ class RigCalibration:
     rms_px: float
     status: str
     _dict: Dict[str, Any] = dataclasses.field(repr=False)
+    warnings: List[str] = dataclasses.field(default_factory=list)
 
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "RigCalibration":
         rig = d["rig"]
+        warnings = [str(w) for w in d.get("warnings") or []]
+        d = {k: v for k, v in d.items() if k != "warnings"}  # the CLI's JSON holds none (stderr)
         return cls(cameras=[RigCamera.from_dict(c) for c in rig["cameras"]], n_frames=int(rig["n_frames"]),
                    n_points=int(rig["n_points"]), sigma0_px=_float(rig["sigma0_px"]), rms_px=_float(rig["rms_px"]),
-                   status=rig["status"], _dict=d)
+                   status=rig["status"], _dict=d, warnings=warnings)
 
     def to_dict(self) -> Dict[str, Any]:
         """The JSON of `porthole calibrate --json` for the rig ({"rig": {...}})."""

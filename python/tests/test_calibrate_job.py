@@ -52,3 +52,38 @@ def test_a_datum_needs_target_free(sample):
     water = porthole.detect(sample / "water", TARGET)
     with pytest.raises(ValueError, match="datum: is the datum of a free target: give it with target_free"):
         porthole.calibrate(water, TARGET, datum="minimal")
+
+
+def test_calibrate_images_is_the_jobs_search(sample, tmp_path):
+    # calibrate_images(folder) hands the folder to the job (as `porthole calibrate --images`) rather than
+    # composing detect() and calibrate(): the same calibration as that composition, air and behind a port.
+    thin = porthole.calibrate_images(sample / "air", TARGET, pixel_pitch_mm=PITCH)
+    composed = porthole.calibrate(porthole.detect(sample / "air", TARGET, for_calibration=True), TARGET,
+                                  pixel_pitch_mm=PITCH)
+    print(f"c_mm {thin.params['c_mm']:.6f} (composed {composed.params['c_mm']:.6f}), rms {thin.rms_px:.4f} px")
+    assert thin.n_images == composed.n_images > 0 and thin.n_points == composed.n_points
+    for key, value in composed.params.items():
+        assert thin.params[key] == pytest.approx(value, rel=1e-12, abs=1e-18), key
+    assert thin.to_dict()["images_source"]["kind"] == "directory"  # the job's record of its search
+    files = sorted((sample / "air").iterdir())  # a list of files: searched by the job too
+    listed = porthole.calibrate_images(files, TARGET, pixel_pitch_mm=PITCH)
+    assert listed.n_images == thin.n_images
+    for key, value in composed.params.items():
+        assert listed.params[key] == pytest.approx(value, rel=1e-12, abs=1e-18), key
+    thin.save(tmp_path / "air.json")
+    port = dict(port="generic-dome-4in", air_calibration=tmp_path / "air.json", air_lens_bare=True)
+    water = porthole.calibrate_images(sample / "water", TARGET, **port)
+    composed = porthole.calibrate(porthole.detect(sample / "water", TARGET, for_calibration=True), TARGET, **port)
+    assert isinstance(water, porthole.RefractiveCalibration)
+    for key, value in composed.port.params.items():
+        assert water.port.params[key] == pytest.approx(value, rel=1e-12, abs=1e-15), key
+    # Errors name calibrate_images' keywords; calibrate() of detections takes no search options.
+    with pytest.raises(ValueError, match="^images: "):
+        porthole.calibrate_images(tmp_path / "missing", TARGET)
+    with pytest.raises(ValueError, match="^images: no image files given"):
+        porthole.calibrate_images([], TARGET)
+    with pytest.raises(ValueError, match="^every: for a folder or a video, not a list of files"):
+        porthole.calibrate_images(files, TARGET, every=2)
+    with pytest.raises(ValueError, match="^every: searches images"):
+        porthole.calibrate(composed_detections := porthole.detect(sample / "air", TARGET), TARGET, every=2)
+    assert composed_detections.images

@@ -160,3 +160,13 @@ def test_an_air_calibration_rig_file_as_the_cli(tmp_path):
     with pytest.raises(ValueError, match="^air_calibration: one rig file with a pitch per camera"):
         porthole.calibrate_rig(cams, TARGET, model="opencv", pixel_pitch_mm=[0.0055, 0.0044], port="nimar-ni320",
                                air_calibration=rig_file)
+
+
+def test_datum_and_free_port_are_refused():
+    # calibrate()'s datum and calibrate_refractive()'s free_port: a rig does not take them (they were
+    # ignored by the CLI's rig): a one-line ValueError naming the keyword.
+    cams = stereo(n=4)
+    for kwargs in (dict(datum="minimal"), dict(free_port="none", port="nimar-ni320")):
+        with pytest.raises(ValueError) as e:
+            porthole.calibrate_rig(cams, TARGET, model="opencv", **kwargs)
+        assert str(e.value) == f"{next(iter(kwargs))}: not with a rig (several cameras) yet", str(e.value)

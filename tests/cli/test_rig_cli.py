@@ -143,6 +143,18 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     assert line.startswith("porthole: error: --air-refocused: not with a rig"), line
 
 
+def test_datum_and_free_port_are_refused_in_a_rig(rig, tmp_path):
+    # A single camera's --datum (with --free-target) and --free-port (with --port) were ignored by a rig:
+    # refused in one line naming the flag, exit 2, no output file.
+    d, _ = rig
+    out = tmp_path / "rig.json"
+    for flag, value in (("--datum", "minimal"), ("--free-port", "none"), ("--free-port", "all")):
+        line = run_bad("calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model",
+                       "opencv", "--port", "nimar-ni320", flag, value, "--out", out, "--quiet")
+        assert line == f"porthole: error: {flag}: not with a rig (several cameras) yet", line
+        assert not out.exists()
+
+
 def test_a_pixel_pitch_per_camera(rig):
     # Two bodies of different pixel pitch: a pitch scales only the millimetre values of its own
     # camera (Brown's c, x0, y0 are in mm), never the pixels, the poses or the other camera.

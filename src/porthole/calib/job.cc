@@ -142,10 +142,14 @@ RefractiveOptions RefractiveOptionsOf(const CalibrateJobOptions& o, const Calibr
 // detections that name it.
 void ReadImages(const CalibrateJobOptions& o, const Say& say, CalibrateJobResult* out) {
   if (!o.images.empty()) {
-    auto source = DetectSource(o.images, out->target, o.frames, say, {}, "images");
+    auto source = DetectSource(o.images, out->target, o.frames, say, o.detect, "images");
     out->images_source = FrameChoiceToJson(source.choice, source.run.detections);
     out->detections = std::move(source.run.detections);
     out->skipped = std::move(source.run.skipped);
+  } else if (o.image_files) {
+    DetectionRun run = DetectAll(*o.image_files, out->target, say, o.detect);
+    out->detections = std::move(run.detections);
+    out->skipped = std::move(run.skipped);
   } else if (o.given) {
     out->detections = *o.given;
   } else {
@@ -166,7 +170,7 @@ void ReadAirImages(const CalibrateJobOptions& o, const Say& say, CalibrateJobRes
     const auto say_air = [say](const std::string& m) {
       if (say) say("air images: " + m);
     };
-    auto source = DetectSource(o.air_images, out->target, o.frames, say_air, {}, "air_images");
+    auto source = DetectSource(o.air_images, out->target, o.frames, say_air, o.detect, "air_images");
     out->air_images_source = FrameChoiceToJson(source.choice, source.run.detections);
     *air = std::move(source.run.detections);
     for (auto& s : source.run.skipped) out->skipped.push_back({"air: " + s.image, s.reason});
@@ -198,16 +202,21 @@ CalibrationOptions LensOptionsFromNames(CalibrationOptions c, const std::string&
 
 CalibrateJobResult CalibrateJob(const CalibrateJobOptions& o) {
   CalibrateJobResult out;
-  if (o.images.empty() && o.detections.empty() && !o.given) {
+  if (o.images.empty() && !o.image_files && o.detections.empty() && !o.given) {
     throw InvalidInput("images", "give `images` DIR or `detections` PATH");
+  }
+  if (o.image_files && o.image_files->empty()) throw InvalidInput("images", "no image files given");
+  if (o.image_files && (o.frames.every != 0 || o.frames.max_frames != 0)) {
+    throw InvalidInput(o.frames.every != 0 ? "every" : "max_frames", "for a folder or a video, not a list of files");
   }
   if (!o.target.empty()) {
     out.target = ParseTarget(o.target, "target");
     if (!o.field.empty()) LoadTargetField(o.field, &out.target, "field");  // before any detection
   }
-  if (!o.images.empty() && o.target.empty()) throw InvalidInput("target", "required with `images`");
+  const bool searched = !o.images.empty() || o.image_files;  // images searched here
+  if (searched && o.target.empty()) throw InvalidInput("target", "required with `images`");
   if (o.given && o.target.empty()) throw InvalidInput("target", "required with detections given");
-  const std::string images_field = o.images.empty() ? "detections" : "images";
+  const std::string images_field = searched ? "images" : "detections";
   out.lens = LensOptions(o, &out);
   RequireConsistent(o, out.lens);
   if (o.check_outputs) o.check_outputs();

@@ -36,9 +36,13 @@ struct CalibrateJobOptions {
   std::string images;
   std::string detections;
   std::optional<std::vector<ImageDetections>> given;
+  // Or a list of image files to search (Python's calibrate_images of a list; errors name `images`):
+  // each searched, no frame choice (frames.every and max_frames refused).
+  std::optional<std::vector<std::string>> image_files;
   std::string target;  // the spec (ParseTarget); may be empty with detections that name theirs
   std::string field;   // a coded target's field file (empty: the default sheet)
   FrameOptions frames;  // a video's or a folder's frames (images, air_images)
+  DetectOptions detect;  // the search of images and air_images (threads, limits)
   // The lens: its model, free set, robust loss, centre correction and datum by name (as the CLI
   // and Python take them); the numbers (reject_k, loss_scale_px, target_free, drop_insignificant,
   // significance_t) and progress in `lens`, whose model, free, loss, centre_correction, datum and

@@ -50,9 +50,9 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
       {"free_target", o.lens.target_free}, {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
-      {"air_refocused", o.air_refocused}};
+      {"air_refocused", o.air_refocused}, {"datum", o.datum}, {"free_port", o.free_port}};
   for (const auto& [field, given] : not_in_rig) {
-    if (given) throw InvalidInput(field, "not with a rig (several `images` or `detections`) yet");
+    if (given) throw InvalidInput(field, "not with a rig (several cameras) yet");
   }
 }
 

@@ -99,6 +99,13 @@ TEST(CalibrateRigJob, RefusesWhatARigCannotTakeNamingTheField) {
   o.lens.target_free = true;
   EXPECT_EQ(field_of(o), "free_target");
   o = StereoJob();
+  o.datum = true;  // a single camera's datum (were ignored by a rig)
+  EXPECT_EQ(field_of(o), "datum");
+  o = StereoJob();
+  o.port = {"nimar-ni320"};
+  o.free_port = true;  // a single camera's adjusted port parameters
+  EXPECT_EQ(field_of(o), "free_port");
+  o = StereoJob();
   o.model = {"opencv", "brown"};
   o.stereo_out = "pair.yaml";  // camera 1 is not an opencv camera
   EXPECT_EQ(field_of(o), "stereo_out");
