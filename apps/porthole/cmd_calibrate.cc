@@ -435,6 +435,11 @@ void CalibrateSingle(const CalibrateCliOptions& o, bool pitch_given, const Outpu
       j["port"]["port_out"] = o.port_out;
       port_note = fmt::format("estimated port written to {}\n", o.port_out);
     }
+    if (!o.field_out.empty()) {
+      WriteOutput(o.field_out, r.field_text, "--field-out", rules);
+      j["field_out"] = o.field_out;
+      port_note += fmt::format("adjusted target field written to {}\n", o.field_out);
+    }
     print_json();
     if (o.json) return;
     const calib::RefractiveResult& rr = *r.refractive;
