@@ -321,11 +321,11 @@ void RegisterCalib(py::module_& m) {
          double lambda_nm, double temperature_c, double salinity_psu, double pressure_dbar,
          bool compare_central, bool progress, const py::object& field, const std::string& centre_correction,
          const py::object& air_detections, bool air_lens_bare, bool air_refocused, int threads, int every,
-         int max_frames, const py::object& image_files) {
+         int max_frames, const py::object& image_files, bool target_free, const std::string& datum) {
         const bool searched = IsPath(detections) || !image_files.is_none();
         return WithFieldNames(
             {{"images", searched ? "images" : "detections"}, {"pixel_pitch_mm", "pixel_pitch_mm"},
-             {"port", "port"},
+             {"port", "port"}, {"free_target", "target_free"},
              {"air_calibration", "air_calibration"}, {"air_lens_bare", "air_lens_bare"},
              {"air_refocused", "air_refocused"},
              {"air_detections", "air_detections"}, {"air_images", "air_detections"},
@@ -356,6 +356,8 @@ void RegisterCalib(py::module_& m) {
               o.free_water_index = free_water_index;
               o.free_shell = free_shell;
               o.compare_central = compare_central;
+              o.lens.target_free = target_free;
+              o.datum = datum;
               const calib::CalibrateJobResult r = RunJob(o);
               return py::make_tuple(JobJson(r), r.refractive->estimated_port, JsonToPython(PythonWarnings(r.warnings)));
             });
@@ -371,6 +373,7 @@ void RegisterCalib(py::module_& m) {
       py::arg("centre_correction") = "auto", py::arg("air_detections") = py::none(),
       py::arg("air_lens_bare") = false, py::arg("air_refocused") = false, py::arg("threads") = 0,
       py::arg("every") = 0, py::arg("max_frames") = 0, py::arg("image_files") = py::none(),
+      py::arg("target_free") = false, py::arg("datum") = "auto",
       "The refractive calibration of `porthole calibrate --port` (docs/calibration.md): the lens "
       "(any model) behind the port (a preset name or TOML file) in water, from detections of water "
       "images (or the images to search, as calibrate()'s); pixel_pitch_mm None: an air_calibration file's own (porthole JSON), else 1. "
@@ -379,7 +382,9 @@ void RegisterCalib(py::module_& m) {
       "any format or a calibration dict, made in air with the housing on (the default: modelled as the "
       "lens behind the port in air, a prior on both) or of the lens alone (air_lens_bare=True); "
       "intrinsics prior (the default with one), fixed (the lens alone only) or free; free_port: the port parameters adjusted; port_sigma: 1-sigma "
-      "of the predicted port for the chi2 test; free_water_index, free_shell as the CLI's flags. "
+      "of the predicted port for the chi2 test; free_water_index, free_shell as the CLI's flags; target_free=True "
+      "adjusts the target's points with the lens and the port (datum: auto | minimal | control, as calibrate()'s; "
+      "the JSON's target_adjusted). "
       "Returns (the JSON of `porthole calibrate --port --json`, the estimated port, the plausibility warnings of the "
       "pitch and the port as the CLI prints them).");
 

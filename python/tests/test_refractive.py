@@ -117,3 +117,24 @@ def test_air_detections_through_the_port_match_the_cli(sample, inputs, tmp_path)
         assert ours.to_dict()["port"]["air"][key] == pytest.approx(theirs["port"]["air"][key], rel=1e-9), key
     with pytest.raises(ValueError, match="^air_refocused"):
         porthole.calibrate(water, TARGET, port="generic-dome-4in", air_refocused=True)
+
+
+def test_a_free_target_behind_the_port_matches_the_cli(sample, inputs, tmp_path):
+    """Issue 26: target_free=True behind a port, as `--free-target --port`: the same port and adjusted
+    points (1e-9 relative) and their sigma as the CLI's JSON; a datum without target_free refused."""
+    d, water, air = inputs
+    air_dets = porthole.detect(sample / "air", TARGET)
+    (tmp_path / "air_dets.json").write_text(json.dumps(air_dets.to_dict()))
+    ours = porthole.calibrate(water, TARGET, port="generic-dome-4in", air_detections=air_dets, target_free=True,
+                              compare_central=False)
+    theirs = cli_json("calibrate", "--detections", d / "water.json", "--air-detections", tmp_path / "air_dets.json",
+                      "--port", "generic-dome-4in", "--free-target", "--quiet")
+    for key, value in theirs["port"]["parameters"].items():
+        assert ours.port.params[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    mine = ours.to_dict()["target_adjusted"]
+    assert mine["datum"] == theirs["target_adjusted"]["datum"] and len(mine["points"]) == 54
+    for a, b in zip(mine["points"], theirs["target_adjusted"]["points"]):
+        assert a["xyz_mm"] == pytest.approx(b["xyz_mm"], rel=1e-9, abs=1e-9)
+        assert a["sigma_mm"] == pytest.approx(b["sigma_mm"], rel=1e-6, abs=1e-12)
+    with pytest.raises(ValueError, match="^datum"):
+        porthole.calibrate(water, TARGET, port="generic-dome-4in", datum="minimal")
