@@ -127,6 +127,19 @@ def test_a_rig_with_air_images_through_its_ports_matches_the_cli(tmp_path):
     with pytest.raises(ValueError, match="^air_detections"):  # one camera's air images for two cameras
         porthole.calibrate_rig([det["water", "cam0"], det["water", "cam1"]], target, pixel_pitch_mm=0.029,
                                port="nimar-ni320", air_detections=[det["air", "cam0"]])
+    # Air images at another focus (air_refocused=True), as --air-refocused: the renders are of one focus, so
+    # each camera's factor is 1 within 3 sigma, and equal to the CLI's.
+    ours = porthole.calibrate_rig([det["water", "cam0"], det["water", "cam1"]], target, pixel_pitch_mm=0.029,
+                                  port="nimar-ni320", air_detections=[det["air", "cam0"], det["air", "cam1"]],
+                                  air_refocused=True)
+    theirs = cli_json("calibrate", "--detections", files["water", "cam0"], "--detections", files["water", "cam1"],
+                      "--pixel-pitch-mm", "0.029", "--port", "nimar-ni320", "--air-detections",
+                      f"{files['air', 'cam0']},{files['air', 'cam1']}", "--air-refocused", "--quiet")["rig"]
+    for cam, t in zip(ours.to_dict()["rig"]["cameras"], theirs["cameras"]):
+        air = cam["port"]["air"]
+        print(f"rig renders, refocused air images: focal scale {air['focal_scale']:.5f} +- {air['focal_scale_sigma']:.5f}")
+        assert air["refocused"] is True and abs(air["focal_scale"] - 1) < 3 * air["focal_scale_sigma"]
+        assert air["focal_scale"] == pytest.approx(t["port"]["air"]["focal_scale"], rel=1e-9)
 
 
 def test_an_air_calibration_rig_file_as_the_cli(tmp_path):

@@ -68,6 +68,9 @@ struct Cam {
   // An in-air calibration made through its port: the prior on the lens and the port (housed_prior.h).
   std::optional<HousedPrior> housed;
   std::optional<refraction::Shell> air_shell;  // behind a port with air images: the shell with air outside
+  // Its air images at another focus (RigOptions::air_refocused): their factor on its focal length(s).
+  std::array<double, 1> air_focus{1.0};
+  bool air_focus_free = false;
   CalibrationResult alone;    // its own calibration (the start)
   const CalibrationOptions* options = nullptr;
   std::string name;
@@ -125,6 +128,7 @@ BundleObservation BundleObservationOf(Cam& c, int cam_index, Pose6& pose, const 
   b.u_px = ob.u_px, b.v_px = ob.v_px;
   b.weight = weight;
   b.medium = ob.air ? Medium::kAir : Medium::kWater;
+  if (ob.air && c.air_focus_free) b.focal_scale = c.air_focus.data();
   return b;
 }
 
@@ -183,6 +187,9 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   if (n_air_sets > 0 && n_ports == 0) {
     throw InvalidInput("air_images", "images in air through the ports: give the ports");
   }
+  if (options.air_refocused && n_air_sets == 0) {
+    throw InvalidInput("air_refocused", "says the air images were taken at another focus: give `air_images`");
+  }
   if (n_air_sets > 0 && n_air > 0) {
     throw InvalidInput("air_images", "not with `air_calibration`: the lenses come from the air images adjusted with "
                                      "the water ones; give one of them");
@@ -230,7 +237,9 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
         ro.intrinsics = IntrinsicsMode::kPrior;
       }
       if (n_air_sets > 0) ro.air_detections = options.air_images[k];
+      ro.air_refocused = options.air_refocused && !ro.air_detections.empty();
       const RefractiveResult alone = CalibrateRefractive(per_camera[k], target, ro);
+      if (ro.air_refocused) c.air_focus = {alone.air_focal_scale}, c.air_focus_free = true;
       c.alone = alone.lens;
       c.system = ro.port;
       c.shell = refraction::ShellOf(ro.port);
@@ -433,6 +442,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   for (const auto& c : cams) {
     n_unknowns += static_cast<int>(std::count(c.free.begin(), c.free.end(), true));
     if (c.shell) n_unknowns += refraction::kPortNumParams;
+    if (c.air_focus_free) ++n_unknowns;
   }
   int n_used_frames = 0;
   {
@@ -529,6 +539,9 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       Block b{c.port.data(), refraction::kPortNumParams, std::vector<double>(refraction::kPortNumParams, 1.0), {}};
       for (const auto& p : refraction::PortParams(c.shell->kind)) b.names.push_back(c.name + "." + std::string(p.json_key));
       blocks.push_back(std::move(b));
+    }
+    if (c.air_focus_free && problem.HasParameterBlock(c.air_focus.data())) {
+      blocks.push_back({c.air_focus.data(), 1, {1.0}, {c.name + ".air_focal_scale"}});
     }
     if (k > 0 && problem.HasParameterBlock(c.extrinsic.data())) {
       Block b{c.extrinsic.data(), 6, std::vector<double>(6, 1.0), {}};
@@ -687,6 +700,12 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       air_ss += sn.first, air_n += sn.second;
     }
     if (air_n > 0) rc.air_rms_px = std::sqrt(air_ss / air_n);
+    if (c.air_focus_free) {
+      double v = NAN;
+      covariance.GetCovarianceBlock(c.air_focus.data(), c.air_focus.data(), &v);
+      rc.air_focal_scale = c.air_focus[0];
+      rc.air_focal_scale_sigma = std::sqrt(s02 * v);
+    }
     const std::string poor = PoorFitStatus(cr.rms_px);
     cr.message = poor.empty() ? "ok" : poor;
     if (k > 0) {
@@ -791,7 +810,12 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
         out["port"]["air"] = {{"lens_from", "air and water images through the port, adjusted with the rig"},
                               {"n_images", c.air_images.size()},
                               {"rms_px", num(c.air_rms_px)},
+                              {"refocused", options.air_refocused},
                               {"images", ImagesJson(c.air_images)}};
+        if (options.air_refocused) {  // the air images' focal length(s) / the water images'
+          out["port"]["air"]["focal_scale"] = num(c.air_focal_scale);
+          out["port"]["air"]["focal_scale_sigma"] = num(c.air_focal_scale_sigma);
+        }
       }
       if (!options.air_lens.empty()) {  // what its in-air calibration was taken as (RigOptions::air_of)
         out["port"]["air_calibration_taken_as"] =

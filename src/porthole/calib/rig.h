@@ -74,6 +74,10 @@ struct RigOptions {
   // camera (a list may be empty), each image its own pose (not synchronised), modelled as the
   // camera's lens behind its port with air outside and adjusted with the rig. Not with air_lens.
   std::vector<std::vector<ImageDetections>> air_images;
+  // Each camera's air images were taken at another focus (its lens refocused between the sets,
+  // RefractiveOptions::air_refocused): they get their own focal length(s), the camera's times a
+  // factor adjusted with the rest (start: the camera's own calibration's). Only with air_images.
+  bool air_refocused = false;
   // Each camera's start behind its port searches the axial port parameter (RefractiveOptions::search);
   // off when the predicted ports are known to be close (Monte-Carlo runs).
   bool port_search = true;
@@ -105,6 +109,8 @@ struct RigCamera {
   // (NaN without).
   std::vector<ImageResult> air_images;
   double air_rms_px = NAN;
+  // With RigOptions::air_refocused: its air images' focal length(s) over its water images', σ.
+  double air_focal_scale = NAN, air_focal_scale_sigma = NAN;
 };
 
 struct RigResult {

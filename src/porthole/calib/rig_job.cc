@@ -50,7 +50,7 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
       {"free_target", o.lens.target_free}, {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
-      {"air_refocused", o.air_refocused}, {"datum", o.datum}, {"free_port", o.free_port}};
+      {"datum", o.datum}, {"free_port", o.free_port}};
   for (const auto& [field, given] : not_in_rig) {
     if (given) throw InvalidInput(field, "not with a rig (several cameras) yet");
   }
@@ -288,6 +288,7 @@ CalibrateRigJobResult CalibrateRigJob(const CalibrateRigJobOptions& o) {
                                                  : AirLensesOfARigFile(o.air_calibration, pitches.front());
   RequireConsistent(o, n, pitches, rig_air);
   RigOptions& ro = out.rig_options;
+  ro.air_refocused = o.air_refocused;
   ro.cameras = CameraOptions(o, pitches, n);
   ro.air_of = o.air_lens_bare ? RefractiveOptions::AirCalibrationOf::kLensBare
                               : RefractiveOptions::AirCalibrationOf::kThroughPort;
