@@ -83,8 +83,8 @@ ceres::CostFunction* NewCentralCost(const BundleCamera& c, const BundleObservati
       case 0: return AutoCost<M, 0, 6>(c, ob);
       case kPoint: return AutoCost<M, kPoint, 6, 3>(c, ob);
       case kRig: return AutoCost<M, kRig, 6, 6>(c, ob);
-      default: throw InternalError("bundle: a central camera with this layout (a rig camera with a free target, a "
-                                   "refocused set) is not supported yet");
+      case kRig | kPoint: return AutoCost<M, kRig | kPoint, 6, 6, 3>(c, ob);
+      default: throw InternalError("bundle: a central camera with this layout (a refocused set) is not supported yet");
     }
   });
 }

@@ -16,6 +16,7 @@
 
 #include "porthole/calib/bundle.h"
 #include "porthole/calib/compare.h"
+#include "porthole/calib/free_target.h"
 #include "porthole/calib/housed_prior.h"
 #include "porthole/calib/prior_cost.h"
 #include "porthole/calib/scales.h"
@@ -114,15 +115,7 @@ class RefractiveAdjustment {
   // adjusted when air_focus_free.
   std::array<double, 1> air_focus{1.0};
   bool air_focus_free = false;
-  // A free target (CalibrationOptions::target_free): every observed point adjusted but those the
-  // datum holds whole; `held` the coordinates held of the others (the minimal datum's third point,
-  // a control point's coordinates of σ 0); `control` the control points' priors (id → given, σ
-  // per coordinate, mm; weight 1: the images are weighted by 1/σ0).
-  struct FreeTarget {
-    std::set<int> adjusted;
-    std::map<int, std::vector<int>> held;
-    std::map<int, std::pair<Eigen::Vector3d, Eigen::Vector3d>> control;
-  };
+  // A free target (CalibrationOptions::target_free; free_target.h).
   std::optional<FreeTarget> free_target;
   // The target's points (target frame, mm), by id: adjusted in place with a free target.
   std::vector<Eigen::Vector3d>& points() { return points_; }
@@ -207,23 +200,10 @@ class RefractiveAdjustment {
     }
     const bool with_focus = air_focus_free && problem.HasParameterBlock(air_focus.data());
     if (with_focus) pairs.push_back({air_focus.data(), air_focus.data()});
-    std::vector<int> point_ids;
-    if (free_target && point_variance != nullptr) {
-      for (int id : free_target->adjusted) {
-        if (!problem.HasParameterBlock(points_[id].data())) continue;
-        point_ids.push_back(id);
-        pairs.push_back({points_[id].data(), points_[id].data()});
-      }
-    }
+    const bool with_points = free_target && point_variance != nullptr;
+    if (with_points) AddPointCovariancePairs(*free_target, problem, &points_, &pairs);
     if (!covariance.Compute(pairs, &problem)) return false;
-    if (point_variance != nullptr) {
-      point_variance->assign(points_.size(), Eigen::Vector3d::Constant(NAN));
-      for (int id : point_ids) {
-        Eigen::Matrix3d c;  // ambient: a held coordinate has variance 0
-        if (!covariance.GetCovarianceBlock(points_[id].data(), points_[id].data(), c.data())) return false;
-        (*point_variance)[id] = c.diagonal();
-      }
-    }
+    if (with_points && !PointVariances(*free_target, problem, covariance, &points_, point_variance)) return false;
     if (with_focus && focus_variance != nullptr &&
         !covariance.GetCovarianceBlock(air_focus.data(), air_focus.data(), focus_variance)) {
       return false;
@@ -337,17 +317,7 @@ class RefractiveAdjustment {
   }
 
   // Σ of the control points' squared prior residuals (weight 1) at the current points.
-  double ControlSumSquares() const {
-    double ss = 0;
-    if (!free_target) return ss;
-    for (const auto& [id, given_sigma] : free_target->control) {
-      const auto& [given, sigma] = given_sigma;
-      for (int k = 0; k < 3; ++k) {
-        if (sigma(k) > 0) ss += std::pow((points_[id](k) - given(k)) / sigma(k), 2);
-      }
-    }
-    return ss;
-  }
+  double ControlSumSquares() const { return free_target ? free_target->ControlSumSquares(points_) : 0.0; }
 
   bool UsesShell() const {
     return std::find(shell_free.begin(), shell_free.end(), true) != shell_free.end();
@@ -381,7 +351,7 @@ class RefractiveAdjustment {
       BundleObservation bo;
       bo.pose = pose_[ob.image].data();
       bo.point = points_[ob.point];
-      if (free_target && free_target->adjusted.count(ob.point)) bo.point_block = points_[ob.point].data();
+      if (free_target && free_target->Adjusted(ob.point)) bo.point_block = points_[ob.point].data();
       bo.u_px = ob.u_px, bo.v_px = ob.v_px;
       bo.weight = weight;
       bo.medium = InAir(ob.image) ? Medium::kAir : Medium::kWater;
@@ -408,13 +378,7 @@ class RefractiveAdjustment {
     if (shell_prior && with_shell) {
       bundle->AddCost(new LinearPriorCost(shell_prior->a, shell_prior->b), {shell_values.data()});
     }
-    if (free_target) {
-      for (const auto& [id, coords] : free_target->held) bundle->HoldPoint(points_[id].data(), coords);
-      for (const auto& [id, given_sigma] : free_target->control) {
-        if (!bundle->HasBlock(points_[id].data())) continue;
-        bundle->AddCost(new ControlPrior(given_sigma.first, given_sigma.second, 1.0), {points_[id].data()});
-      }
-    }
+    if (free_target) free_target->AddTo(bundle.get(), &points_);
     return bundle;
   }
 
@@ -793,39 +757,11 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   int n_point_unknowns = 0, n_control_prior = 0;
   if (o.lens.target_free) {
     adj.points() = central.target_points_mm;
-    typename RefractiveAdjustment<M>::FreeTarget ft;
-    for (const Obs& ob : obs) ft.adjusted.insert(ob.point);
-    const CalibrationResult::Datum& d = central.datum;
-    if (d.control.empty()) {
-      ft.adjusted.erase(d.a);
-      ft.adjusted.erase(d.b);
-      ft.held[d.c] = {d.axis};
-      n_point_unknowns = 3 * static_cast<int>(ft.adjusted.size() + 2) - 7;
-    } else {
-      const std::map<int, Eigen::Vector3d> sigmas = FieldControl(target);
-      const std::vector<Eigen::Vector3d> given = TargetPoints(target);
-      n_point_unknowns = 3 * static_cast<int>(ft.adjusted.size());
-      for (int id : d.control) {
-        const Eigen::Vector3d& sigma = sigmas.at(id);
-        std::vector<int> held;
-        for (int k = 0; k < 3; ++k) {
-          if (sigma(k) > 0) {
-            ++n_control_prior;
-          } else {
-            held.push_back(k);
-          }
-        }
-        n_point_unknowns -= static_cast<int>(held.size());
-        if (held.size() == 3) {
-          ft.adjusted.erase(id);
-          adj.points()[id] = given[id];
-        } else {
-          if (!held.empty()) ft.held[id] = held;
-          ft.control[id] = {given[id], sigma};
-        }
-      }
-    }
-    adj.free_target = std::move(ft);
+    std::set<int> observed;
+    for (const Obs& ob : obs) observed.insert(ob.point);
+    adj.free_target = FreeTargetOf(central, observed, target, &adj.points());
+    n_point_unknowns = adj.free_target->n_unknowns;
+    n_control_prior = adj.free_target->n_prior;
   }
   const auto set_poses = [&] {
     for (int i = 0; i < n_total; ++i) {
@@ -1058,20 +994,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   lr.target_points_mm = adj.points();
   if (o.lens.target_free) {
     lr.datum = central.datum;
-    lr.target_sigma_mm.assign(adj.points().size(), Eigen::Vector3d::Constant(NAN));
-    for (std::size_t id = 0; id < point_variance.size(); ++id) {
-      if (point_variance[id].allFinite()) lr.target_sigma_mm[id] = (s0w2 * point_variance[id]).cwiseSqrt();
-    }
-    // The datum's points: their held coordinates σ 0.
-    for (const auto& [id, coords] : adj.free_target->held) {
-      if (!lr.target_sigma_mm[id].allFinite()) lr.target_sigma_mm[id].setZero();
-    }
-    for (int id : {central.datum.a, central.datum.b}) {
-      if (id >= 0) lr.target_sigma_mm[id].setZero();
-    }
-    for (int id : central.datum.control) {
-      if (!adj.free_target->adjusted.count(id)) lr.target_sigma_mm[id].setZero();
-    }
+    lr.target_sigma_mm = adj.free_target->Sigma(point_variance, s0w2, adj.points().size());
   }
 
   // χ² of the estimate against the prediction.

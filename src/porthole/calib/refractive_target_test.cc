@@ -31,19 +31,8 @@ using fixtures::RaisedBoard;
 using fixtures::Views;
 using ports::PortSystem;
 
-constexpr int kFirstRaised = 49;  // ids 49–60: the raised targets
-
-// The field as measured by hand: each raised target off its truth by up to 2 mm in height and
-// 1 mm across (a fixed pattern).
-TargetSpec MeasuredByHand(const TargetSpec& truth) {
-  TargetSpec given = truth;
-  for (auto& t : given.field) {
-    if (t.id < kFirstRaised) continue;
-    const int k = t.id - kFirstRaised;
-    t.xyz_mm += Eigen::Vector3d(((k * 7) % 5 - 2) * 0.5, ((k * 3) % 5 - 2) * 0.5, ((k * 5) % 9 - 4) * 0.5);
-  }
-  return given;
-}
+constexpr int kFirstRaised = fixtures::kFirstRaisedTarget;
+using fixtures::MeasuredByHand;
 
 struct Network {
   camera::Camera cam = refraction::testing::D300Brown();

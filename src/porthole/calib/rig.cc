@@ -17,6 +17,7 @@
 #include <set>
 
 #include "porthole/calib/bundle.h"
+#include "porthole/calib/free_target.h"
 #include "porthole/calib/housed_prior.h"
 #include "porthole/calib/prior_cost.h"
 #include "porthole/calib/refractive.h"
@@ -119,8 +120,9 @@ BundleCamera BundleCameraOf(Cam& c) {
 // An observation of camera `cam_index` (c) at `pose`: a frame's rig_from_target, with the camera's
 // cam_from_rig but for the first camera; an air image's own cam_from_target (air set).
 BundleObservation BundleObservationOf(Cam& c, int cam_index, Pose6& pose, const Eigen::Vector3d& x, const Obs& ob,
-                                      double weight) {
+                                      double weight, double* point_block = nullptr) {
   BundleObservation b;
+  b.point_block = point_block;
   b.camera = cam_index;
   b.pose = pose.data();
   b.cam_from_rig = cam_index == 0 || ob.air ? nullptr : c.extrinsic.data();
@@ -164,6 +166,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
                                                      n_cams, n_cams));
   }
   const CalibrationOptions& first = options.cameras.front();
+  const bool free_target = first.target_free;
   const auto say = [&](const std::string& m) {
     if (first.progress) first.progress(m);
   };
@@ -222,7 +225,9 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       }
     }
     CalibrationOptions co = *c.options;
-    if (co.target_free) throw InvalidInput("target_free", "not in a rig calibration");
+    // A free target: the first camera's own calibration adjusts it too (the start and the datum).
+    co.target_free = free_target && k == 0;
+    if (!co.target_free) co.datum = CalibrationOptions::DatumKind::kAuto;
     co.statistics = false;  // a start: its covariance is not used
     co.progress = [&, k](const std::string& m) { say(fmt::format("{}: {}", cams[k].name, m)); };
     if (n_ports > 0) {  // the lens behind its port, calibrated alone through it (the start)
@@ -336,7 +341,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
   }
 
   // Observations: every point of every image whose frame has a pose.
-  const std::vector<Eigen::Vector3d> points = TargetPoints(target);
+  std::vector<Eigen::Vector3d> points = free_target ? cams[0].alone.target_points_mm : TargetPoints(target);
   std::vector<Obs> obs;
   for (int k = 0; k < n_cams; ++k) {
     for (std::size_t i = 0; i < per_camera[k].size(); ++i) {
@@ -363,6 +368,14 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       }
     }
   }
+  // A free target: every observed point adjusted, the first camera's datum held.
+  std::optional<FreeTarget> field;
+  if (free_target) {
+    std::set<int> observed;
+    for (const Obs& ob : obs) observed.insert(ob.point);
+    field = FreeTargetOf(cams[0].alone, observed, target, &points);
+  }
+  const auto point_block = [&](const Obs& ob) { return field && field->Adjusted(ob.point) ? points[ob.point].data() : nullptr; };
   // The pose an observation is seen at: its frame's rig_from_target, or its air image's cam_from_target.
   const auto pose_of = [&](const Obs& ob) -> Pose6& {
     return ob.air ? air_images[ob.frame].pose : frame_pose[ob.frame];
@@ -410,8 +423,10 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     for (auto& c : cams) bundle->AddCamera(BundleCameraOf(c));
     for (const Obs& ob : obs) {
       if (!ob.active) continue;
-      bundle->AddObservation(BundleObservationOf(cams[ob.cam], ob.cam, pose_of(ob), points[ob.point], ob, weight));
+      bundle->AddObservation(
+          BundleObservationOf(cams[ob.cam], ob.cam, pose_of(ob), points[ob.point], ob, weight, point_block(ob)));
     }
+    if (field) field->AddTo(bundle, &points);
     for (auto& c : cams) {
       if (!with_priors || !bundle->HasBlock(c.scaled.data())) continue;
       if (c.prior_a.rows() > 0) bundle->AddCost(new LinearPriorCost(c.prior_a, c.prior_b), {c.scaled.data()});
@@ -453,6 +468,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
     n_used_frames = static_cast<int>(used.size());
   }
   n_unknowns += 6 * n_used_frames;
+  if (field) n_unknowns += field->n_unknowns, n_prior += field->n_prior;
   {
     std::set<int> used;
     for (const Obs& ob : obs) {
@@ -560,6 +576,7 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       pairs.push_back({blocks[a].data, blocks[b].data});
     }
   }
+  if (field) AddPointCovariancePairs(*field, problem, &points, &pairs);
   const bool cov_ok = covariance.Compute(pairs, &problem);
   if (!cov_ok) {
     throw InvalidInput("cameras", "the rig is not determined by these frames (singular covariance): add frames seen "
@@ -580,8 +597,16 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       });
     }
   }
+  if (field) prior_ss += field->ControlSumSquares(points);
   const double s02 = with_priors ? (ss * weight * weight + prior_ss) / res.redundancy
                                  : res.sigma0_px * res.sigma0_px;
+  if (field) {
+    std::vector<Eigen::Vector3d> variance;
+    PointVariances(*field, problem, covariance, &points, &variance);
+    res.target_points_mm = points;
+    res.target_sigma_mm = field->Sigma(variance, s02, points.size());
+    res.datum = field->datum;
+  }
   {
     int n_joint = 0;
     std::vector<int> offset;
@@ -825,7 +850,7 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
     out.update(j);
     cameras.push_back(out);
   }
-  return {{"rig",
+  Json out = {{"rig",
            {{"frame", "camera 0's camera frame (X right, Y down, Z forward, mm); cam_from_rig maps it into each "
                       "camera: x_cam = R(rotation_rad) x_rig + translation_mm"},
             {"n_cameras", r.cameras.size()},
@@ -841,6 +866,14 @@ nlohmann::ordered_json RigToJson(const RigResult& r, const TargetSpec& target, c
             {"status", r.message},
             {"cameras", cameras},
             {"covariance", JointCovarianceJson(r)}}}};
+  if (r.datum.Set()) {  // a free target: the points adjusted with the rig (the first camera's datum)
+    CalibrationResult adjusted;
+    adjusted.target_points_mm = r.target_points_mm;
+    adjusted.target_sigma_mm = r.target_sigma_mm;
+    adjusted.datum = r.datum;
+    out["rig"]["target_adjusted"] = AdjustedTargetJson(adjusted, target);
+  }
+  return out;
 }
 
 }  // namespace porthole::calib

@@ -49,7 +49,8 @@ namespace porthole::calib {
 
 struct RigOptions {
   // One per camera, or one for all (model, free set, pixel pitch, outlier rejection, iterations,
-  // threads, progress; target_free is not supported in a rig).
+  // threads, progress). The first camera's target_free and datum are the rig's: a free target
+  // (free_target.h) whose start and datum are the first camera's own calibration's.
   std::vector<CalibrationOptions> cameras;
   // Names of the cameras in the output (their folders or files); unset: camera0, camera1, …
   std::vector<std::string> names;
@@ -127,6 +128,10 @@ struct RigResult {
   int n_points = 0, n_rejected = 0, n_unknowns = 0, redundancy = 0, iterations = 0;
   double sigma0_px = 0, rms_px = 0, seconds = 0;
   std::string message;  // "ok", "poor: …" (PoorFitStatus)
+  // A free target (the first camera's target_free): the adjusted points, their σ and the datum
+  // (CalibrationResult's meaning; the JSON's target_adjusted). Empty / unset otherwise.
+  std::vector<Eigen::Vector3d> target_points_mm, target_sigma_mm;
+  CalibrationResult::Datum datum;
 };
 
 // The frame name of an image: its file name without folder and extension.

@@ -48,7 +48,7 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
   const std::pair<const char*, bool> not_in_rig[] = {
       {"ep", o.ep}, {"intrinsics", o.intrinsics}, {"port_out", o.port_out},
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
-      {"free_target", o.lens.target_free}, {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
+      {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
       {"datum", o.datum}, {"free_port", o.free_port}};
   for (const auto& [field, given] : not_in_rig) {

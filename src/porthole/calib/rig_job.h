@@ -10,7 +10,7 @@
 // Errors are InvalidInput naming the library's fields, as CalibrateJob's (calib/job.h): images,
 // detections, names, target, field, model, free, pixel_pitch_mm, port, air_calibration, air_lens_bare,
 // air_images, air_detections, stereo_out, and the options a rig refuses (ep, intrinsics, port_out,
-// free_water_index, free_shell, port_sigma, free_target, datum, free_port, opencv_yaml, field_out,
+// free_water_index, free_shell, port_sigma, datum, free_port, opencv_yaml, field_out,
 // plan_only, drop_insignificant); CalibrateRig's own (cameras, …) pass through.
 #pragma once
 

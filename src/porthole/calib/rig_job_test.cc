@@ -96,8 +96,8 @@ TEST(CalibrateRigJob, RefusesWhatARigCannotTakeNamingTheField) {
   o.names = {"left"};  // one name for two cameras
   EXPECT_EQ(field_of(o), "names");
   o = StereoJob();
-  o.lens.target_free = true;
-  EXPECT_EQ(field_of(o), "free_target");
+  o.field_out = true;  // a free target's field file: one camera's (a rig's free target is in its JSON)
+  EXPECT_EQ(field_of(o), "field_out");
   o = StereoJob();
   o.datum = true;  // a single camera's datum (were ignored by a rig)
   EXPECT_EQ(field_of(o), "datum");

@@ -1,5 +1,5 @@
 // Target fields shared by the tests of a free target (control_datum_test: the central
-// calibration; refractive_target_test: behind a port). Header only, tests only.
+// calibration; refractive_target_test: behind a port; rig_test: in a rig). Header only, tests only.
 #pragma once
 
 #include <Eigen/Core>
@@ -28,6 +28,21 @@ inline TargetSpec RaisedBoard() {
     t.field.push_back(target(id++, Eigen::Vector3d(40 + 90 * (k % 4), 40 + 85 * (k / 4), -height_mm)));
   }
   return t;
+}
+
+// RaisedBoard's raised targets: ids 49–60.
+inline constexpr int kFirstRaisedTarget = 49;
+
+// RaisedBoard as measured by hand: each raised target off its truth by up to 2 mm in height and
+// 1 mm across (a fixed pattern).
+inline TargetSpec MeasuredByHand(const TargetSpec& truth) {
+  TargetSpec given = truth;
+  for (auto& t : given.field) {
+    if (t.id < kFirstRaisedTarget) continue;
+    const int k = t.id - kFirstRaisedTarget;
+    t.xyz_mm += Eigen::Vector3d(((k * 7) % 5 - 2) * 0.5, ((k * 3) % 5 - 2) * 0.5, ((k * 5) % 9 - 4) * 0.5);
+  }
+  return given;
 }
 
 // The board's four corners and one raised target: control points of RaisedBoard.
