@@ -395,13 +395,14 @@ void RegisterCalib(py::module_& m) {
          bool air_lens_bare, const std::string& water, std::optional<double> water_index, double lambda_nm,
          double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
          const std::vector<std::string>& names, const py::object& air_detections, const py::object& datum,
-         const py::object& free_port, bool air_refocused) {
+         const py::object& free_port, bool air_refocused, bool target_free) {
         return WithFieldNames(
             {{"cameras", "cameras"}, {"images", "cameras"}, {"detections", "cameras"}, {"model", "model"},
              {"pixel_pitch_mm", "pixel_pitch_mm"}, {"port", "port"}, {"air_calibration", "air_calibration"},
              {"air_lens", "air_calibration"}, {"air_lens_bare", "air_lens_bare"}, {"air_images", "air_detections"},
              {"air_detections", "air_detections"}, {"ports", "port"}, {"camera_options", "model"},
-             {"datum", "datum"}, {"free_port", "free_port"}, {"air_refocused", "air_refocused"}},
+             {"datum", "datum"}, {"free_port", "free_port"}, {"air_refocused", "air_refocused"},
+             {"free_target", "target_free"}},
             [&] {
               const auto list_of = [](const py::object& v) {
                 std::vector<py::object> out;
@@ -440,6 +441,7 @@ void RegisterCalib(py::module_& m) {
               }
               o.air_lens_bare = air_lens_bare;
               o.air_refocused = air_refocused;
+              o.lens.target_free = target_free;
               // calibrate()'s datum and calibrate_refractive()'s free_port: given, the job refuses them.
               o.datum = !datum.is_none();
               o.free_port = !free_port.is_none();
@@ -467,6 +469,7 @@ void RegisterCalib(py::module_& m) {
       py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("progress") = false,
       py::arg("names") = std::vector<std::string>{}, py::arg("air_detections") = py::none(),
       py::arg("datum") = py::none(), py::arg("free_port") = py::none(), py::arg("air_refocused") = false,
+      py::arg("target_free") = false,
       "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
       "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
       "all or a list; pixel_pitch_mm one for all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
@@ -474,7 +477,8 @@ void RegisterCalib(py::module_& m) {
       "any rig format, made with the housings on (the default) or of each lens alone (air_lens_bare=True), as a "
       "prior; air_detections a list, one per camera, of the detections of images in air "
       "through its port (the housing on), adjusted with the rig; air_refocused=True when they were taken at "
-      "another focus (each camera's air images their own focal length, a factor adjusted). datum and free_port (calibrate()'s, "
+      "another focus (each camera's air images their own focal length, a factor adjusted); target_free=True adjusts "
+      "the target's points with the rig (the first camera's datum; the JSON's rig.target_adjusted). datum and free_port (calibrate()'s, "
       "calibrate_refractive()'s) are refused: a rig does not take them yet. "
       "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, \"skipped\": []}, "
       "with warnings: the plausibility warnings of the pitches and the ports, as the CLI prints them.");

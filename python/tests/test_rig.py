@@ -63,6 +63,14 @@ def test_calibrate_rig_matches_the_cli(tmp_path):
     assert ours.sigma0_px == pytest.approx(theirs["sigma0_px"], rel=1e-9)
     assert abs(right.baseline_mm - 300) < 3 * right.baseline_sigma_mm + 0.5
     assert ours.to_dict()["rig"]["n_frames"] == theirs["n_frames"]
+    # A free target (target_free=True, as --free-target): the same adjusted points as the CLI's.
+    ours = porthole.calibrate_rig(cams, TARGET, model="opencv", names=["left.json", "right.json"], target_free=True)
+    theirs = cli_json("calibrate", "--detections", files[0], "--detections", files[1], "--model", "opencv",
+                      "--free-target", "--quiet")["rig"]
+    mine = ours.to_dict()["rig"]["target_adjusted"]
+    assert mine["datum"] == theirs["target_adjusted"]["datum"]
+    for a, b in zip(mine["points"], theirs["target_adjusted"]["points"]):
+        assert a["xyz_mm"] == pytest.approx(b["xyz_mm"], rel=1e-9, abs=1e-9)
 
 
 def test_a_pixel_pitch_per_camera_as_the_cli(tmp_path):

@@ -283,3 +283,25 @@ def test_many_images_are_summarised_in_the_text(tmp_path):
     line = next(l for l in t.splitlines() if l.startswith("per-image RMS"))
     assert line.startswith(f"per-image RMS (px), 40 images: median {rms[20]:.3f}; the 5 worst:"), line
     assert line.count(";") == 6 and f"{rms[0]:.3f}" in line and line.endswith("every image in --json")
+
+
+def test_a_free_target_in_a_rig(rig):
+    """--free-target with a rig (issue 26; calib_refractive_test Rig.AFreeTargetInARigBehindDomes checks the
+    numbers): the rig JSON's target_adjusted holds every point seen, its sigma and the datum (the first
+    camera's); the rig itself within a few sigma of the held target's (the synthetic board is the nominal
+    one), every point within 4 sigma of its nominal position."""
+    d, _ = rig
+    base = ["calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "opencv",
+            "--json", "--quiet"]
+    held = run(*base).json()["rig"]
+    free = run(*base, "--free-target").json()["rig"]
+    t = free["target_adjusted"]
+    assert t["datum"]["fixed"] and len(t["points"]) == 192  # the 16 x 12 board, every corner seen
+    worst = max(abs(x - n) / s for p in t["points"] for x, n, s in zip(p["xyz_mm"], p["nominal_mm"], p["sigma_mm"])
+                if s > 0)
+    print(f"free target in a rig: every point within {worst:.2f} sigma of its nominal position")
+    assert worst < 4
+    a, b = held["cameras"][1]["cam_from_rig"], free["cameras"][1]["cam_from_rig"]
+    for i in range(3):
+        assert abs(a["translation_mm"][i] - b["translation_mm"][i]) < 5 * b["sigma"]["translation_mm"][i], i
+    assert "target_adjusted" not in held
