@@ -1,7 +1,10 @@
 #include "porthole/ports/port.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <cmath>
+#include <utility>
 
 #include "porthole/core/error.h"
 
@@ -77,6 +80,28 @@ bool DomePort::CentralAt(const Vec3& ep, double tol_mm) const {
   return (outer.center_mm - ep).norm() <= tol_mm && (inner.center_mm - ep).norm() <= tol_mm;
 }
 
+std::array<double, 5> DomePort::ShellValues() const {
+  const Vec3 off = inner.center_mm - outer.center_mm;
+  return {outer.radius_mm, inner.radius_mm, off.x(), off.y(), off.z()};
+}
+
+double DomePort::RimAboveReference() const { return rim_z_mm ? *rim_z_mm - outer.center_mm.z() : 0.0; }
+
+std::array<double, 3> DomePort::PortParams(const Vec3& ep) const {
+  const Vec3 p = ep - outer.center_mm;
+  return {p.x(), p.y(), p.z()};
+}
+
+// v: outer radius, inner radius, inner centre minus outer (x, y, z).
+void DomePort::ValidateShellValues(const double* v, const std::string& field) {
+  const double off = Vec3(v[2], v[3], v[4]).norm();
+  if (!(v[1] > 0) || !(off < v[0] - v[1])) {
+    throw InvalidInput(field, fmt::format("the inner sphere (radius {:.4g} mm, {:.4g} mm from the "
+                                          "outer centre) is not inside the outer one (radius {:.4g} mm)",
+                                          v[1], off, v[0]));
+  }
+}
+
 // ---- Flat ----
 
 void FlatPort::Validate(const std::string& where) const {
@@ -104,6 +129,15 @@ bool FlatPort::InsideOuterSurface(const Vec3& p) const { return (p - inner_point
 double FlatPort::VertexZ(const Vec3& ep, bool of_outer) const {
   const Vec3 p = of_outer ? Vec3(inner_point_mm + thickness_mm * normal) : inner_point_mm;
   return ep.z() + (p - ep).dot(normal) / normal.z();
+}
+
+std::array<double, 3> FlatPort::PortParams(const Vec3& ep) const {
+  return {normal.x(), normal.y(), (inner_point_mm - ep).dot(normal)};
+}
+
+// v: thickness.
+void FlatPort::ValidateShellValues(const double* v, const std::string& field) {
+  if (!(v[0] > 0)) throw InvalidInput(field, fmt::format("the glass thickness {:.4g} mm is not positive", v[0]));
 }
 
 // ---- Cylinder ----
@@ -158,7 +192,36 @@ double CylinderPort::VertexZ(const Vec3& ep, bool of_outer) const {
   return axis_point_mm.z() + std::sqrt(h2);
 }
 
+std::array<double, 3> CylinderPort::PortParams(const Vec3& ep) const {
+  const Vec3 a = CanonicalAxis(axis);
+  const Vec3 q = ep - axis_point_mm;
+  return {q.dot(a.cross(Vec3::UnitZ())), q.z(), std::atan2(a.x(), a.y()) * 180 / M_PI};
+}
+
+// v: outer radius, inner radius.
+void CylinderPort::ValidateShellValues(const double* v, const std::string& field) {
+  if (!(v[1] > 0) || !(v[1] < v[0])) {
+    throw InvalidInput(field, fmt::format("the inner cylinder (radius {:.4g} mm) is not inside the "
+                                          "outer one (radius {:.4g} mm)", v[1], v[0]));
+  }
+}
+
 // ---- The list ----
+
+std::vector<std::string_view> ShapeNames() {
+  return [&]<std::size_t... I>(std::index_sequence<I...>) {
+    return std::vector<std::string_view>{std::variant_alternative_t<I, PortShape>::kName...};
+  }(std::make_index_sequence<std::variant_size_v<PortShape>>());
+}
+
+std::optional<PortShape> ShapeNamed(std::string_view name) {
+  std::optional<PortShape> out;
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    ((std::variant_alternative_t<I, PortShape>::kName == name ? (void)out.emplace(std::in_place_index<I>) : void()),
+     ...);
+  }(std::make_index_sequence<std::variant_size_v<PortShape>>());
+  return out;
+}
 
 std::string_view PortSpec::KindName() const {
   return std::visit([](const auto& p) { return std::decay_t<decltype(p)>::kName; }, shape);

@@ -14,6 +14,7 @@
 #include <variant>
 #include <vector>
 
+#include "porthole/core/plausible.h"
 #include "porthole/optics/trace.h"
 
 namespace porthole::ports {
@@ -39,6 +40,58 @@ using TwoInterfaces = std::array<optics::InterfaceT<T>, 2>;
 // GeometryJson() (its fields as JSON, mm: the one port JSON of describe.h). The refractive
 // projection (refraction/refraction.h, InterfacesOf) calls Interfaces<T> with the shape's values
 // in the cam frame.
+//
+// Each shape also states as data what the modules above need of it (issue 25: "adding a shape =
+// one struct + one list entry"; they read it through the variant, never by switching on a shape):
+//   kPortParams, kPortParamsMeaning  its three parameters as a refractive camera's port
+//                                    (refraction/refraction.h): name, JSON key, unit; in words
+//   kShellParams                     its shell values a calibration may adjust, after the water
+//                                    index factor (refraction::ShellParams), keyed as the Shell's
+//                                    fields (refraction.cc, ShellField)
+//   kShellJsonKeys                   the keys of its `shell` JSON block (refraction/shell_json.cc)
+//   kDefaultPredictedSigma           a calibration's default σ of the predicted parameters
+//   kAxialSearch                     which parameter lies along the optical axis and the
+//                                    candidates a calibration's start tries for it
+//   ShellValues(), RimAboveReference(), PortParams(ep)  its shell values and parameters as placed
+//                                    (refraction::ShellOf, ParamsOf)
+//   ValidateShellValues(v, field)    InvalidInput unless its shell values make a port
+//   PlausibleValues()                which of its values have a plausible range (housing/plausible.h)
+//   Fields(self, f)                  its port-file keys, in the order read, each with its member
+//                                    (catalogue/presets.cc reads and writes them generically)
+
+// A port parameter or shell value of a refractive camera (refraction/refraction.h).
+struct ParamInfo {
+  std::string_view name;      // as --free-port and the tables say it
+  std::string_view json_key;  // with its unit
+  std::string_view unit;
+};
+
+// The port parameter along the optical axis, which a refractive calibration's start searches
+// (calib/refractive.cc), and the candidates it tries around the predicted value: predicted + step,
+// or predicted × step when `relative`, in this order.
+struct AxialSearch {
+  int param = 2;
+  bool relative = false;
+  std::array<double, 5> steps{};
+
+  std::vector<double> Candidates(double predicted) const {
+    std::vector<double> c;
+    for (double s : steps) c.push_back(relative ? predicted * s : predicted + s);
+    return c;
+  }
+};
+
+// A value of a port with its plausible range (core/plausible.h), keyed as the port file's key.
+struct PlausibleValue {
+  std::string_view key;
+  double value;
+  PlausibleRange range;
+};
+
+// How a port file states a field (Fields): required, or optional with the struct's default (both
+// always written), or a std::optional (written when set). A key "table.key" lies in [table].
+enum class FieldUse { kRequired, kDefaulted, kOptional };
+
 struct SphereSpec {
   Vec3 center_mm = Vec3::Zero();
   double radius_mm = 0;
@@ -68,6 +121,38 @@ struct DomePort {
   nlohmann::ordered_json GeometryJson() const;
   // Both centres at `ep` within tol_mm: rays from it go straight through.
   bool CentralAt(const Vec3& ep, double tol_mm) const;
+
+  // As data (see "The port shapes" above).
+  static constexpr std::array<ParamInfo, 3> kPortParams = {{
+      {"ep_x", "ep_in_dome_x_mm", "mm"}, {"ep_y", "ep_in_dome_y_mm", "mm"}, {"ep_z", "ep_in_dome_z_mm", "mm"}}};
+  static constexpr std::string_view kPortParamsMeaning = "dome: entrance pupil minus outer centre";
+  static constexpr std::array<ParamInfo, 5> kShellParams = {{{"r_outer", "outer_radius_mm", "mm"},
+                                                             {"r_inner", "inner_radius_mm", "mm"},
+                                                             {"off_x", "inner_from_outer_x_mm", "mm"},
+                                                             {"off_y", "inner_from_outer_y_mm", "mm"},
+                                                             {"off_z", "inner_from_outer_z_mm", "mm"}}};
+  static constexpr std::array<std::string_view, 4> kShellJsonKeys = {
+      "outer_radius_mm", "inner_radius_mm", "inner_from_outer_mm", "rim_from_outer_z_mm"};
+  static constexpr std::array<double, 3> kDefaultPredictedSigma = {0.5, 0.5, 0.5};
+  static constexpr AxialSearch kAxialSearch{2, false, {0.0, -8.0, -4.0, 4.0, 8.0}};  // ep_z, mm
+  // The radii, the inner centre minus the outer one; the rim above the outer centre (0 unset).
+  std::array<double, 5> ShellValues() const;
+  double RimAboveReference() const;
+  // The pupil `ep` minus the outer centre.
+  std::array<double, 3> PortParams(const Vec3& ep) const;
+  static void ValidateShellValues(const double* v, const std::string& field);
+  std::array<PlausibleValue, 2> PlausibleValues() const {
+    return {{{"outer.radius_mm", outer.radius_mm, kDomeRadiusRange},
+             {"inner.radius_mm", inner.radius_mm, kDomeRadiusRange}}};
+  }
+  template <typename Self, typename F>
+  static void Fields(Self& self, F&& f) {
+    f("outer.center_mm", self.outer.center_mm, FieldUse::kRequired);
+    f("outer.radius_mm", self.outer.radius_mm, FieldUse::kRequired);
+    f("inner.center_mm", self.inner.center_mm, FieldUse::kRequired);
+    f("inner.radius_mm", self.inner.radius_mm, FieldUse::kRequired);
+    f("rim_z_mm", self.rim_z_mm, FieldUse::kOptional);
+  }
 };
 
 // A flat port: a plate whose inner (air-side) plane passes through inner_point_mm with unit normal
@@ -94,6 +179,28 @@ struct FlatPort {
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
   nlohmann::ordered_json GeometryJson() const;
+
+  // As data (see "The port shapes" above).
+  static constexpr std::array<ParamInfo, 3> kPortParams = {
+      {{"n_x", "normal_x", "1"}, {"n_y", "normal_y", "1"}, {"distance", "distance_mm", "mm"}}};
+  static constexpr std::string_view kPortParamsMeaning = "flat: inner-face normal and pupil distance";
+  static constexpr std::array<ParamInfo, 1> kShellParams = {{{"thickness", "thickness_mm", "mm"}}};
+  static constexpr std::array<std::string_view, 1> kShellJsonKeys = {"thickness_mm"};
+  static constexpr std::array<double, 3> kDefaultPredictedSigma = {0.005, 0.005, 1.0};
+  static constexpr AxialSearch kAxialSearch{2, true, {1.0, 0.5, 0.75, 1.5, 2.0}};  // distance, ×
+  // The thickness; no rim.
+  std::array<double, 1> ShellValues() const { return {thickness_mm}; }
+  double RimAboveReference() const { return 0; }
+  // The normal's n_x, n_y and the pupil-to-inner-face distance along it.
+  std::array<double, 3> PortParams(const Vec3& ep) const;
+  static void ValidateShellValues(const double* v, const std::string& field);
+  std::array<PlausibleValue, 1> PlausibleValues() const { return {{{"thickness_mm", thickness_mm, kPortThicknessRange}}}; }
+  template <typename Self, typename F>
+  static void Fields(Self& self, F&& f) {
+    f("thickness_mm", self.thickness_mm, FieldUse::kRequired);
+    f("inner_point_mm", self.inner_point_mm, FieldUse::kRequired);
+    f("normal", self.normal, FieldUse::kDefaulted);
+  }
 };
 
 // A cylindrical port: glass between two coaxial circular cylinders whose axis crosses the optical
@@ -123,6 +230,38 @@ struct CylinderPort {
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
   nlohmann::ordered_json GeometryJson() const;
+
+  // As data (see "The port shapes" above).
+  static constexpr std::array<ParamInfo, 3> kPortParams = {{{"ep_x", "ep_in_cylinder_x_mm", "mm"},
+                                                            {"ep_z", "ep_in_cylinder_z_mm", "mm"},
+                                                            {"axis_angle", "axis_angle_deg", "deg"}}};
+  static constexpr std::string_view kPortParamsMeaning = "cylinder: entrance pupil minus axis, axis angle";
+  static constexpr std::array<ParamInfo, 2> kShellParams = {
+      {{"r_outer", "outer_radius_mm", "mm"}, {"r_inner", "inner_radius_mm", "mm"}}};
+  static constexpr std::array<std::string_view, 3> kShellJsonKeys = {"outer_radius_mm", "inner_radius_mm",
+                                                                     "rim_from_axis_z_mm"};
+  static constexpr std::array<double, 3> kDefaultPredictedSigma = {0.5, 0.5, 1.0};
+  static constexpr AxialSearch kAxialSearch{1, false, {0.0, -8.0, -4.0, 4.0, 8.0}};  // ep_z, mm
+  // The radii; the rim above the axis (0 unset).
+  std::array<double, 2> ShellValues() const { return {outer_radius_mm, inner_radius_mm}; }
+  double RimAboveReference() const { return rim_z_mm ? *rim_z_mm - axis_point_mm.z() : 0.0; }
+  // The pupil `ep` minus the axis (across it, along Z) and the axis angle from +Y (deg).
+  std::array<double, 3> PortParams(const Vec3& ep) const;
+  static void ValidateShellValues(const double* v, const std::string& field);
+  std::array<PlausibleValue, 3> PlausibleValues() const {
+    return {{{"outer_radius_mm", outer_radius_mm, kDomeRadiusRange},
+             {"inner_radius_mm", inner_radius_mm, kDomeRadiusRange},
+             {"thickness_mm", outer_radius_mm - inner_radius_mm, kPortThicknessRange}}};
+  }
+  // rim_z_mm first: it is written before the others (top-level keys before tables).
+  template <typename Self, typename F>
+  static void Fields(Self& self, F&& f) {
+    f("rim_z_mm", self.rim_z_mm, FieldUse::kOptional);
+    f("axis_point_mm", self.axis_point_mm, FieldUse::kRequired);
+    f("axis", self.axis, FieldUse::kDefaulted);
+    f("inner_radius_mm", self.inner_radius_mm, FieldUse::kRequired);
+    f("outer_radius_mm", self.outer_radius_mm, FieldUse::kRequired);
+  }
 };
 
 // The axis of a cylinder in the sense the port parameters use: unit, +Y half (+X where y = 0).
@@ -189,12 +328,19 @@ struct ShellSigma {
   bool Empty() const { return !outer_radius_mm && !inner_radius_mm && !thickness_mm && !inner_offset_mm; }
 };
 
+// The closed list of shapes (a shape's index here is its refraction::PortKind).
+using PortShape = std::variant<DomePort, FlatPort, CylinderPort>;
+// The shapes' kNames in the list's order ("dome", "flat", "cylinder").
+std::vector<std::string_view> ShapeNames();
+// The shape named `name` (its kName), default-constructed; nullopt for no shape of that name.
+std::optional<PortShape> ShapeNamed(std::string_view name);
+
 struct PortSpec {
   std::string name;
   std::string description;
   std::string source;  // where the numbers come from
   PortFrame frame = PortFrame::kHousing;
-  std::variant<DomePort, FlatPort, CylinderPort> shape;
+  PortShape shape;
   // The entrance pupil to use when no lens says otherwise (housing frame).
   Vec3 default_ep_in_housing_mm = Vec3(0, 0, 26.9);
   // σ of the shell's values, where the file's [sigma] table states them.

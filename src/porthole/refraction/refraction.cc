@@ -154,6 +154,35 @@ static_assert(std::is_same_v<ShapeOf<PortKind::kDome>, ports::DomePort> &&
               std::is_same_v<ShapeOf<PortKind::kCylinder>, ports::CylinderPort> &&
               std::variant_size_v<Shapes> == 3);
 
+// {f(type_identity<Shape>)...} over the list, in its order: a table indexed by PortKind.
+template <typename F>
+constexpr auto PerShape(F f) {
+  return [&]<std::size_t... I>(std::index_sequence<I...>) {
+    return std::array{f(std::type_identity<std::variant_alternative_t<I, Shapes>>{})...};
+  }(std::make_index_sequence<std::variant_size_v<Shapes>>());
+}
+
+// f(type_identity<Shape>) for the shape of `kind`.
+template <typename F>
+void WithShape(PortKind kind, F&& f) {
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    ((static_cast<std::size_t>(kind) == I ? f(std::type_identity<std::variant_alternative_t<I, Shapes>>{}) : void()),
+     ...);
+  }(std::make_index_sequence<std::variant_size_v<Shapes>>());
+}
+
+// The Shell's field a shell value's key names (ports::…Port::kShellParams): the Shell's own
+// vocabulary, which every shape's values map onto.
+double& ShellField(Shell& s, std::string_view key) {
+  if (key == "outer_radius_mm") return s.outer_radius_mm;
+  if (key == "inner_radius_mm") return s.inner_radius_mm;
+  if (key == "inner_from_outer_x_mm") return s.inner_from_outer_mm.x();
+  if (key == "inner_from_outer_y_mm") return s.inner_from_outer_mm.y();
+  if (key == "inner_from_outer_z_mm") return s.inner_from_outer_mm.z();
+  if (key == "thickness_mm") return s.thickness_mm;
+  throw InternalError(fmt::format("no Shell field for the shell value '{}'", key));
+}
+
 }  // namespace
 
 std::string_view PortKindName(PortKind kind) {
@@ -167,83 +196,51 @@ std::string_view PortKindName(PortKind kind) {
 PortKind KindOf(const ports::PortSpec& spec) { return static_cast<PortKind>(spec.shape.index()); }
 
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind) {
-  static constexpr std::array<PortParamInfo, kPortNumParams> kDome = {{
-      {"ep_x", "ep_in_dome_x_mm", "mm"},
-      {"ep_y", "ep_in_dome_y_mm", "mm"},
-      {"ep_z", "ep_in_dome_z_mm", "mm"},
-  }};
-  static constexpr std::array<PortParamInfo, kPortNumParams> kFlat = {{
-      {"n_x", "normal_x", "1"},
-      {"n_y", "normal_y", "1"},
-      {"distance", "distance_mm", "mm"},
-  }};
-  static constexpr std::array<PortParamInfo, kPortNumParams> kCylinder = {{
-      {"ep_x", "ep_in_cylinder_x_mm", "mm"},
-      {"ep_z", "ep_in_cylinder_z_mm", "mm"},
-      {"axis_angle", "axis_angle_deg", "deg"},
-  }};
-  return kind == PortKind::kDome ? kDome : kind == PortKind::kFlat ? kFlat : kCylinder;
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kPortParams; });
+  return kAll[static_cast<std::size_t>(kind)];
 }
 
 std::string_view PortParamsMeaning(PortKind kind) {
-  switch (kind) {
-    case PortKind::kDome: return "dome: entrance pupil minus outer centre";
-    case PortKind::kFlat: return "flat: inner-face normal and pupil distance";
-    case PortKind::kCylinder: return "cylinder: entrance pupil minus axis, axis angle";
-  }
-  return "";
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kPortParamsMeaning; });
+  return kAll[static_cast<std::size_t>(kind)];
+}
+
+const std::array<double, kPortNumParams>& PredictedSigmaOf(PortKind kind) {
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kDefaultPredictedSigma; });
+  return kAll[static_cast<std::size_t>(kind)];
+}
+
+const ports::AxialSearch& AxialSearchOf(PortKind kind) {
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kAxialSearch; });
+  return kAll[static_cast<std::size_t>(kind)];
 }
 
 const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind) {
-  static constexpr std::array<PortParamInfo, kShellNumParams> kDome = {{
-      {"n_water", "water_index_factor", "1"},
-      {"r_outer", "outer_radius_mm", "mm"},
-      {"r_inner", "inner_radius_mm", "mm"},
-      {"off_x", "inner_from_outer_x_mm", "mm"},
-      {"off_y", "inner_from_outer_y_mm", "mm"},
-      {"off_z", "inner_from_outer_z_mm", "mm"},
-  }};
-  static constexpr std::array<PortParamInfo, kShellNumParams> kFlat = {{
-      {"n_water", "water_index_factor", "1"},
-      {"thickness", "thickness_mm", "mm"},
-      {"", "", ""},
-      {"", "", ""},
-      {"", "", ""},
-      {"", "", ""},
-  }};
-  static constexpr std::array<PortParamInfo, kShellNumParams> kCylinder = {{
-      {"n_water", "water_index_factor", "1"},
-      {"r_outer", "outer_radius_mm", "mm"},
-      {"r_inner", "inner_radius_mm", "mm"},
-      {"", "", ""},
-      {"", "", ""},
-      {"", "", ""},
-  }};
-  return kind == PortKind::kDome ? kDome : kind == PortKind::kFlat ? kFlat : kCylinder;
+  // The water index factor, then the shape's own values, then unused ("").
+  static constexpr auto kAll = PerShape([](auto s) {
+    using S = typename decltype(s)::type;
+    static_assert(S::kShellParams.size() < kShellNumParams);
+    std::array<PortParamInfo, kShellNumParams> a{};
+    a[0] = {"n_water", "water_index_factor", "1"};
+    for (std::size_t i = 0; i < S::kShellParams.size(); ++i) a[i + 1] = S::kShellParams[i];
+    return a;
+  });
+  return kAll[static_cast<std::size_t>(kind)];
 }
 
 ShellArray ShellValues(const Shell& s) {
-  if (s.kind == PortKind::kDome) {
-    return {1.0, s.outer_radius_mm, s.inner_radius_mm, s.inner_from_outer_mm.x(),
-            s.inner_from_outer_mm.y(), s.inner_from_outer_mm.z()};
-  }
-  if (s.kind == PortKind::kCylinder) return {1.0, s.outer_radius_mm, s.inner_radius_mm, 0, 0, 0};
-  return {1.0, s.thickness_mm, 0, 0, 0, 0};
+  ShellArray v{1.0, 0, 0, 0, 0, 0};
+  Shell& m = const_cast<Shell&>(s);  // read only
+  const auto& info = ShellParams(s.kind);
+  for (int i = 1; i < kShellNumParams && !info[i].json_key.empty(); ++i) v[i] = ShellField(m, info[i].json_key);
+  return v;
 }
 
 Shell WithShellValues(const Shell& s, const ShellArray& v) {
   Shell out = s;
   out.n_water = s.n_water * v[0];
-  if (s.kind == PortKind::kDome) {
-    out.outer_radius_mm = v[1];
-    out.inner_radius_mm = v[2];
-    out.inner_from_outer_mm = Vec3(v[3], v[4], v[5]);
-  } else if (s.kind == PortKind::kCylinder) {
-    out.outer_radius_mm = v[1];
-    out.inner_radius_mm = v[2];
-  } else {
-    out.thickness_mm = v[1];
-  }
+  const auto& info = ShellParams(s.kind);
+  for (int i = 1; i < kShellNumParams && !info[i].json_key.empty(); ++i) ShellField(out, info[i].json_key) = v[i];
   return out;
 }
 
@@ -255,20 +252,7 @@ void ValidateShellValues(const Shell& s, const ShellArray& v, const std::string&
     throw InvalidInput(field, fmt::format("the water index factor {:.6g} gives a water index {:.6g} "
                                           "below 1", v[0], s.n_water * v[0]));
   }
-  if (s.kind == PortKind::kDome) {
-    if (!(v[2] > 0) || !(Vec3(v[3], v[4], v[5]).norm() < v[1] - v[2])) {
-      throw InvalidInput(field, fmt::format("the inner sphere (radius {:.4g} mm, {:.4g} mm from the "
-                                            "outer centre) is not inside the outer one (radius {:.4g} mm)",
-                                            v[2], Vec3(v[3], v[4], v[5]).norm(), v[1]));
-    }
-  } else if (s.kind == PortKind::kCylinder) {
-    if (!(v[2] > 0) || !(v[2] < v[1])) {
-      throw InvalidInput(field, fmt::format("the inner cylinder (radius {:.4g} mm) is not inside the "
-                                            "outer one (radius {:.4g} mm)", v[2], v[1]));
-    }
-  } else if (!(v[1] > 0)) {
-    throw InvalidInput(field, fmt::format("the glass thickness {:.4g} mm is not positive", v[1]));
-  }
+  WithShape(s.kind, [&](auto shape) { decltype(shape)::type::ValidateShellValues(v.data() + 1, field); });
 }
 
 bool InWater(const Geometry<double>& g, const Vec3& x) {
@@ -361,39 +345,18 @@ Shell ShellOf(const ports::PortSystem& sys) {
   Shell s;
   s.n_glass = sys.n_glass;
   s.n_water = sys.n_water;
-  if (sys.IsDome()) {
-    const ports::DomePort& d = sys.dome();
-    s.kind = PortKind::kDome;
-    s.outer_radius_mm = d.outer.radius_mm;
-    s.inner_radius_mm = d.inner.radius_mm;
-    s.inner_from_outer_mm = d.inner.center_mm - d.outer.center_mm;
-    s.rim_from_outer_z_mm = d.rim_z_mm ? *d.rim_z_mm - d.outer.center_mm.z() : 0.0;
-  } else if (sys.IsCylinder()) {
-    const ports::CylinderPort& c = sys.cylinder();
-    s.kind = PortKind::kCylinder;
-    s.outer_radius_mm = c.outer_radius_mm;
-    s.inner_radius_mm = c.inner_radius_mm;
-    s.rim_from_outer_z_mm = c.rim_z_mm ? *c.rim_z_mm - c.axis_point_mm.z() : 0.0;
-  } else {
-    s.kind = PortKind::kFlat;
-    s.thickness_mm = sys.flat().thickness_mm;
-  }
+  s.kind = KindOf(sys.spec);
+  std::visit([&](const auto& shape) {
+    using S = std::decay_t<decltype(shape)>;
+    const auto values = shape.ShellValues();
+    for (std::size_t i = 0; i < values.size(); ++i) ShellField(s, S::kShellParams[i].json_key) = values[i];
+    s.rim_from_outer_z_mm = shape.RimAboveReference();
+  }, sys.spec.shape);
   return s;
 }
 
 std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys) {
-  if (sys.IsDome()) {
-    const Vec3 p = sys.ep_in_housing_mm - sys.dome().outer.center_mm;
-    return {p.x(), p.y(), p.z()};
-  }
-  if (sys.IsCylinder()) {
-    const ports::CylinderPort& c = sys.cylinder();
-    const Vec3 a = ports::CanonicalAxis(c.axis);
-    const Vec3 q = sys.ep_in_housing_mm - c.axis_point_mm;
-    return {q.dot(a.cross(Vec3::UnitZ())), q.z(), std::atan2(a.x(), a.y()) * 180 / M_PI};
-  }
-  const ports::FlatPort& f = sys.flat();
-  return {f.normal.x(), f.normal.y(), (f.inner_point_mm - sys.ep_in_housing_mm).dot(f.normal)};
+  return std::visit([&](const auto& shape) { return shape.PortParams(sys.ep_in_housing_mm); }, sys.spec.shape);
 }
 
 ports::PortSpec SpecWithParams(const ports::PortSystem& sys,

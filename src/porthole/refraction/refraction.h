@@ -91,23 +91,24 @@ struct Shell {
 
 inline constexpr int kPortNumParams = 3;
 
-struct PortParamInfo {
-  std::string_view name;      // as --free-port and the tables say it
-  std::string_view json_key;  // with its unit
-  std::string_view unit;
-};
-// The three parameters' names of a port kind, in order.
+// Name (as --free-port and the tables say it), JSON key with its unit, unit.
+using PortParamInfo = ports::ParamInfo;
+// The three parameters' names of a port kind, in order (its shape's kPortParams).
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind);
-// What the three are, in words ("dome: entrance pupil minus outer centre").
+// What the three are, in words ("dome: entrance pupil minus outer centre"; kPortParamsMeaning).
 std::string_view PortParamsMeaning(PortKind kind);
+// A calibration's default σ of the predicted parameters (kDefaultPredictedSigma), and the search
+// of its start along the optical axis (kAxialSearch).
+const std::array<double, kPortNumParams>& PredictedSigmaOf(PortKind kind);
+const ports::AxialSearch& AxialSearchOf(PortKind kind);
 
 // ---- The shell's values as parameters ----
 // What a calibration may adjust beside the three port parameters (kShellNumParams values, in this
 // order; ShellParams(kind) names them), each fixed at the Shell's value unless adjusted:
 //   0     water_index_factor: the water index is factor × Shell::n_water (1: the materials model);
-//   dome  1 outer_radius_mm, 2 inner_radius_mm, 3–5 inner_from_outer_{x,y,z}_mm (cam axes);
-//   flat  1 thickness_mm; 2–5 unused (0);
-//   cylinder  1 outer_radius_mm, 2 inner_radius_mm; 3–5 unused (0).
+//   1…    the shape's kShellParams (ports/port.h), each the Shell field its key names; the rest
+//         unused (0): dome 1 outer_radius_mm, 2 inner_radius_mm, 3–5 inner_from_outer_{x,y,z}_mm
+//         (cam axes); flat 1 thickness_mm; cylinder 1 outer_radius_mm, 2 inner_radius_mm.
 inline constexpr int kShellNumParams = 6;
 using ShellArray = std::array<double, kShellNumParams>;
 const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind);
