@@ -393,26 +393,14 @@ class RefractiveAdjustment {
   int first_air_ = 0;  // the first image in air (n_images: none)
 };
 
-PortArray DefaultPredictedSigma(PortKind kind) {
-  switch (kind) {
-    case PortKind::kDome: return {0.5, 0.5, 0.5};
-    case PortKind::kFlat: return {0.005, 0.005, 1.0};
-    case PortKind::kCylinder: return {0.5, 0.5, 1.0};
-  }
-  return {0.5, 0.5, 0.5};
-}
+// The shape's own (ports::…Port::kDefaultPredictedSigma, kAxialSearch).
+PortArray DefaultPredictedSigma(PortKind kind) { return refraction::PredictedSigmaOf(kind); }
 
 // The parameter along the optical axis, which the start searches (dome ep_z, flat distance,
 // cylinder ep_z), and its candidates around the prediction.
-int AxialParam(PortKind kind) { return kind == PortKind::kCylinder ? 1 : 2; }
+int AxialParam(PortKind kind) { return refraction::AxialSearchOf(kind).param; }
 std::vector<double> AxialCandidates(PortKind kind, double predicted) {
-  std::vector<double> c;
-  if (kind == PortKind::kFlat) {
-    for (double f : {1.0, 0.5, 0.75, 1.5, 2.0}) c.push_back(predicted * f);
-  } else {
-    for (double dz : {0.0, -8.0, -4.0, 4.0, 8.0}) c.push_back(predicted + dz);
-  }
-  return c;
+  return refraction::AxialSearchOf(kind).Candidates(predicted);
 }
 
 // The port file's σ (ports::ShellSigma) as a prior on the shell values of `shell` (refraction::

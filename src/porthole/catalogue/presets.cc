@@ -8,6 +8,8 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <type_traits>
+#include <variant>
 #include <toml++/toml.h>
 
 #include "porthole/core/error.h"
@@ -261,38 +263,53 @@ ports::PortSpec ParsePortToml(std::string_view text, const std::string& origin) 
       r.Fail("material", std::string(e.what()).substr(e.field().size() + 2));
     }
   }
-  if (type == "dome") {
-    ports::DomePort d;
-    if (material) d.material = *material;
-    Reader outer = r.Table("outer");
-    d.outer = {outer.Vector3("center_mm"), outer.Double("radius_mm")};
-    outer.RejectUnknown();
-    Reader inner = r.Table("inner");
-    d.inner = {inner.Vector3("center_mm"), inner.Double("radius_mm")};
-    inner.RejectUnknown();
-    d.rim_z_mm = r.OptDouble("rim_z_mm");
-    p.shape = d;
-  } else if (type == "flat") {
-    ports::FlatPort f;
-    if (material) f.material = *material;
-    f.thickness_mm = r.Double("thickness_mm");
-    f.inner_point_mm = r.Vector3("inner_point_mm");
-    if (const auto n = r.OptVec3("normal")) f.normal = *n;
-    p.shape = f;
-  } else if (type == "cylinder") {
-    ports::CylinderPort c;
-    if (material) c.material = *material;
-    c.axis_point_mm = r.Vector3("axis_point_mm");
-    if (const auto a = r.OptVec3("axis")) c.axis = *a;
-    c.inner_radius_mm = r.Double("inner_radius_mm");
-    c.outer_radius_mm = r.Double("outer_radius_mm");
-    c.rim_z_mm = r.OptDouble("rim_z_mm");
-    p.shape = c;
-  } else if (!type) {
-    r.Missing("type", "is required: \"dome\", \"flat\" or \"cylinder\"");
-  } else {
-    r.Fail("type", "must be \"dome\", \"flat\" or \"cylinder\"");
+  // The shape named by `type`, its keys read in the order its Fields lists them (a key
+  // "table.key" from [table], each table checked for unknown keys when its keys are read).
+  std::optional<ports::PortShape> shape = type ? ports::ShapeNamed(*type) : std::nullopt;
+  if (!shape) {
+    const std::vector<std::string_view> names = ports::ShapeNames();
+    std::string list;
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      list += fmt::format("{}\"{}\"", i == 0 ? "" : i + 1 == names.size() ? " or " : ", ", names[i]);
+    }
+    if (!type) r.Missing("type", "is required: " + list);
+    r.Fail("type", "must be " + list);
   }
+  std::visit([&](auto& s) {
+    if (material) s.material = *material;
+    std::string table;
+    std::optional<Reader> in;  // the table being read
+    s.Fields(s, [&](std::string_view dotted, auto& value, ports::FieldUse use) {
+      const std::size_t dot = dotted.find('.');
+      const std::string at(dot == std::string_view::npos ? "" : dotted.substr(0, dot));
+      const std::string key(dot == std::string_view::npos ? dotted : dotted.substr(dot + 1));
+      if (at != table) {
+        if (in) in->RejectUnknown();
+        table = at;
+        if (at.empty()) in.reset(); else in.emplace(r.Table(at));
+      }
+      Reader& rr = in ? *in : r;
+      using V = std::decay_t<decltype(value)>;
+      if constexpr (std::is_same_v<V, std::optional<double>>) {
+        value = rr.OptDouble(key);
+      } else if constexpr (std::is_same_v<V, double>) {
+        if (use == ports::FieldUse::kRequired) {
+          value = rr.Double(key);
+        } else if (const auto v = rr.OptDouble(key)) {
+          value = *v;
+        }
+      } else {
+        static_assert(std::is_same_v<V, Vec3>);
+        if (use == ports::FieldUse::kRequired) {
+          value = rr.Vector3(key);
+        } else if (const auto v = rr.OptVec3(key)) {
+          value = *v;
+        }
+      }
+    });
+    if (in) in->RejectUnknown();
+  }, *shape);
+  p.shape = std::move(*shape);
   // [sigma]: the port's 1σ (interop::HousingSigmaToml writes calibmar's; docs/presets.md), in this
   // file's units, checked (finite, >= 0). The shell's (outer_radius_mm, inner_radius_mm,
   // thickness_mm, inner_offset_mm) are kept (ports::ShellSigma: calibrate --port --free-shell's
@@ -460,19 +477,35 @@ std::string PortToToml(const ports::PortSpec& p) {
   s += fmt::format("type = \"{}\"\nframe = \"{}\"\nmaterial = {}\n", p.KindName(),
                    p.frame == ports::PortFrame::kCam ? "cam" : "housing", str(p.material()));
   s += fmt::format("entrance_pupil_mm = {}\n", vec(p.default_ep_in_housing_mm));
-  if (const auto* d = std::get_if<ports::DomePort>(&p.shape)) {
-    if (d->rim_z_mm) s += fmt::format("rim_z_mm = {}\n", *d->rim_z_mm);
-    s += fmt::format("\n[outer]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->outer.center_mm), d->outer.radius_mm);
-    s += fmt::format("\n[inner]\ncenter_mm = {}\nradius_mm = {}\n", vec(d->inner.center_mm), d->inner.radius_mm);
-  } else if (const auto* c = std::get_if<ports::CylinderPort>(&p.shape)) {
-    if (c->rim_z_mm) s += fmt::format("rim_z_mm = {}\n", *c->rim_z_mm);
-    s += fmt::format("axis_point_mm = {}\naxis = {}\ninner_radius_mm = {}\nouter_radius_mm = {}\n",
-                     vec(c->axis_point_mm), vec(c->axis), c->inner_radius_mm, c->outer_radius_mm);
-  } else {
-    const auto& f = std::get<ports::FlatPort>(p.shape);
-    s += fmt::format("thickness_mm = {}\ninner_point_mm = {}\nnormal = {}\n", f.thickness_mm,
-                     vec(f.inner_point_mm), vec(f.normal));
-  }
+  // The shape's keys (its Fields): the top-level ones, then each [table]'s; a std::optional only
+  // when set.
+  std::visit([&](const auto& shape) {
+    std::vector<std::string> tables;
+    std::string body;
+    const auto write = [&](std::string_view dotted, const auto& value, ports::FieldUse) {
+      const std::size_t dot = dotted.find('.');
+      const std::string at(dot == std::string_view::npos ? "" : dotted.substr(0, dot));
+      const std::string key(dot == std::string_view::npos ? dotted : dotted.substr(dot + 1));
+      std::string* out = &s;
+      if (!at.empty()) {
+        if (tables.empty() || tables.back() != at) {
+          tables.push_back(at);
+          body += "\n[" + at + "]\n";
+        }
+        out = &body;
+      }
+      using V = std::decay_t<decltype(value)>;
+      if constexpr (std::is_same_v<V, std::optional<double>>) {
+        if (value) *out += fmt::format("{} = {}\n", key, *value);
+      } else if constexpr (std::is_same_v<V, double>) {
+        *out += fmt::format("{} = {}\n", key, value);
+      } else {
+        *out += fmt::format("{} = {}\n", key, vec(value));
+      }
+    };
+    std::decay_t<decltype(shape)>::Fields(shape, write);
+    s += body;
+  }, p.shape);
   // The shell's σ (ports::ShellSigma) as the [sigma] table, when the port has any.
   const ports::ShellSigma& sg = p.sigma;
   if (!sg.Empty()) {

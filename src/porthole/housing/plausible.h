@@ -18,20 +18,16 @@ inline void AddPlausibilityWarning(std::vector<std::string>* warnings, std::stri
   if (auto w = PlausibilityWarning(field, value, range)) warnings->push_back(std::move(*w));
 }
 
-// The port's radii (dome), radii and wall (cylinder) or thickness (flat), fields named
-// `where`.<key> (the port file's keys).
+// The port's values that have a plausible range (its shape's PlausibleValues: a dome's radii, a
+// cylinder's radii and wall, a flat port's thickness), fields named `where`.<key> (the port file's
+// keys).
 inline std::vector<std::string> PortPlausibilityWarnings(const ports::PortSpec& port, const std::string& where = "port") {
   std::vector<std::string> w;
-  if (const auto* d = std::get_if<ports::DomePort>(&port.shape)) {
-    AddPlausibilityWarning(&w, where + ".outer.radius_mm", d->outer.radius_mm, kDomeRadiusRange);
-    AddPlausibilityWarning(&w, where + ".inner.radius_mm", d->inner.radius_mm, kDomeRadiusRange);
-  } else if (const auto* c = std::get_if<ports::CylinderPort>(&port.shape)) {
-    AddPlausibilityWarning(&w, where + ".outer_radius_mm", c->outer_radius_mm, kDomeRadiusRange);
-    AddPlausibilityWarning(&w, where + ".inner_radius_mm", c->inner_radius_mm, kDomeRadiusRange);
-    AddPlausibilityWarning(&w, where + ".thickness_mm", c->outer_radius_mm - c->inner_radius_mm, kPortThicknessRange);
-  } else if (const auto* f = std::get_if<ports::FlatPort>(&port.shape)) {
-    AddPlausibilityWarning(&w, where + ".thickness_mm", f->thickness_mm, kPortThicknessRange);
-  }
+  std::visit([&](const auto& shape) {
+    for (const ports::PlausibleValue& v : shape.PlausibleValues()) {
+      AddPlausibilityWarning(&w, where + "." + std::string(v.key), v.value, v.range);
+    }
+  }, port.shape);
   return w;
 }
 

@@ -1,7 +1,11 @@
 #include "porthole/ports/port.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "porthole/core/error.h"
 
@@ -77,6 +81,85 @@ bool DomePort::CentralAt(const Vec3& ep, double tol_mm) const {
   return (outer.center_mm - ep).norm() <= tol_mm && (inner.center_mm - ep).norm() <= tol_mm;
 }
 
+CamShell DomePort::AsShell() const {
+  CamShell s;
+  s.outer_radius_mm = outer.radius_mm;
+  s.inner_radius_mm = inner.radius_mm;
+  s.inner_from_outer_mm = inner.center_mm - outer.center_mm;
+  s.rim_from_outer_z_mm = rim_z_mm ? *rim_z_mm - outer.center_mm.z() : 0.0;
+  return s;
+}
+
+std::array<double, 5> DomePort::ShellValues(const CamShell& s) {
+  return {s.outer_radius_mm, s.inner_radius_mm, s.inner_from_outer_mm.x(), s.inner_from_outer_mm.y(),
+          s.inner_from_outer_mm.z()};
+}
+
+void DomePort::SetShellValues(const double* v, CamShell* s) {
+  s->outer_radius_mm = v[0];
+  s->inner_radius_mm = v[1];
+  s->inner_from_outer_mm = Vec3(v[2], v[3], v[4]);
+}
+
+DomePort DomePort::AtSurfaces(const CamSurfaces<double>& g) {
+  DomePort d;
+  d.outer = {g.outer_center, g.outer_radius};
+  d.inner = {g.inner_center, g.inner_radius};
+  d.rim_z_mm = g.rim_z;
+  return d;
+}
+
+bool DomePort::InWater(const CamSurfaces<double>& g, const Vec3& x) {
+  return (x - g.outer_center).norm() > g.outer_radius && x.z() > g.rim_z;
+}
+
+void DomePort::ValidateParams(const CamShell& s, const double* p, const std::string& field) {
+  CamSurfaces<double> g;
+  SurfacesAt<double>(s, p, nullptr, &g);
+  if (g.inner_center.norm() >= g.inner_radius) {
+    throw InvalidInput(field, fmt::format("the entrance pupil ({:.2f}, {:.2f}, {:.2f}) mm from "
+                                          "the dome centre is not inside the inner sphere",
+                                          p[0], p[1], p[2]));
+  }
+}
+
+std::optional<Vec3> DomePort::AxisThroughPupil(const CamSurfaces<double>& g, bool* identity) {
+  *identity = false;
+  const Vec3& co = g.outer_center;
+  const Vec3& ci = g.inner_center;
+  const double tol = 1e-12 * g.outer_radius;
+  const double no = co.norm(), ni = ci.norm();
+  if (no <= tol && ni <= tol) {
+    *identity = true;
+    return Vec3::UnitZ();
+  }
+  const Vec3 a = (no >= ni ? co / no : ci / ni);
+  // Both centres on the line through the pupil along a.
+  if ((co - co.dot(a) * a).norm() > tol || (ci - ci.dot(a) * a).norm() > tol) return std::nullopt;
+  return a.z() < 0 ? Vec3(-a) : a;
+}
+
+Vec3 DomePort::ApproximateAxis(const CamSurfaces<double>& g) {
+  const Vec3& co = g.outer_center;
+  const Vec3 a = co.norm() > 1e-9 * g.outer_radius ? co.normalized() : g.inner_center.normalized();
+  return a.z() < 0 ? Vec3(-a) : a;
+}
+
+std::array<double, 3> DomePort::PortParams(const Vec3& ep) const {
+  const Vec3 p = ep - outer.center_mm;
+  return {p.x(), p.y(), p.z()};
+}
+
+// v: outer radius, inner radius, inner centre minus outer (x, y, z).
+void DomePort::ValidateShellValues(const double* v, const std::string& field) {
+  const double off = Vec3(v[2], v[3], v[4]).norm();
+  if (!(v[1] > 0) || !(off < v[0] - v[1])) {
+    throw InvalidInput(field, fmt::format("the inner sphere (radius {:.4g} mm, {:.4g} mm from the "
+                                          "outer centre) is not inside the outer one (radius {:.4g} mm)",
+                                          v[1], off, v[0]));
+  }
+}
+
 // ---- Flat ----
 
 void FlatPort::Validate(const std::string& where) const {
@@ -104,6 +187,30 @@ bool FlatPort::InsideOuterSurface(const Vec3& p) const { return (p - inner_point
 double FlatPort::VertexZ(const Vec3& ep, bool of_outer) const {
   const Vec3 p = of_outer ? Vec3(inner_point_mm + thickness_mm * normal) : inner_point_mm;
   return ep.z() + (p - ep).dot(normal) / normal.z();
+}
+
+std::array<double, 3> FlatPort::PortParams(const Vec3& ep) const {
+  return {normal.x(), normal.y(), (inner_point_mm - ep).dot(normal)};
+}
+
+FlatPort FlatPort::AtSurfaces(const CamSurfaces<double>& g) {
+  FlatPort f;
+  f.normal = g.normal;
+  f.inner_point_mm = g.distance * g.normal;
+  f.thickness_mm = g.thickness;
+  return f;
+}
+
+void FlatPort::ValidateParams(const CamShell&, const double* p, const std::string& field) {
+  if (!(p[0] * p[0] + p[1] * p[1] < 1)) {
+    throw InvalidInput(field, "the flat port's normal must point toward the scene (n_x² + n_y² < 1)");
+  }
+  if (!(p[2] > 0)) throw InvalidInput(field, "the flat port must lie ahead of the pupil (distance > 0)");
+}
+
+// v: thickness.
+void FlatPort::ValidateShellValues(const double* v, const std::string& field) {
+  if (!(v[0] > 0)) throw InvalidInput(field, fmt::format("the glass thickness {:.4g} mm is not positive", v[0]));
 }
 
 // ---- Cylinder ----
@@ -158,7 +265,73 @@ double CylinderPort::VertexZ(const Vec3& ep, bool of_outer) const {
   return axis_point_mm.z() + std::sqrt(h2);
 }
 
+std::array<double, 3> CylinderPort::PortParams(const Vec3& ep) const {
+  const Vec3 a = CanonicalAxis(axis);
+  const Vec3 q = ep - axis_point_mm;
+  return {q.dot(a.cross(Vec3::UnitZ())), q.z(), std::atan2(a.x(), a.y()) * 180 / M_PI};
+}
+
+CylinderPort CylinderPort::AtSurfaces(const CamSurfaces<double>& g) {
+  CylinderPort c;
+  c.axis = g.normal;
+  c.axis_point_mm = g.axis_point;
+  c.inner_radius_mm = g.inner_radius;
+  c.outer_radius_mm = g.outer_radius;
+  c.rim_z_mm = g.rim_z;
+  return c;
+}
+
+bool CylinderPort::InWater(const CamSurfaces<double>& g, const Vec3& x) {
+  const Vec3 q = x - g.axis_point;
+  return (q - q.dot(g.normal) * g.normal).norm() > g.outer_radius && x.z() > g.rim_z;
+}
+
+void CylinderPort::ValidateParams(const CamShell& s, const double* p, const std::string& field) {
+  if (std::hypot(p[0], p[1]) >= s.inner_radius_mm) {
+    throw InvalidInput(field, fmt::format("the entrance pupil ({:.2f}, {:.2f}) mm from the cylinder's "
+                                          "axis is not inside the inner cylinder (radius {:.4g} mm)",
+                                          p[0], p[1], s.inner_radius_mm));
+  }
+}
+
+// Far away with the pupil on the axis every ray meets both surfaces square across the axis, so
+// only its slope along the axis bends, as through a flat port: sin(slope in air) = n_water
+// sin(slope in water).
+std::optional<Vec3> CylinderPort::StartDirection(const CamSurfaces<double>& g, const Vec3& x) {
+  const Vec3& a = g.normal;
+  const double along = x.dot(a);
+  Vec3 across = x - along * a;
+  const double rho = across.norm();
+  if (rho <= 1e-14 * x.norm()) return x.normalized();
+  across /= rho;
+  const double slope = std::asin(std::clamp(g.n_water * along / x.norm(), -0.999, 0.999));
+  return std::cos(slope) * across + std::sin(slope) * a;
+}
+
+// v: outer radius, inner radius.
+void CylinderPort::ValidateShellValues(const double* v, const std::string& field) {
+  if (!(v[1] > 0) || !(v[1] < v[0])) {
+    throw InvalidInput(field, fmt::format("the inner cylinder (radius {:.4g} mm) is not inside the "
+                                          "outer one (radius {:.4g} mm)", v[1], v[0]));
+  }
+}
+
 // ---- The list ----
+
+std::vector<std::string_view> ShapeNames() {
+  return [&]<std::size_t... I>(std::index_sequence<I...>) {
+    return std::vector<std::string_view>{std::variant_alternative_t<I, PortShape>::kName...};
+  }(std::make_index_sequence<std::variant_size_v<PortShape>>());
+}
+
+std::optional<PortShape> ShapeNamed(std::string_view name) {
+  std::optional<PortShape> out;
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    ((std::variant_alternative_t<I, PortShape>::kName == name ? (void)out.emplace(std::in_place_index<I>) : void()),
+     ...);
+  }(std::make_index_sequence<std::variant_size_v<PortShape>>());
+  return out;
+}
 
 std::string_view PortSpec::KindName() const {
   return std::visit([](const auto& p) { return std::decay_t<decltype(p)>::kName; }, shape);

@@ -7,13 +7,17 @@
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
+#include "porthole/core/plausible.h"
 #include "porthole/optics/trace.h"
 
 namespace porthole::ports {
@@ -39,6 +43,102 @@ using TwoInterfaces = std::array<optics::InterfaceT<T>, 2>;
 // GeometryJson() (its fields as JSON, mm: the one port JSON of describe.h). The refractive
 // projection (refraction/refraction.h, InterfacesOf) calls Interfaces<T> with the shape's values
 // in the cam frame.
+//
+// Each shape also states as data what the modules above need of it (issue 25: "adding a shape =
+// one struct + one list entry"; they read it through the variant, never by switching on a shape):
+//   kPortParams, kPortParamsMeaning  its three parameters as a refractive camera's port
+//                                    (refraction/refraction.h): name, JSON key, unit; in words
+//   kShellParams                     its shell values a calibration may adjust, after the water
+//                                    index factor (refraction::ShellParams)
+//   kShellJsonKeys                   the keys of its `shell` JSON block (refraction/shell_json.cc)
+//   kDefaultPredictedSigma           a calibration's default σ of the predicted parameters
+//   kAxialSearch                     which parameter lies along the optical axis and the
+//                                    candidates a calibration's start tries for it
+//   and, as a refractive camera's port in the cam frame (see CamShell below):
+//   AsShell(), PortParams(ep)        its shell and parameters as placed (refraction::ShellOf,
+//                                    ParamsOf)
+//   ShellValues(s), SetShellValues(v, s), ValidateShellValues(v, field)  its kShellParams in a
+//                                    CamShell, and InvalidInput unless they make a port
+//   SurfacesAt<T>(shell, p, v, g)    the surfaces its shell and parameters make, in scalar T
+//                                    (refraction::MakeGeometry); InterfacesAt<T>(g) its two
+//                                    surfaces there (Interfaces<T>: refraction::InterfacesOf)
+//   AtSurfaces(g)                    the shape at those surfaces (refraction::PortSpecOf,
+//                                    SpecWithParams); InWater(g, x); ValidateParams(shell, p, field)
+//   AxisThroughPupil, StartDirection, ApproximateAxis, InPlaneStart  how the refractive
+//                                    projection starts its iteration (refraction.cc SolveDirection)
+//   PlausibleValues()                which of its values have a plausible range (housing/plausible.h)
+//   Fields(self, f)                  its port-file keys, in the order read, each with its member
+//                                    (catalogue/presets.cc reads and writes them generically)
+
+// A port parameter or shell value of a refractive camera (refraction/refraction.h).
+struct ParamInfo {
+  std::string_view name;      // as --free-port and the tables say it
+  std::string_view json_key;  // with its unit
+  std::string_view unit;
+};
+
+// The port parameter along the optical axis, which a refractive calibration's start searches
+// (calib/refractive.cc), and the candidates it tries around the predicted value: predicted + step,
+// or predicted × step when `relative`, in this order.
+struct AxialSearch {
+  int param = 2;
+  bool relative = false;
+  std::array<double, 5> steps{};
+
+  std::vector<double> Candidates(double predicted) const {
+    std::vector<double> c;
+    for (double s : steps) c.push_back(relative ? predicted * s : predicted + s);
+    return c;
+  }
+};
+
+// A value of a port with its plausible range (core/plausible.h), keyed as the port file's key.
+struct PlausibleValue {
+  std::string_view key;
+  double value;
+  PlausibleRange range;
+};
+
+// How a port file states a field (Fields): required, or optional with the struct's default (both
+// always written), or a std::optional (written when set). A key "table.key" lies in [table].
+enum class FieldUse { kRequired, kDefaulted, kOptional };
+
+// ---- A shape as a refractive camera's port (refraction/refraction.h) ----
+// There a port is its shell — what a port file fixes and the images do not estimate — and three
+// parameters a calibration estimates (kPortParams), in the cam frame (origin at the entrance pupil,
+// axes of the housing frame), mm. CamShell holds every shape's shell (each uses its own fields);
+// CamSurfaces<T> the surfaces a shell and parameters make, in scalar T (double, or a ceres::Jet).
+struct CamShell {
+  double outer_radius_mm = 0, inner_radius_mm = 0;  // dome, cylinder
+  Vec3 inner_from_outer_mm = Vec3::Zero();          // dome: inner centre − outer centre
+  // Glass where z ≥ (the outer centre's z, a cylinder's axis z) + this: the rim plane.
+  double rim_from_outer_z_mm = 0;
+  double thickness_mm = 0;                          // flat
+};
+
+template <typename T>
+struct CamSurfaces {
+  Vec3T<T> outer_center, inner_center;  // dome
+  T outer_radius, inner_radius;         // dome, cylinder
+  double rim_z = 0;                     // dome, cylinder: glass where z ≥ rim_z (value only)
+  Vec3T<T> normal;                      // flat: unit, toward the scene; cylinder: unit axis
+  Vec3T<T> axis_point;                  // cylinder: the axis's point nearest the pupil
+  T distance, thickness;                // flat: pupil to inner face along normal; glass
+  T n_glass, n_water;
+};
+
+namespace detail {
+// The value of a scalar: itself for double, the (recursive) real part `a` of a ceres::Jet.
+template <typename T>
+double ValueOf(const T& x) {
+  if constexpr (std::is_arithmetic_v<T>) {
+    return x;
+  } else {
+    return ValueOf(x.a);
+  }
+}
+}  // namespace detail
+
 struct SphereSpec {
   Vec3 center_mm = Vec3::Zero();
   double radius_mm = 0;
@@ -68,6 +168,57 @@ struct DomePort {
   nlohmann::ordered_json GeometryJson() const;
   // Both centres at `ep` within tol_mm: rays from it go straight through.
   bool CentralAt(const Vec3& ep, double tol_mm) const;
+
+  // As data (see "The port shapes" above).
+  static constexpr std::array<ParamInfo, 3> kPortParams = {{
+      {"ep_x", "ep_in_dome_x_mm", "mm"}, {"ep_y", "ep_in_dome_y_mm", "mm"}, {"ep_z", "ep_in_dome_z_mm", "mm"}}};
+  static constexpr std::string_view kPortParamsMeaning = "dome: entrance pupil minus outer centre";
+  static constexpr std::array<ParamInfo, 5> kShellParams = {{{"r_outer", "outer_radius_mm", "mm"},
+                                                             {"r_inner", "inner_radius_mm", "mm"},
+                                                             {"off_x", "inner_from_outer_x_mm", "mm"},
+                                                             {"off_y", "inner_from_outer_y_mm", "mm"},
+                                                             {"off_z", "inner_from_outer_z_mm", "mm"}}};
+  static constexpr std::array<std::string_view, 4> kShellJsonKeys = {
+      "outer_radius_mm", "inner_radius_mm", "inner_from_outer_mm", "rim_from_outer_z_mm"};
+  static constexpr std::array<double, 3> kDefaultPredictedSigma = {0.5, 0.5, 0.5};
+  static constexpr AxialSearch kAxialSearch{2, false, {0.0, -8.0, -4.0, 4.0, 8.0}};  // ep_z, mm
+  // Its radii, the inner centre minus the outer one, the rim above the outer centre (0 unset).
+  CamShell AsShell() const;
+  // The pupil `ep` minus the outer centre.
+  std::array<double, 3> PortParams(const Vec3& ep) const;
+  static std::array<double, 5> ShellValues(const CamShell& s);
+  static void SetShellValues(const double* v, CamShell* s);
+  static void ValidateShellValues(const double* v, const std::string& field);
+  // The outer centre at −p, the inner one at −p + the offset, the rim above the outer centre;
+  // the shell values from `v` (kShellParams) when given, else from `s`.
+  template <typename T>
+  static void SurfacesAt(const CamShell& s, const T* p, const T* v, CamSurfaces<T>* g);
+  template <typename T>
+  static TwoInterfaces<T> InterfacesAt(const CamSurfaces<T>& g) {
+    return Interfaces<T>(g.inner_center, g.inner_radius, g.outer_center, g.outer_radius, g.rim_z, g.n_glass, g.n_water);
+  }
+  static DomePort AtSurfaces(const CamSurfaces<double>& g);
+  static bool InWater(const CamSurfaces<double>& g, const Vec3& x);
+  // The pupil inside the inner sphere.
+  static void ValidateParams(const CamShell& s, const double* p, const std::string& field);
+  // The line through both centres when the pupil is on it (*identity: both centres at the pupil).
+  static std::optional<Vec3> AxisThroughPupil(const CamSurfaces<double>& g, bool* identity);
+  static std::optional<Vec3> StartDirection(const CamSurfaces<double>&, const Vec3&) { return std::nullopt; }
+  // From the pupil through the outer centre (or the inner one when the pupil is at the outer).
+  static Vec3 ApproximateAxis(const CamSurfaces<double>& g);
+  static double InPlaneStart(const CamSurfaces<double>&, double theta) { return theta; }
+  std::array<PlausibleValue, 2> PlausibleValues() const {
+    return {{{"outer.radius_mm", outer.radius_mm, kDomeRadiusRange},
+             {"inner.radius_mm", inner.radius_mm, kDomeRadiusRange}}};
+  }
+  template <typename Self, typename F>
+  static void Fields(Self& self, F&& f) {
+    f("outer.center_mm", self.outer.center_mm, FieldUse::kRequired);
+    f("outer.radius_mm", self.outer.radius_mm, FieldUse::kRequired);
+    f("inner.center_mm", self.inner.center_mm, FieldUse::kRequired);
+    f("inner.radius_mm", self.inner.radius_mm, FieldUse::kRequired);
+    f("rim_z_mm", self.rim_z_mm, FieldUse::kOptional);
+  }
 };
 
 // A flat port: a plate whose inner (air-side) plane passes through inner_point_mm with unit normal
@@ -94,6 +245,55 @@ struct FlatPort {
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
   nlohmann::ordered_json GeometryJson() const;
+
+  // As data (see "The port shapes" above).
+  static constexpr std::array<ParamInfo, 3> kPortParams = {
+      {{"n_x", "normal_x", "1"}, {"n_y", "normal_y", "1"}, {"distance", "distance_mm", "mm"}}};
+  static constexpr std::string_view kPortParamsMeaning = "flat: inner-face normal and pupil distance";
+  static constexpr std::array<ParamInfo, 1> kShellParams = {{{"thickness", "thickness_mm", "mm"}}};
+  static constexpr std::array<std::string_view, 1> kShellJsonKeys = {"thickness_mm"};
+  static constexpr std::array<double, 3> kDefaultPredictedSigma = {0.005, 0.005, 1.0};
+  static constexpr AxialSearch kAxialSearch{2, true, {1.0, 0.5, 0.75, 1.5, 2.0}};  // distance, ×
+  // Its thickness; no rim.
+  CamShell AsShell() const {
+    CamShell s;
+    s.thickness_mm = thickness_mm;
+    return s;
+  }
+  // The normal's n_x, n_y and the pupil-to-inner-face distance along it.
+  std::array<double, 3> PortParams(const Vec3& ep) const;
+  static std::array<double, 1> ShellValues(const CamShell& s) { return {s.thickness_mm}; }
+  static void SetShellValues(const double* v, CamShell* s) { s->thickness_mm = v[0]; }
+  static void ValidateShellValues(const double* v, const std::string& field);
+  // The normal (p[0], p[1], sqrt(1 − p[0]² − p[1]²)), the inner face at p[2] along it.
+  template <typename T>
+  static void SurfacesAt(const CamShell& s, const T* p, const T* v, CamSurfaces<T>* g);
+  template <typename T>
+  static TwoInterfaces<T> InterfacesAt(const CamSurfaces<T>& g) {
+    return Interfaces<T>(Vec3T<T>::Zero(), g.normal, g.distance, g.thickness, g.n_glass, g.n_water);
+  }
+  static FlatPort AtSurfaces(const CamSurfaces<double>& g);
+  static bool InWater(const CamSurfaces<double>& g, const Vec3& x) { return x.dot(g.normal) > g.distance + g.thickness; }
+  // A normal toward the scene, a positive distance.
+  static void ValidateParams(const CamShell& s, const double* p, const std::string& field);
+  // Its normal: a flat port is axial.
+  static std::optional<Vec3> AxisThroughPupil(const CamSurfaces<double>& g, bool* identity) {
+    *identity = false;
+    return g.normal;
+  }
+  static std::optional<Vec3> StartDirection(const CamSurfaces<double>&, const Vec3&) { return std::nullopt; }
+  static Vec3 ApproximateAxis(const CamSurfaces<double>& g) { return g.normal; }
+  // The direction to the point steepened by the water index (its far field: sin θ_air = n_w sin θ_water).
+  static double InPlaneStart(const CamSurfaces<double>& g, double theta) {
+    return std::asin(std::min(0.999, g.n_water * std::sin(theta)));
+  }
+  std::array<PlausibleValue, 1> PlausibleValues() const { return {{{"thickness_mm", thickness_mm, kPortThicknessRange}}}; }
+  template <typename Self, typename F>
+  static void Fields(Self& self, F&& f) {
+    f("thickness_mm", self.thickness_mm, FieldUse::kRequired);
+    f("inner_point_mm", self.inner_point_mm, FieldUse::kRequired);
+    f("normal", self.normal, FieldUse::kDefaulted);
+  }
 };
 
 // A cylindrical port: glass between two coaxial circular cylinders whose axis crosses the optical
@@ -123,6 +323,69 @@ struct CylinderPort {
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
   nlohmann::ordered_json GeometryJson() const;
+
+  // As data (see "The port shapes" above).
+  static constexpr std::array<ParamInfo, 3> kPortParams = {{{"ep_x", "ep_in_cylinder_x_mm", "mm"},
+                                                            {"ep_z", "ep_in_cylinder_z_mm", "mm"},
+                                                            {"axis_angle", "axis_angle_deg", "deg"}}};
+  static constexpr std::string_view kPortParamsMeaning = "cylinder: entrance pupil minus axis, axis angle";
+  static constexpr std::array<ParamInfo, 2> kShellParams = {
+      {{"r_outer", "outer_radius_mm", "mm"}, {"r_inner", "inner_radius_mm", "mm"}}};
+  static constexpr std::array<std::string_view, 3> kShellJsonKeys = {"outer_radius_mm", "inner_radius_mm",
+                                                                     "rim_from_axis_z_mm"};
+  static constexpr std::array<double, 3> kDefaultPredictedSigma = {0.5, 0.5, 1.0};
+  static constexpr AxialSearch kAxialSearch{1, false, {0.0, -8.0, -4.0, 4.0, 8.0}};  // ep_z, mm
+  // Its radii; the rim above the axis (0 unset).
+  CamShell AsShell() const {
+    CamShell s;
+    s.outer_radius_mm = outer_radius_mm;
+    s.inner_radius_mm = inner_radius_mm;
+    s.rim_from_outer_z_mm = rim_z_mm ? *rim_z_mm - axis_point_mm.z() : 0.0;
+    return s;
+  }
+  // The pupil `ep` minus the axis (across it, along Z) and the axis angle from +Y (deg).
+  std::array<double, 3> PortParams(const Vec3& ep) const;
+  static std::array<double, 2> ShellValues(const CamShell& s) { return {s.outer_radius_mm, s.inner_radius_mm}; }
+  static void SetShellValues(const double* v, CamShell* s) {
+    s->outer_radius_mm = v[0];
+    s->inner_radius_mm = v[1];
+  }
+  static void ValidateShellValues(const double* v, const std::string& field);
+  // The axis a = (sin φ, cos φ, 0), φ = p[2] in degrees; the pupil at p[0] along a × ẑ and p[1]
+  // along Z from it (the axis's point nearest the pupil); the rim above the axis.
+  template <typename T>
+  static void SurfacesAt(const CamShell& s, const T* p, const T* v, CamSurfaces<T>* g);
+  template <typename T>
+  static TwoInterfaces<T> InterfacesAt(const CamSurfaces<T>& g) {
+    return Interfaces<T>(g.axis_point, g.normal, g.inner_radius, g.outer_radius, g.rim_z, g.n_glass, g.n_water);
+  }
+  static CylinderPort AtSurfaces(const CamSurfaces<double>& g);
+  static bool InWater(const CamSurfaces<double>& g, const Vec3& x);
+  // The pupil inside the inner cylinder.
+  static void ValidateParams(const CamShell& s, const double* p, const std::string& field);
+  // No axis of symmetry through the pupil: the 2-D iteration from StartDirection, the direction
+  // whose ray would reach the point far away with the pupil on the axis.
+  static std::optional<Vec3> AxisThroughPupil(const CamSurfaces<double>&, bool* identity) {
+    *identity = false;
+    return std::nullopt;
+  }
+  static std::optional<Vec3> StartDirection(const CamSurfaces<double>& g, const Vec3& x);
+  static Vec3 ApproximateAxis(const CamSurfaces<double>& g) { return g.normal; }  // not used
+  static double InPlaneStart(const CamSurfaces<double>&, double theta) { return theta; }
+  std::array<PlausibleValue, 3> PlausibleValues() const {
+    return {{{"outer_radius_mm", outer_radius_mm, kDomeRadiusRange},
+             {"inner_radius_mm", inner_radius_mm, kDomeRadiusRange},
+             {"thickness_mm", outer_radius_mm - inner_radius_mm, kPortThicknessRange}}};
+  }
+  // rim_z_mm first: it is written before the others (top-level keys before tables).
+  template <typename Self, typename F>
+  static void Fields(Self& self, F&& f) {
+    f("rim_z_mm", self.rim_z_mm, FieldUse::kOptional);
+    f("axis_point_mm", self.axis_point_mm, FieldUse::kRequired);
+    f("axis", self.axis, FieldUse::kDefaulted);
+    f("inner_radius_mm", self.inner_radius_mm, FieldUse::kRequired);
+    f("outer_radius_mm", self.outer_radius_mm, FieldUse::kRequired);
+  }
 };
 
 // The axis of a cylinder in the sense the port parameters use: unit, +Y half (+X where y = 0).
@@ -175,6 +438,36 @@ TwoInterfaces<T> CylinderPort::Interfaces(const Vec3T<T>& axis_point_mm, const V
                                  n_water, rim_z_mm);
 }
 
+template <typename T>
+void DomePort::SurfacesAt(const CamShell& s, const T* p, const T* v, CamSurfaces<T>* g) {
+  g->outer_center = Vec3T<T>(-p[0], -p[1], -p[2]);
+  g->inner_center = g->outer_center + (v ? Vec3T<T>(v[2], v[3], v[4]) : s.inner_from_outer_mm.cast<T>());
+  g->outer_radius = v ? v[0] : T(s.outer_radius_mm);
+  g->inner_radius = v ? v[1] : T(s.inner_radius_mm);
+  g->rim_z = -detail::ValueOf(p[2]) + s.rim_from_outer_z_mm;
+}
+
+template <typename T>
+void FlatPort::SurfacesAt(const CamShell& s, const T* p, const T* v, CamSurfaces<T>* g) {
+  using std::sqrt;
+  g->normal = Vec3T<T>(p[0], p[1], sqrt(T(1) - p[0] * p[0] - p[1] * p[1]));
+  g->distance = p[2];
+  g->thickness = v ? v[0] : T(s.thickness_mm);
+}
+
+template <typename T>
+void CylinderPort::SurfacesAt(const CamShell& s, const T* p, const T* v, CamSurfaces<T>* g) {
+  using std::cos;
+  using std::sin;
+  const T phi = p[2] * T(M_PI / 180);
+  g->normal = Vec3T<T>(sin(phi), cos(phi), T(0));
+  const Vec3T<T> across(cos(phi), -sin(phi), T(0));  // a × ẑ
+  g->axis_point = -(across * p[0] + Vec3T<T>(T(0), T(0), p[1]));
+  g->outer_radius = v ? v[0] : T(s.outer_radius_mm);
+  g->inner_radius = v ? v[1] : T(s.inner_radius_mm);
+  g->rim_z = -detail::ValueOf(p[1]) + s.rim_from_outer_z_mm;
+}
+
 enum class PortFrame { kHousing, kCam };
 
 // 1σ of a port's shell values where the port file states them (its `[sigma]` table: a scan's
@@ -189,12 +482,19 @@ struct ShellSigma {
   bool Empty() const { return !outer_radius_mm && !inner_radius_mm && !thickness_mm && !inner_offset_mm; }
 };
 
+// The closed list of shapes (a shape's index here is its refraction::PortKind).
+using PortShape = std::variant<DomePort, FlatPort, CylinderPort>;
+// The shapes' kNames in the list's order ("dome", "flat", "cylinder").
+std::vector<std::string_view> ShapeNames();
+// The shape named `name` (its kName), default-constructed; nullopt for no shape of that name.
+std::optional<PortShape> ShapeNamed(std::string_view name);
+
 struct PortSpec {
   std::string name;
   std::string description;
   std::string source;  // where the numbers come from
   PortFrame frame = PortFrame::kHousing;
-  std::variant<DomePort, FlatPort, CylinderPort> shape;
+  PortShape shape;
   // The entrance pupil to use when no lens says otherwise (housing frame).
   Vec3 default_ep_in_housing_mm = Vec3(0, 0, 26.9);
   // σ of the shell's values, where the file's [sigma] table states them.

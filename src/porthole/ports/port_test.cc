@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "porthole/core/error.h"
 
@@ -99,6 +102,121 @@ TEST(Port, FlatPortFieldOfViewInWaterIsLimitedTo97p2Degrees) {
   optics::Ray in;
   EXPECT_EQ(optics::TraceSequence<double>(sys.Inward(), {Vec3(0, 0, 100), Vec3(std::sin(w), 0, -std::cos(w))}, &in),
             optics::RayStatus::kTotalInternalReflection);
+}
+
+// ---- Every shape of the list: its data and its refractive-camera members agree ----
+
+// One placed example per shape (its pupil, off every symmetry), the only line a new shape adds.
+template <typename S>
+S Example();
+template <>
+DomePort Example<DomePort>() {
+  DomePort d;
+  d.outer = {Vec3(-0.4, -1.0, 21.5), 83.4};
+  d.inner = {Vec3(-0.4, -1.5, 20.3), 75.7};
+  d.rim_z_mm = 18.0;
+  return d;
+}
+template <>
+FlatPort Example<FlatPort>() {
+  FlatPort f;
+  f.normal = Vec3(0.05, -0.03, 1).normalized();
+  f.inner_point_mm = Vec3(1, 2, 50);
+  f.thickness_mm = 10;
+  return f;
+}
+template <>
+CylinderPort Example<CylinderPort>() {
+  CylinderPort c;
+  c.axis = Vec3(std::sin(0.2), std::cos(0.2), 0);
+  c.axis_point_mm = Vec3(1.5, 0, 30);
+  c.inner_radius_mm = 50.8;
+  c.outer_radius_mm = 57.15;
+  c.rim_z_mm = 25.0;
+  return c;
+}
+
+template <typename S>
+class EveryShape : public ::testing::Test {};
+using Shapes = ::testing::Types<DomePort, FlatPort, CylinderPort>;
+TYPED_TEST_SUITE(EveryShape, Shapes);
+
+// docs/conventions.md: a JSON key ends in its unit ("_mm", "_deg"), unless it has none ("1").
+void ExpectUnitsInKeys(const ParamInfo* p, std::size_t n, std::string_view shape) {
+  for (std::size_t i = 0; i < n; ++i) {
+    EXPECT_FALSE(p[i].name.empty()) << shape;
+    if (p[i].unit != "1") EXPECT_TRUE(p[i].json_key.ends_with("_" + std::string(p[i].unit))) << p[i].json_key;
+    for (std::size_t j = 0; j < i; ++j) EXPECT_NE(p[i].json_key, p[j].json_key) << shape;
+  }
+}
+
+TYPED_TEST(EveryShape, StatesItsDataOnce) {
+  using S = TypeParam;
+  ExpectUnitsInKeys(S::kPortParams.data(), S::kPortParams.size(), S::kName);
+  ExpectUnitsInKeys(S::kShellParams.data(), S::kShellParams.size(), S::kName);
+  EXPECT_TRUE(S::kPortParamsMeaning.starts_with(std::string(S::kName) + ": "));
+  for (double sigma : S::kDefaultPredictedSigma) EXPECT_GT(sigma, 0);
+  // The start's first candidate is the prediction itself.
+  ASSERT_GE(S::kAxialSearch.param, 0);
+  ASSERT_LT(S::kAxialSearch.param, 3);
+  EXPECT_EQ(S::kAxialSearch.Candidates(7.5).front(), 7.5);
+  // Its name finds it in the list.
+  const auto shape = ShapeNamed(S::kName);
+  ASSERT_TRUE(shape.has_value());
+  EXPECT_TRUE(std::holds_alternative<S>(*shape));
+  EXPECT_FALSE(ShapeNamed("no-such-shape").has_value());
+  // Every plausible value is one of its port-file keys (what the warning names).
+  const S example = Example<S>();
+  std::vector<std::string> keys;
+  S::Fields(example, [&](std::string_view key, const auto&, FieldUse) { keys.emplace_back(key); });
+  for (const PlausibleValue& v : example.PlausibleValues()) {
+    if (v.key != "thickness_mm") EXPECT_NE(std::find(keys.begin(), keys.end(), v.key), keys.end()) << v.key;
+  }
+}
+
+// Its parameters and shell, as placed in the housing frame (PortParams, AsShell), make in the cam
+// frame (SurfacesAt) the surfaces of the same shape moved by the pupil (AtSurfaces): the two
+// statements of what its parameters mean agree; and its shell values read back what they set.
+TYPED_TEST(EveryShape, ParametersAndShellDescribeIt) {
+  using S = TypeParam;
+  const S s = Example<S>();
+  const Vec3 ep(0.3, -0.2, 26.9);
+  ASSERT_NO_THROW(s.RequirePupilInside(ep));
+  const auto p = s.PortParams(ep);
+  const CamShell shell = s.AsShell();
+  CamSurfaces<double> g;
+  g.n_glass = 1.5;
+  g.n_water = 1.34;
+  S::template SurfacesAt<double>(shell, p.data(), nullptr, &g);
+  S back = S::AtSurfaces(g);
+  back.Translate(ep);
+  const auto q = back.PortParams(ep);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(q[i], p[i], 1e-12) << S::kName << " parameter " << i;
+  const auto v = S::ShellValues(shell);
+  const auto w = S::ShellValues(back.AsShell());
+  for (std::size_t i = 0; i < v.size(); ++i) EXPECT_NEAR(w[i], v[i], 1e-12) << S::kName << " shell value " << i;
+  EXPECT_NEAR(back.AsShell().rim_from_outer_z_mm, shell.rim_from_outer_z_mm, 1e-12);
+  // The same surfaces trace the same rays as the shape placed in the housing frame.
+  const auto cam = S::template InterfacesAt<double>(g);
+  const auto housing = s.Outward(1.5, 1.34);
+  const Vec3 dir = Vec3(0.2, -0.1, 1).normalized();
+  optics::Ray a, b;
+  ASSERT_EQ(optics::TraceSequence<double>({housing.begin(), housing.end()}, {ep, dir}, &a), optics::RayStatus::kOk);
+  ASSERT_EQ(optics::TraceSequence<double>({cam.begin(), cam.end()}, {Vec3::Zero(), dir}, &b), optics::RayStatus::kOk);
+  EXPECT_LE((a.origin - ep - b.origin).norm(), 1e-9) << S::kName;
+  EXPECT_LE((a.dir - b.dir).norm(), 1e-12) << S::kName;
+  EXPECT_TRUE(S::InWater(g, b.origin + 100 * b.dir));
+  EXPECT_FALSE(S::InWater(g, Vec3::Zero()));
+  // Values set are values read; values that are no shell are refused.
+  CamShell other;
+  std::array<double, S::kShellParams.size()> set{};
+  for (std::size_t i = 0; i < set.size(); ++i) set[i] = v[i] + 0.25 * (i + 1);
+  S::SetShellValues(set.data(), &other);
+  EXPECT_EQ(S::ShellValues(other), set);
+  EXPECT_NO_THROW(S::ValidateShellValues(v.data(), "shell"));
+  std::array<double, S::kShellParams.size()> bad = v;
+  bad[S::kShellParams.size() > 1 ? 1 : 0] = -1;  // an inner radius or a thickness
+  EXPECT_THROW(S::ValidateShellValues(bad.data(), "shell"), InvalidInput);
 }
 
 }  // namespace

@@ -43,47 +43,6 @@ Geometry<S> CastGeometry(const Geometry<double>& g) {
   return c;
 }
 
-// The axis of an axial system (unit, z ≥ 0), or nullopt when the system is not axial. *identity is
-// set when the pupil sits at the common centre of a concentric dome (no ray is bent).
-std::optional<Vec3> Axis(const Geometry<double>& g, bool* identity) {
-  *identity = false;
-  if (g.kind == PortKind::kFlat) return g.normal;
-  const Vec3& co = g.outer_center;
-  const Vec3& ci = g.inner_center;
-  const double tol = 1e-12 * g.outer_radius;
-  const double no = co.norm(), ni = ci.norm();
-  if (no <= tol && ni <= tol) {
-    *identity = true;
-    return Vec3::UnitZ();
-  }
-  const Vec3 a = (no >= ni ? co / no : ci / ni);
-  // Both centres on the line through the pupil along a.
-  if ((co - co.dot(a) * a).norm() > tol || (ci - ci.dot(a) * a).norm() > tol) return std::nullopt;
-  return a.z() < 0 ? Vec3(-a) : a;
-}
-
-// A cylinder's start: the direction whose ray would reach `x` far away with the pupil on the
-// axis. There every ray meets both surfaces square across the axis, so only its slope along the
-// axis bends, as through a flat port: sin(slope in air) = n_water sin(slope in water).
-Vec3 CylinderStart(const Geometry<double>& g, const Vec3& x) {
-  const Vec3& a = g.normal;
-  const double along = x.dot(a);
-  Vec3 across = x - along * a;
-  const double rho = across.norm();
-  if (rho <= 1e-14 * x.norm()) return x.normalized();
-  across /= rho;
-  const double slope = std::asin(std::clamp(g.n_water * along / x.norm(), -0.999, 0.999));
-  return std::cos(slope) * across + std::sin(slope) * a;
-}
-
-// The approximate axis of a non-axial dome: from the pupil through the outer centre (or the
-// inner one when the pupil sits at the outer centre), z ≥ 0.
-Vec3 ApproximateAxis(const Geometry<double>& g) {
-  const Vec3& co = g.outer_center;
-  const Vec3 a = co.norm() > 1e-9 * g.outer_radius ? co.normalized() : g.inner_center.normalized();
-  return a.z() < 0 ? Vec3(-a) : a;
-}
-
 // 1-D safeguarded Newton (Numerical Recipes' rtsafe idea): the angle θ ∈ (0, π) of the direction
 // cos θ·a + sin θ·e in the plane through the axis a and the point, e the unit in-plane
 // perpendicular toward the point. Residual F(θ) = ((u × v)·m), m = a × e: the sine of the angle
@@ -154,6 +113,14 @@ static_assert(std::is_same_v<ShapeOf<PortKind::kDome>, ports::DomePort> &&
               std::is_same_v<ShapeOf<PortKind::kCylinder>, ports::CylinderPort> &&
               std::variant_size_v<Shapes> == 3);
 
+// {f(type_identity<Shape>)...} over the list, in its order: a table indexed by PortKind.
+template <typename F>
+constexpr auto PerShape(F f) {
+  return [&]<std::size_t... I>(std::index_sequence<I...>) {
+    return std::array{f(std::type_identity<std::variant_alternative_t<I, Shapes>>{})...};
+  }(std::make_index_sequence<std::variant_size_v<Shapes>>());
+}
+
 }  // namespace
 
 std::string_view PortKindName(PortKind kind) {
@@ -167,83 +134,51 @@ std::string_view PortKindName(PortKind kind) {
 PortKind KindOf(const ports::PortSpec& spec) { return static_cast<PortKind>(spec.shape.index()); }
 
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind) {
-  static constexpr std::array<PortParamInfo, kPortNumParams> kDome = {{
-      {"ep_x", "ep_in_dome_x_mm", "mm"},
-      {"ep_y", "ep_in_dome_y_mm", "mm"},
-      {"ep_z", "ep_in_dome_z_mm", "mm"},
-  }};
-  static constexpr std::array<PortParamInfo, kPortNumParams> kFlat = {{
-      {"n_x", "normal_x", "1"},
-      {"n_y", "normal_y", "1"},
-      {"distance", "distance_mm", "mm"},
-  }};
-  static constexpr std::array<PortParamInfo, kPortNumParams> kCylinder = {{
-      {"ep_x", "ep_in_cylinder_x_mm", "mm"},
-      {"ep_z", "ep_in_cylinder_z_mm", "mm"},
-      {"axis_angle", "axis_angle_deg", "deg"},
-  }};
-  return kind == PortKind::kDome ? kDome : kind == PortKind::kFlat ? kFlat : kCylinder;
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kPortParams; });
+  return kAll[static_cast<std::size_t>(kind)];
 }
 
 std::string_view PortParamsMeaning(PortKind kind) {
-  switch (kind) {
-    case PortKind::kDome: return "dome: entrance pupil minus outer centre";
-    case PortKind::kFlat: return "flat: inner-face normal and pupil distance";
-    case PortKind::kCylinder: return "cylinder: entrance pupil minus axis, axis angle";
-  }
-  return "";
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kPortParamsMeaning; });
+  return kAll[static_cast<std::size_t>(kind)];
+}
+
+const std::array<double, kPortNumParams>& PredictedSigmaOf(PortKind kind) {
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kDefaultPredictedSigma; });
+  return kAll[static_cast<std::size_t>(kind)];
+}
+
+const ports::AxialSearch& AxialSearchOf(PortKind kind) {
+  static constexpr auto kAll = PerShape([](auto s) { return decltype(s)::type::kAxialSearch; });
+  return kAll[static_cast<std::size_t>(kind)];
 }
 
 const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind) {
-  static constexpr std::array<PortParamInfo, kShellNumParams> kDome = {{
-      {"n_water", "water_index_factor", "1"},
-      {"r_outer", "outer_radius_mm", "mm"},
-      {"r_inner", "inner_radius_mm", "mm"},
-      {"off_x", "inner_from_outer_x_mm", "mm"},
-      {"off_y", "inner_from_outer_y_mm", "mm"},
-      {"off_z", "inner_from_outer_z_mm", "mm"},
-  }};
-  static constexpr std::array<PortParamInfo, kShellNumParams> kFlat = {{
-      {"n_water", "water_index_factor", "1"},
-      {"thickness", "thickness_mm", "mm"},
-      {"", "", ""},
-      {"", "", ""},
-      {"", "", ""},
-      {"", "", ""},
-  }};
-  static constexpr std::array<PortParamInfo, kShellNumParams> kCylinder = {{
-      {"n_water", "water_index_factor", "1"},
-      {"r_outer", "outer_radius_mm", "mm"},
-      {"r_inner", "inner_radius_mm", "mm"},
-      {"", "", ""},
-      {"", "", ""},
-      {"", "", ""},
-  }};
-  return kind == PortKind::kDome ? kDome : kind == PortKind::kFlat ? kFlat : kCylinder;
+  // The water index factor, then the shape's own values, then unused ("").
+  static constexpr auto kAll = PerShape([](auto s) {
+    using S = typename decltype(s)::type;
+    static_assert(S::kShellParams.size() < kShellNumParams);
+    std::array<PortParamInfo, kShellNumParams> a{};
+    a[0] = {"n_water", "water_index_factor", "1"};
+    for (std::size_t i = 0; i < S::kShellParams.size(); ++i) a[i + 1] = S::kShellParams[i];
+    return a;
+  });
+  return kAll[static_cast<std::size_t>(kind)];
 }
 
 ShellArray ShellValues(const Shell& s) {
-  if (s.kind == PortKind::kDome) {
-    return {1.0, s.outer_radius_mm, s.inner_radius_mm, s.inner_from_outer_mm.x(),
-            s.inner_from_outer_mm.y(), s.inner_from_outer_mm.z()};
-  }
-  if (s.kind == PortKind::kCylinder) return {1.0, s.outer_radius_mm, s.inner_radius_mm, 0, 0, 0};
-  return {1.0, s.thickness_mm, 0, 0, 0, 0};
+  ShellArray v{1.0, 0, 0, 0, 0, 0};
+  VisitKind(s.kind, [&](auto shape) {
+    const auto own = decltype(shape)::type::ShellValues(s);
+    std::copy(own.begin(), own.end(), v.begin() + 1);
+  });
+  return v;
 }
 
 Shell WithShellValues(const Shell& s, const ShellArray& v) {
   Shell out = s;
   out.n_water = s.n_water * v[0];
-  if (s.kind == PortKind::kDome) {
-    out.outer_radius_mm = v[1];
-    out.inner_radius_mm = v[2];
-    out.inner_from_outer_mm = Vec3(v[3], v[4], v[5]);
-  } else if (s.kind == PortKind::kCylinder) {
-    out.outer_radius_mm = v[1];
-    out.inner_radius_mm = v[2];
-  } else {
-    out.thickness_mm = v[1];
-  }
+  VisitKind(s.kind, [&](auto shape) { decltype(shape)::type::SetShellValues(v.data() + 1, &out); });
   return out;
 }
 
@@ -255,31 +190,11 @@ void ValidateShellValues(const Shell& s, const ShellArray& v, const std::string&
     throw InvalidInput(field, fmt::format("the water index factor {:.6g} gives a water index {:.6g} "
                                           "below 1", v[0], s.n_water * v[0]));
   }
-  if (s.kind == PortKind::kDome) {
-    if (!(v[2] > 0) || !(Vec3(v[3], v[4], v[5]).norm() < v[1] - v[2])) {
-      throw InvalidInput(field, fmt::format("the inner sphere (radius {:.4g} mm, {:.4g} mm from the "
-                                            "outer centre) is not inside the outer one (radius {:.4g} mm)",
-                                            v[2], Vec3(v[3], v[4], v[5]).norm(), v[1]));
-    }
-  } else if (s.kind == PortKind::kCylinder) {
-    if (!(v[2] > 0) || !(v[2] < v[1])) {
-      throw InvalidInput(field, fmt::format("the inner cylinder (radius {:.4g} mm) is not inside the "
-                                            "outer one (radius {:.4g} mm)", v[2], v[1]));
-    }
-  } else if (!(v[1] > 0)) {
-    throw InvalidInput(field, fmt::format("the glass thickness {:.4g} mm is not positive", v[1]));
-  }
+  VisitKind(s.kind, [&](auto shape) { decltype(shape)::type::ValidateShellValues(v.data() + 1, field); });
 }
 
 bool InWater(const Geometry<double>& g, const Vec3& x) {
-  if (g.kind == PortKind::kDome) {
-    return (x - g.outer_center).norm() > g.outer_radius && x.z() > g.rim_z;
-  }
-  if (g.kind == PortKind::kCylinder) {
-    const Vec3 q = x - g.axis_point;
-    return (q - q.dot(g.normal) * g.normal).norm() > g.outer_radius && x.z() > g.rim_z;
-  }
-  return x.dot(g.normal) > g.distance + g.thickness;
+  return VisitKind(g.kind, [&](auto shape) { return decltype(shape)::type::InWater(g, x); });
 }
 
 bool FillJacobian(const Geometry<double>& g, const Vec3& x, Solution* s) {
@@ -290,24 +205,35 @@ bool FillJacobian(const Geometry<double>& g, const Vec3& x, Solution* s) {
 std::optional<Solution> SolveDirection(const Geometry<double>& g, const Vec3& x) {
   if (!x.allFinite() || !InWater(g, x)) return std::nullopt;
   Solution s;
+  // The shape's axis of symmetry through the pupil (an axial system), else its start: a direction
+  // for the 2-D iteration (a cylinder), or an approximate axis for a first 1-D solve in the plane
+  // through it (a non-axial dome). ports/port.h: AxisThroughPupil, StartDirection, ApproximateAxis,
+  // InPlaneStart.
   bool identity = false;
-  // A cylinder has no axis of symmetry through the pupil: the 2-D iteration from its start.
-  const std::optional<Vec3> axis =
-      g.kind == PortKind::kCylinder ? std::nullopt : Axis(g, &identity);
+  std::optional<Vec3> axis, start;
+  Vec3 approximate_axis = Vec3::UnitZ();
+  VisitKind(g.kind, [&](auto shape) {
+    using S = typename decltype(shape)::type;
+    axis = S::AxisThroughPupil(g, &identity);
+    if (!axis && !identity) {
+      start = S::StartDirection(g, x);
+      if (!start) approximate_axis = S::ApproximateAxis(g);
+    }
+  });
   s.axial = axis.has_value();
   if (identity) {
     s.dir = x.normalized();
     return s;
   }
-  if (g.kind == PortKind::kCylinder) {
-    s.dir = CylinderStart(g, x);
+  if (start) {
+    s.dir = *start;
     // A start whose ray misses the glass (beyond the rim, for a point seen close to it) is turned
     // toward +Z until its ray gets through; Newton's backtracking then walks to the solution.
     Vec3 o, v;
     for (int k = 0; k < 20 && TraceOut<double>(g, s.dir, &o, &v) != optics::RayStatus::kOk; ++k) {
       s.dir = (s.dir + 0.1 * Vec3::UnitZ()).normalized();
     }
-  } else if (const Vec3 a = axis ? *axis : ApproximateAxis(g);
+  } else if (const Vec3 a = axis ? *axis : approximate_axis;
              (x - x.dot(a) * a).norm() <= 1e-14 * x.norm()) {
     // On the axis: an axial system sends the axial ray straight through it.
     s.dir = x.dot(a) >= 0 ? a : Vec3(-a);
@@ -316,10 +242,10 @@ std::optional<Solution> SolveDirection(const Geometry<double>& g, const Vec3& x)
     Vec3 e = x - x.dot(a) * a;
     const double rho = e.norm();
     e /= rho;
-    // Start: the direction to the point, steepened by the water index for a flat port (its far
-    // field: sin θ_air = n_w sin θ_water).
-    double th0 = std::atan2(rho, x.dot(a));
-    if (g.kind == PortKind::kFlat) th0 = std::asin(std::min(0.999, g.n_water * std::sin(th0)));
+    // Start: the direction to the point, as the shape would have it (a flat port steepens it by
+    // the water index).
+    const double th0 =
+        VisitKind(g.kind, [&](auto shape) { return decltype(shape)::type::InPlaneStart(g, std::atan2(rho, x.dot(a))); });
     const auto th = SolveInPlane(CastGeometry<J1>(g), x, a, e, th0, axis ? kFinalStep : 1e-3,
                                  &s.iterations);
     if (!th) return std::nullopt;
@@ -361,39 +287,13 @@ Shell ShellOf(const ports::PortSystem& sys) {
   Shell s;
   s.n_glass = sys.n_glass;
   s.n_water = sys.n_water;
-  if (sys.IsDome()) {
-    const ports::DomePort& d = sys.dome();
-    s.kind = PortKind::kDome;
-    s.outer_radius_mm = d.outer.radius_mm;
-    s.inner_radius_mm = d.inner.radius_mm;
-    s.inner_from_outer_mm = d.inner.center_mm - d.outer.center_mm;
-    s.rim_from_outer_z_mm = d.rim_z_mm ? *d.rim_z_mm - d.outer.center_mm.z() : 0.0;
-  } else if (sys.IsCylinder()) {
-    const ports::CylinderPort& c = sys.cylinder();
-    s.kind = PortKind::kCylinder;
-    s.outer_radius_mm = c.outer_radius_mm;
-    s.inner_radius_mm = c.inner_radius_mm;
-    s.rim_from_outer_z_mm = c.rim_z_mm ? *c.rim_z_mm - c.axis_point_mm.z() : 0.0;
-  } else {
-    s.kind = PortKind::kFlat;
-    s.thickness_mm = sys.flat().thickness_mm;
-  }
+  s.kind = KindOf(sys.spec);
+  static_cast<ports::CamShell&>(s) = std::visit([](const auto& shape) { return shape.AsShell(); }, sys.spec.shape);
   return s;
 }
 
 std::array<double, kPortNumParams> ParamsOf(const ports::PortSystem& sys) {
-  if (sys.IsDome()) {
-    const Vec3 p = sys.ep_in_housing_mm - sys.dome().outer.center_mm;
-    return {p.x(), p.y(), p.z()};
-  }
-  if (sys.IsCylinder()) {
-    const ports::CylinderPort& c = sys.cylinder();
-    const Vec3 a = ports::CanonicalAxis(c.axis);
-    const Vec3 q = sys.ep_in_housing_mm - c.axis_point_mm;
-    return {q.dot(a.cross(Vec3::UnitZ())), q.z(), std::atan2(a.x(), a.y()) * 180 / M_PI};
-  }
-  const ports::FlatPort& f = sys.flat();
-  return {f.normal.x(), f.normal.y(), (f.inner_point_mm - sys.ep_in_housing_mm).dot(f.normal)};
+  return std::visit([&](const auto& shape) { return shape.PortParams(sys.ep_in_housing_mm); }, sys.spec.shape);
 }
 
 ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
@@ -406,27 +306,19 @@ ports::PortSpec SpecWithParams(const ports::PortSystem& sys,
   ports::PortSpec spec = sys.spec;
   spec.frame = ports::PortFrame::kHousing;
   spec.default_ep_in_housing_mm = sys.ep_in_housing_mm;
-  const Shell shell = ShellOf(sys);
-  const Geometry<double> g = MakeGeometry<double>(shell, p.data(), v.data());
-  const Vec3& ep = sys.ep_in_housing_mm;
-  if (auto* d = std::get_if<ports::DomePort>(&spec.shape)) {
-    d->outer.center_mm = ep + g.outer_center;
-    d->inner.center_mm = ep + g.inner_center;
-    d->outer.radius_mm = g.outer_radius;
-    d->inner.radius_mm = g.inner_radius;
-    if (d->rim_z_mm) *d->rim_z_mm = ep.z() + g.rim_z;
-  } else if (auto* c = std::get_if<ports::CylinderPort>(&spec.shape)) {
-    c->axis = g.normal;
-    c->axis_point_mm = ep + g.axis_point;
-    c->outer_radius_mm = g.outer_radius;
-    c->inner_radius_mm = g.inner_radius;
-    if (c->rim_z_mm) *c->rim_z_mm = ep.z() + g.rim_z;
-  } else {
-    auto& f = std::get<ports::FlatPort>(spec.shape);
-    f.normal = g.normal;
-    f.inner_point_mm = ep + g.distance * g.normal;
-    f.thickness_mm = g.thickness;
-  }
+  const Geometry<double> g = MakeGeometry<double>(ShellOf(sys), p.data(), v.data());
+  // The shape at the new surfaces, moved to the housing frame; its material kept, and a rim only
+  // where it had one.
+  std::visit([&](auto& shape) {
+    using S = std::decay_t<decltype(shape)>;
+    S moved = S::AtSurfaces(g);
+    moved.material = shape.material;
+    moved.Translate(sys.ep_in_housing_mm);
+    if constexpr (requires { shape.rim_z_mm; }) {
+      if (!shape.rim_z_mm) moved.rim_z_mm.reset();
+    }
+    shape = std::move(moved);
+  }, spec.shape);
   ports::Validate(spec);
   return spec;
 }
@@ -438,30 +330,11 @@ ports::PortSpec PortSpecOf(const Shell& shell, const std::array<double, kPortNum
   spec.name = name;
   spec.description = "a calibrated port (shell and parameters), relative to the pupil";
   spec.frame = ports::PortFrame::kCam;
-  if (shell.kind == PortKind::kDome) {
-    ports::DomePort d;
-    d.outer = {g.outer_center, g.outer_radius};
-    d.inner = {g.inner_center, g.inner_radius};
-    d.material = material;
-    d.rim_z_mm = g.rim_z;
-    spec.shape = d;
-  } else if (shell.kind == PortKind::kCylinder) {
-    ports::CylinderPort c;
-    c.axis = g.normal;
-    c.axis_point_mm = g.axis_point;
-    c.inner_radius_mm = g.inner_radius;
-    c.outer_radius_mm = g.outer_radius;
-    c.material = material;
-    c.rim_z_mm = g.rim_z;
-    spec.shape = c;
-  } else {
-    ports::FlatPort f;
-    f.normal = g.normal;
-    f.inner_point_mm = g.distance * g.normal;
-    f.thickness_mm = g.thickness;
-    f.material = material;
-    spec.shape = f;
-  }
+  VisitKind(shell.kind, [&](auto shape) {
+    auto s = decltype(shape)::type::AtSurfaces(g);
+    s.material = material;
+    spec.shape = std::move(s);
+  });
   ports::Validate(spec, "port");
   return spec;
 }
@@ -475,25 +348,7 @@ void ValidateParams(const Shell& shell, const double* p, const std::string& fiel
   for (int i = 0; i < kPortNumParams; ++i) {
     if (!std::isfinite(p[i])) throw InvalidInput(field, "port parameters must be finite numbers");
   }
-  if (shell.kind == PortKind::kDome) {
-    const Geometry<double> g = MakeGeometry<double>(shell, p);
-    if (g.inner_center.norm() >= g.inner_radius) {
-      throw InvalidInput(field, fmt::format("the entrance pupil ({:.2f}, {:.2f}, {:.2f}) mm from "
-                                            "the dome centre is not inside the inner sphere",
-                                            p[0], p[1], p[2]));
-    }
-  } else if (shell.kind == PortKind::kCylinder) {
-    if (std::hypot(p[0], p[1]) >= shell.inner_radius_mm) {
-      throw InvalidInput(field, fmt::format("the entrance pupil ({:.2f}, {:.2f}) mm from the cylinder's "
-                                            "axis is not inside the inner cylinder (radius {:.4g} mm)",
-                                            p[0], p[1], shell.inner_radius_mm));
-    }
-  } else {
-    if (!(p[0] * p[0] + p[1] * p[1] < 1)) {
-      throw InvalidInput(field, "the flat port's normal must point toward the scene (n_x² + n_y² < 1)");
-    }
-    if (!(p[2] > 0)) throw InvalidInput(field, "the flat port must lie ahead of the pupil (distance > 0)");
-  }
+  VisitKind(shell.kind, [&](auto shape) { decltype(shape)::type::ValidateParams(shell, p, field); });
 }
 
 }  // namespace porthole::refraction

@@ -52,6 +52,8 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <utility>
+#include <variant>
 #include <vector>
 
 #include "porthole/camera/scalar.h"
@@ -75,39 +77,49 @@ std::string_view PortKindName(PortKind kind);
 // The kind of a port spec's shape (its index in the list).
 PortKind KindOf(const ports::PortSpec& spec);
 
-// The fixed part of a port (see the file comment), cam-frame axes, mm.
-struct Shell {
+// Calls f(std::type_identity<Shape>{}) for the shape of `kind` (its alternative of
+// ports::PortShape) and returns what it returns: how the refractive camera reads a shape's own
+// members (ports/port.h) without switching on the kind.
+template <std::size_t I = 0, typename F>
+decltype(auto) VisitKind(PortKind kind, F&& f) {
+  using Shape = std::variant_alternative_t<I, ports::PortShape>;
+  if constexpr (I + 1 == std::variant_size_v<ports::PortShape>) {
+    return f(std::type_identity<Shape>{});
+  } else {
+    if (static_cast<std::size_t>(kind) == I) return f(std::type_identity<Shape>{});
+    return VisitKind<I + 1>(kind, std::forward<F>(f));
+  }
+}
+
+// The fixed part of a port (see the file comment), cam-frame axes, mm: the shape's shell values
+// (ports::CamShell: dome and cylinder radii, a dome's inner centre from the outer one, the rim; a
+// flat port's thickness) and the indices.
+struct Shell : ports::CamShell {
   PortKind kind = PortKind::kDome;
-  // Dome and cylinder.
-  double outer_radius_mm = 0, inner_radius_mm = 0;
-  Vec3 inner_from_outer_mm = Vec3::Zero();  // dome: inner centre − outer centre
-  // Glass where z ≥ (the outer centre's z, a cylinder's axis z) + this: the rim plane.
-  double rim_from_outer_z_mm = 0;
-  // Flat.
-  double thickness_mm = 0;
   // Indices relative to air (inside the housing n = 1).
   double n_glass = 1.5168, n_water = 1.341;
 };
 
 inline constexpr int kPortNumParams = 3;
 
-struct PortParamInfo {
-  std::string_view name;      // as --free-port and the tables say it
-  std::string_view json_key;  // with its unit
-  std::string_view unit;
-};
-// The three parameters' names of a port kind, in order.
+// Name (as --free-port and the tables say it), JSON key with its unit, unit.
+using PortParamInfo = ports::ParamInfo;
+// The three parameters' names of a port kind, in order (its shape's kPortParams).
 const std::array<PortParamInfo, kPortNumParams>& PortParams(PortKind kind);
-// What the three are, in words ("dome: entrance pupil minus outer centre").
+// What the three are, in words ("dome: entrance pupil minus outer centre"; kPortParamsMeaning).
 std::string_view PortParamsMeaning(PortKind kind);
+// A calibration's default σ of the predicted parameters (kDefaultPredictedSigma), and the search
+// of its start along the optical axis (kAxialSearch).
+const std::array<double, kPortNumParams>& PredictedSigmaOf(PortKind kind);
+const ports::AxialSearch& AxialSearchOf(PortKind kind);
 
 // ---- The shell's values as parameters ----
 // What a calibration may adjust beside the three port parameters (kShellNumParams values, in this
 // order; ShellParams(kind) names them), each fixed at the Shell's value unless adjusted:
 //   0     water_index_factor: the water index is factor × Shell::n_water (1: the materials model);
-//   dome  1 outer_radius_mm, 2 inner_radius_mm, 3–5 inner_from_outer_{x,y,z}_mm (cam axes);
-//   flat  1 thickness_mm; 2–5 unused (0);
-//   cylinder  1 outer_radius_mm, 2 inner_radius_mm; 3–5 unused (0).
+//   1…    the shape's kShellParams (ports/port.h), each the Shell field its key names; the rest
+//         unused (0): dome 1 outer_radius_mm, 2 inner_radius_mm, 3–5 inner_from_outer_{x,y,z}_mm
+//         (cam axes); flat 1 thickness_mm; cylinder 1 outer_radius_mm, 2 inner_radius_mm.
 inline constexpr int kShellNumParams = 6;
 using ShellArray = std::array<double, kShellNumParams>;
 const std::array<PortParamInfo, kShellNumParams>& ShellParams(PortKind kind);
@@ -120,20 +132,16 @@ Shell WithShellValues(const Shell& s, const ShellArray& v);
 // port's positive thickness.
 void ValidateShellValues(const Shell& s, const ShellArray& v, const std::string& field);
 
-// A port's surfaces in the cam frame for parameters p (see the file comment), in scalar T; the
-// shell's values from `shell_values` (kShellNumParams, see above) when given, else from `s`.
+// A port's surfaces in the cam frame for parameters p (see the file comment), in scalar T
+// (ports::CamSurfaces: each shape uses its own fields), with the kind of its shape.
 template <typename T>
-struct Geometry {
+struct Geometry : ports::CamSurfaces<T> {
   PortKind kind = PortKind::kDome;
-  Vec3T<T> outer_center, inner_center;  // dome
-  T outer_radius, inner_radius;         // dome, cylinder
-  double rim_z = 0;                     // dome, cylinder: glass where z ≥ rim_z (value only)
-  Vec3T<T> normal;                      // flat: unit, toward the scene; cylinder: unit axis
-  Vec3T<T> axis_point;                  // cylinder: the axis's point nearest the pupil
-  T distance, thickness;                // flat: pupil to inner face along normal; glass
-  T n_glass, n_water;
 };
 
+// The surfaces of shell `s` with parameters p: the shape's SurfacesAt<T> (ports/port.h), its shell
+// values from `shell_values` (kShellNumParams, see above; the shape's after the water index
+// factor) when given, else from `s`.
 template <typename T>
 Geometry<T> MakeGeometry(const Shell& s, const T* p, const T* shell_values = nullptr) {
   const T* v = shell_values;
@@ -141,50 +149,20 @@ Geometry<T> MakeGeometry(const Shell& s, const T* p, const T* shell_values = nul
   g.kind = s.kind;
   g.n_glass = T(s.n_glass);
   g.n_water = v ? T(s.n_water) * v[0] : T(s.n_water);
-  if (s.kind == PortKind::kDome) {
-    g.outer_center = Vec3T<T>(-p[0], -p[1], -p[2]);
-    g.inner_center = g.outer_center + (v ? Vec3T<T>(v[3], v[4], v[5]) : s.inner_from_outer_mm.cast<T>());
-    g.outer_radius = v ? v[1] : T(s.outer_radius_mm);
-    g.inner_radius = v ? v[2] : T(s.inner_radius_mm);
-    g.rim_z = -camera::ScalarValue(p[2]) + s.rim_from_outer_z_mm;
-  } else if (s.kind == PortKind::kCylinder) {
-    using std::cos;
-    using std::sin;
-    const T phi = p[2] * T(M_PI / 180);
-    g.normal = Vec3T<T>(sin(phi), cos(phi), T(0));
-    const Vec3T<T> across(cos(phi), -sin(phi), T(0));  // a × ẑ
-    g.axis_point = -(across * p[0] + Vec3T<T>(T(0), T(0), p[1]));
-    g.outer_radius = v ? v[1] : T(s.outer_radius_mm);
-    g.inner_radius = v ? v[2] : T(s.inner_radius_mm);
-    g.rim_z = -camera::ScalarValue(p[1]) + s.rim_from_outer_z_mm;
-  } else {
-    using std::sqrt;
-    g.normal = Vec3T<T>(p[0], p[1], sqrt(T(1) - p[0] * p[0] - p[1] * p[1]));
-    g.distance = p[2];
-    g.thickness = v ? v[1] : T(s.thickness_mm);
-  }
+  VisitKind(s.kind, [&](auto shape) {
+    decltype(shape)::type::template SurfacesAt<T>(s, p, v ? v + 1 : nullptr, &g);
+  });
   return g;
 }
 
 // The port's two surfaces in the cam frame, as the tracer takes them (inner then outer, air →
 // glass → water), in scalar T: each shape's own ports::<Shape>Port::Interfaces<T> (ports/port.h,
 // the one statement of a shape's surfaces, which ports::PortSystem::Outward also calls, in double
-// in the housing frame) given the geometry's values. The refractive projection and the backward
-// trace (Interfaces below) trace them.
+// in the housing frame) at the geometry's values (the shape's InterfacesAt<T>). The refractive
+// projection and the backward trace (Interfaces below) trace them.
 template <typename T>
 ports::TwoInterfaces<T> InterfacesOf(const Geometry<T>& g) {
-  switch (g.kind) {
-    case PortKind::kDome:
-      return ports::DomePort::Interfaces<T>(g.inner_center, g.inner_radius, g.outer_center,
-                                            g.outer_radius, g.rim_z, g.n_glass, g.n_water);
-    case PortKind::kCylinder:
-      return ports::CylinderPort::Interfaces<T>(g.axis_point, g.normal, g.inner_radius,
-                                                g.outer_radius, g.rim_z, g.n_glass, g.n_water);
-    case PortKind::kFlat:
-      break;
-  }
-  return ports::FlatPort::Interfaces<T>(Vec3T<T>::Zero(), g.normal, g.distance, g.thickness,
-                                        g.n_glass, g.n_water);
+  return VisitKind(g.kind, [&](auto shape) { return decltype(shape)::type::template InterfacesAt<T>(g); });
 }
 
 // Traces the ray leaving the pupil (the cam-frame origin) along `dir` (any length) out through

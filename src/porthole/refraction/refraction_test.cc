@@ -8,12 +8,14 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <map>
 #include <string>
 #include <vector>
 
 #include "porthole/camera/camera.h"
 #include "porthole/core/error.h"
 #include "porthole/refraction/refraction.h"
+#include "porthole/refraction/shell_json.h"
 #include "porthole/refraction/test_camera.h"
 
 namespace porthole::refraction {
@@ -284,6 +286,38 @@ TEST(ShellValues, AreTheShellsOwnAndRefuseNonsense) {
     bad[shell.kind == PortKind::kDome ? 2 : 1] = -1;  // inner radius or thickness negative
     EXPECT_THROW(ValidateShellValues(shell, bad, "shell"), InvalidInput) << c.name;
   }
+}
+
+// The `shell` JSON block has the keys shell_json.h documents for each shape (the shapes'
+// kShellJsonKeys) and reads back to the same shell; a block that is no shell is refused.
+TEST(ShellJson, HasEachShapesKeysAndReadsBack) {
+  const std::map<std::string, std::vector<std::string>> keys = {
+      {"dome", {"outer_radius_mm", "inner_radius_mm", "inner_from_outer_mm", "rim_from_outer_z_mm"}},
+      {"flat", {"thickness_mm"}},
+      {"cylinder", {"outer_radius_mm", "inner_radius_mm", "rim_from_axis_z_mm"}}};
+  for (const Case& c : Cases()) {
+    const Shell shell = ShellOf(c.sys);
+    const std::string kind(PortKindName(shell.kind));
+    const nlohmann::ordered_json j = ShellToJson(shell);
+    std::vector<std::string> got;
+    for (const auto& [k, v] : j.items()) got.push_back(k);
+    std::vector<std::string> want = {"frame", "n_glass", "n_water"};
+    for (const std::string& k : keys.at(kind)) want.push_back(k);
+    EXPECT_EQ(got, want) << c.name;
+    const Shell back = ShellFromJson(kind, nlohmann::json::parse(j.dump()), "shell");
+    EXPECT_EQ(back.kind, shell.kind);
+    EXPECT_EQ(ShellValues(back), ShellValues(shell)) << c.name;
+    EXPECT_EQ(back.rim_from_outer_z_mm, shell.rim_from_outer_z_mm) << c.name;
+    EXPECT_EQ(back.n_glass, shell.n_glass);
+    EXPECT_EQ(back.n_water, shell.n_water);
+    nlohmann::json bad = nlohmann::json::parse(j.dump());
+    bad[kind == "flat" ? "thickness_mm" : "inner_radius_mm"] = kind == "flat" ? -1.0 : 1e4;
+    EXPECT_THROW(ShellFromJson(kind, bad, "shell"), InvalidInput) << c.name;
+    bad = nlohmann::json::parse(j.dump());
+    bad.erase(keys.at(kind).front());
+    EXPECT_THROW(ShellFromJson(kind, bad, "shell"), InvalidInput) << c.name;
+  }
+  EXPECT_THROW(ShellFromJson("sphere", ShellToJson(ShellOf(Cases()[0].sys)), "shell"), InvalidInput);
 }
 
 TEST(PortParameters, SpecWithParamsPutsThePupilWhereTheParametersSay) {

@@ -1,6 +1,11 @@
 #include "porthole/refraction/shell_json.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string_view>
+#include <utility>
+#include <variant>
+#include <vector>
 
 #include "porthole/core/error.h"
 
@@ -27,6 +32,32 @@ Vec3 Vector3(const nlohmann::json& j, const std::string& key, const std::string&
   return v;
 }
 
+// The Shell's field a `shell` JSON key names (ports::…Port::kShellJsonKeys): a number, or the
+// inner centre's offset as three. The rim's key says what it is measured from (the outer centre,
+// the axis).
+double* NumberField(Shell& s, std::string_view key) {
+  if (key == "outer_radius_mm") return &s.outer_radius_mm;
+  if (key == "inner_radius_mm") return &s.inner_radius_mm;
+  if (key == "rim_from_outer_z_mm" || key == "rim_from_axis_z_mm") return &s.rim_from_outer_z_mm;
+  if (key == "thickness_mm") return &s.thickness_mm;
+  return nullptr;
+}
+Vec3* VectorField(Shell& s, std::string_view key) {
+  return key == "inner_from_outer_mm" ? &s.inner_from_outer_mm : nullptr;
+}
+
+// f(key) for the `shell` keys of the shape of `kind`.
+template <typename F>
+void ForEachKey(PortKind kind, F&& f) {
+  using Shapes = ports::PortShape;
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    ((static_cast<std::size_t>(kind) == I
+          ? [&] { for (std::string_view k : std::variant_alternative_t<I, Shapes>::kShellJsonKeys) f(k); }()
+          : void()),
+     ...);
+  }(std::make_index_sequence<std::variant_size_v<Shapes>>());
+}
+
 }  // namespace
 
 nlohmann::ordered_json ShellToJson(const Shell& s) {
@@ -34,22 +65,17 @@ nlohmann::ordered_json ShellToJson(const Shell& s) {
   Json j = {{"frame", "cam (origin at the entrance pupil, axes of the housing)"},
             {"n_glass", s.n_glass},
             {"n_water", s.n_water}};
-  switch (s.kind) {
-    case PortKind::kDome:
-      j["outer_radius_mm"] = s.outer_radius_mm;
-      j["inner_radius_mm"] = s.inner_radius_mm;
-      j["inner_from_outer_mm"] = {s.inner_from_outer_mm.x(), s.inner_from_outer_mm.y(), s.inner_from_outer_mm.z()};
-      j["rim_from_outer_z_mm"] = s.rim_from_outer_z_mm;
-      break;
-    case PortKind::kCylinder:
-      j["outer_radius_mm"] = s.outer_radius_mm;
-      j["inner_radius_mm"] = s.inner_radius_mm;
-      j["rim_from_axis_z_mm"] = s.rim_from_outer_z_mm;
-      break;
-    case PortKind::kFlat:
-      j["thickness_mm"] = s.thickness_mm;
-      break;
-  }
+  Shell& m = const_cast<Shell&>(s);  // read only
+  ForEachKey(s.kind, [&](std::string_view key) {
+    const std::string k(key);
+    if (const double* v = NumberField(m, key)) {
+      j[k] = *v;
+    } else if (const Vec3* v = VectorField(m, key)) {
+      j[k] = {v->x(), v->y(), v->z()};
+    } else {
+      throw InternalError("no Shell field for the shell key '" + k + "'");
+    }
+  });
   return j;
 }
 
@@ -57,32 +83,27 @@ Shell ShellFromJson(const std::string& kind, const nlohmann::json& s, const std:
   Shell sh;
   sh.n_glass = Number(s, "n_glass", f);
   sh.n_water = Number(s, "n_water", f);
-  if (kind == "dome") {
-    sh.kind = PortKind::kDome;
-    sh.outer_radius_mm = Number(s, "outer_radius_mm", f);
-    sh.inner_radius_mm = Number(s, "inner_radius_mm", f);
-    sh.inner_from_outer_mm = Vector3(s, "inner_from_outer_mm", f);
-    sh.rim_from_outer_z_mm = Number(s, "rim_from_outer_z_mm", f);
-    if (!(sh.outer_radius_mm > 0 && sh.inner_radius_mm > 0 &&
-          sh.inner_from_outer_mm.norm() < sh.outer_radius_mm - sh.inner_radius_mm)) {
-      throw InvalidInput(f, "not a dome: the inner sphere must lie inside the outer one");
-    }
-  } else if (kind == "cylinder") {
-    sh.kind = PortKind::kCylinder;
-    sh.outer_radius_mm = Number(s, "outer_radius_mm", f);
-    sh.inner_radius_mm = Number(s, "inner_radius_mm", f);
-    sh.rim_from_outer_z_mm = Number(s, "rim_from_axis_z_mm", f);
-    if (!(sh.inner_radius_mm > 0 && sh.inner_radius_mm < sh.outer_radius_mm)) {
-      throw InvalidInput(f, "not a cylinder: the inner radius must be positive and below the outer one");
-    }
-  } else if (kind == "flat") {
-    sh.kind = PortKind::kFlat;
-    sh.thickness_mm = Number(s, "thickness_mm", f);
-    if (!(sh.thickness_mm > 0)) throw InvalidInput(f + ".thickness_mm", "must be > 0");
-  } else {
-    throw InvalidInput(f, "no shell of a port kind '" + kind + "' (dome, flat, cylinder)");
+  const std::vector<std::string_view> names = ports::ShapeNames();
+  const auto it = std::find(names.begin(), names.end(), kind);
+  if (it == names.end()) {
+    std::string list;
+    for (std::string_view n : names) list += (list.empty() ? "" : ", ") + std::string(n);
+    throw InvalidInput(f, "no shell of a port kind '" + kind + "' (" + list + ")");
   }
+  sh.kind = static_cast<PortKind>(it - names.begin());
+  ForEachKey(sh.kind, [&](std::string_view key) {
+    const std::string k(key);
+    if (double* v = NumberField(sh, key)) {
+      *v = Number(s, k, f);
+    } else if (Vec3* v = VectorField(sh, key)) {
+      *v = Vector3(s, k, f);
+    } else {
+      throw InternalError("no Shell field for the shell key '" + k + "'");
+    }
+  });
   if (!(sh.n_glass >= 1 && sh.n_water >= 1)) throw InvalidInput(f, "indices must be >= 1");
+  // The shape's own rule (the inner surface inside the outer one, a positive thickness).
+  ValidateShellValues(sh, ShellValues(sh), f);
   return sh;
 }
 

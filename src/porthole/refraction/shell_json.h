@@ -1,6 +1,6 @@
 // A port's shell (refraction.h) as JSON and back: the `shell` block calibrate writes beside each
 // port estimate and that measure/ reads from a rig file. The keys are the shell's fields (mm, cam
-// frame); which keys a shape has is written here once.
+// frame); which keys a shape has is its kShellJsonKeys (ports/port.h).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -17,8 +17,9 @@ namespace porthole::refraction {
 nlohmann::ordered_json ShellToJson(const Shell& s);
 
 // The shell of a port of kind `kind` ("dome", "flat", "cylinder") from such a block; throws
-// InvalidInput naming `field`.<key> where a key is missing, not a finite number, or the values are
-// no shell (an inner sphere or cylinder not inside the outer one, a thickness <= 0, an index < 1).
+// InvalidInput naming `field`.<key> where a key is missing or not a finite number, and `field` where
+// the values are no shell (ValidateShellValues: an inner sphere or cylinder not inside the outer
+// one, a thickness <= 0; an index < 1).
 Shell ShellFromJson(const std::string& kind, const nlohmann::json& shell, const std::string& field);
 
 }  // namespace porthole::refraction
