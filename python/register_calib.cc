@@ -442,8 +442,9 @@ void RegisterCalib(py::module_& m) {
               o.air_lens_bare = air_lens_bare;
               o.air_refocused = air_refocused;
               o.lens.target_free = target_free;
-              // calibrate()'s datum and calibrate_refractive()'s free_port: given, the job refuses them.
-              o.datum = !datum.is_none();
+              // calibrate()'s datum (with target_free); calibrate_refractive()'s free_port: given, the job
+              // refuses it.
+              if (!datum.is_none()) o.datum = datum.cast<std::string>();
               o.free_port = !free_port.is_none();
               if (!air_detections.is_none()) {  // one list per camera: air images through its port
                 o.air_given_detections.emplace();
@@ -478,8 +479,8 @@ void RegisterCalib(py::module_& m) {
       "prior; air_detections a list, one per camera, of the detections of images in air "
       "through its port (the housing on), adjusted with the rig; air_refocused=True when they were taken at "
       "another focus (each camera's air images their own focal length, a factor adjusted); target_free=True adjusts "
-      "the target's points with the rig (the first camera's datum; the JSON's rig.target_adjusted). datum and free_port (calibrate()'s, "
-      "calibrate_refractive()'s) are refused: a rig does not take them yet. "
+      "the target's points with the rig (datum: auto | minimal | control, chosen by the first camera's calibration; "
+      "the JSON's rig.target_adjusted). free_port (calibrate_refractive()'s) is refused: a rig does not take it yet. "
       "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, \"skipped\": []}, "
       "with warnings: the plausibility warnings of the pitches and the ports, as the CLI prints them.");
 

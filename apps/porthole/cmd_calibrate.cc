@@ -252,7 +252,7 @@ struct CalibrateCliOptions {
   bool plan_only = false, free_water_index = false, free_shell = false;
   double plan_sigma_px = 0.3;
   std::string centre_correction = "auto";
-  bool datum_given = false, free_port_given = false;  // --datum, --free-port given (a rig refuses them)
+  bool free_port_given = false;  // --free-port given (a rig refuses it)
 };
 
 // A comma list's items ("a,b" → a, b; "" → one empty item).
@@ -303,7 +303,7 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
   job.opencv_yaml = !o.yaml.empty();
   job.field_out = !o.field_out.empty();
   job.plan_only = o.plan_only;
-  job.datum = o.datum_given;
+  job.datum = o.datum;
   job.free_port = o.free_port_given;
   job.stereo_out = o.stereo_out;
   job.check_outputs = [&] {
@@ -610,7 +610,6 @@ void RegisterCalibrate(CLI::App& app) {
                             .inputs = InputFiles(cmd, {"--out", "--opencv-yaml", "--field-out", "--port-out",
                                                        "--stereo-out"})};
     if (!o->pitches_mm.empty()) o->pitch_mm = o->pitches_mm.front();
-    o->datum_given = cmd->count("--datum") > 0;
     o->free_port_given = cmd->count("--free-port") > 0;
     if (o->image_dirs.size() > 1 || o->detection_paths.size() > 1) return CalibrateRigCommand(*o, rules);
     if (o->pitches_mm.size() > 1) {

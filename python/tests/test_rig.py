@@ -184,10 +184,13 @@ def test_an_air_calibration_rig_file_as_the_cli(tmp_path):
 
 
 def test_datum_and_free_port_are_refused():
-    # calibrate()'s datum and calibrate_refractive()'s free_port: a rig does not take them (they were
-    # ignored by the CLI's rig): a one-line ValueError naming the keyword.
+    # calibrate_refractive()'s free_port: a rig does not take it (it was ignored by the CLI's rig): a one-line
+    # ValueError naming the keyword. datum is a free target's, as calibrate()'s.
     cams = stereo(n=4)
-    for kwargs in (dict(datum="minimal"), dict(free_port="none", port="nimar-ni320")):
-        with pytest.raises(ValueError) as e:
-            porthole.calibrate_rig(cams, TARGET, model="opencv", **kwargs)
-        assert str(e.value) == f"{next(iter(kwargs))}: not with a rig (several cameras) yet", str(e.value)
+    with pytest.raises(ValueError) as e:
+        porthole.calibrate_rig(cams, TARGET, model="opencv", free_port="none", port="nimar-ni320")
+    assert str(e.value) == "free_port: not with a rig (several cameras) yet", str(e.value)
+    with pytest.raises(ValueError, match="^datum: is the datum of a free target: give it with target_free"):
+        porthole.calibrate_rig(cams, TARGET, model="opencv", datum="minimal")
+    r = porthole.calibrate_rig(cams, TARGET, model="opencv", target_free=True, datum="minimal")
+    assert r.to_dict()["rig"]["target_adjusted"]["datum"]["fixed"]

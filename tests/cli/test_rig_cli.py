@@ -145,15 +145,20 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
 
 
 def test_datum_and_free_port_are_refused_in_a_rig(rig, tmp_path):
-    # A single camera's --datum (with --free-target) and --free-port (with --port) were ignored by a rig:
-    # refused in one line naming the flag, exit 2, no output file.
+    # A single camera's --free-port (with --port) was ignored by a rig: refused in one line naming the flag,
+    # exit 2, no output file. --datum is a free target's, as a single camera's (it was ignored too).
     d, _ = rig
     out = tmp_path / "rig.json"
-    for flag, value in (("--datum", "minimal"), ("--free-port", "none"), ("--free-port", "all")):
-        line = run_bad("calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model",
-                       "opencv", "--port", "nimar-ni320", flag, value, "--out", out, "--quiet")
-        assert line == f"porthole: error: {flag}: not with a rig (several cameras) yet", line
+    base = ["calibrate", "--detections", d / "left.json", "--detections", d / "right.json", "--model", "opencv"]
+    for value in ("none", "all"):
+        line = run_bad(*base, "--port", "nimar-ni320", "--free-port", value, "--out", out, "--quiet")
+        assert line == "porthole: error: --free-port: not with a rig (several cameras) yet", line
         assert not out.exists()
+    line = run_bad(*base, "--datum", "minimal", "--out", out, "--quiet")
+    assert line.startswith("porthole: error: --datum: is the datum of a free target: give it with --free-target"), line
+    assert not out.exists()
+    j = run(*base, "--free-target", "--datum", "minimal", "--json", "--quiet").json()
+    assert j["rig"]["target_adjusted"]["datum"]["fixed"]
 
 
 def test_a_pixel_pitch_per_camera(rig):

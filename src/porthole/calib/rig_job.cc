@@ -50,7 +50,7 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
       {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
-      {"datum", o.datum}, {"free_port", o.free_port}};
+      {"free_port", o.free_port}};
   for (const auto& [field, given] : not_in_rig) {
     if (given) throw InvalidInput(field, "not with a rig (several cameras) yet");
   }
@@ -78,7 +78,8 @@ std::vector<CalibrationOptions> CameraOptions(const CalibrateRigJobOptions& o, c
   std::vector<CalibrationOptions> cameras;
   const int n_options = o.model.size() == 1 && pitches.size() == 1 ? 1 : n;
   for (int k = 0; k < n_options; ++k) {
-    CalibrationOptions c = LensOptionsFromNames(o.lens, OneOrEach(o.model, k), o.free, o.loss, o.centre_correction);
+    CalibrationOptions c =
+        LensOptionsFromNames(o.lens, OneOrEach(o.model, k), o.free, o.loss, o.centre_correction, o.datum);
     c.pixel_pitch_mm = OneOrEach(pitches, k);
     cameras.push_back(c);
   }

@@ -10,7 +10,7 @@
 // Errors are InvalidInput naming the library's fields, as CalibrateJob's (calib/job.h): images,
 // detections, names, target, field, model, free, pixel_pitch_mm, port, air_calibration, air_lens_bare,
 // air_images, air_detections, stereo_out, and the options a rig refuses (ep, intrinsics, port_out,
-// free_water_index, free_shell, port_sigma, datum, free_port, opencv_yaml, field_out,
+// free_water_index, free_shell, port_sigma, free_port, opencv_yaml, field_out,
 // plan_only, drop_insignificant); CalibrateRig's own (cameras, …) pass through.
 #pragma once
 
@@ -62,11 +62,15 @@ struct CalibrateRigJobOptions {
   // images to detect in, detections files, or detections given.
   std::vector<std::string> air_images, air_detections;
   std::optional<std::vector<std::vector<ImageDetections>>> air_given_detections;
+  // The datum of a free target (lens.target_free): auto | minimal | control, as a single camera's
+  // (LensOptionsFromNames); the first camera's calibration chooses it.
+  std::string datum = "auto";
+  // The air images were taken at another focus (each camera's air set its own focal factor).
+  bool air_refocused = false;
   // The single camera's options a rig does not take (yet): set, each is refused by its name
-  // (datum: a datum named for free_target; free_port: the port parameters adjusted).
+  // (free_port: the port parameters adjusted).
   bool ep = false, intrinsics = false, port_out = false, free_water_index = false, free_shell = false,
-       air_refocused = false, datum = false, free_port = false,
-       port_sigma = false, opencv_yaml = false, field_out = false, plan_only = false;
+       free_port = false, port_sigma = false, opencv_yaml = false, field_out = false, plan_only = false;
   // The first two cameras as OpenCV's stereo file (result.stereo_text): the file name the front end
   // will write (.xml: XML, else YAML); empty: none. Both cameras of the opencv model without a port.
   std::string stereo_out;

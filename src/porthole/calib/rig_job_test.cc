@@ -99,7 +99,7 @@ TEST(CalibrateRigJob, RefusesWhatARigCannotTakeNamingTheField) {
   o.field_out = true;  // a free target's field file: one camera's (a rig's free target is in its JSON)
   EXPECT_EQ(field_of(o), "field_out");
   o = StereoJob();
-  o.datum = true;  // a single camera's datum (were ignored by a rig)
+  o.datum = "minimal";  // a free target's datum, without a free target
   EXPECT_EQ(field_of(o), "datum");
   o = StereoJob();
   o.port = {"nimar-ni320"};
