@@ -518,7 +518,7 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_option("--loss-scale-px", o->calib.loss_scale_px, "Robust loss scale, px")
       ->capture_default_str();
   cmd->add_flag("--free-target", o->calib.target_free,
-                "Adjust the target points too (self-calibration; datum: 7 coordinates of 3 points; the points and their "
+                "Adjust the target points too (self-calibration, also behind --port and in a rig; datum: --datum; the points and their "
                 "std in the JSON's target_adjusted)");
   cmd->add_option("--datum", o->datum,
                   "--free-target: the datum. auto (the field's control points when 3 or more are observed, else "
