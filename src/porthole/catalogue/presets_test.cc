@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <limits>
+#include <set>
 #include <sstream>
 
 #include "porthole/core/error.h"
@@ -97,13 +98,22 @@ TEST(PortToml, ATypoIsNamedAtItsLineWithTheKeyItResembles) {
   }
 }
 
+// Every built-in port preset written and read back unchanged; every shape of the closed list has a
+// preset (a new shape without one fails here).
 TEST(PortToml, WriteThenReadIsLossless) {
-  for (const char* name : {"nimar-ni320", "nimar-ni320-nominal", "flat-acrylic-10mm", "generic-cylinder-acrylic-4in"}) {
+  std::set<std::string> shapes;
+  for (const Preset& preset : BuiltinPresets()) {
+    if (preset.kind != "port") continue;
+    const std::string name(preset.name);
     const auto p = LoadPort(name);
     const auto q = ParsePortToml(PortToToml(p), "roundtrip.toml");
     EXPECT_EQ(PortToToml(q), PortToToml(p)) << name;
-    EXPECT_EQ(q.frame, p.frame);
-    EXPECT_EQ(q.default_ep_in_housing_mm, p.default_ep_in_housing_mm);
+    EXPECT_EQ(q.frame, p.frame) << name;
+    EXPECT_EQ(q.default_ep_in_housing_mm, p.default_ep_in_housing_mm) << name;
+    shapes.insert(std::string(p.KindName()));
+  }
+  for (std::string_view shape : ports::ShapeNames()) {
+    EXPECT_TRUE(shapes.count(std::string(shape))) << "no port preset of shape " << shape;
   }
 }
 
