@@ -393,16 +393,6 @@ class RefractiveAdjustment {
   int first_air_ = 0;  // the first image in air (n_images: none)
 };
 
-// The shape's own (ports::…Port::kDefaultPredictedSigma, kAxialSearch).
-PortArray DefaultPredictedSigma(PortKind kind) { return refraction::PredictedSigmaOf(kind); }
-
-// The parameter along the optical axis, which the start searches (dome ep_z, flat distance,
-// cylinder ep_z), and its candidates around the prediction.
-int AxialParam(PortKind kind) { return refraction::AxialSearchOf(kind).param; }
-std::vector<double> AxialCandidates(PortKind kind, double predicted) {
-  return refraction::AxialSearchOf(kind).Candidates(predicted);
-}
-
 // The port file's σ (ports::ShellSigma) as a prior on the shell values of `shell` (refraction::
 // ShellParams), and the values it adjusts (RefractiveOptions::free_shell); nullopt when the file
 // states none. The water index factor has no prior.
@@ -710,7 +700,7 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
   res.intrinsics = o.intrinsics;
   res.kind = shell.kind;
   res.predicted = predicted;
-  res.predicted_sigma = o.predicted_sigma ? *o.predicted_sigma : DefaultPredictedSigma(shell.kind);
+  res.predicted_sigma = o.predicted_sigma ? *o.predicted_sigma : refraction::PredictedSigmaOf(shell.kind);
   res.port_free = o.port_free;
   res.shell_predicted = refraction::ShellValues(shell);
   const std::optional<ShellPrior> shell_prior = ShellPriorFor(o, shell);
@@ -767,8 +757,8 @@ RefractiveResult CalibrateRefractiveModel(const std::vector<ImageDetections>& de
 
   // 1-D search of the axial port parameter (dome and cylinder ep_z, flat distance) around the
   // prediction.
-  const int axial = AxialParam(shell.kind);
-  std::vector<double> candidates = AxialCandidates(shell.kind, predicted[axial]);
+  const int axial = refraction::AxialSearchOf(shell.kind).param;
+  std::vector<double> candidates = refraction::AxialSearchOf(shell.kind).Candidates(predicted[axial]);
   if (!o.port_free[axial] || !o.search) candidates.resize(1);
   // Circular targets: the centre correction (CalibrationOptions::centre_correction) with the dot
   // radius the central calibration used (0: off). Its offsets are computed at the start (the

@@ -602,7 +602,9 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
                                  : res.sigma0_px * res.sigma0_px;
   if (field) {
     std::vector<Eigen::Vector3d> variance;
-    PointVariances(*field, problem, covariance, &points, &variance);
+    if (!PointVariances(*field, problem, covariance, &points, &variance)) {
+      throw InternalError("rig: the covariance of a free target's point was computed but cannot be read");
+    }
     res.target_points_mm = points;
     res.target_sigma_mm = field->Sigma(variance, s02, points.size());
     res.datum = field->datum;
