@@ -85,6 +85,14 @@ void RegisterPorts(py::module_& m) {
       py::arg("name_or_path"),
         "A built-in port preset by name (see presets()) or a port TOML file.");
   m.def(
+      "port_shapes",
+      [] {
+        py::list out;
+        for (std::string_view name : ports::ShapeNames()) out.append(std::string(name));
+        return out;
+      },
+      "The port shapes, in the list's order (ports/port.h PortShape): the values of PortType.");
+  m.def(
       "presets",
       [] {
         py::list out;

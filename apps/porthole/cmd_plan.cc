@@ -118,12 +118,14 @@ std::string PlanText(const planning::Setup& s, const planning::Plan& p) {
       if (s.lens.pupil_estimated) t += "  (the entrance pupil is assumed, not measured: so is this ring)\n";
     }
   }
+  // A curved port (ports::PortSpec::IsCurved) cuts the field at its rim.
+  const std::string rim = sys.spec.IsCurved() ? fmt::format("{}'s rim", sys.spec.KindName()) : "port";
   t += p.field_cut.blocked_fraction > 0
            ? fmt::format("cut off by the {}{:>6} {} ({:.1f} % of the frame): beyond {:.1f} deg off axis in air "
                          "({:.1f} deg in water), {:.2f} mm from the image centre\n",
-                         sys.IsDome() ? "dome's rim" : "port", "", p.field_cut.what, 100 * p.field_cut.blocked_fraction,
+                         rim, "", p.field_cut.what, 100 * p.field_cut.blocked_fraction,
                          p.field_cut.clear_angle_deg, p.field_cut.clear_water_angle_deg, p.field_cut.clear_radius_mm)
-           : fmt::format("cut off by the {}{:>6} nothing\n", sys.IsDome() ? "dome's rim" : "port", "");
+           : fmt::format("cut off by the {}{:>6} nothing\n", rim, "");
   if (p.target) {
     const auto& g = *p.target;
     t += fmt::format("\ntarget: WD {} mm, {} mm from the entrance pupil\n", Dist(g.wd_mm, 1),

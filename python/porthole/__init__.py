@@ -244,6 +244,12 @@ def simulate(**kwargs) -> Simulation:
 
 # --- cameras and calibration ------------------------------------------------------------------
 
+def port_shapes() -> list:
+    """The port shapes, in the port list's order (ports/port.h): "dome", "flat", "cylinder" — the
+    values of PortType."""
+    return list(_porthole.port_shapes())
+
+
 @_wraps(_porthole.camera_models, "list[porthole.Record]")
 def camera_models():
     return [Record(m) for m in _porthole.camera_models()]
@@ -469,7 +475,7 @@ def report(out, **kwargs) -> ReportSummary:
 
 __all__ = [
     "__version__", "index", "media", "depth_to_pressure_dbar", "load_port", "presets", "place", "PortSpec",
-    "PortSystem", "virtual_image_table", "plan", "flat", "simulate", "camera_models", "project", "unproject",
+    "PortSystem", "virtual_image_table", "plan", "flat", "simulate", "camera_models", "port_shapes", "project", "unproject",
     "detect", "calibrate", "calibrate_images", "calibrate_rig", "RigCalibration", "RigCamera", "measure", "plan_rig", "undistort", "Measurement", "MeasuredPoint", "MeasuredLength", "synthetic_detections", "compare", "load_calibration",
     "read_point_cloud", "fit_sphere", "analyze_dome", "assemble", "report", "HousingAssembly", "RayStatus",
     "PortType", "CameraModel",

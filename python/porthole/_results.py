@@ -19,6 +19,8 @@ from typing import Any, Dict, List, NamedTuple, Optional, Tuple
 
 import numpy as np
 
+from . import _porthole
+
 __all__ = [
     "RayStatus", "PortType", "CameraModel", "Status", "Record", "Table", "PortholeWarning", "Plan", "FlatAnalysis",
     "Simulation", "Comparison", "HousingAssembly", "ReportSummary", "Detections", "SkippedImage", "DetectionSet",
@@ -35,22 +37,20 @@ class RayStatus(enum.IntEnum):
     TOTAL_INTERNAL_REFLECTION = 3   #: refraction impossible
 
 
-class PortType(str, enum.Enum):
-    """The kind of a port."""
-    DOME = "dome"
-    FLAT = "flat"
-    CYLINDER = "cylinder"
+def _enum_of(name: str, values, doc: str):
+    """A str enum whose values are the C++ list's names (member names: upper case, '-' as '_'), so a
+    new camera model or port shape needs no line here."""
+    e = enum.Enum(name, [(v.upper().replace("-", "_"), v) for v in values], type=str, module=__name__)
+    e.__doc__ = doc
+    return e
 
 
-class CameraModel(str, enum.Enum):
-    """The camera models porthole calibrates and projects with (camera/models.h; camera_models())."""
-    BROWN = "brown"
-    OPENCV = "opencv"
-    KANNALA_BRANDT = "kannala-brandt"
-    EQUIDISTANT = "equidistant"
-    EQUISOLID = "equisolid"
-    STEREOGRAPHIC = "stereographic"
-    ORTHOGRAPHIC = "orthographic"
+#: The kind of a port: PortType.DOME, .FLAT, .CYLINDER — the port list (ports/port.h; port_shapes()).
+PortType = _enum_of("PortType", _porthole.port_shapes(), "The kind of a port (ports/port.h's list; port_shapes()).")
+
+#: The camera models porthole calibrates and projects with (camera/models.h; camera_models()).
+CameraModel = _enum_of("CameraModel", [m["name"] for m in _porthole.camera_models()],
+                       "The camera models porthole calibrates and projects with (camera/models.h; camera_models()).")
 
 
 class Status(str, enum.Enum):

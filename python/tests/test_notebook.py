@@ -92,6 +92,12 @@ def test_statuses_and_kinds_are_enums():
     assert porthole.RayStatus(out.status[0]) is porthole.RayStatus.OK
     assert porthole.RayStatus(out.status[1]) is not porthole.RayStatus.OK
     assert [m.name for m in porthole.camera_models()] == [m.value for m in porthole.CameraModel]
+    # Both enums are built from the C++ lists (no line per shape or model in Python): str-valued,
+    # found by value, named in upper case with '_' for '-'.
+    assert porthole.port_shapes() == [t.value for t in porthole.PortType] == ["dome", "flat", "cylinder"]
+    assert porthole.PortType("cylinder") is porthole.PortType.CYLINDER and porthole.PortType.DOME == "dome"
+    assert porthole.CameraModel("kannala-brandt") is porthole.CameraModel.KANNALA_BRANDT
+    assert isinstance(porthole.CameraModel.BROWN, str) and porthole.PortType.__module__ == "porthole._results"
 
 
 def test_results_are_typed_objects_with_numpy_arrays():

@@ -22,6 +22,7 @@
 #include "porthole/calib/scales.h"
 #include "porthole/coded/ellipse.h"
 #include "porthole/core/error.h"
+#include "porthole/ports/describe.h"
 #include "porthole/refraction/shell_json.h"
 #include "porthole/simulate/simulate.h"
 
@@ -397,28 +398,20 @@ class RefractiveAdjustment {
 // ShellParams), and the values it adjusts (RefractiveOptions::free_shell); nullopt when the file
 // states none. The water index factor has no prior.
 std::optional<ShellPrior> ShellPriorOf(const ports::PortSpec& spec, const refraction::Shell& shell) {
-  const ports::ShellSigma& sg = spec.sigma;
   const ShellArray v0 = refraction::ShellValues(shell);
   std::vector<std::pair<Eigen::Matrix<double, 1, kShellNumParams>, double>> rows;  // (a, σ)
   ShellPrior prior;
-  const auto row = [&](std::initializer_list<std::pair<int, double>> terms, double sigma) {
+  // The shape says which σ bears on which of its shell values (index 0 here: the water index
+  // factor, which has none). A σ of 0 states the value exactly: it stays fixed.
+  const auto row = [&](const std::optional<double>& sigma, std::initializer_list<std::pair<int, double>> terms,
+                       int frees) {
+    if (!sigma || !(*sigma > 0)) return;
     Eigen::Matrix<double, 1, kShellNumParams> a = Eigen::Matrix<double, 1, kShellNumParams>::Zero();
-    for (const auto& [i, c] : terms) a(i) = c;
-    rows.push_back({a, sigma});
+    for (const auto& [i, c] : terms) a(1 + i) = c;
+    rows.push_back({a, *sigma});
+    prior.free[1 + frees] = true;
   };
-  // A σ of 0 states the value exactly: it stays fixed.
-  const auto given = [](const std::optional<double>& v) { return v && *v > 0; };
-  if (shell.kind == PortKind::kDome || shell.kind == PortKind::kCylinder) {
-    if (given(sg.outer_radius_mm)) row({{1, 1.0}}, *sg.outer_radius_mm), prior.free[1] = true;
-    if (given(sg.inner_radius_mm)) row({{2, 1.0}}, *sg.inner_radius_mm), prior.free[2] = true;
-    if (given(sg.thickness_mm)) row({{1, 1.0}, {2, -1.0}}, *sg.thickness_mm), prior.free[2] = true;
-    for (int k = 0; k < 3 && shell.kind == PortKind::kDome; ++k) {
-      const double so = sg.inner_offset_mm ? (*sg.inner_offset_mm)(k) : 0.0;
-      if (so > 0) row({{3 + k, 1.0}}, so), prior.free[3 + k] = true;
-    }
-  } else if (given(sg.thickness_mm)) {
-    row({{1, 1.0}}, *sg.thickness_mm), prior.free[1] = true;
-  }
+  refraction::VisitKind(shell.kind, [&](auto shape) { decltype(shape)::type::ShellPrior(spec.sigma, row); });
   if (rows.empty()) return std::nullopt;
   const Eigen::Map<const Eigen::Matrix<double, kShellNumParams, 1>> x0(v0.data());
   prior.a.resize(static_cast<int>(rows.size()), kShellNumParams);
@@ -1431,7 +1424,7 @@ nlohmann::ordered_json RefractiveToJson(const RefractiveResult& r, const TargetS
   for (const auto& [key, value] : estimated_shell.items()) shell[key] = value;
   // The estimated port in the housing frame: the one port JSON's shape fields (ports/describe.h).
   Json geometry = {{"frame", "housing"}};
-  geometry.update(std::visit([](const auto& shape) { return shape.GeometryJson(); }, r.estimated_port.shape));
+  geometry.update(ports::GeometryJson(r.estimated_port.shape));
   const Eigen::Vector3d& ep = r.estimated_port.default_ep_in_housing_mm;
   geometry["entrance_pupil_mm"] = {ep.x(), ep.y(), ep.z()};
   if (r.estimated_port.IsFlat()) geometry["normal_from_predicted_deg"] = num(r.normal_tilt_from_predicted_deg);

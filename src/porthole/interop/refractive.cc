@@ -75,14 +75,14 @@ RefractiveHousing RefractiveFromPort(const ports::PortSpec& port, double n_glass
     h.model = "DOMEPORT";
     h.params = {c.x(), c.y(), c.z(), d->inner.radius_mm / 1000.0,
                 (d->outer.radius_mm - d->inner.radius_mm) / 1000.0, 1.0, n_glass, n_water};
-  } else if (port.IsCylinder()) {
-    throw InvalidInput(field, "refractive COLMAP and calibmar have no cylindrical port (FLATPORT, DOMEPORT only)");
-  } else {
-    const auto& f = std::get<ports::FlatPort>(port.shape);
-    const Eigen::Vector3d n = f.normal.normalized();
+  } else if (const auto* f = std::get_if<ports::FlatPort>(&port.shape)) {
+    const Eigen::Vector3d n = f->normal.normalized();
     h.model = "FLATPORT";
-    h.params = {n.x(), n.y(), n.z(), (f.inner_point_mm - origin).dot(n) / 1000.0, f.thickness_mm / 1000.0,
+    h.params = {n.x(), n.y(), n.z(), (f->inner_point_mm - origin).dot(n) / 1000.0, f->thickness_mm / 1000.0,
                 1.0, n_glass, n_water};
+  } else {
+    throw InvalidInput(field, fmt::format("refractive COLMAP and calibmar have no {} port (FLATPORT, DOMEPORT only)",
+                                          port.KindName()));
   }
   return h;
 }

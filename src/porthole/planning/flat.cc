@@ -53,7 +53,7 @@ double TracedDistortionFactor(const ports::PortSystem& sys, double theta_air_rad
 
 FlatAnalysis AnalyseFlat(const Setup& setup, const FlatOptions& o) {
   housing::Validate(setup);
-  if (setup.port.IsDome() || setup.port.IsCylinder()) {
+  if (!setup.port.IsFlat()) {
     throw InvalidInput("port", "'" + setup.port.name + "' is a " + std::string(setup.port.KindName()) + "; give a flat port");
   }
   if (std::isnan(o.wd_mm) || !(o.wd_mm > 0)) throw InvalidInput("wd_mm", "must be > 0 mm (or inf)");

@@ -342,8 +342,9 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
   auto& warn = plan.warnings;
   warn = housing::PlausibilityWarnings(setup);
   if (o.coc_mm) housing::AddPlausibilityWarning(&warn, "coc_mm", *o.coc_mm, kCocRange);
-  // A curved port (a dome; a cylinder across its axis) images infinity at a finite distance.
-  const bool dome = plan.system.IsDome() || plan.system.IsCylinder();
+  // A curved port (a dome; a cylinder across its axis: ports::PortSpec::IsCurved) images infinity
+  // at a finite distance.
+  const bool curved = plan.system.spec.IsCurved();
   const std::string kind(plan.system.spec.KindName());
   if (ln.min_focus_assumed) {
     warn.push_back(fmt::format("The minimum focus of the {} is assumed, {:g} mm (not known): the minimum working "
@@ -365,11 +366,11 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
     warn.push_back(fmt::format("The {} cuts off {} of the frame ({:.1f} % of its area): chief rays beyond {:.1f} deg "
                                "off axis ({:.2f} mm from the image centre along the diagonal) do not reach the water, "
                                "so that part of the image is vignetted: it sees the {} whatever the distance.",
-                               dome ? kind + "'s rim" : "port's edge", plan.field_cut.what,
+                               curved ? kind + "'s rim" : "port's edge", plan.field_cut.what,
                                100 * plan.field_cut.blocked_fraction, plan.field_cut.clear_angle_deg,
-                               plan.field_cut.clear_radius_mm, dome ? "rim and the housing" : "housing"));
+                               plan.field_cut.clear_radius_mm, curved ? "rim and the housing" : "housing"));
   }
-  if (dome) {
+  if (curved) {
     // Focus scale at infinity: its near limit against the image of infinity seen from that pupil.
     const double near_at_inf = ThinLensDof(kInf, f, n, coc).near_mm;
     std::string what = near_at_inf > VirtualD(at_inf, kInf)
@@ -429,7 +430,7 @@ Plan MakePlan(const Setup& setup, const PlanOptions& o) {
                                "now costs sharpness.",
                                n, airy_mm * 1000, coc * 1000));
   }
-  if (!dome) {
+  if (!curved) {
     warn.push_back("A flat port narrows the field of view and adds pincushion distortion and lateral colour: "
                    "see 'porthole flat'.");
   }

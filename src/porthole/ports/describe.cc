@@ -11,26 +11,35 @@ Json Vec3Json(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 }  // namespace
 
-Json DomePort::GeometryJson() const {
-  return {{"outer", {{"center_mm", Vec3Json(outer.center_mm)}, {"radius_mm", outer.radius_mm}}},
-          {"inner", {{"center_mm", Vec3Json(inner.center_mm)}, {"radius_mm", inner.radius_mm}}}};
-}
-
-Json FlatPort::GeometryJson() const {
-  return {{"inner_point_mm", Vec3Json(inner_point_mm)}, {"normal", Vec3Json(normal)}, {"thickness_mm", thickness_mm}};
-}
-
-Json CylinderPort::GeometryJson() const {
-  return {{"axis_point_mm", Vec3Json(axis_point_mm)},
-          {"axis", Vec3Json(axis)},
-          {"inner_radius_mm", inner_radius_mm},
-          {"outer_radius_mm", outer_radius_mm}};
+// The shape's port-file fields (its Fields, in their order; "table.key" nested as in the file; an
+// unset optional left out), mm.
+Json GeometryJson(const PortShape& shape) {
+  Json out = Json::object();
+  std::visit(
+      [&](const auto& p) {
+        p.Fields(p, [&](std::string_view dotted, const auto& value, FieldUse) {
+          using V = std::decay_t<decltype(value)>;
+          const auto dot = dotted.find('.');
+          Json& at = dot == std::string_view::npos ? out : out[std::string(dotted.substr(0, dot))];
+          const std::string key(dot == std::string_view::npos ? dotted : dotted.substr(dot + 1));
+          if constexpr (std::is_same_v<V, std::optional<double>>) {
+            if (value) at[key] = *value;
+          } else if constexpr (std::is_same_v<V, double>) {
+            at[key] = value;
+          } else {
+            static_assert(std::is_same_v<V, Vec3>);
+            at[key] = Vec3Json(value);
+          }
+        });
+      },
+      shape);
+  return out;
 }
 
 Json PortJson(const PortSystem& sys) {
   Json port = {{"name", sys.spec.name}, {"type", sys.spec.KindName()},
                {"material", sys.spec.material()}, {"glass_index", sys.n_glass}};
-  port.update(std::visit([](const auto& shape) { return shape.GeometryJson(); }, sys.spec.shape));
+  port.update(GeometryJson(sys.spec.shape));
   port["outer_vertex_z_mm"] = sys.OuterVertexZ();
   return port;
 }

@@ -81,6 +81,17 @@ bool DomePort::CentralAt(const Vec3& ep, double tol_mm) const {
   return (outer.center_mm - ep).norm() <= tol_mm && (inner.center_mm - ep).norm() <= tol_mm;
 }
 
+PortSection DomePort::Section() const {
+  return {{outer.center_mm, outer.radius_mm}, {inner.center_mm, inner.radius_mm}, rim_z_mm};
+}
+
+// Both centres on the axis through the pupil (parallel to housing +Z).
+bool DomePort::RevolvesAbout(const Vec3& ep) const {
+  constexpr double kTol = 1e-12;
+  return (outer.center_mm - ep).head<2>().norm() <= kTol * outer.radius_mm &&
+         (inner.center_mm - ep).head<2>().norm() <= kTol * inner.radius_mm;
+}
+
 CamShell DomePort::AsShell() const {
   CamShell s;
   s.outer_radius_mm = outer.radius_mm;
@@ -184,6 +195,17 @@ TwoInterfaces<double> FlatPort::Outward(double n_glass, double n_water) const {
 
 bool FlatPort::InsideOuterSurface(const Vec3& p) const { return (p - inner_point_mm).dot(normal) < thickness_mm; }
 
+// Two planes (their tilt is not drawn: the section is square to the axis).
+PortSection FlatPort::Section() const {
+  PortSection sec;
+  sec.inner.center_mm = inner_point_mm;
+  sec.outer.center_mm = inner_point_mm + thickness_mm * normal;
+  return sec;
+}
+
+// Square to the axis.
+bool FlatPort::RevolvesAbout(const Vec3&) const { return normal.head<2>().norm() <= 1e-12; }
+
 double FlatPort::VertexZ(const Vec3& ep, bool of_outer) const {
   const Vec3 p = of_outer ? Vec3(inner_point_mm + thickness_mm * normal) : inner_point_mm;
   return ep.z() + (p - ep).dot(normal) / normal.z();
@@ -255,6 +277,16 @@ TwoInterfaces<double> CylinderPort::Outward(double n_glass, double n_water) cons
 bool CylinderPort::InsideOuterSurface(const Vec3& p) const {
   return FromAxis(p, axis_point_mm, axis.normalized()) < outer_radius_mm;
 }
+
+// Across its axis: circles about the axis, as a dome's (centred at y = 0: the x–z plane cuts the
+// tube across, whatever point of the axis the file names).
+PortSection CylinderPort::Section() const {
+  const Vec3 c(axis_point_mm.x(), 0, axis_point_mm.z());
+  return {{c, outer_radius_mm}, {c, inner_radius_mm}, rim_z_mm};
+}
+
+// Curved across its axis, straight along it: never.
+bool CylinderPort::RevolvesAbout(const Vec3&) const { return false; }
 
 double CylinderPort::VertexZ(const Vec3& ep, bool of_outer) const {
   // Where {ep + s ẑ} meets the cylinder on its +Z side, in the plane across the axis.
@@ -335,6 +367,10 @@ std::optional<PortShape> ShapeNamed(std::string_view name) {
 
 std::string_view PortSpec::KindName() const {
   return std::visit([](const auto& p) { return std::decay_t<decltype(p)>::kName; }, shape);
+}
+
+bool PortSpec::IsCurved() const {
+  return std::visit([](const auto& p) { return p.Section().outer.IsCircle(); }, shape);
 }
 
 const std::string& PortSpec::material() const {

@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <initializer_list>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -39,8 +41,7 @@ using TwoInterfaces = std::array<optics::InterfaceT<T>, 2>;
 // camera, in scalar T — double, or ceres::Jet where a calibration adjusts the port — the ONE
 // statement of the shape's surfaces, defined below the structs); Outward(n_glass, n_water)
 // (Interfaces<double> of its own fields: what PortSystem traces); InsideOuterSurface(p);
-// VertexZ(ep, of_outer) (where the axis {ep + s ẑ} meets its outer or inner surface);
-// GeometryJson() (its fields as JSON, mm: the one port JSON of describe.h). The refractive
+// VertexZ(ep, of_outer) (where the axis {ep + s ẑ} meets its outer or inner surface). The refractive
 // projection (refraction/refraction.h, InterfacesOf) calls Interfaces<T> with the shape's values
 // in the cam frame.
 //
@@ -69,6 +70,11 @@ using TwoInterfaces = std::array<optics::InterfaceT<T>, 2>;
 //   PlausibleValues()                which of its values have a plausible range (housing/plausible.h)
 //   Fields(self, f)                  its port-file keys, in the order read, each with its member
 //                                    (catalogue/presets.cc reads and writes them generically)
+//   Section(), RevolvesAbout(ep)     its x–z section (PortSection: the report's cross-section, the
+//                                    paraxial trace) and whether it is a surface of revolution about
+//                                    the axis through the pupil (virtual_image.cc)
+//   ShellPrior(sigma, row)           which [sigma] values of its port file are a prior on which of
+//                                    its kShellParams (calib/refractive.cc)
 
 // A port parameter or shell value of a refractive camera (refraction/refraction.h).
 struct ParamInfo {
@@ -102,6 +108,32 @@ struct PlausibleValue {
 // How a port file states a field (Fields): required, or optional with the struct's default (both
 // always written), or a std::optional (written when set). A key "table.key" lies in [table].
 enum class FieldUse { kRequired, kDefaulted, kOptional };
+
+// 1σ of a port's shell values where the port file states them (its `[sigma]` table: a scan's
+// sphere fits, a datasheet's tolerances, calibmar's estimate through `porthole convert`), mm; unset:
+// not stated, 0: exact. `porthole calibrate --port --free-shell` adjusts the values with a σ > 0,
+// each with a Gaussian prior of that σ (docs/calibration.md). Dome: the two radii, the thickness
+// outer − inner radius, the inner centre relative to the outer one per axis. Flat: the thickness.
+struct ShellSigma {
+  std::optional<double> outer_radius_mm, inner_radius_mm, thickness_mm;
+  std::optional<Vec3> inner_offset_mm;
+
+  bool Empty() const { return !outer_radius_mm && !inner_radius_mm && !thickness_mm && !inner_offset_mm; }
+};
+
+// A surface of a port in the x–z section of the housing frame, as the report's cross-section draws
+// it and the paraxial trace (virtual_image.cc) takes it: a sphere of radius_mm about center_mm, cut
+// by the plane y = 0 (a dome's; a cylinder's centred at y = 0, cut across its axis) or, radius_mm
+// infinite, a plane square to the optical axis (center_mm: a point of it).
+struct SectionCurve {
+  Vec3 center_mm = Vec3::Zero();
+  double radius_mm = std::numeric_limits<double>::infinity();
+  bool IsCircle() const { return std::isfinite(radius_mm); }
+};
+struct PortSection {
+  SectionCurve outer, inner;
+  std::optional<double> rim_z_mm;  // curved: glass only where z >= this (unset: the outer centre's z)
+};
 
 // ---- A shape as a refractive camera's port (refraction/refraction.h) ----
 // There a port is its shell — what a port file fixes and the images do not estimate — and three
@@ -165,7 +197,8 @@ struct DomePort {
   TwoInterfaces<double> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
-  nlohmann::ordered_json GeometryJson() const;
+  PortSection Section() const;
+  bool RevolvesAbout(const Vec3& ep) const;
   // Both centres at `ep` within tol_mm: rays from it go straight through.
   bool CentralAt(const Vec3& ep, double tol_mm) const;
 
@@ -219,6 +252,17 @@ struct DomePort {
     f("inner.radius_mm", self.inner.radius_mm, FieldUse::kRequired);
     f("rim_z_mm", self.rim_z_mm, FieldUse::kOptional);
   }
+  // row(σ, {(index in kShellParams, coefficient)…}, the index it frees): each radius, the thickness
+  // outer − inner radius, the inner centre's offset per axis.
+  template <typename Row>
+  static void ShellPrior(const ShellSigma& sg, Row&& row) {
+    row(sg.outer_radius_mm, {{0, 1.0}}, 0);
+    row(sg.inner_radius_mm, {{1, 1.0}}, 1);
+    row(sg.thickness_mm, {{0, 1.0}, {1, -1.0}}, 1);
+    for (int k = 0; k < 3; ++k) {
+      row(sg.inner_offset_mm ? std::optional<double>((*sg.inner_offset_mm)(k)) : std::nullopt, {{2 + k, 1.0}}, 2 + k);
+    }
+  }
 };
 
 // A flat port: a plate whose inner (air-side) plane passes through inner_point_mm with unit normal
@@ -244,7 +288,8 @@ struct FlatPort {
   TwoInterfaces<double> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
-  nlohmann::ordered_json GeometryJson() const;
+  PortSection Section() const;
+  bool RevolvesAbout(const Vec3& ep) const;
 
   // As data (see "The port shapes" above).
   static constexpr std::array<ParamInfo, 3> kPortParams = {
@@ -294,6 +339,11 @@ struct FlatPort {
     f("inner_point_mm", self.inner_point_mm, FieldUse::kRequired);
     f("normal", self.normal, FieldUse::kDefaulted);
   }
+  // The thickness.
+  template <typename Row>
+  static void ShellPrior(const ShellSigma& sg, Row&& row) {
+    row(sg.thickness_mm, {{0, 1.0}}, 0);
+  }
 };
 
 // A cylindrical port: glass between two coaxial circular cylinders whose axis crosses the optical
@@ -322,7 +372,8 @@ struct CylinderPort {
   TwoInterfaces<double> Outward(double n_glass, double n_water) const;
   bool InsideOuterSurface(const Vec3& p) const;
   double VertexZ(const Vec3& ep, bool of_outer) const;
-  nlohmann::ordered_json GeometryJson() const;
+  PortSection Section() const;
+  bool RevolvesAbout(const Vec3& ep) const;
 
   // As data (see "The port shapes" above).
   static constexpr std::array<ParamInfo, 3> kPortParams = {{{"ep_x", "ep_in_cylinder_x_mm", "mm"},
@@ -385,6 +436,13 @@ struct CylinderPort {
     f("axis", self.axis, FieldUse::kDefaulted);
     f("inner_radius_mm", self.inner_radius_mm, FieldUse::kRequired);
     f("outer_radius_mm", self.outer_radius_mm, FieldUse::kRequired);
+  }
+  // Each radius, and the thickness outer − inner radius.
+  template <typename Row>
+  static void ShellPrior(const ShellSigma& sg, Row&& row) {
+    row(sg.outer_radius_mm, {{0, 1.0}}, 0);
+    row(sg.inner_radius_mm, {{1, 1.0}}, 1);
+    row(sg.thickness_mm, {{0, 1.0}, {1, -1.0}}, 1);
   }
 };
 
@@ -470,17 +528,6 @@ void CylinderPort::SurfacesAt(const CamShell& s, const T* p, const T* v, CamSurf
 
 enum class PortFrame { kHousing, kCam };
 
-// 1σ of a port's shell values where the port file states them (its `[sigma]` table: a scan's
-// sphere fits, a datasheet's tolerances, calibmar's estimate through `porthole convert`), mm; unset:
-// not stated, 0: exact. `porthole calibrate --port --free-shell` adjusts the values with a σ > 0,
-// each with a Gaussian prior of that σ (docs/calibration.md). Dome: the two radii, the thickness
-// outer − inner radius, the inner centre relative to the outer one per axis. Flat: the thickness.
-struct ShellSigma {
-  std::optional<double> outer_radius_mm, inner_radius_mm, thickness_mm;
-  std::optional<Vec3> inner_offset_mm;
-
-  bool Empty() const { return !outer_radius_mm && !inner_radius_mm && !thickness_mm && !inner_offset_mm; }
-};
 
 // The closed list of shapes (a shape's index here is its refraction::PortKind).
 using PortShape = std::variant<DomePort, FlatPort, CylinderPort>;
@@ -503,6 +550,9 @@ struct PortSpec {
   bool IsDome() const { return std::holds_alternative<DomePort>(shape); }
   bool IsCylinder() const { return std::holds_alternative<CylinderPort>(shape); }
   bool IsFlat() const { return std::holds_alternative<FlatPort>(shape); }
+  // Its outer surface is curved in the x–z section (Section): a dome, a cylinder across its axis.
+  // Such a port images infinity at a finite distance.
+  bool IsCurved() const;
   // "dome", "flat", "cylinder".
   std::string_view KindName() const;
   const std::string& material() const;

@@ -219,5 +219,66 @@ TYPED_TEST(EveryShape, ParametersAndShellDescribeIt) {
   EXPECT_THROW(S::ValidateShellValues(bad.data(), "shell"), InvalidInput);
 }
 
+// Its x–z section (Section: the report's cross-section, the paraxial trace) lies on its traced
+// surfaces; where it revolves about the axis through a pupil the axial ray goes straight through
+// (the paraxial trace's assumption); and its [sigma] prior (ShellPrior) names its own shell values.
+TYPED_TEST(EveryShape, SectionAndPriorDescribeIt) {
+  using S = TypeParam;
+  const S s = Example<S>();
+  const PortSection sec = s.Section();
+  EXPECT_EQ(sec.outer.IsCircle(), sec.inner.IsCircle()) << S::kName;
+  // A pupil in the section's plane (y = 0) on the line x = the outer centre's x.
+  const Vec3 ep(sec.outer.center_mm.x(), 0, 26.9);
+  ASSERT_NO_THROW(s.RequirePupilInside(ep));
+  // Where the line {ep + t ẑ} meets each section curve: a circle's top, a plane through its point.
+  const auto top = [&](const SectionCurve& c) {
+    if (!c.IsCircle()) return c.center_mm.z();
+    const Vec3 d = ep - c.center_mm;
+    return c.center_mm.z() + std::sqrt(c.radius_mm * c.radius_mm - d.x() * d.x() - d.y() * d.y());
+  };
+  const double outer_z = top(sec.outer);
+  // On the outer surface: the circle's top, a plane's own point.
+  const Vec3 on = sec.outer.IsCircle() ? Vec3(ep.x(), 0, outer_z) : sec.outer.center_mm;
+  EXPECT_TRUE(s.InsideOuterSurface(on - Vec3(0, 0, 1e-6))) << S::kName;
+  EXPECT_FALSE(s.InsideOuterSurface(on + Vec3(0, 0, 1e-6))) << S::kName;
+  if (sec.outer.IsCircle()) {
+    EXPECT_NEAR(s.VertexZ(ep, true), outer_z, 1e-9) << S::kName;
+    EXPECT_NEAR(s.VertexZ(ep, false), top(sec.inner), 1e-9) << S::kName;
+    if (sec.rim_z_mm) {
+      EXPECT_LT(*sec.rim_z_mm, outer_z);
+    }
+  } else {
+    const Vec3 at(sec.inner.center_mm.x(), sec.inner.center_mm.y(), 0);
+    EXPECT_NEAR(s.VertexZ(at, false), sec.inner.center_mm.z(), 1e-9) << S::kName;
+  }
+  for (const Vec3& pupil : {ep, Vec3(0.3, -0.2, 26.9), Vec3(-2, 1.5, 20)}) {
+    const auto out = s.Outward(1.5, 1.34);
+    optics::Ray r;
+    ASSERT_EQ(optics::TraceSequence<double>({out.begin(), out.end()}, {pupil, Vec3(0, 0, 1)}, &r), optics::RayStatus::kOk);
+    const bool straight = (r.dir - Vec3(0, 0, 1)).norm() < 1e-12 && (r.origin - pupil).head<2>().norm() < 1e-9;
+    if (s.RevolvesAbout(pupil)) {
+      EXPECT_TRUE(straight) << S::kName;
+    }
+  }
+  // Every σ stated: each row names shell values of this shape, and frees one it names.
+  ShellSigma all;
+  all.outer_radius_mm = all.inner_radius_mm = all.thickness_mm = 0.1;
+  all.inner_offset_mm = Vec3(0.1, 0.1, 0.1);
+  int rows = 0;
+  S::ShellPrior(all, [&](const std::optional<double>& sigma, std::initializer_list<std::pair<int, double>> terms,
+                         int frees) {
+    if (!sigma) return;
+    ++rows;
+    bool names_freed = false;
+    for (const auto& [i, c] : terms) {
+      EXPECT_GE(i, 0);
+      EXPECT_LT(i, static_cast<int>(S::kShellParams.size())) << S::kName;
+      names_freed |= i == frees && c != 0;
+    }
+    EXPECT_TRUE(names_freed) << S::kName;
+  });
+  EXPECT_GE(rows, static_cast<int>(S::kShellParams.size())) << S::kName;  // each value can be given a σ
+}
+
 }  // namespace
 }  // namespace porthole::ports

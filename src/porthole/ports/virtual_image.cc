@@ -20,24 +20,17 @@ struct ParaxialSurface {
   double n_before, n_after;
 };
 
+// The port's x–z section (its Section): a circle's radius signed by where its centre lies, a plane's
+// infinite. A cylinder's section across its axis is circles, as a dome's; along the axis its
+// surfaces are straight, as a flat port's: the port is astigmatic (RealRayVirtualImage).
 std::vector<ParaxialSurface> ParaxialModel(const PortSystem& p) {
   const double w_outer = -p.OuterVertexZ();
   const double w_inner = -p.InnerVertexZ();
-  if (p.IsDome()) {
-    const DomePort& d = p.dome();
-    const double r_out = std::copysign(d.outer.radius_mm, -d.outer.center_mm.z() - w_outer);
-    const double r_in = std::copysign(d.inner.radius_mm, -d.inner.center_mm.z() - w_inner);
-    return {{w_outer, r_out, p.n_water, p.n_glass}, {w_inner, r_in, p.n_glass, 1.0}};
-  }
-  if (p.IsCylinder()) {
-    // The section across the axis (through the pupil): circles, as a dome's. Along the axis the
-    // surfaces are straight, as a flat port's: the port is astigmatic (RealRayVirtualImage).
-    const CylinderPort& c = p.cylinder();
-    const double r_out = std::copysign(c.outer_radius_mm, -c.axis_point_mm.z() - w_outer);
-    const double r_in = std::copysign(c.inner_radius_mm, -c.axis_point_mm.z() - w_inner);
-    return {{w_outer, r_out, p.n_water, p.n_glass}, {w_inner, r_in, p.n_glass, 1.0}};
-  }
-  return {{w_outer, kInf, p.n_water, p.n_glass}, {w_inner, kInf, p.n_glass, 1.0}};
+  const PortSection sec = std::visit([](const auto& shape) { return shape.Section(); }, p.spec.shape);
+  const auto radius = [](const SectionCurve& c, double w_vertex) {
+    return c.IsCircle() ? std::copysign(c.radius_mm, -c.center_mm.z() - w_vertex) : kInf;
+  };
+  return {{w_outer, radius(sec.outer, w_outer), p.n_water, p.n_glass}, {w_inner, radius(sec.inner, w_inner), p.n_glass, 1.0}};
 }
 
 struct YNu {
@@ -143,15 +136,7 @@ VirtualImage AxialParaxialImage(const PortSystem& port, double wd_mm) {
 // housing +Z): dome centres on that axis, or a flat port square to it. The chief ray of an axial
 // object is then the axis itself and the y-nu trace is the limit of real rays.
 bool SymmetricAboutAxis(const PortSystem& p) {
-  constexpr double kTol = 1e-12;
-  const Vec3& ep = p.ep_in_housing_mm;
-  if (p.IsDome()) {
-    const DomePort& d = p.dome();
-    return (d.outer.center_mm - ep).head<2>().norm() <= kTol * d.outer.radius_mm &&
-           (d.inner.center_mm - ep).head<2>().norm() <= kTol * d.inner.radius_mm;
-  }
-  if (p.IsCylinder()) return false;  // curved across its axis, straight along it
-  return p.flat().normal.head<2>().norm() <= kTol;
+  return std::visit([&](const auto& shape) { return shape.RevolvesAbout(p.ep_in_housing_mm); }, p.spec.shape);
 }
 
 // The object point on the axis through the pupil at wd_mm from the outer vertex (or at infinity).

@@ -177,21 +177,14 @@ Figure PortRays(const Results& r) {
   const double z_inf = r.infinity.focused.image_z_mm;  // a point fixed in the housing
   double half = 100, zmin = 0, zmax = 0;
   std::string glass_note;
-  if (sys.IsDome() || sys.IsCylinder()) {
-    // A dome's spheres; a cylinder's section across its axis (circles about the axis).
-    ports::DomePort dome;
-    if (sys.IsDome()) {
-      dome = sys.dome();
-    } else {
-      const auto& c = sys.cylinder();
-      dome.outer = {c.axis_point_mm, c.outer_radius_mm};
-      dome.inner = {c.axis_point_mm, c.inner_radius_mm};
-      dome.rim_z_mm = c.rim_z_mm;
-    }
+  const ports::PortSection sec = std::visit([](const auto& shape) { return shape.Section(); }, sys.spec.shape);
+  if (sec.outer.IsCircle() && sec.inner.IsCircle()) {
+    // A curved port's section (ports::PortSection): a dome's spheres, a cylinder's circles about its axis.
+    const ports::SphereSpec outer_s{sec.outer.center_mm, sec.outer.radius_mm}, inner_s{sec.inner.center_mm, sec.inner.radius_mm};
     // The glass as the tracer sees it (ports::PortSystem::Outward): only where z >= the rim plane.
-    const double rim_z = dome.rim_z_mm.value_or(dome.outer.center_mm.z());
-    const auto outer = DomeArc(dome.outer, rim_z), inner = DomeArc(dome.inner, rim_z);
-    half = 1.12 * dome.outer.radius_mm;
+    const double rim_z = sec.rim_z_mm.value_or(outer_s.center_mm.z());
+    const auto outer = DomeArc(outer_s, rim_z), inner = DomeArc(inner_s, rim_z);
+    half = 1.12 * outer_s.radius_mm;
     d += Block(0, fmt::format("outer surface, glass where z >= rim z = {} mm", N(rim_z)), "z_mm x_mm (housing frame)");
     for (const auto& [z, x] : outer) d += fmt::format("{} {}\n", N(z), N(x));
     d += Block(1, "inner surface", "z_mm x_mm");
@@ -202,7 +195,7 @@ Figure PortRays(const Results& r) {
     if (!outer.empty()) d += fmt::format("{} {}\n", N(outer.front().first), N(outer.front().second));
     zmin = std::min({0.0, ep.z() - 20, rim_z - 10});
     zmax = std::max({sys.OuterVertexZ(), ep.z() + d_target, std::isfinite(z_inf) ? z_inf : 0.0}) + 0.12 * half;
-    if (dome.rim_z_mm) glass_note = fmt::format(" The glass ends at the rim plane z = {:.1f} mm.", rim_z);
+    if (sec.rim_z_mm) glass_note = fmt::format(" The glass ends at the rim plane z = {:.1f} mm.", rim_z);
   } else {
     const double zi = sys.InnerVertexZ(), zo = sys.OuterVertexZ();
     // A flat port drawn as deep as it is wide around the chief rays: the virtual image lies far
@@ -252,12 +245,16 @@ Figure PortRays(const Results& r) {
   // within ±atan(half sensor width / c) of the axis), a few mm ahead of it.
   const double fan_tan = std::tan(std::abs(r.fan_angles_deg.empty() ? 30.0 : r.fan_angles_deg.front()) / kDeg);
   const double label_mm = 130 * (zmax - zmin) / 700;  // a 14-character label at 16 px on a ~700 px wide plot
-  const double lz = ep.z() + 0.05 * half, clear = fan_tan * (0.05 * half + label_mm) + 0.12 * half;
+  // A fisheye's fan fills the chart: the labels then stay inside it, over the rays.
+  const double lz = ep.z() + 0.05 * half,
+               clear = std::min(fan_tan * (0.05 * half + label_mm) + 0.12 * half, 0.7 * half);
   mark(ep.z(), ep.x(), "entrance pupil", lz, ep.x() - clear);
-  if (sys.IsDome()) {
-    const ports::Vec3 oc = sys.dome().outer.center_mm, ic = sys.dome().inner.center_mm;
-    mark(oc.z(), oc.x(), "outer centre", lz, ep.x() + clear);
-    mark(ic.z(), ic.x(), "inner centre", lz, ep.x() + clear + 0.14 * half);
+  if (sec.outer.IsCircle() && sec.inner.IsCircle()) {
+    // A centre at the pupil (a port concentric about it) is the pupil's mark.
+    const ports::Vec3 oc = sec.outer.center_mm, ic = sec.inner.center_mm;
+    const auto apart = [&](const ports::Vec3& c) { return std::hypot(c.z() - ep.z(), c.x() - ep.x()) > 1e-6; };
+    if (apart(oc)) mark(oc.z(), oc.x(), "outer centre", lz, ep.x() + clear);
+    if (apart(ic)) mark(ic.z(), ic.x(), "inner centre", lz, ep.x() + clear + 0.14 * half);
   }
   const bool target_on_chart = ep.z() + d_target < zmax;
   if (target_on_chart) {
@@ -278,7 +275,7 @@ Figure PortRays(const Results& r) {
       "glass into the water (like the paper's Figs. 5–6).{} The camera sees the object plane at WD {:.0f} mm "
       "as the green virtual image {:.1f} mm ahead of the pupil{}.",
       sys.spec.name, glass_note, r.plan.target->wd_mm, d_target,
-      sys.IsFlat() ? " (beyond the chart)" : ", curved because of the port's field curvature");
+      sys.spec.IsCurved() ? ", curved because of the port's field curvature" : " (beyond the chart)");
   f.body = fmt::format(
       "set size ratio -1\nset xlabel \"z (mm, housing frame: toward the scene)\"\nset ylabel \"x (mm)\"\n"
       "set xrange [{}:{}]\nset yrange [{}:{}]\nset key outside below center horizontal maxcols 2 samplen 2.5\nset bmargin 7\n"
@@ -341,7 +338,7 @@ Figure VirtualImage(const Results& r) {
   }
   d += Block(2, "WD = infinity (the asymptotes; the table's last row)", "d_s2ep_mm vwd_mm focus_scale_fd_mm");
   d += fmt::format("{} {} {}\n", N(inf.d_s2ep_mm), N(inf.vwd_mm), N(inf.fd_mm.value_or(NAN)));
-  const bool dome = r.plan.system.IsDome();
+  const bool curved = r.plan.system.spec.IsCurved();
   f.caption = fmt::format(
       "Top: where the port puts the virtual image of an object at working distance WD — from the "
       "entrance pupil (D_S2EP, with the pupil where the lens puts it when focused on that image) and from "
@@ -349,9 +346,9 @@ Figure VirtualImage(const Results& r) {
       "Table 5 distances, the dashed lines WD = ∞. Bottom: the focus-scale distance FD to set on the lens "
       "(Eq. 2); missing where the lens cannot focus that close (shaded).{}",
       r.in->f_number,
-      dome && std::isfinite(inf.d_s2ep_mm)
-          ? fmt::format(" Behind this dome the whole water, out to infinity, is imaged within {:.1f} mm of "
-                        "the pupil (VWD {:.1f} mm).", inf.d_s2ep_mm, inf.vwd_mm)
+      curved && std::isfinite(inf.d_s2ep_mm)
+          ? fmt::format(" Behind this {} the whole water, out to infinity, is imaged within {:.1f} mm of "
+                        "the pupil (VWD {:.1f} mm).", r.plan.system.spec.KindName(), inf.d_s2ep_mm, inf.vwd_mm)
           : "");
   std::string asymptotes;
   if (std::isfinite(inf.d_s2ep_mm)) {
@@ -387,9 +384,9 @@ Figure VirtualImage(const Results& r) {
       "set ylabel \"focus scale FD (mm)\"\n"
       "plot data index 0 using 1:5 with lines ls 4 title \"focus scale to set\", \\\n"
       "     data index 1 using 1:4 with points pt 7 lc rgb \"#8e44ad\" notitle\n",
-      LogTics("x", 50, 100000), UnreachableWd(r.plan, 50, 0), dome ? asymptotes + fmt::format("set yrange [0:{}]\n", N(1.14 * inf.d_s2ep_mm)) : "set logscale y\n" + LogTics("y", 10, 1e6), fd_inf,
-      // FD: linear behind a dome (it spans tens of mm), logarithmic behind a flat port.
-      dome ? "unset logscale y\nset ytics autofreq\nset mytics default\n" : LogTics("y", 100, 1e7),
+      LogTics("x", 50, 100000), UnreachableWd(r.plan, 50, 0), curved ? asymptotes + fmt::format("set yrange [0:{}]\n", N(1.14 * inf.d_s2ep_mm)) : "set logscale y\n" + LogTics("y", 10, 1e6), fd_inf,
+      // FD: linear behind a curved port (it spans tens of mm), logarithmic behind a flat port.
+      curved ? "unset logscale y\nset ytics autofreq\nset mytics default\n" : LogTics("y", 100, 1e7),
       UnreachableWd(r.plan, 50, 0.5));
   return f;
 }
