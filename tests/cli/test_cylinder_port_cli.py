@@ -54,6 +54,9 @@ def test_the_preset_reads_writes_and_describes():
     assert f"even infinity is imaged {near:.1f} mm from the entrance pupil (its focal lines at {near:.1f} mm and infinity)" in text
     # The paper's dome, slightly decentred (focal lines 0.1 mm apart at 282 mm, under 1 %), gets neither.
     dome = run("virtual-image", "--port", "nimar-ni320").out
+    inf_row = run("virtual-image", "--port", "nimar-ni320", "--json").json()["rows"][-1]
+    near_d, far_d = inf_row["focal_line_near_d_s2ep_mm"], inf_row["focal_line_far_d_s2ep_mm"]
+    assert round(near_d) == 282 and 0.05 < far_d - near_d < 0.15, inf_row  # docs/port-optics.md: 0.1 mm at 282 mm
     assert "astigmatic" not in dome and "focal lines" not in dome and "even infinity is imaged 282.0 mm" in dome
 
 

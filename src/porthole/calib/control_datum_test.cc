@@ -7,6 +7,7 @@
 // must match the spread of the estimates within [0.67, 1.5], with no bias beyond 3·spread/√runs. And outlier
 // rejection keeps its own rounds when the priors are re-weighted.
 // PORTHOLE_MC_RUNS sets the number of runs (default 50).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -21,6 +22,7 @@
 #include "porthole/calib/calibrate.h"
 #include "porthole/calib/synthetic.h"
 #include "porthole/calib/test_fields.h"
+#include "porthole/core/error.h"
 #include "porthole/refraction/test_camera.h"
 
 namespace porthole::calib {
@@ -194,6 +196,42 @@ TEST(ControlDatum, OutlierRejectionKeepsItsRoundsWithControlPriors) {
       EXPECT_EQ(r.images[i].n_rejected, i < 12 ? 1 : 0) << "image " << i << ", control sigma " << sigma_mm;
     }
     EXPECT_NEAR(r.sigma0_px, o.noise_px, 0.05 * o.noise_px) << "control sigma " << sigma_mm;
+  }
+}
+
+// docs/calibration.md: by default (`auto`) the control points are the datum when 3 or more off one
+// line are observed; fewer, or all on one line, leave the minimal datum, and `control` then refuses
+// naming how many were observed.
+TEST(ControlDatum, AutoTakesThreeControlPointsOffOneLineAndNoFewer) {
+  SyntheticOptions o = Network();
+  o.n_images = 8;
+  const auto set = MakeSyntheticSet(o);
+  const auto run = [&](const std::vector<int>& ids, CalibrationOptions::DatumKind kind) {
+    TargetSpec given = o.target;
+    for (auto& t : given.field) {
+      if (std::find(ids.begin(), ids.end(), t.id) != ids.end()) t.control_sigma_mm = Eigen::Vector3d::Zero();
+    }
+    CalibrationOptions c = Options();
+    c.datum = kind;
+    return Calibrate(set.detections, given, c);
+  };
+  using Kind = CalibrationOptions::DatumKind;
+  const std::vector<int> three_off_a_line = {1, 8, 41}, two = {1, 8}, three_on_a_line = {1, 4, 8};  // 1–8: row 0
+  const CalibrationResult three = run(three_off_a_line, Kind::kAuto);
+  EXPECT_EQ(three.datum.control, three_off_a_line);
+  EXPECT_EQ(three.datum.a, -1);
+  for (const auto& ids : {two, three_on_a_line}) {
+    const CalibrationResult r = run(ids, Kind::kAuto);
+    EXPECT_TRUE(r.datum.control.empty()) << ids.size() << " control points";
+    EXPECT_GE(r.datum.a, 0) << ids.size() << " control points";  // the minimal datum
+    try {
+      run(ids, Kind::kControl);
+      ADD_FAILURE() << "datum control accepted " << ids.size() << " control points";
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), "datum");
+      EXPECT_NE(std::string(e.what()).find(fmt::format("off one line: {} observed", ids.size())), std::string::npos)
+          << e.what();
+    }
   }
 }
 

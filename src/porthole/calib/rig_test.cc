@@ -203,7 +203,12 @@ TEST(Rig, CamerasBehindTheirOwnDomesWithAirImages) {
   const RigCamera& c1 = r.cameras[1];
   const Eigen::AngleAxisd true_r(truth.cam_from_rig[1].linear());
   const Eigen::Vector3d rotation_error = c1.rotation_rad - true_r.axis() * true_r.angle();
-  for (int i = 0; i < 3; ++i) EXPECT_LE(std::abs(rotation_error(i)), 3 * c1.pose_sigma(i)) << i;
+  constexpr double kDeg = 180 / M_PI;
+  for (int i = 0; i < 3; ++i) {
+    std::printf("dome rig with air images, rotation error about %c: %.5f deg, sigma %.5f deg (%.2f sigma)\n", "xyz"[i],
+                rotation_error(i) * kDeg, c1.pose_sigma(i) * kDeg, std::abs(rotation_error(i)) / c1.pose_sigma(i));
+    EXPECT_LE(std::abs(rotation_error(i)), 3 * c1.pose_sigma(i)) << i;
+  }
   for (int k = 0; k < 2; ++k) {
     const auto& cam = r.cameras[k];
     std::printf("dome rig with air images, camera %d: %zu air images at RMS %.4f px\n", k, cam.air_images.size(),

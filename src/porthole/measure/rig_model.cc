@@ -43,7 +43,9 @@ Eigen::Vector3d Vector3(const Json& j, const std::string& key, const std::string
 
 refraction::Shell ShellFromJson(const Json& port, const std::string& field) {
   if (!port.contains("kind") || !port["kind"].is_string()) {
-    throw InvalidInput(field + ".kind", "must be dome, flat or cylinder");
+    std::string kinds;  // the port list's shapes
+    for (std::string_view n : ports::ShapeNames()) kinds += (kinds.empty() ? "" : ", ") + std::string(n);
+    throw InvalidInput(field + ".kind", "must be one of " + kinds);
   }
   if (!port.contains("shell") || !port["shell"].is_object()) {
     throw InvalidInput(field + ".shell", "missing: the rig file predates measure (calibrate it again with this "
