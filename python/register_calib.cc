@@ -460,7 +460,11 @@ void RegisterCalib(py::module_& m) {
               nlohmann::ordered_json j = calib::CalibrateRigJobJson(r);
               PythonWordsInJson(&j);
               j["warnings"] = PythonWarnings(r.warnings);  // the pitches' and the ports', as the CLI prints them
-              return JsonToPython(j);
+              py::list estimated;  // each camera's port as estimated (a PortSpec), None without one
+              for (const auto& c : r.rig.cameras) {
+                estimated.append(c.has_port ? py::cast(c.estimated_port) : py::none());
+              }
+              return py::make_tuple(JsonToPython(j), estimated);
             });
       },
       py::arg("cameras"), py::arg("target"), py::kw_only(), py::arg("model") = "brown", py::arg("pixel_pitch_mm") = 1.0,
@@ -481,8 +485,10 @@ void RegisterCalib(py::module_& m) {
       "another focus (each camera's air images their own focal length, a factor adjusted); target_free=True adjusts "
       "the target's points with the rig (datum: auto | minimal | control, chosen by the first camera's calibration; "
       "the JSON's rig.target_adjusted). free_port (calibrate_refractive()'s) is refused: a rig does not take it yet. "
-      "Returns the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, \"skipped\": []}, "
-      "with warnings: the plausibility warnings of the pitches and the ports, as the CLI prints them.");
+      "Returns (the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, "
+      "\"skipped\": []}, with warnings: the plausibility warnings of the pitches and the ports, as the CLI prints "
+      "them; each camera's estimated port, a PortSpec (None without a port): --port-out's files as "
+      "PortSpec.to_toml() gives them).");
 
   m.def(
       "synthetic_detections",

@@ -296,7 +296,15 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
   if (!o.air_detections.empty()) job.air_detections = SplitList(o.air_detections);
   job.ep = !o.port.ep.empty();
   job.intrinsics = !o.intrinsics.empty();
-  job.port_out = !o.port_out.empty();
+  // --port-out: one file per camera (a comma list, in the order of the cameras).
+  const std::vector<std::string> port_outs = o.port_out.empty() ? std::vector<std::string>{} : SplitList(o.port_out);
+  const std::size_t n_cameras = std::max(o.image_dirs.size(), o.detection_paths.size());
+  if (!port_outs.empty() && port_outs.size() != n_cameras) {
+    throw InvalidInput("--port-out", fmt::format("{} {} for {} cameras: one per camera (a comma list, in the "
+                                                 "order of the cameras)", port_outs.size(),
+                                                 port_outs.size() == 1 ? "file" : "files", n_cameras));
+  }
+  job.port_out = !port_outs.empty();
   job.free_water_index = o.free_water_index;
   job.free_shell = o.free_shell;
   job.port_sigma = !o.port_sigma.empty();
@@ -309,17 +317,23 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
   job.check_outputs = [&] {
     if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
     if (!o.stereo_out.empty()) CheckOutput(o.stereo_out, "--stereo-out", rules);
+    for (const std::string& f : port_outs) CheckOutput(f, "--port-out", rules);
   };
   const calib::CalibrateRigJobResult result = calib::CalibrateRigJob(job);
   const calib::RigResult& r = result.rig;
   const calib::RigOptions& ro = result.rig_options;
   auto j = calib::CalibrateRigJobJson(result);
   CliWordsInJson(&j);  // the library's `field` in the CLI's words
-  std::string stereo_note;
+  std::string written_note;
   if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T (interop/rig_files.h)
     WriteOutput(o.stereo_out, result.stereo_text, "--stereo-out", rules);
     j["rig"]["stereo_out"] = o.stereo_out;
-    stereo_note = fmt::format("OpenCV stereo file (K1 D1 K2 D2 R T) written to {}\n", o.stereo_out);
+    written_note = fmt::format("OpenCV stereo file (K1 D1 K2 D2 R T) written to {}\n", o.stereo_out);
+  }
+  for (std::size_t k = 0; k < port_outs.size(); ++k) {  // each camera's estimated port as a port TOML
+    WriteOutput(port_outs[k], result.port_tomls[k], "--port-out", rules);
+    j["rig"]["cameras"][k]["port"]["port_out"] = port_outs[k];
+    written_note += fmt::format("estimated port of {} written to {}\n", r.cameras[k].name, port_outs[k]);
   }
   if (!o.out.empty()) WriteOutput(o.out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
   if (o.json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
@@ -365,7 +379,7 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
                        c.air_images.size(), c.air_rms_px);
     }
   }
-  t += "rig status: " + CliWords(r.message) + "\n" + stereo_note;
+  t += "rig status: " + CliWords(r.message) + "\n" + written_note;
   for (const auto& s : skipped) t += fmt::format("skipped {}: {}\n", s.image, s.reason);
   fmt::print("{}", t);
 }
@@ -589,7 +603,9 @@ void RegisterCalibrate(CLI::App& app) {
                   "1-sigma of the predicted port parameters (dome mm; flat normal, normal, mm) for "
                   "the chi2 test; default dome 0.5,0.5,0.5, flat 0.005,0.005,1")
       ->delimiter(',')->expected(3)->group(group);
-  cmd->add_option("--port-out", o->port_out, "Write the estimated port as a port TOML")->group(group);
+  cmd->add_option("--port-out", o->port_out,
+                  "Write the estimated port as a port TOML. A rig: one file per camera (a comma list)")
+      ->group(group);
   cmd->add_flag("--free-water-index", o->free_water_index,
                 "Adjust a factor on the water index too (no prior; its sigma and correlations "
                 "say whether the images determine it)")->group(group);

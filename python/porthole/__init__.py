@@ -322,7 +322,8 @@ def calibrate_rig(cameras, target, **kwargs) -> "RigCalibration":
     if kwargs.get("air_detections") is not None:
         kwargs["air_detections"] = [_plain(c if isinstance(c, DetectionSet) else list(c))
                                     for c in kwargs["air_detections"]]
-    r = RigCalibration.from_dict(_porthole.calibrate_rig(plain, target, **kwargs))
+    d, estimated_ports = _porthole.calibrate_rig(plain, target, **kwargs)
+    r = RigCalibration.from_dict(d, estimated_ports)
     for text in r.warnings:  # the job's, as the CLI prints them on stderr (each camera's repeat its pitch's)
         _warnings.warn(text, PortholeWarning, stacklevel=2)
     return r

@@ -538,7 +538,8 @@ class RigCamera(Calibration):
     plus its name, cam_from_rig (x_cam = R(rotation_rad)·x_rig + translation_mm; the rig frame is the
     first camera's) with sigma (6: rotation rad, then translation mm), the baseline from the first
     camera (mm) with its sigma, the convergence angle (deg), the frames it sees, and, behind a port,
-    `port` (name, kind, parameters, sigma, predicted)."""
+    `port` (name, kind, parameters, sigma, predicted) and `estimated_port`, the port as estimated
+    (a PortSpec in the housing frame: estimated_port.to_toml() is `calibrate --port-out`'s file)."""
     name: str = ""
     rotation_rad: np.ndarray = dataclasses.field(default=None)
     translation_mm: np.ndarray = dataclasses.field(default=None)
@@ -548,9 +549,10 @@ class RigCamera(Calibration):
     convergence_deg: float = 0.0
     n_frames: int = 0
     port: Optional[Record] = None
+    estimated_port: Any = None
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "RigCamera":
+    def from_dict(cls, d: Dict[str, Any], estimated_port=None) -> "RigCamera":
         base = Calibration.from_dict(d)
         fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(Calibration)}
         pose = d["cam_from_rig"]
@@ -560,7 +562,7 @@ class RigCamera(Calibration):
                    pose_sigma=np.array([_float(x) for x in sigma["rotation_rad"] + sigma["translation_mm"]]),
                    baseline_mm=_float(d["baseline_mm"]), baseline_sigma_mm=_float(d["baseline_sigma_mm"]),
                    convergence_deg=_float(d["convergence_deg"]), n_frames=int(d["n_frames"]),
-                   port=Record(d["port"]) if "port" in d else None)
+                   port=Record(d["port"]) if "port" in d else None, estimated_port=estimated_port)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -579,11 +581,13 @@ class RigCalibration:
     warnings: List[str] = dataclasses.field(default_factory=list)
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "RigCalibration":
+    def from_dict(cls, d: Dict[str, Any], estimated_ports=None) -> "RigCalibration":
+        """estimated_ports: each camera's estimated PortSpec (calibrate_rig's), or None."""
         rig = d["rig"]
+        ports = list(estimated_ports) if estimated_ports is not None else [None] * len(rig["cameras"])
         warnings = [str(w) for w in d.get("warnings") or []]
         d = {k: v for k, v in d.items() if k != "warnings"}  # the CLI's JSON holds none (stderr)
-        return cls(cameras=[RigCamera.from_dict(c) for c in rig["cameras"]], n_frames=int(rig["n_frames"]),
+        return cls(cameras=[RigCamera.from_dict(c, p) for c, p in zip(rig["cameras"], ports)], n_frames=int(rig["n_frames"]),
                    n_points=int(rig["n_points"]), sigma0_px=_float(rig["sigma0_px"]), rms_px=_float(rig["rms_px"]),
                    status=rig["status"], _dict=d, warnings=warnings)
 

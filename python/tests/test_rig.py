@@ -5,6 +5,7 @@ Calibration), and errors naming the keyword. The stereo pair is projected by cv2
 (tests/cli/test_rig_cli.py compares the CLI with cv2.stereoCalibrate)."""
 import json
 import math
+import tomllib
 
 import numpy as np
 import pytest
@@ -118,9 +119,26 @@ def test_a_rig_with_air_images_through_its_ports_matches_the_cli(tmp_path):
         files[m, c].write_text(json.dumps(d.to_dict()))
     ours = porthole.calibrate_rig([det["water", "cam0"], det["water", "cam1"]], target, pixel_pitch_mm=0.029,
                                   port="nimar-ni320", air_detections=[det["air", "cam0"], det["air", "cam1"]])
+    port_out = [tmp_path / "cam0-port.toml", tmp_path / "cam1-port.toml"]
     theirs = cli_json("calibrate", "--detections", files["water", "cam0"], "--detections", files["water", "cam1"],
                       "--pixel-pitch-mm", "0.029", "--port", "nimar-ni320", "--air-detections",
-                      f"{files['air', 'cam0']},{files['air', 'cam1']}", "--quiet")["rig"]
+                      f"{files['air', 'cam0']},{files['air', 'cam1']}", "--port-out",
+                      f"{port_out[0]},{port_out[1]}", "--quiet")["rig"]
+    # --port-out: each camera's estimated port as a port TOML, which every command reads; the pupil
+    # (where the preset puts it) minus its outer centre is that camera's estimated ep_in_dome, and
+    # Python's estimated_port is the same port (1e-9 relative).
+    for k, (cam, f) in enumerate(zip(theirs["cameras"], port_out)):
+        assert cam["port"]["port_out"] == str(f)
+        written = tomllib.loads(f.read_text())
+        assert written["name"] == "nimar-ni320-as-calibrated" and written["type"] == "dome"
+        ep, outer = written["entrance_pupil_mm"], written["outer"]["center_mm"]
+        p = [cam["port"]["parameters"][key] for key in ("ep_in_dome_x_mm", "ep_in_dome_y_mm", "ep_in_dome_z_mm")]
+        assert [a - b for a, b in zip(ep, outer)] == pytest.approx(p, abs=1e-9)
+        mine = tomllib.loads(ours.cameras[k].estimated_port.to_toml())
+        for side in ("outer", "inner"):
+            assert mine[side]["center_mm"] == pytest.approx(written[side]["center_mm"], rel=1e-9, abs=1e-9)
+            assert mine[side]["radius_mm"] == written[side]["radius_mm"]
+        assert porthole.place(str(f)).type is porthole.PortType.DOME  # read back by the port reader
     right = ours.cameras[1]
     assert right.translation_mm == pytest.approx(theirs["cameras"][1]["cam_from_rig"]["translation_mm"], rel=1e-9)
     assert abs(right.baseline_mm - 300) < 0.5

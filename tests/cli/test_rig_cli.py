@@ -139,6 +139,15 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     assert "one per camera" in line, line
     assert "only with --port" in run_bad(*base, "--model", "opencv", "--air-calibration", f"{cal},{cal}",
                                          "--air-lens-bare")
+    # --port-out: one file per camera, and only behind ports (python/tests/test_rig.py reads the files); nothing
+    # is written when refused.
+    one = tmp_path / "one.toml"
+    line = run_bad(*base, "--model", "opencv", "--port", "nimar-ni320", "--port-out", one)
+    assert line == ("porthole: error: --port-out: 1 file for 2 cameras: one per camera (a comma list, in the order "
+                    "of the cameras)"), line
+    line = run_bad(*base, "--model", "opencv", "--port-out", f"{one},{tmp_path / 'two.toml'}")
+    assert line == "porthole: error: --port-out: only with --port (cameras behind ports)", line
+    assert not one.exists() and not (tmp_path / "two.toml").exists()
     # Air images at another focus (calib_refractive_test Rig.*RefocusedAirImages checks the numbers) need air images.
     line = run_bad(*base, "--model", "opencv", "--port", "nimar-ni320", "--air-refocused")
     assert line.startswith("porthole: error: --air-refocused:") and "--air-images" in line, line

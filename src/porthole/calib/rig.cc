@@ -759,6 +759,10 @@ RigResult CalibrateRig(const std::vector<std::vector<ImageDetections>>& per_came
       for (int i = 0; i < refraction::kPortNumParams; ++i) rc.port_sigma[i] = std::sqrt(s02 * pc(i, i));
       refraction::ValidateParams(*c.shell, c.port.data(), "port");
       rc.estimated_port = refraction::SpecWithParams(*c.system, c.port);
+      rc.estimated_port.name = c.system->spec.name + "-as-calibrated";
+      rc.estimated_port.description = fmt::format("{} as calibrated from the images of camera {} of a rig ({})",
+                                                  c.system->spec.name, rc.name, c.system->spec.description);
+      rc.estimated_port.source = "porthole calibrate, a rig through its ports: estimated from images";
       rc.shell = *c.shell;
     }
     res.cameras.push_back(std::move(rc));

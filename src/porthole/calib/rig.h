@@ -100,7 +100,8 @@ struct RigCamera {
   double convergence_deg = 0;  // angle between its optical axis and camera 0's
   int n_frames = 0;            // frames it sees
   // Behind a port (RigOptions::ports): its kind, the estimated port parameters with σ, the
-  // predicted ones, and the port as estimated (housing frame).
+  // predicted ones, and the port as estimated (housing frame; named "<port>-as-calibrated": what
+  // CalibrateRigJob writes as a port TOML, port_out).
   bool has_port = false;
   refraction::PortKind port_kind = refraction::PortKind::kDome;
   std::array<double, refraction::kPortNumParams> port{}, port_sigma{}, port_predicted{};

@@ -46,7 +46,7 @@ void Warn(const CalibrateRigJobOptions& o, CalibrateRigJobResult* out, const std
 // The single camera's options a rig does not take (yet), refused by their names.
 void RequireRigOptions(const CalibrateRigJobOptions& o) {
   const std::pair<const char*, bool> not_in_rig[] = {
-      {"ep", o.ep}, {"intrinsics", o.intrinsics}, {"port_out", o.port_out},
+      {"ep", o.ep}, {"intrinsics", o.intrinsics},
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
       {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
@@ -213,6 +213,7 @@ void RequireConsistent(const CalibrateRigJobOptions& o, int n, const std::vector
     throw InvalidInput("air_calibration", fmt::format("{} in-air calibrations for {} cameras: one per camera "
                                                       "(a comma list)", n_air, n));
   }
+  if (o.port_out && o.port.empty()) throw InvalidInput("port_out", "only with `port` (cameras behind ports)");
   if (o.air_lens_bare && n_air == 0) {
     throw InvalidInput("air_lens_bare", "says what `air_calibration` holds: give `air_calibration`");
   }
@@ -314,6 +315,9 @@ CalibrateRigJobResult CalibrateRigJob(const CalibrateRigJobOptions& o) {
   for (const auto& c : out.rig.cameras) {
     camera::RequirePossibleResult(c.calibration.camera, c.calibration.rms_px, from_images ? "images" : "detections",
                                   "the calibration of camera " + c.name);
+  }
+  if (o.port_out) {
+    for (const auto& c : out.rig.cameras) out.port_tomls.push_back(catalogue::PortToToml(c.estimated_port));
   }
   if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T
     interop::RigFile pair = interop::RigFileFromResult(out.rig);

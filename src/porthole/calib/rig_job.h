@@ -9,7 +9,7 @@
 //
 // Errors are InvalidInput naming the library's fields, as CalibrateJob's (calib/job.h): images,
 // detections, names, target, field, model, free, pixel_pitch_mm, port, air_calibration, air_lens_bare,
-// air_images, air_detections, stereo_out, and the options a rig refuses (ep, intrinsics, port_out,
+// air_images, air_detections, port_out, stereo_out, and the options a rig refuses (ep, intrinsics,
 // free_water_index, free_shell, port_sigma, free_port, opencv_yaml, field_out,
 // plan_only, drop_insignificant); CalibrateRig's own (cameras, …) pass through.
 #pragma once
@@ -67,9 +67,12 @@ struct CalibrateRigJobOptions {
   std::string datum = "auto";
   // The air images were taken at another focus (each camera's air set its own focal factor).
   bool air_refocused = false;
+  // Each camera's estimated port as a port TOML (result.port_tomls; with `port`): its housing-frame
+  // port with the estimated parameters, the pupil where `port` put it, read by every command.
+  bool port_out = false;
   // The single camera's options a rig does not take (yet): set, each is refused by its name
   // (free_port: the port parameters adjusted).
-  bool ep = false, intrinsics = false, port_out = false, free_water_index = false, free_shell = false,
+  bool ep = false, intrinsics = false, free_water_index = false, free_shell = false,
        free_port = false, port_sigma = false, opencv_yaml = false, field_out = false, plan_only = false;
   // The first two cameras as OpenCV's stereo file (result.stereo_text): the file name the front end
   // will write (.xml: XML, else YAML); empty: none. Both cameras of the opencv model without a port.
@@ -87,6 +90,7 @@ struct CalibrateRigJobResult {
   std::optional<nlohmann::ordered_json> images_source;  // with `images`: each camera's FrameChoiceToJson
   std::vector<std::string> warnings;      // those said through options.warn
   std::string stereo_text;                // the OpenCV stereo file asked for (stereo_out)
+  std::vector<std::string> port_tomls;    // port_out: each camera's estimated port (catalogue::PortToToml)
 };
 
 // Runs the rig calibration the options describe. Throws InvalidInput(field, …) for bad options or

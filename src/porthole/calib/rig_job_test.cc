@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "porthole/calib/rig_job.h"
+#include "porthole/catalogue/presets.h"
 #include "porthole/calib/test_rig.h"
 #include "porthole/core/error.h"
 
@@ -106,10 +107,45 @@ TEST(CalibrateRigJob, RefusesWhatARigCannotTakeNamingTheField) {
   o.free_port = true;  // a single camera's adjusted port parameters
   EXPECT_EQ(field_of(o), "free_port");
   o = StereoJob();
+  o.port_out = true;  // estimated ports, without ports
+  EXPECT_EQ(field_of(o), "port_out");
+  o = StereoJob();
   o.model = {"opencv", "brown"};
   o.stereo_out = "pair.yaml";  // camera 1 is not an opencv camera
   EXPECT_EQ(field_of(o), "stereo_out");
   EXPECT_EQ(checks, 0);
+}
+
+// Two cameras behind their own NI320s (the second pupil 0.7, 0.5, 2.4 mm off the first's), in
+// water, through the preset `nimar-ni320` (the pupils' start where it puts them): with port_out each
+// camera's estimated port comes back as a port TOML that the port reader takes, names the camera's
+// port "-as-calibrated" and puts the estimated parameters back, within 1e-9 mm. (Water images only,
+// no air calibration: the estimates themselves are weak here; rig_test checks them against truth.)
+TEST(CalibrateRigJob, WritesEachCamerasEstimatedPort) {
+  const Truth truth = TwoDomeRig();
+  CalibrateRigJobOptions o;
+  o.given = Frames(truth, ParseTarget(kTarget), 15, 9);
+  o.target = kTarget;
+  o.pixel_pitch_mm = {truth.cams[0].sensor.pixel_pitch_mm};
+  o.port = {"nimar-ni320"};
+  o.water.water_index = 1.341;
+  o.port_out = true;
+  const CalibrateRigJobResult r = CalibrateRigJob(o);
+  ASSERT_EQ(r.port_tomls.size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    const RigCamera& c = r.rig.cameras[k];
+    ASSERT_TRUE(c.has_port);
+    const ports::PortSpec spec = catalogue::ParsePortToml(r.port_tomls[k], "camera" + std::to_string(k));
+    EXPECT_EQ(spec.name, "nimar-ni320-as-calibrated");
+    EXPECT_NE(spec.description.find("camera" + std::to_string(k)), std::string::npos) << spec.description;
+    const auto& dome = std::get<ports::DomePort>(spec.shape);
+    const auto p = dome.PortParams(spec.default_ep_in_housing_mm);  // the pupil minus the outer centre
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(p[i], c.port[i], 1e-9) << k << " " << i;
+    // The preset's glass and the water index as the rig took them.
+    EXPECT_EQ(dome.material, "n-bk7");
+  }
+  // The two cameras' ports differ as their pupils do (the second 2.4 mm further back).
+  EXPECT_NE(r.port_tomls[0], r.port_tomls[1]);
 }
 
 }  // namespace
