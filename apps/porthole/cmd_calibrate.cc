@@ -318,6 +318,7 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
     if (!o.out.empty()) CheckOutput(o.out, "--out", rules, FileKind::kCalibration);
     if (!o.stereo_out.empty()) CheckOutput(o.stereo_out, "--stereo-out", rules);
     for (const std::string& f : port_outs) CheckOutput(f, "--port-out", rules);
+    if (!o.field_out.empty()) CheckOutput(o.field_out, "--field-out", rules);
   };
   const calib::CalibrateRigJobResult result = calib::CalibrateRigJob(job);
   const calib::RigResult& r = result.rig;
@@ -334,6 +335,11 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
     WriteOutput(port_outs[k], result.port_tomls[k], "--port-out", rules);
     j["rig"]["cameras"][k]["port"]["port_out"] = port_outs[k];
     written_note += fmt::format("estimated port of {} written to {}\n", r.cameras[k].name, port_outs[k]);
+  }
+  if (!o.field_out.empty()) {  // the free target's adjusted points, as one camera's --field-out
+    WriteOutput(o.field_out, result.field_text, "--field-out", rules);
+    j["field_out"] = o.field_out;
+    written_note += fmt::format("adjusted target field written to {}\n", o.field_out);
   }
   if (!o.out.empty()) WriteOutput(o.out, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "--out", rules);
   if (o.json) return fmt::print("{}\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace));
@@ -551,7 +557,7 @@ void RegisterCalibrate(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Write the calibration JSON to this file");
   cmd->add_option("--field-out", o->field_out,
-                  "Coded targets with --free-target: write the adjusted target field to this file ('id x_mm y_mm "
+                  "Coded targets with --free-target (one camera or a rig): write the adjusted target field to this file ('id x_mm y_mm "
                   "z_mm' lines, the sigma in comments), for --field of the next calibration or render");
   cmd->add_option("--stereo-out", o->stereo_out,
                   "A rig of opencv-model cameras: write the first two as OpenCV's stereo file (K1 D1 K2 D2 R T, as "

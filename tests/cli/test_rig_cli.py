@@ -319,3 +319,11 @@ def test_a_free_target_in_a_rig(rig):
     for i in range(3):
         assert abs(a["translation_mm"][i] - b["translation_mm"][i]) < 5 * b["sigma"]["translation_mm"][i], i
     assert "target_adjusted" not in held
+
+    # --field-out writes a coded target's field (CalibrateRigJob.WritesTheFreeTargetsAdjustedField): of this
+    # chessboard there is none, and nothing is written; without --free-target no point is adjusted.
+    out = d / "field.txt"
+    line = run_bad(*base, "--free-target", "--field-out", out)
+    assert line.startswith("porthole: error: --field-out: a target-field file is for coded targets"), line
+    assert "needs --free-target" in run_bad(*base, "--field-out", out)
+    assert not out.exists()

@@ -12,6 +12,7 @@
 
 #include "porthole/calib/detections_json.h"
 #include "porthole/calib/job.h"
+#include "porthole/calib/result_json.h"
 #include "porthole/camera/validate.h"
 #include "porthole/catalogue/presets.h"
 #include "porthole/core/error.h"
@@ -48,7 +49,7 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
   const std::pair<const char*, bool> not_in_rig[] = {
       {"ep", o.ep}, {"intrinsics", o.intrinsics},
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
-      {"opencv_yaml", o.opencv_yaml}, {"field_out", o.field_out},
+      {"opencv_yaml", o.opencv_yaml},
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
       {"free_port", o.free_port}};
   for (const auto& [field, given] : not_in_rig) {
@@ -214,6 +215,9 @@ void RequireConsistent(const CalibrateRigJobOptions& o, int n, const std::vector
                                                       "(a comma list)", n_air, n));
   }
   if (o.port_out && o.port.empty()) throw InvalidInput("port_out", "only with `port` (cameras behind ports)");
+  if (o.field_out && !o.lens.target_free) {
+    throw InvalidInput("field_out", "needs `free_target` (without it no point is adjusted)");
+  }
   if (o.air_lens_bare && n_air == 0) {
     throw InvalidInput("air_lens_bare", "says what `air_calibration` holds: give `air_calibration`");
   }
@@ -318,6 +322,15 @@ CalibrateRigJobResult CalibrateRigJob(const CalibrateRigJobOptions& o) {
   }
   if (o.port_out) {
     for (const auto& c : out.rig.cameras) out.port_tomls.push_back(catalogue::PortToToml(c.estimated_port));
+  }
+  if (o.field_out) {  // the rig's free target, written as one camera's (its images: every camera's)
+    CalibrationResult adjusted;
+    adjusted.target_points_mm = out.rig.target_points_mm;
+    adjusted.target_sigma_mm = out.rig.target_sigma_mm;
+    adjusted.datum = out.rig.datum;
+    adjusted.sigma0_px = out.rig.sigma0_px;
+    for (const auto& c : out.rig.cameras) adjusted.n_images += c.n_frames;
+    out.field_text = AdjustedFieldText(adjusted, out.target);
   }
   if (!o.stereo_out.empty()) {  // the first two cameras as cv::stereoCalibrate's K1 D1 K2 D2 R T
     interop::RigFile pair = interop::RigFileFromResult(out.rig);

@@ -9,8 +9,8 @@
 //
 // Errors are InvalidInput naming the library's fields, as CalibrateJob's (calib/job.h): images,
 // detections, names, target, field, model, free, pixel_pitch_mm, port, air_calibration, air_lens_bare,
-// air_images, air_detections, port_out, stereo_out, and the options a rig refuses (ep, intrinsics,
-// free_water_index, free_shell, port_sigma, free_port, opencv_yaml, field_out,
+// air_images, air_detections, port_out, field_out, stereo_out, and the options a rig refuses (ep,
+// intrinsics, free_water_index, free_shell, port_sigma, free_port, opencv_yaml,
 // plan_only, drop_insignificant); CalibrateRig's own (cameras, …) pass through.
 #pragma once
 
@@ -70,10 +70,13 @@ struct CalibrateRigJobOptions {
   // Each camera's estimated port as a port TOML (result.port_tomls; with `port`): its housing-frame
   // port with the estimated parameters, the pupil where `port` put it, read by every command.
   bool port_out = false;
+  // The free target's adjusted points as a target-field file (result.field_text; with
+  // lens.target_free and a coded target), as one camera's (calib/result_json.h AdjustedFieldText).
+  bool field_out = false;
   // The single camera's options a rig does not take (yet): set, each is refused by its name
   // (free_port: the port parameters adjusted).
   bool ep = false, intrinsics = false, free_water_index = false, free_shell = false,
-       free_port = false, port_sigma = false, opencv_yaml = false, field_out = false, plan_only = false;
+       free_port = false, port_sigma = false, opencv_yaml = false, plan_only = false;
   // The first two cameras as OpenCV's stereo file (result.stereo_text): the file name the front end
   // will write (.xml: XML, else YAML); empty: none. Both cameras of the opencv model without a port.
   std::string stereo_out;
@@ -91,6 +94,7 @@ struct CalibrateRigJobResult {
   std::vector<std::string> warnings;      // those said through options.warn
   std::string stereo_text;                // the OpenCV stereo file asked for (stereo_out)
   std::vector<std::string> port_tomls;    // port_out: each camera's estimated port (catalogue::PortToToml)
+  std::string field_text;                 // field_out: the adjusted target field
 };
 
 // Runs the rig calibration the options describe. Throws InvalidInput(field, …) for bad options or

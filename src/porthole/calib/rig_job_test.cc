@@ -5,18 +5,21 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "porthole/calib/rig_job.h"
 #include "porthole/catalogue/presets.h"
+#include "porthole/calib/test_fields.h"
 #include "porthole/calib/test_rig.h"
 #include "porthole/core/error.h"
 
 namespace porthole::calib {
 namespace {
 
-using namespace fixtures;  // test_rig.h: TwoCameraRig, Frames
+using namespace fixtures;  // test_rig.h: TwoCameraRig, Frames; test_fields.h: RaisedBoard
 
 constexpr const char* kTarget = "chessboard:16x12:50";
 
@@ -146,6 +149,57 @@ TEST(CalibrateRigJob, WritesEachCamerasEstimatedPort) {
   }
   // The two cameras' ports differ as their pupils do (the second 2.4 mm further back).
   EXPECT_NE(r.port_tomls[0], r.port_tomls[1]);
+}
+
+// A rig's free target (lens.target_free, a 3-D coded field: the board with raised targets) with
+// field_out: the adjusted field as one camera's target-field file, which the field reader reads back
+// to the rig's adjusted points (within the file's 1e-6 mm), every observed point with its σ.
+TEST(CalibrateRigJob, WritesTheFreeTargetsAdjustedField) {
+  const Truth truth = TwoCameraRig();
+  const TargetSpec board = RaisedBoard();
+  const std::string field_file = ::testing::TempDir() + "rig_job_field.txt";
+  {
+    std::ofstream f(field_file);
+    for (const auto& t : board.field) f << t.id << " " << t.xyz_mm.x() << " " << t.xyz_mm.y() << " " << t.xyz_mm.z() << "\n";
+  }
+  CalibrateRigJobOptions o;
+  o.given = Frames(truth, board, 15, 5);
+  for (auto& camera : *o.given) {  // id 0 is no target of the field
+    for (auto& d : camera) {
+      ImageDetections kept = d;
+      kept.ids.clear();
+      kept.points_px.clear();
+      for (std::size_t i = 0; i < d.ids.size(); ++i) {
+        if (d.ids[i] != 0) kept.ids.push_back(d.ids[i]), kept.points_px.push_back(d.points_px[i]);
+      }
+      d = kept;
+    }
+  }
+  o.target = board.ToString();
+  o.field = field_file;
+  o.model = {"opencv"};
+  o.centre_correction = "off";  // synthetic centres
+  o.lens.target_free = true;
+  o.field_out = true;
+  const CalibrateRigJobResult r = CalibrateRigJob(o);
+  ASSERT_FALSE(r.field_text.empty());
+  EXPECT_NE(r.field_text.find("# datum: "), std::string::npos) << r.field_text.substr(0, 400);
+  const std::string written = ::testing::TempDir() + "rig_job_field_out.txt";
+  std::ofstream(written) << r.field_text;
+  TargetSpec back = ParseTarget(o.target);
+  LoadTargetField(written, &back);
+  ASSERT_EQ(back.field.size(), board.field.size());
+  int adjusted = 0;
+  for (const auto& t : back.field) {
+    if (!r.rig.target_sigma_mm[t.id].allFinite()) continue;
+    ++adjusted;
+    EXPECT_LE((t.xyz_mm - r.rig.target_points_mm[t.id]).cwiseAbs().maxCoeff(), 1e-6) << t.id;
+  }
+  EXPECT_EQ(adjusted, static_cast<int>(board.field.size()));  // every point seen
+  std::size_t sigma_lines = 0;
+  for (std::size_t at = 0; (at = r.field_text.find("# sigma", at)) != std::string::npos; ++at) ++sigma_lines;
+  EXPECT_EQ(sigma_lines, board.field.size());
+  std::printf("rig field_out: %d points adjusted, sigma0 %.4f px\n", adjusted, r.rig.sigma0_px);
 }
 
 }  // namespace
