@@ -139,6 +139,10 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     assert "one per camera" in line, line
     assert "only with --port" in run_bad(*base, "--model", "opencv", "--air-calibration", f"{cal},{cal}",
                                          "--air-lens-bare")
+    # OpenCV's one-camera file: a rig's pair goes to the stereo file.
+    line = run_bad(*base, "--model", "opencv", "--opencv-yaml", tmp_path / "cam.yaml")
+    assert line == ("porthole: error: --opencv-yaml: writes one camera: a rig's first two cameras go to OpenCV's "
+                    "stereo file (--stereo-out)"), line
     # --port-out: one file per camera, and only behind ports (python/tests/test_rig.py reads the files); nothing
     # is written when refused.
     one = tmp_path / "one.toml"

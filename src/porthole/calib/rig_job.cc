@@ -49,11 +49,15 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
   const std::pair<const char*, bool> not_in_rig[] = {
       {"ep", o.ep}, {"intrinsics", o.intrinsics},
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
-      {"opencv_yaml", o.opencv_yaml},
+
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
       {"free_port", o.free_port}};
   for (const auto& [field, given] : not_in_rig) {
     if (given) throw InvalidInput(field, "not with a rig (several cameras) yet");
+  }
+  if (o.opencv_yaml) {
+    throw InvalidInput("opencv_yaml", "writes one camera: a rig's first two cameras go to OpenCV's stereo file "
+                                      "(`stereo_out`)");
   }
 }
 
