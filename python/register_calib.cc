@@ -395,14 +395,14 @@ void RegisterCalib(py::module_& m) {
          bool air_lens_bare, const std::string& water, std::optional<double> water_index, double lambda_nm,
          double temperature_c, double salinity_psu, double pressure_dbar, bool progress,
          const std::vector<std::string>& names, const py::object& air_detections, const py::object& datum,
-         const py::object& free_port, bool air_refocused, bool target_free) {
+         const py::object& free_port, bool air_refocused, bool target_free, std::optional<Vec3> ep_mm) {
         return WithFieldNames(
             {{"cameras", "cameras"}, {"images", "cameras"}, {"detections", "cameras"}, {"model", "model"},
              {"pixel_pitch_mm", "pixel_pitch_mm"}, {"port", "port"}, {"air_calibration", "air_calibration"},
              {"air_lens", "air_calibration"}, {"air_lens_bare", "air_lens_bare"}, {"air_images", "air_detections"},
              {"air_detections", "air_detections"}, {"ports", "port"}, {"camera_options", "model"},
              {"datum", "datum"}, {"free_port", "free_port"}, {"air_refocused", "air_refocused"},
-             {"free_target", "target_free"}},
+             {"free_target", "target_free"}, {"ep", "ep_mm"}},
             [&] {
               const auto list_of = [](const py::object& v) {
                 std::vector<py::object> out;
@@ -442,6 +442,7 @@ void RegisterCalib(py::module_& m) {
               o.air_lens_bare = air_lens_bare;
               o.air_refocused = air_refocused;
               o.lens.target_free = target_free;
+              o.ep_mm = ep_mm;
               // calibrate()'s datum (with target_free); calibrate_refractive()'s free_port: given, the job
               // refuses it.
               if (!datum.is_none()) o.datum = datum.cast<std::string>();
@@ -474,7 +475,7 @@ void RegisterCalib(py::module_& m) {
       py::arg("salinity_psu") = 35.0, py::arg("pressure_dbar") = 0.0, py::arg("progress") = false,
       py::arg("names") = std::vector<std::string>{}, py::arg("air_detections") = py::none(),
       py::arg("datum") = py::none(), py::arg("free_port") = py::none(), py::arg("air_refocused") = false,
-      py::arg("target_free") = false,
+      py::arg("target_free") = false, py::arg("ep_mm") = py::none(),
       "The rig calibration of `porthole calibrate --detections A --detections B ...` (docs/calibration.md, "
       "\"Rigs\"): cameras is a list with each camera's detections (frames matched by image name); model one for "
       "all or a list; pixel_pitch_mm one for all or a list; port (a preset name or TOML file, one for all or a list) puts each camera behind its port in "
@@ -484,7 +485,8 @@ void RegisterCalib(py::module_& m) {
       "through its port (the housing on), adjusted with the rig; air_refocused=True when they were taken at "
       "another focus (each camera's air images their own focal length, a factor adjusted); target_free=True adjusts "
       "the target's points with the rig (datum: auto | minimal | control, chosen by the first camera's calibration; "
-      "the JSON's rig.target_adjusted). free_port (calibrate_refractive()'s) is refused: a rig does not take it yet. "
+      "the JSON's rig.target_adjusted); ep_mm: every camera's entrance pupil in its housing frame (mm; default: each "
+      "port file's). free_port (calibrate_refractive()'s) is refused: a rig does not take it yet. "
       "Returns (the JSON of `porthole calibrate ... --json` for a rig: {\"rig\": {..., \"cameras\": [...]}, "
       "\"skipped\": []}, with warnings: the plausibility warnings of the pitches and the ports, as the CLI prints "
       "them; each camera's estimated port, a PortSpec (None without a port): --port-out's files as "

@@ -294,7 +294,7 @@ void CalibrateRigCommand(const CalibrateCliOptions& o, const OutputRules& rules)
   job.air_refocused = o.air_refocused;
   if (!o.air_images.empty()) job.air_images = SplitList(o.air_images);
   if (!o.air_detections.empty()) job.air_detections = SplitList(o.air_detections);
-  job.ep = !o.port.ep.empty();
+  job.ep_mm = o.port.Ep();  // every camera's pupil
   job.intrinsics = !o.intrinsics.empty();
   // --port-out: one file per camera (a comma list, in the order of the cameras).
   const std::vector<std::string> port_outs = o.port_out.empty() ? std::vector<std::string>{} : SplitList(o.port_out);

@@ -100,6 +100,8 @@ def test_rig_errors_name_the_keyword():
         porthole.calibrate_rig(cams[:1], TARGET, model="opencv")
     with pytest.raises(ValueError, match="^air_lens_bare"):
         porthole.calibrate_rig(cams, TARGET, model="opencv", port="nimar-ni320", air_lens_bare=True)
+    with pytest.raises(ValueError, match=r"^ep_mm: only with port \(cameras behind ports\)"):
+        porthole.calibrate_rig(cams, TARGET, model="opencv", ep_mm=[0, 0, 25])
 
 
 def test_a_rig_with_air_images_through_its_ports_matches_the_cli(tmp_path):

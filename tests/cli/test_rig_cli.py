@@ -152,6 +152,8 @@ def test_bad_rig_input_is_refused(rig, tmp_path):
     line = run_bad(*base, "--model", "opencv", "--port-out", f"{one},{tmp_path / 'two.toml'}")
     assert line == "porthole: error: --port-out: only with --port (cameras behind ports)", line
     assert not one.exists() and not (tmp_path / "two.toml").exists()
+    line = run_bad(*base, "--model", "opencv", "--ep", "0,0,25")  # every camera's pupil: behind ports
+    assert line == "porthole: error: --ep: only with --port (cameras behind ports)", line
     # Air images at another focus (calib_refractive_test Rig.*RefocusedAirImages checks the numbers) need air images.
     line = run_bad(*base, "--model", "opencv", "--port", "nimar-ni320", "--air-refocused")
     assert line.startswith("porthole: error: --air-refocused:") and "--air-images" in line, line

@@ -47,7 +47,7 @@ void Warn(const CalibrateRigJobOptions& o, CalibrateRigJobResult* out, const std
 // The single camera's options a rig does not take (yet), refused by their names.
 void RequireRigOptions(const CalibrateRigJobOptions& o) {
   const std::pair<const char*, bool> not_in_rig[] = {
-      {"ep", o.ep}, {"intrinsics", o.intrinsics},
+      {"intrinsics", o.intrinsics},
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
 
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
@@ -219,6 +219,7 @@ void RequireConsistent(const CalibrateRigJobOptions& o, int n, const std::vector
                                                       "(a comma list)", n_air, n));
   }
   if (o.port_out && o.port.empty()) throw InvalidInput("port_out", "only with `port` (cameras behind ports)");
+  if (o.ep_mm && o.port.empty()) throw InvalidInput("ep", "only with `port` (cameras behind ports)");
   if (o.field_out && !o.lens.target_free) {
     throw InvalidInput("field_out", "needs `free_target` (without it no point is adjusted)");
   }
@@ -307,7 +308,7 @@ CalibrateRigJobResult CalibrateRigJob(const CalibrateRigJobOptions& o) {
   for (const std::string& name : o.port) {
     const ports::PortSpec spec = catalogue::LoadPort(name);
     for (const std::string& w : housing::PortPlausibilityWarnings(spec, name + ": port")) Warn(o, &out, w);
-    ro.ports.push_back(ports::MakeSystem(spec, o.water, std::nullopt));
+    ro.ports.push_back(ports::MakeSystem(spec, o.water, o.ep_mm));
   }
   ReadAirLenses(o, rig_air, pitches, n, &ro);
   // The cameras' names: given, or their folders' or files' names.

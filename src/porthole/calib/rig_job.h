@@ -9,11 +9,12 @@
 //
 // Errors are InvalidInput naming the library's fields, as CalibrateJob's (calib/job.h): images,
 // detections, names, target, field, model, free, pixel_pitch_mm, port, air_calibration, air_lens_bare,
-// air_images, air_detections, port_out, field_out, stereo_out, and the options a rig refuses (ep,
-// intrinsics, free_water_index, free_shell, port_sigma, free_port, opencv_yaml,
+// air_images, air_detections, ep, port_out, field_out, stereo_out, and the options a rig refuses
+// (intrinsics, free_water_index, free_shell, port_sigma, free_port, opencv_yaml,
 // plan_only, drop_insignificant); CalibrateRig's own (cameras, …) pass through.
 #pragma once
 
+#include <Eigen/Core>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -51,6 +52,9 @@ struct CalibrateRigJobOptions {
   // Cameras behind ports, in water: one port (preset name or TOML file) for all or one per camera.
   std::vector<std::string> port;
   ports::Environment water;
+  // Every camera's entrance pupil in its housing frame, mm (with `port`): where its port's
+  // parameters are predicted from; unset: each port file's own (as one camera's `ep_mm`).
+  std::optional<Eigen::Vector3d> ep_mm;
   // In-air calibrations of the lenses (with `port`), as priors: one rig file of any rig format
   // (interop/rig_files.h; every camera at one pitch) or one file of any format per camera, or one
   // calibration given per camera (Python's dicts); made through the ports in air (the default) or
@@ -75,7 +79,7 @@ struct CalibrateRigJobOptions {
   bool field_out = false;
   // The single camera's options a rig does not take (yet): set, each is refused by its name
   // (free_port: the port parameters adjusted).
-  bool ep = false, intrinsics = false, free_water_index = false, free_shell = false,
+  bool intrinsics = false, free_water_index = false, free_shell = false,
        free_port = false, port_sigma = false, opencv_yaml = false, plan_only = false;
   // The first two cameras as OpenCV's stereo file (result.stereo_text): the file name the front end
   // will write (.xml: XML, else YAML); empty: none. Both cameras of the opencv model without a port.

@@ -113,6 +113,9 @@ TEST(CalibrateRigJob, RefusesWhatARigCannotTakeNamingTheField) {
   o.port_out = true;  // estimated ports, without ports
   EXPECT_EQ(field_of(o), "port_out");
   o = StereoJob();
+  o.ep_mm = Eigen::Vector3d(0, 0, 25);  // a pupil behind ports, without ports
+  EXPECT_EQ(field_of(o), "ep");
+  o = StereoJob();
   o.model = {"opencv", "brown"};
   o.stereo_out = "pair.yaml";  // camera 1 is not an opencv camera
   EXPECT_EQ(field_of(o), "stereo_out");
@@ -122,7 +125,8 @@ TEST(CalibrateRigJob, RefusesWhatARigCannotTakeNamingTheField) {
 // Two cameras behind their own NI320s (the second pupil 0.7, 0.5, 2.4 mm off the first's), in
 // water, through the preset `nimar-ni320` (the pupils' start where it puts them): with port_out each
 // camera's estimated port comes back as a port TOML that the port reader takes, names the camera's
-// port "-as-calibrated" and puts the estimated parameters back, within 1e-9 mm. (Water images only,
+// port "-as-calibrated" and puts the estimated parameters back, within 1e-9 mm; with ep_mm every
+// camera's port is predicted from that pupil. (Water images only,
 // no air calibration: the estimates themselves are weak here; rig_test checks them against truth.)
 TEST(CalibrateRigJob, WritesEachCamerasEstimatedPort) {
   const Truth truth = TwoDomeRig();
@@ -149,6 +153,17 @@ TEST(CalibrateRigJob, WritesEachCamerasEstimatedPort) {
   }
   // The two cameras' ports differ as their pupils do (the second 2.4 mm further back).
   EXPECT_NE(r.port_tomls[0], r.port_tomls[1]);
+  // ep_mm: every camera's pupil predicted there, not where the preset puts it (26.9 mm; the
+  // outer centre at z 21.5): ep_in_dome_z predicted 3.5 mm, not 5.4; the pupil in the TOML too.
+  for (int k = 0; k < 2; ++k) EXPECT_NEAR(r.rig.cameras[k].port_predicted[2], 5.4, 1e-9) << k;
+  o.ep_mm = Eigen::Vector3d(0, 0, 25);
+  const CalibrateRigJobResult at = CalibrateRigJob(o);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_NEAR(at.rig.cameras[k].port_predicted[0], 0.4, 1e-9) << k;
+    EXPECT_NEAR(at.rig.cameras[k].port_predicted[2], 3.5, 1e-9) << k;
+    const ports::PortSpec spec = catalogue::ParsePortToml(at.port_tomls[k], "camera");
+    EXPECT_NEAR(spec.default_ep_in_housing_mm.z(), 25, 1e-9) << k;
+  }
 }
 
 // A rig's free target (lens.target_free, a 3-D coded field: the board with raised targets) with
