@@ -179,17 +179,7 @@ TEST(CalibrateRigJob, WritesTheFreeTargetsAdjustedField) {
   }
   CalibrateRigJobOptions o;
   o.given = Frames(truth, board, 15, 5);
-  for (auto& camera : *o.given) {  // id 0 is no target of the field
-    for (auto& d : camera) {
-      ImageDetections kept = d;
-      kept.ids.clear();
-      kept.points_px.clear();
-      for (std::size_t i = 0; i < d.ids.size(); ++i) {
-        if (d.ids[i] != 0) kept.ids.push_back(d.ids[i]), kept.points_px.push_back(d.points_px[i]);
-      }
-      d = kept;
-    }
-  }
+  DropIdZero(&*o.given);  // id 0 is no target of the field
   o.target = board.ToString();
   o.field = field_file;
   o.model = {"opencv"};

@@ -276,17 +276,7 @@ TEST(Rig, AFreeTargetInARigBehindDomes) {
   const TargetSpec field = fixtures::RaisedBoard();
   const TargetSpec given = fixtures::MeasuredByHand(field);
   auto sets = Frames(truth, field, 15, 9);
-  for (auto& camera : sets) {  // id 0 is no target of the field (TargetPoints puts it at the origin)
-    for (auto& d : camera) {
-      ImageDetections kept = d;
-      kept.ids.clear();
-      kept.points_px.clear();
-      for (std::size_t i = 0; i < d.ids.size(); ++i) {
-        if (d.ids[i] != 0) kept.ids.push_back(d.ids[i]), kept.points_px.push_back(d.points_px[i]);
-      }
-      d = kept;
-    }
-  }
+  DropIdZero(&sets);  // id 0 is no target of the field
   RigOptions o = DomeRigOptions(truth);
   o.cameras[0].centre_correction = CalibrationOptions::CentreCorrection::kOff;  // synthetic centres
   for (int k = 0; k < 2; ++k) o.air_images.push_back(fixtures::AirViews(truth.cams[k], truth.ports[k], field, 80 + k));

@@ -96,6 +96,21 @@ inline std::vector<std::vector<ImageDetections>> Frames(const Truth& truth, cons
   return out;
 }
 
+// The frames without id 0, which a coded field does not have (TargetPoints puts it at the origin).
+inline void DropIdZero(std::vector<std::vector<ImageDetections>>* sets) {
+  for (auto& camera : *sets) {
+    for (auto& d : camera) {
+      ImageDetections kept = d;
+      kept.ids.clear();
+      kept.points_px.clear();
+      for (std::size_t i = 0; i < d.ids.size(); ++i) {
+        if (d.ids[i] != 0) kept.ids.push_back(d.ids[i]), kept.points_px.push_back(d.points_px[i]);
+      }
+      d = kept;
+    }
+  }
+}
+
 // Two D300 + 24 mm cameras (TwoCameraRig's poses), each behind its own as-built NI320 dome with its
 // own pupil offset ((0.4, 1.0, 5.4) and (−0.3, 0.5, 3.0) mm from the outer centre), in water.
 inline Truth TwoDomeRig() {
