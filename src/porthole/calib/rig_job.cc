@@ -49,7 +49,6 @@ void RequireRigOptions(const CalibrateRigJobOptions& o) {
   const std::pair<const char*, bool> not_in_rig[] = {
       {"intrinsics", o.intrinsics},
       {"free_water_index", o.free_water_index}, {"free_shell", o.free_shell}, {"port_sigma", o.port_sigma},
-
       {"plan_only", o.plan_only}, {"drop_insignificant", o.lens.drop_insignificant},
       {"free_port", o.free_port}};
   for (const auto& [field, given] : not_in_rig) {
